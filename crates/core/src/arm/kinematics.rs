@@ -1,0 +1,144 @@
+//! Forward kinematics, geometric Jacobians and their time derivatives for a revolute DH chain.
+//!
+//! Frames: frame 0 is the base (origin at the arm's base on the board plane, z up); frame `i`
+//! is the DH frame at the distal end of link `i`; the last frame is the tool frame, its origin
+//! the tool tip. Joint `j` (0-based here) turns about the z axis of frame `j` through the
+//! origin of frame `j`.
+
+use super::model::{ArmModel, DhParameters, JointVector};
+use nalgebra::{IsometryMatrix3, Matrix3, Rotation3, SMatrix, Translation3, Vector3};
+
+/// A rigid transform: rotation matrix and translation (m).
+pub type Pose = IsometryMatrix3<f64>;
+
+/// `A = Rz(θ) · Tz(d) · Tx(a) · Rx(α)`, the standard DH transform from frame `i−1` to `i`.
+pub fn dh_transform(dh: &DhParameters, joint_angle: f64) -> Pose {
+    let (st, ct) = (joint_angle + dh.theta_offset).sin_cos();
+    let (sa, ca) = dh.alpha.sin_cos();
+    let rotation = Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca);
+    Pose::from_parts(
+        Translation3::new(dh.a * ct, dh.a * st, dh.d),
+        Rotation3::from_matrix_unchecked(rotation),
+    )
+}
+
+/// World poses of all DH frames for one joint configuration `q` (rad).
+#[derive(Debug, Clone, Copy)]
+pub struct FrameChain<const N: usize> {
+    poses: [Pose; N],
+}
+
+impl<const N: usize> FrameChain<N> {
+    /// Forward kinematics: `T_0i = A_1 ⋯ A_i` for every i.
+    pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
+        let mut poses = [Pose::identity(); N];
+        let mut accumulated = Pose::identity();
+        for (i, pose) in poses.iter_mut().enumerate() {
+            accumulated *= dh_transform(&model.link(i).dh, q[i]);
+            *pose = accumulated;
+        }
+        Self { poses }
+    }
+
+    /// World pose of frame `i + 1` (the frame carried by body `i`, 0-based).
+    pub fn body_pose(&self, i: usize) -> &Pose {
+        &self.poses[i]
+    }
+
+    /// Unit axis `z_j` (world) and a point on it, `p_j` (m), of joint `j` (0-based).
+    pub fn joint_axis(&self, j: usize) -> (Vector3<f64>, Vector3<f64>) {
+        if j == 0 {
+            (Vector3::z(), Vector3::zeros())
+        } else {
+            let pose = &self.poses[j - 1];
+            (pose.rotation.matrix().column(2).into_owned(), pose.translation.vector)
+        }
+    }
+
+    /// Tool-tip position in the base frame, m (origin of the last frame).
+    pub fn tip(&self) -> Vector3<f64> {
+        self.poses[N - 1].translation.vector
+    }
+
+    /// World position of a point given in the frame of body `i`.
+    pub fn point_on_body(&self, i: usize, local: &Vector3<f64>) -> Vector3<f64> {
+        self.poses[i].rotation * local + self.poses[i].translation.vector
+    }
+
+    /// Geometric Jacobian of a point fixed to body `body`: linear part `z_j × (x − p_j)` and
+    /// angular part `z_j` for joints `j ≤ body`, zero beyond.
+    pub fn point_jacobian(&self, point: &Vector3<f64>, body: usize) -> (SMatrix<f64, 3, N>, SMatrix<f64, 3, N>) {
+        let mut linear = SMatrix::<f64, 3, N>::zeros();
+        let mut angular = SMatrix::<f64, 3, N>::zeros();
+        for j in 0..=body {
+            let (axis, origin) = self.joint_axis(j);
+            linear.set_column(j, &axis.cross(&(point - origin)));
+            angular.set_column(j, &axis);
+        }
+        (linear, angular)
+    }
+}
+
+/// Velocities of the chain at `(q, q̇)`: angular velocity of every body and linear velocity of
+/// every frame origin, in the base frame (rad/s, m/s).
+#[derive(Debug, Clone, Copy)]
+pub struct ChainVelocities<const N: usize> {
+    /// Angular velocity of body `i`: `ω_i = Σ_{j ≤ i} z_j q̇_j`.
+    pub body_angular: [Vector3<f64>; N],
+    /// Velocity of the origin of frame `i + 1` (fixed to body `i`).
+    pub frame_origin: [Vector3<f64>; N],
+}
+
+impl<const N: usize> ChainVelocities<N> {
+    pub fn new(chain: &FrameChain<N>, qd: &JointVector<N>) -> Self {
+        let mut body_angular = [Vector3::zeros(); N];
+        let mut frame_origin = [Vector3::zeros(); N];
+        let mut omega = Vector3::zeros();
+        let mut origin_velocity = Vector3::zeros();
+        for j in 0..N {
+            let (axis, origin) = chain.joint_axis(j);
+            omega += axis * qd[j];
+            // p_j lies on joint j's axis, so it moves with body j at this instant.
+            origin_velocity += omega.cross(&(chain.body_pose(j).translation.vector - origin));
+            body_angular[j] = omega;
+            frame_origin[j] = origin_velocity;
+        }
+        Self { body_angular, frame_origin }
+    }
+
+    /// Angular velocity of body `i`, or zero for the base (`i = None`).
+    fn omega_before(&self, j: usize) -> Vector3<f64> {
+        if j == 0 { Vector3::zeros() } else { self.body_angular[j - 1] }
+    }
+
+    fn origin_velocity(&self, j: usize) -> Vector3<f64> {
+        if j == 0 { Vector3::zeros() } else { self.frame_origin[j - 1] }
+    }
+
+    /// Velocity of a point fixed to body `body` at world position `point`.
+    pub fn point_velocity(&self, chain: &FrameChain<N>, point: &Vector3<f64>, body: usize) -> Vector3<f64> {
+        let origin = chain.body_pose(body).translation.vector;
+        self.frame_origin[body] + self.body_angular[body].cross(&(point - origin))
+    }
+
+    /// Time derivative of [`FrameChain::point_jacobian`] along the motion: column `j ≤ body` is
+    /// `ż_j × (x − p_j) + z_j × (ẋ − ṗ_j)` (linear) and `ż_j = ω_{j−1} × z_j` (angular).
+    pub fn point_jacobian_derivative(
+        &self,
+        chain: &FrameChain<N>,
+        point: &Vector3<f64>,
+        body: usize,
+    ) -> (SMatrix<f64, 3, N>, SMatrix<f64, 3, N>) {
+        let point_velocity = self.point_velocity(chain, point, body);
+        let mut linear = SMatrix::<f64, 3, N>::zeros();
+        let mut angular = SMatrix::<f64, 3, N>::zeros();
+        for j in 0..=body {
+            let (axis, origin) = chain.joint_axis(j);
+            let axis_rate = self.omega_before(j).cross(&axis);
+            let column = axis_rate.cross(&(point - origin)) + axis.cross(&(point_velocity - self.origin_velocity(j)));
+            linear.set_column(j, &column);
+            angular.set_column(j, &axis_rate);
+        }
+        (linear, angular)
+    }
+}

@@ -1,0 +1,353 @@
+//! The arm model: an immutable description of a serial chain of revolute joints in standard
+//! Denavit–Hartenberg convention, with the inertial parameters of every link, joint limits,
+//! motors and friction.
+//!
+//! All quantities are SI: metres, radians, kilograms, kg·m², N·m, seconds.
+//! A link's inertial parameters are expressed in its own DH frame `i` (the frame at the distal
+//! joint of link `i`), as in the report.
+
+use nalgebra::{Matrix3, SVector, SymmetricEigen, Vector3};
+
+/// A vector with one entry per joint (rad, rad/s, rad/s² or N·m depending on use).
+pub type JointVector<const N: usize> = SVector<f64, N>;
+
+/// Standard gravitational acceleration used by the report, m/s². Kept as the default so results
+/// compare with the report (ERRATA item 11).
+pub const REPORT_GRAVITY: f64 = 9.8;
+
+/// Standard Denavit–Hartenberg parameters of one joint/link:
+/// `A_i = Rz(θ_i + theta_offset) · Tz(d) · Tx(a) · Rx(alpha)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DhParameters {
+    /// Link length along x_i, m.
+    pub a: f64,
+    /// Link twist about x_i, rad.
+    pub alpha: f64,
+    /// Link offset along z_{i-1}, m.
+    pub d: f64,
+    /// Constant added to the joint angle, rad.
+    pub theta_offset: f64,
+}
+
+/// Mass properties of a rigid body, expressed in a body-fixed frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inertial {
+    /// Mass, kg.
+    pub mass: f64,
+    /// Centre of mass in the body frame, m.
+    pub com: Vector3<f64>,
+    /// Inertia tensor about the centre of mass, axes of the body frame, kg·m².
+    pub inertia: Matrix3<f64>,
+}
+
+impl Inertial {
+    /// A body with no mass.
+    pub fn zero() -> Self {
+        Self { mass: 0.0, com: Vector3::zeros(), inertia: Matrix3::zeros() }
+    }
+
+    /// A point mass at `position` (body frame).
+    pub fn point(mass: f64, position: Vector3<f64>) -> Self {
+        Self { mass, com: position, inertia: Matrix3::zeros() }
+    }
+
+    /// The rigid union of two bodies expressed in the same frame, by the parallel-axis rule:
+    /// `c = (m₁c₁ + m₂c₂)/(m₁+m₂)`, `I = Σ I_k + m_k (‖d_k‖² E − d_k d_kᵀ)` with `d_k = c_k − c`.
+    pub fn combine(&self, other: &Inertial) -> Inertial {
+        let mass = self.mass + other.mass;
+        if mass <= 0.0 {
+            return Inertial::zero();
+        }
+        let com = (self.com * self.mass + other.com * other.mass) / mass;
+        let shifted = |body: &Inertial| {
+            let d = body.com - com;
+            body.inertia + (Matrix3::identity() * d.norm_squared() - d * d.transpose()) * body.mass
+        };
+        Inertial { mass, com, inertia: shifted(self) + shifted(other) }
+    }
+}
+
+/// A gripped object rigidly attached to the tool frame (the last DH frame, at the tool tip).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Payload {
+    /// Mass properties in the tool frame.
+    pub inertial: Inertial,
+}
+
+impl Payload {
+    /// A solid cylinder of `mass` kg, `height` m tall and `radius` m, hanging straight below
+    /// the tool tip along the tool's x axis (the tool points down), its top at the tip
+    /// offset by `grip_offset` m along x (the grip point sits that far below the piece's top).
+    pub fn cylinder_below_tool(mass: f64, height: f64, radius: f64, grip_offset: f64) -> Self {
+        // Centre of the cylinder along the tool x axis (which points down).
+        let com = Vector3::new(height / 2.0 - grip_offset, 0.0, 0.0);
+        let axial = 0.5 * mass * radius * radius;
+        let transverse = mass * (3.0 * radius * radius + height * height) / 12.0;
+        Self {
+            inertial: Inertial {
+                mass,
+                com,
+                inertia: Matrix3::from_diagonal(&Vector3::new(axial, transverse, transverse)),
+            },
+        }
+    }
+
+    /// A point mass at the tool tip.
+    pub fn point_mass(mass: f64) -> Self {
+        Self { inertial: Inertial::point(mass, Vector3::zeros()) }
+    }
+}
+
+/// Limits of one joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointLimits {
+    /// Lowest joint angle, rad.
+    pub lower: f64,
+    /// Highest joint angle, rad.
+    pub upper: f64,
+    /// Largest |joint speed|, rad/s.
+    pub velocity: f64,
+    /// Largest |torque| the motor delivers, N·m. The simulator saturates at this value.
+    pub torque: f64,
+}
+
+/// Joint friction acting in the plant: `τ_f = −(viscous·q̇ + coulomb·tanh(q̇/COULOMB_SMOOTHING))`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Friction {
+    /// Viscous coefficient, N·m·s/rad.
+    pub viscous: f64,
+    /// Coulomb friction torque, N·m.
+    pub coulomb: f64,
+}
+
+/// One link of the chain and the joint that drives it (joint `i` moves link `i`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Link {
+    pub dh: DhParameters,
+    /// Mass properties of the link in its DH frame `i`.
+    pub inertial: Inertial,
+    /// Mass of the motor driving joint `i`, kg, modelled as a point mass on the joint axis at
+    /// the origin of frame `i−1`, carried by link `i−1` (the motor of joint 1 sits on the fixed
+    /// base and does not move). Default 0: the report gives no values (ERRATA item 10).
+    pub motor_mass: f64,
+    /// Rotor inertia reflected through the gearbox, kg·m², added to `M_ii` (armature).
+    pub rotor_inertia: f64,
+    pub limits: JointLimits,
+    pub friction: Friction,
+}
+
+/// Which parameter of a model failed validation, and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    #[error("{field} = {value}: {reason}")]
+    InvalidField { field: String, value: String, reason: &'static str },
+}
+
+fn invalid(field: String, value: impl std::fmt::Display, reason: &'static str) -> ModelError {
+    ModelError::InvalidField { field, value: value.to_string(), reason }
+}
+
+/// An immutable arm model with `N` revolute joints (the chess arm has `N = 4`).
+///
+/// Per-body mass properties (link ⊕ motor of the next joint ⊕ payload on the last link) are
+/// combined once at construction; algorithms read them through [`ArmModel::body`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmModel<const N: usize = 4> {
+    links: [Link; N],
+    gravity: Vector3<f64>,
+    payload: Option<Payload>,
+    bodies: [Inertial; N],
+}
+
+impl<const N: usize> ArmModel<N> {
+    /// Builds a model after checking every parameter. `gravity` is the gravitational
+    /// acceleration vector in the base frame, m/s² (the report: `(0, 0, −9.8)`).
+    pub fn new(links: [Link; N], gravity: Vector3<f64>) -> Result<Self, ModelError> {
+        if N == 0 {
+            return Err(invalid("links".into(), 0, "the arm needs at least one joint"));
+        }
+        for (index, link) in links.iter().enumerate() {
+            validate_link(index, link)?;
+        }
+        for (axis, value) in ["x", "y", "z"].iter().zip(gravity.iter()) {
+            if !value.is_finite() {
+                return Err(invalid(format!("gravity.{axis}"), value, "must be finite"));
+            }
+        }
+        let mut model = Self { links, gravity, payload: None, bodies: [Inertial::zero(); N] };
+        model.bodies = model.combined_bodies();
+        Ok(model)
+    }
+
+    /// The same arm carrying `payload` at the tool (or nothing, with `None`).
+    pub fn with_payload(&self, payload: Option<Payload>) -> Result<Self, ModelError> {
+        if let Some(p) = &payload {
+            validate_inertial("payload", &p.inertial, true)?;
+        }
+        let mut model = *self;
+        model.payload = payload;
+        model.bodies = model.combined_bodies();
+        Ok(model)
+    }
+
+    /// The same arm under another gravity vector, m/s².
+    pub fn with_gravity(&self, gravity: Vector3<f64>) -> Result<Self, ModelError> {
+        Self::new(self.links, gravity).and_then(|m| m.with_payload(self.payload))
+    }
+
+    /// The same arm with other links (e.g. other limits), keeping gravity and payload.
+    pub fn with_links(&self, links: [Link; N]) -> Result<Self, ModelError> {
+        Self::new(links, self.gravity).and_then(|m| m.with_payload(self.payload))
+    }
+
+    pub fn links(&self) -> &[Link; N] {
+        &self.links
+    }
+
+    pub fn link(&self, index: usize) -> &Link {
+        &self.links[index]
+    }
+
+    /// Gravitational acceleration in the base frame, m/s².
+    pub fn gravity(&self) -> Vector3<f64> {
+        self.gravity
+    }
+
+    pub fn payload(&self) -> Option<&Payload> {
+        self.payload.as_ref()
+    }
+
+    /// Mass properties of moving body `index` in its DH frame: the link, the motor of the next
+    /// joint, and on the last body the payload.
+    pub fn body(&self, index: usize) -> &Inertial {
+        &self.bodies[index]
+    }
+
+    /// Total moving mass, kg.
+    pub fn moving_mass(&self) -> f64 {
+        self.bodies.iter().map(|b| b.mass).sum()
+    }
+
+    /// Lower and upper joint-angle limits, rad.
+    pub fn position_limits(&self) -> (JointVector<N>, JointVector<N>) {
+        (
+            JointVector::from_fn(|i, _| self.links[i].limits.lower),
+            JointVector::from_fn(|i, _| self.links[i].limits.upper),
+        )
+    }
+
+    /// Per-joint torque limits, N·m.
+    pub fn torque_limits(&self) -> JointVector<N> {
+        JointVector::from_fn(|i, _| self.links[i].limits.torque)
+    }
+
+    /// Per-joint rotor inertias (armature), kg·m².
+    pub fn rotor_inertias(&self) -> JointVector<N> {
+        JointVector::from_fn(|i, _| self.links[i].rotor_inertia)
+    }
+
+    /// The first joint whose angle lies outside its limits, as `(index, value, lower, upper)`.
+    pub fn first_limit_violation(&self, q: &JointVector<N>) -> Option<(usize, f64, f64, f64)> {
+        self.links.iter().enumerate().find_map(|(i, link)| {
+            let v = q[i];
+            let inside = v >= link.limits.lower && v <= link.limits.upper;
+            (!inside).then_some((i, v, link.limits.lower, link.limits.upper))
+        })
+    }
+
+    fn combined_bodies(&self) -> [Inertial; N] {
+        std::array::from_fn(|i| {
+            let mut body = self.links[i].inertial;
+            if i + 1 < N {
+                // The motor of joint i+2 (1-based) sits at the origin of frame i+1, on this link.
+                body = body.combine(&Inertial::point(self.links[i + 1].motor_mass, Vector3::zeros()));
+            }
+            if i + 1 == N
+                && let Some(payload) = &self.payload
+            {
+                body = body.combine(&payload.inertial);
+            }
+            body
+        })
+    }
+}
+
+fn validate_link(index: usize, link: &Link) -> Result<(), ModelError> {
+    let name = |field: &str| format!("link {} ({field})", index + 1);
+    let dh = &link.dh;
+    for (field, value) in [("a", dh.a), ("alpha", dh.alpha), ("d", dh.d), ("theta_offset", dh.theta_offset)] {
+        if !value.is_finite() {
+            return Err(invalid(name(field), value, "must be finite"));
+        }
+    }
+    if dh.a < 0.0 {
+        return Err(invalid(name("a"), dh.a, "a link length must not be negative"));
+    }
+    validate_inertial(&format!("link {}", index + 1), &link.inertial, false)?;
+    for (field, value) in [("motor_mass", link.motor_mass), ("rotor_inertia", link.rotor_inertia)] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(invalid(name(field), value, "must be finite and >= 0"));
+        }
+    }
+    let lim = &link.limits;
+    if !(lim.lower.is_finite() && lim.upper.is_finite()) || lim.lower >= lim.upper {
+        return Err(invalid(
+            name("lower/upper"),
+            format!("[{}, {}]", lim.lower, lim.upper),
+            "joint limits must be finite with lower < upper",
+        ));
+    }
+    for (field, value) in [("velocity_limit", lim.velocity), ("torque_limit", lim.torque)] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(invalid(name(field), value, "must be finite and > 0"));
+        }
+    }
+    for (field, value) in [("viscous", link.friction.viscous), ("coulomb", link.friction.coulomb)] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(invalid(name(field), value, "friction must be finite and >= 0"));
+        }
+    }
+    Ok(())
+}
+
+/// Checks mass, centre of mass and inertia tensor. A physical inertia tensor is symmetric with
+/// principal moments that are positive (non-negative for a point-like body) and satisfy the
+/// triangle inequality `I_a + I_b ≥ I_c`.
+pub fn validate_inertial(owner: &str, inertial: &Inertial, allow_point: bool) -> Result<(), ModelError> {
+    let mass_ok = inertial.mass.is_finite() && if allow_point { inertial.mass >= 0.0 } else { inertial.mass > 0.0 };
+    if !mass_ok {
+        let reason = if allow_point { "mass must be finite and >= 0" } else { "mass must be finite and > 0" };
+        return Err(invalid(format!("{owner} mass"), inertial.mass, reason));
+    }
+    if inertial.com.iter().any(|v| !v.is_finite()) {
+        return Err(invalid(format!("{owner} com"), format!("{:?}", inertial.com.as_slice()), "must be finite"));
+    }
+    let tensor = &inertial.inertia;
+    let shown = || format!("{:?}", tensor.as_slice());
+    if tensor.iter().any(|v| !v.is_finite()) {
+        return Err(invalid(format!("{owner} inertia"), shown(), "must be finite"));
+    }
+    let scale = tensor.abs().max().max(f64::MIN_POSITIVE);
+    if (tensor - tensor.transpose()).abs().max() > 1e-12 * scale {
+        return Err(invalid(format!("{owner} inertia"), shown(), "an inertia tensor must be symmetric"));
+    }
+    let moments = SymmetricEigen::new(*tensor).eigenvalues;
+    let tolerance = 1e-12 * scale;
+    let positive = if allow_point { moments.iter().all(|&m| m >= -tolerance) } else { moments.iter().all(|&m| m > 0.0) };
+    if !positive {
+        return Err(invalid(
+            format!("{owner} inertia"),
+            shown(),
+            "principal moments of inertia must be positive",
+        ));
+    }
+    let (a, b, c) = (moments[0], moments[1], moments[2]);
+    if a + b < c - tolerance || b + c < a - tolerance || a + c < b - tolerance {
+        return Err(invalid(
+            format!("{owner} inertia"),
+            shown(),
+            "principal moments violate the triangle inequality (I_a + I_b >= I_c)",
+        ));
+    }
+    Ok(())
+}

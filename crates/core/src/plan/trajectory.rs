@@ -1,0 +1,105 @@
+//! Joint trajectories from Cartesian paths, with analytic derivatives:
+//! `q = IK(x)`, `q̇ = J⁻¹ ẋ`, `q̈ = J⁻¹ (ẍ − J̇ q̇)`, where `x = (x, y, z, pitch)` and the pitch
+//! is held constant (its rate and acceleration are zero). No finite differences (ERRATA 4, 5).
+
+use super::path::{CartesianPath, CartesianSample, sample_times};
+use super::profile::ProfileError;
+use crate::arm::model::{ArmModel, JointVector};
+use crate::arm::task::{IkError, inverse_kinematics, task_jacobian, task_jacobian_derivative};
+use nalgebra::{Vector3, Vector4};
+
+/// Desired joint state at time `t` (s): angles (rad), rates (rad/s), accelerations (rad/s²).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointSample {
+    pub t: f64,
+    pub q: JointVector<4>,
+    pub qd: JointVector<4>,
+    pub qdd: JointVector<4>,
+}
+
+/// Why a Cartesian path has no joint trajectory.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PlanError {
+    #[error(transparent)]
+    Profile(#[from] ProfileError),
+    #[error("at t = {time:.3} s: {source}")]
+    Ik { time: f64, source: IkError },
+    #[error(
+        "at t = {time:.3} s the arm is singular at ({:.4}, {:.4}, {:.4}) m (|det J| = {determinant:.3e}): joint rates are unbounded",
+        .position[0], .position[1], .position[2]
+    )]
+    Singular { time: f64, position: [f64; 3], determinant: f64 },
+    #[error("at t = {time:.3} s joint {joint} would turn at {rate:.3} rad/s, above its limit {limit:.3} rad/s")]
+    VelocityLimit { time: f64, joint: usize, rate: f64, limit: f64 },
+}
+
+/// Smallest |det J| (m³/rad) accepted before a configuration counts as singular. The report's
+/// arm has |det J| ≈ 0.01–0.05 over the board; 1e-6 is four orders below.
+pub const SINGULAR_DETERMINANT: f64 = 1e-6;
+
+/// The joint state that puts the tool tip on `sample` with the given constant tool `pitch`.
+pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64) -> Result<JointSample, PlanError> {
+    let q = inverse_kinematics(model, &sample.position, pitch).map_err(|source| PlanError::Ik { time: sample.t, source })?;
+    let jacobian = task_jacobian(model, &q);
+    let determinant = jacobian.determinant();
+    let lu = jacobian.lu();
+    let singular = || PlanError::Singular {
+        time: sample.t,
+        position: [sample.position.x, sample.position.y, sample.position.z],
+        determinant,
+    };
+    if determinant.abs() < SINGULAR_DETERMINANT {
+        return Err(singular());
+    }
+    let task = |v: &Vector3<f64>| Vector4::new(v.x, v.y, v.z, 0.0);
+    let qd = lu.solve(&task(&sample.velocity)).ok_or_else(singular)?;
+    let drift = task_jacobian_derivative(model, &q, &qd) * qd;
+    let qdd = lu.solve(&(task(&sample.acceleration) - drift)).ok_or_else(singular)?;
+    for (i, link) in model.links().iter().enumerate() {
+        if qd[i].abs() > link.limits.velocity {
+            return Err(PlanError::VelocityLimit { time: sample.t, joint: i + 1, rate: qd[i], limit: link.limits.velocity });
+        }
+    }
+    Ok(JointSample { t: sample.t, q, qd, qdd })
+}
+
+/// A joint trajectory sampled every `dt` seconds from `t = 0`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointTrajectory {
+    dt: f64,
+    samples: Vec<JointSample>,
+}
+
+impl JointTrajectory {
+    /// Samples `path` every `dt` s and converts each sample to joint space.
+    pub fn from_path(model: &ArmModel<4>, path: &CartesianPath, dt: f64, pitch: f64) -> Result<Self, PlanError> {
+        let samples = sample_times(path.duration(), dt)?
+            .map(|t| joint_state_at(model, &path.sample(t), pitch))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self { dt, samples })
+    }
+
+    /// Sample period, s.
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    pub fn samples(&self) -> &[JointSample] {
+        &self.samples
+    }
+
+    /// Duration, s.
+    pub fn duration(&self) -> f64 {
+        self.samples.last().map_or(0.0, |s| s.t)
+    }
+
+    /// The sample at or just before `t` (zero-order hold), clamped to the ends.
+    pub fn held_at(&self, t: f64) -> &JointSample {
+        let index = ((t / self.dt + 1e-9).floor().max(0.0) as usize).min(self.samples.len() - 1);
+        &self.samples[index]
+    }
+
+    pub fn first(&self) -> &JointSample {
+        &self.samples[0]
+    }
+}

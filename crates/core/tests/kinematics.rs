@@ -1,0 +1,186 @@
+//! Kinematics identities: FK ∘ IK = id, Jacobians against finite differences, errors.
+
+use chessarm_core::arm::kinematics::FrameChain;
+use chessarm_core::arm::model::{Inertial, JointVector, ModelError};
+use chessarm_core::arm::preset::{REPORT_L1, REPORT_L4, report_arm};
+use chessarm_core::arm::task::{
+    IkError, TOOL_DOWN, inverse_kinematics, task_jacobian, task_jacobian_derivative, tool_point, wrap_angle,
+};
+use chessarm_core::nalgebra::{Matrix3, Matrix4, Vector3};
+use proptest::prelude::*;
+
+/// Central differences with h = 1e-6 rad: truncation error ~h²·|f'''| ≈ 1e-12 and round-off
+/// ~ε·|f|/h ≈ 1e-10 for |f| ≲ 1, so 1e-8 separates a wrong derivative from numerical noise.
+const FD_STEP: f64 = 1e-6;
+const FD_TOLERANCE: f64 = 1e-8;
+
+fn random_configuration(seed: [f64; 4]) -> JointVector<4> {
+    JointVector::<4>::from_fn(|i, _| seed[i])
+}
+
+#[test]
+fn fk_of_ik_returns_the_target_over_the_workspace() {
+    let model = report_arm();
+    let mut checked = 0;
+    for radial_step in 0..30 {
+        for height_step in 0..12 {
+            for angle_step in 0..8 {
+                let radial = 0.1 + 0.02 * radial_step as f64;
+                let height = -0.05 + 0.03 * height_step as f64;
+                let angle = -3.0 + 0.8 * angle_step as f64;
+                let target = Vector3::new(radial * angle.cos(), radial * angle.sin(), height);
+                let Ok(q) = inverse_kinematics(&model, &target, TOOL_DOWN) else { continue };
+                let reached = tool_point(&model, &q);
+                assert!((reached.xyz() - target).norm() < 1e-9, "target {target:?} reached {reached:?}");
+                assert!((reached.w - TOOL_DOWN).abs() < 1e-12);
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 1500, "only {checked} targets reachable: the IK rejects too much");
+}
+
+proptest! {
+    #[test]
+    fn fk_of_ik_at_random_points_and_pitches(
+        radial in 0.05f64..0.75, angle in -3.1f64..3.1, height in -0.2f64..0.6, pitch in -2.5f64..0.5
+    ) {
+        let model = report_arm();
+        let target = Vector3::new(radial * angle.cos(), radial * angle.sin(), height);
+        if let Ok(q) = inverse_kinematics(&model, &target, pitch) {
+            let reached = tool_point(&model, &q);
+            prop_assert!((reached.xyz() - target).norm() < 1e-9);
+            prop_assert!((wrap_angle(reached.w - pitch)).abs() < 1e-12);
+            // Elbow up: the elbow is above the line from the shoulder to the wrist.
+            let chain = FrameChain::new(&model, &q);
+            let shoulder = Vector3::new(0.0, 0.0, REPORT_L1);
+            let elbow = chain.body_pose(1).translation.vector;
+            let wrist = chain.body_pose(2).translation.vector;
+            let radial_of = |p: &Vector3<f64>| p.x * angle.cos() + p.y * angle.sin();
+            let line = wrist - shoulder;
+            let side = radial_of(&line) * (elbow.z - shoulder.z) - line.z * radial_of(&(elbow - shoulder));
+            prop_assert!(side >= -1e-12, "elbow below the shoulder-wrist line");
+        }
+    }
+
+    #[test]
+    fn task_jacobian_matches_finite_differences(a in -3.0f64..3.0, b in -0.5f64..2.5, c in -2.9f64..2.9, d in -2.5f64..2.5) {
+        let model = report_arm();
+        let q = random_configuration([a, b, c, d]);
+        let jacobian = task_jacobian(&model, &q);
+        for j in 0..4 {
+            let mut step = JointVector::<4>::zeros();
+            step[j] = FD_STEP;
+            let numeric = (tool_point(&model, &(q + step)) - tool_point(&model, &(q - step))) / (2.0 * FD_STEP);
+            prop_assert!((jacobian.column(j) - numeric).norm() < FD_TOLERANCE, "column {} {} vs {}", j, jacobian.column(j), numeric);
+        }
+    }
+
+    #[test]
+    fn jacobian_derivative_matches_finite_differences(
+        a in -3.0f64..3.0, b in -0.5f64..2.5, c in -2.9f64..2.9, d in -2.5f64..2.5,
+        va in -2.0f64..2.0, vb in -2.0f64..2.0, vc in -2.0f64..2.0, vd in -2.0f64..2.0
+    ) {
+        let model = report_arm();
+        let q = random_configuration([a, b, c, d]);
+        let qd = random_configuration([va, vb, vc, vd]);
+        let analytic = task_jacobian_derivative(&model, &q, &qd);
+        let numeric: Matrix4<f64> =
+            (task_jacobian(&model, &(q + qd * FD_STEP)) - task_jacobian(&model, &(q - qd * FD_STEP))) / (2.0 * FD_STEP);
+        prop_assert!((analytic - numeric).abs().max() < 1e-7, "{} vs {}", analytic, numeric);
+    }
+}
+
+#[test]
+fn pitch_is_the_elevation_of_the_tool_x_axis() {
+    let model = report_arm();
+    for seed in [[0.3, 0.7, -1.9, -0.2], [-2.0, 1.2, -2.5, 0.9], [1.0, -0.3, 0.4, -1.8]] {
+        let q = random_configuration(seed);
+        let chain = FrameChain::new(&model, &q);
+        let tool_x = chain.body_pose(3).rotation.matrix().column(0).into_owned();
+        let pitch = tool_point(&model, &q).w;
+        let expected = Vector3::new(pitch.cos() * q[0].cos(), pitch.cos() * q[0].sin(), pitch.sin());
+        assert!((tool_x - expected).norm() < 1e-12, "{tool_x} vs {expected}");
+    }
+}
+
+#[test]
+fn tool_pointing_down_puts_the_wrist_l4_above_the_tip() {
+    let model = report_arm();
+    let target = Vector3::new(-0.03, 0.24, 0.05);
+    let q = inverse_kinematics(&model, &target, TOOL_DOWN).expect("d4 at grip height is reachable");
+    let wrist = FrameChain::new(&model, &q).body_pose(2).translation.vector;
+    assert!((wrist - (target + Vector3::new(0.0, 0.0, REPORT_L4))).norm() < 1e-12);
+}
+
+#[test]
+fn ik_errors_name_target_reason_and_reach() {
+    let model = report_arm();
+    let far = inverse_kinematics(&model, &Vector3::new(0.0, 0.9, 0.05), TOOL_DOWN).unwrap_err();
+    match &far {
+        IkError::OutOfReach { needed, min, max, .. } => {
+            assert!(*needed > *max && *min == 0.0 && (*max - 0.6096).abs() < 1e-12);
+        }
+        other => panic!("expected OutOfReach, got {other:?}"),
+    }
+    let text = far.to_string();
+    assert!(text.contains("(0.0000, 0.9000, 0.0500) m") && text.contains("out of reach") && text.contains("0.6096"));
+
+    let axis = inverse_kinematics(&model, &Vector3::new(0.0, 0.0, 0.1), TOOL_DOWN).unwrap_err();
+    assert!(matches!(axis, IkError::OnBaseAxis { .. }), "{axis:?}");
+
+    let nan = inverse_kinematics(&model, &Vector3::new(f64::NAN, 0.2, 0.1), TOOL_DOWN).unwrap_err();
+    assert!(matches!(nan, IkError::NotFinite { .. }), "{nan:?}");
+
+    // Right under the shoulder, close to the base: the shoulder must tip past its limit.
+    let limited = inverse_kinematics(&model, &Vector3::new(0.0, 0.02, -0.25), TOOL_DOWN).unwrap_err();
+    match &limited {
+        IkError::JointLimit { joint, value, lower, upper, .. } => {
+            assert!(*value < *lower || *value > *upper, "joint {joint} at {value} is inside its limits");
+            assert!(limited.to_string().contains(&format!("joint {joint}")));
+        }
+        other => panic!("expected JointLimit, got {other:?}"),
+    }
+}
+
+#[test]
+fn model_validation_names_the_wrong_field() {
+    let model = report_arm();
+    let mut links = *model.links();
+    links[2].inertial.mass = -0.5;
+    let error = model.with_links(links).unwrap_err();
+    assert!(error.to_string().starts_with("link 3 mass = -0.5"), "{error}");
+
+    let mut links = *model.links();
+    links[1].inertial.inertia = Matrix3::from_diagonal(&Vector3::new(0.001, 0.001, 0.01));
+    let ModelError::InvalidField { field, reason, .. } = model.with_links(links).unwrap_err();
+    assert_eq!(field, "link 2 inertia");
+    assert!(reason.contains("triangle"), "{reason}");
+
+    let mut links = *model.links();
+    links[0].inertial.inertia[(0, 1)] = 1e-4;
+    let error = model.with_links(links).unwrap_err();
+    assert!(error.to_string().contains("symmetric"), "{error}");
+
+    let mut links = *model.links();
+    links[3].dh.a = f64::INFINITY;
+    assert!(model.with_links(links).unwrap_err().to_string().contains("link 4 (a) = inf"));
+
+    let mut links = *model.links();
+    links[1].limits.lower = 2.0;
+    links[1].limits.upper = 1.0;
+    assert!(model.with_links(links).unwrap_err().to_string().contains("lower < upper"));
+
+    let negative_moment = Inertial { mass: 1.0, com: Vector3::zeros(), inertia: Matrix3::from_diagonal(&Vector3::new(-1e-3, 1e-3, 1e-3)) };
+    let mut links = *model.links();
+    links[0].inertial = negative_moment;
+    assert!(model.with_links(links).unwrap_err().to_string().contains("positive"));
+}
+
+#[test]
+fn wrap_angle_stays_in_half_open_interval() {
+    use std::f64::consts::PI;
+    for (input, expected) in [(0.0, 0.0), (PI, PI), (-PI, PI), (3.0 * PI, PI), (2.5 * PI, 0.5 * PI), (-2.5 * PI, -0.5 * PI)] {
+        assert!((wrap_angle(input) - expected).abs() < 1e-12, "{input} → {}", wrap_angle(input));
+    }
+}
