@@ -1,1 +1,7 @@
-pub fn x(){}
+//! chessarm-chess: the chess layer of chessarm. Board geometry, pieces, rules and notation
+//! (through shakmaty and pgn-reader), chess moves to pick-and-place tasks, and opponents.
+
+pub mod board;
+pub mod scenario;
+
+pub use shakmaty;

@@ -171,7 +171,11 @@ fn model_validation_names_the_wrong_field() {
     links[1].limits.upper = 1.0;
     assert!(model.with_links(links).unwrap_err().to_string().contains("lower < upper"));
 
-    let negative_moment = Inertial { mass: 1.0, com: Vector3::zeros(), inertia: Matrix3::from_diagonal(&Vector3::new(-1e-3, 1e-3, 1e-3)) };
+    let negative_moment = Inertial {
+        mass: 1.0,
+        com: Vector3::zeros(),
+        inertia: Matrix3::from_diagonal(&Vector3::new(-1e-3, 1e-3, 1e-3)),
+    };
     let mut links = *model.links();
     links[0].inertial = negative_moment;
     assert!(model.with_links(links).unwrap_err().to_string().contains("positive"));
@@ -180,7 +184,9 @@ fn model_validation_names_the_wrong_field() {
 #[test]
 fn wrap_angle_stays_in_half_open_interval() {
     use std::f64::consts::PI;
-    for (input, expected) in [(0.0, 0.0), (PI, PI), (-PI, PI), (3.0 * PI, PI), (2.5 * PI, 0.5 * PI), (-2.5 * PI, -0.5 * PI)] {
+    for (input, expected) in
+        [(0.0, 0.0), (PI, PI), (-PI, PI), (3.0 * PI, PI), (2.5 * PI, 0.5 * PI), (-2.5 * PI, -0.5 * PI)]
+    {
         assert!((wrap_angle(input) - expected).abs() < 1e-12, "{input} → {}", wrap_angle(input));
     }
 }

@@ -78,7 +78,8 @@ fn minimum_time_profile_respects_its_limits() {
         assert!(profile.blend_acceleration().abs() <= a_max * (1.0 + 1e-12));
         assert!((profile.sample(profile.duration()).position - distance).abs() < 1e-12);
         // Minimal: one of the limits is reached.
-        let saturated = (peak_velocity - v_max).abs() < 1e-9 || (profile.blend_acceleration().abs() - a_max).abs() < 1e-9;
+        let saturated =
+            (peak_velocity - v_max).abs() < 1e-9 || (profile.blend_acceleration().abs() - a_max).abs() < 1e-9;
         assert!(saturated);
     }
     assert!(Lspb::min_time(0.0, 1.0, 0.0, 1.0).is_err());

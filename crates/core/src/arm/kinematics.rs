@@ -16,10 +16,7 @@ pub fn dh_transform(dh: &DhParameters, joint_angle: f64) -> Pose {
     let (st, ct) = (joint_angle + dh.theta_offset).sin_cos();
     let (sa, ca) = dh.alpha.sin_cos();
     let rotation = Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca);
-    Pose::from_parts(
-        Translation3::new(dh.a * ct, dh.a * st, dh.d),
-        Rotation3::from_matrix_unchecked(rotation),
-    )
+    Pose::from_parts(Translation3::new(dh.a * ct, dh.a * st, dh.d), Rotation3::from_matrix_unchecked(rotation))
 }
 
 /// World poses of all DH frames for one joint configuration `q` (rad).

@@ -333,13 +333,10 @@ pub fn validate_inertial(owner: &str, inertial: &Inertial, allow_point: bool) ->
     }
     let moments = SymmetricEigen::new(*tensor).eigenvalues;
     let tolerance = 1e-12 * scale;
-    let positive = if allow_point { moments.iter().all(|&m| m >= -tolerance) } else { moments.iter().all(|&m| m > 0.0) };
+    let positive =
+        if allow_point { moments.iter().all(|&m| m >= -tolerance) } else { moments.iter().all(|&m| m > 0.0) };
     if !positive {
-        return Err(invalid(
-            format!("{owner} inertia"),
-            shown(),
-            "principal moments of inertia must be positive",
-        ));
+        return Err(invalid(format!("{owner} inertia"), shown(), "principal moments of inertia must be positive"));
     }
     let (a, b, c) = (moments[0], moments[1], moments[2]);
     if a + b < c - tolerance || b + c < a - tolerance || a + c < b - tolerance {

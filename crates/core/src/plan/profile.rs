@@ -81,10 +81,8 @@ impl Lspb {
     /// trapezoid that cruises at `max_velocity`, or a triangle when the move is too short
     /// to reach it (`|Δ| ≤ v²/a`).
     pub fn min_time(start: f64, end: f64, max_velocity: f64, max_acceleration: f64) -> Result<Self, ProfileError> {
-        let limits_ok = max_velocity.is_finite()
-            && max_velocity > 0.0
-            && max_acceleration.is_finite()
-            && max_acceleration > 0.0;
+        let limits_ok =
+            max_velocity.is_finite() && max_velocity > 0.0 && max_acceleration.is_finite() && max_acceleration > 0.0;
         if !limits_ok {
             return Err(ProfileError::Limits { velocity: max_velocity, acceleration: max_acceleration });
         }
@@ -139,7 +137,11 @@ impl Lspb {
             return ProfileSample { position: self.end, ..Default::default() };
         }
         if t <= blend {
-            ProfileSample { position: self.start + 0.5 * acceleration * t * t, velocity: acceleration * t, acceleration }
+            ProfileSample {
+                position: self.start + 0.5 * acceleration * t * t,
+                velocity: acceleration * t,
+                acceleration,
+            }
         } else if t < duration - blend {
             ProfileSample {
                 position: 0.5 * (self.start + self.end - velocity * duration) + velocity * t,

@@ -39,7 +39,8 @@ pub const SINGULAR_DETERMINANT: f64 = 1e-6;
 
 /// The joint state that puts the tool tip on `sample` with the given constant tool `pitch`.
 pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64) -> Result<JointSample, PlanError> {
-    let q = inverse_kinematics(model, &sample.position, pitch).map_err(|source| PlanError::Ik { time: sample.t, source })?;
+    let q = inverse_kinematics(model, &sample.position, pitch)
+        .map_err(|source| PlanError::Ik { time: sample.t, source })?;
     let jacobian = task_jacobian(model, &q);
     let determinant = jacobian.determinant();
     let lu = jacobian.lu();
@@ -57,7 +58,12 @@ pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64)
     let qdd = lu.solve(&(task(&sample.acceleration) - drift)).ok_or_else(singular)?;
     for (i, link) in model.links().iter().enumerate() {
         if qd[i].abs() > link.limits.velocity {
-            return Err(PlanError::VelocityLimit { time: sample.t, joint: i + 1, rate: qd[i], limit: link.limits.velocity });
+            return Err(PlanError::VelocityLimit {
+                time: sample.t,
+                joint: i + 1,
+                rate: qd[i],
+                limit: link.limits.velocity,
+            });
         }
     }
     Ok(JointSample { t: sample.t, q, qd, qdd })

@@ -1,0 +1,90 @@
+//! Board geometry: where each square is in the arm's base frame.
+//!
+//! The report's layout: squares 6 cm apart, files a–h along x at −21 … +21 cm, rank r along y
+//! at 12 + 6(r − 1) cm (the base sits two squares before rank 1), board surface at z = 0.
+//! All values in metres.
+
+use chessarm_core::nalgebra::{Vector2, Vector3};
+use shakmaty::{File, Rank, Square};
+
+/// Why a square or board description is not usable.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BoardError {
+    #[error("'{0}' is not a square name (expected a file a–h and a rank 1–8, like e4)")]
+    SquareName(String),
+    #[error("board {field} = {value}: {reason}")]
+    Geometry { field: &'static str, value: f64, reason: &'static str },
+}
+
+/// Position of the board in the base frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoardGeometry {
+    /// Distance between neighbouring square centres, m.
+    pub square_size: f64,
+    /// Centre of the board (the corner shared by d4, e4, d5, e5) in the base frame, m.
+    pub center: Vector2<f64>,
+    /// Height of the board surface, m.
+    pub surface_height: f64,
+}
+
+impl Default for BoardGeometry {
+    /// The report's board: 6 cm squares, centred on the y axis, rank 1 at y = 12 cm.
+    fn default() -> Self {
+        Self { square_size: 0.06, center: Vector2::new(0.0, 0.33), surface_height: 0.0 }
+    }
+}
+
+impl BoardGeometry {
+    /// Checks that every number is finite and the squares have a positive size.
+    pub fn validated(self) -> Result<Self, BoardError> {
+        if !(self.square_size.is_finite() && self.square_size > 0.0) {
+            return Err(BoardError::Geometry {
+                field: "square_size",
+                value: self.square_size,
+                reason: "must be finite and > 0",
+            });
+        }
+        for (field, value) in
+            [("center.x", self.center.x), ("center.y", self.center.y), ("surface_height", self.surface_height)]
+        {
+            if !value.is_finite() {
+                return Err(BoardError::Geometry { field, value, reason: "must be finite" });
+            }
+        }
+        Ok(self)
+    }
+
+    /// Centre of `square` on the board surface, m.
+    pub fn square_center(&self, square: Square) -> Vector3<f64> {
+        let file = f64::from(u8::from(square.file())) - 3.5;
+        let rank = f64::from(u8::from(square.rank())) - 3.5;
+        Vector3::new(
+            self.center.x + file * self.square_size,
+            self.center.y + rank * self.square_size,
+            self.surface_height,
+        )
+    }
+
+    /// The point `height` m above the centre of `square`.
+    pub fn above(&self, square: Square, height: f64) -> Vector3<f64> {
+        self.square_center(square) + Vector3::new(0.0, 0.0, height)
+    }
+
+    /// The square under a point and the point's horizontal offset from its centre (m), or
+    /// `None` off the board.
+    pub fn square_at(&self, point: &Vector3<f64>) -> Option<(Square, Vector2<f64>)> {
+        let file = ((point.x - self.center.x) / self.square_size + 4.0).floor();
+        let rank = ((point.y - self.center.y) / self.square_size + 4.0).floor();
+        if !(0.0..8.0).contains(&file) || !(0.0..8.0).contains(&rank) {
+            return None;
+        }
+        let square = Square::from_coords(File::new(file as u32), Rank::new(rank as u32));
+        let center = self.square_center(square);
+        Some((square, Vector2::new(point.x - center.x, point.y - center.y)))
+    }
+}
+
+/// Parses a square name such as `d4` (case-insensitive).
+pub fn parse_square(name: &str) -> Result<Square, BoardError> {
+    name.trim().to_ascii_lowercase().parse::<Square>().map_err(|_| BoardError::SquareName(name.to_string()))
+}
