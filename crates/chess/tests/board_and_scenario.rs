@@ -1,5 +1,7 @@
 //! Board geometry and the report's scenario, through the arm's kinematics.
 
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
 use chessarm_chess::board::{BoardGeometry, parse_square};
 use chessarm_chess::scenario::{queens_gambit, scenario};
 use chessarm_chess::shakmaty::Square;

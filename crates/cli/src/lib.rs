@@ -1,1 +1,41 @@
-pub fn x() {}
+//! The `chessarm` command-line program: commands, reports (CSV, JSON, plots) and progress.
+//! This crate is the only place that touches files and the terminal.
+
+pub mod args;
+pub mod cli;
+pub mod commands;
+pub mod config;
+pub mod output;
+pub mod plots;
+pub mod urdf;
+
+use anyhow::Result;
+use cli::{Cli, Command};
+use config::Setup;
+
+/// Runs a parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    let setup = Setup::load(cli.arm.as_deref())?;
+    match cli.command {
+        None => commands::plan::run(
+            &setup,
+            &cli::PlanArgs { scenario: "queens-gambit".into(), out: "out/plan".into(), dt: 0.005, xlsx: false },
+        ),
+        Some(Command::Arm) => {
+            print!("{}", setup.to_toml()?);
+            Ok(())
+        }
+        Some(Command::Fk(args)) => commands::kinematics::fk(&setup, &args),
+        Some(Command::Ik(args)) => commands::kinematics::ik(&setup, &args),
+        Some(Command::Urdf) => {
+            print!("{}", urdf::to_urdf(&setup.arm, "chessarm"));
+            Ok(())
+        }
+        Some(Command::Plan(args)) => commands::plan::run(&setup, &args),
+    }
+}
+
+/// Prints a JSON value to standard output on one line.
+pub fn print_json(value: &serde_json::Value) {
+    println!("{value}");
+}

@@ -1,5 +1,7 @@
 //! Kinematics identities: FK ∘ IK = id, Jacobians against finite differences, errors.
 
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::{Inertial, JointVector, ModelError};
 use chessarm_core::arm::preset::{REPORT_L1, REPORT_L4, report_arm};

@@ -1,5 +1,7 @@
 //! LSPB profiles, Cartesian paths and joint trajectories.
 
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::arm::task::{TOOL_DOWN, inverse_kinematics, task_jacobian, tool_point};
 use chessarm_core::nalgebra::Vector3;

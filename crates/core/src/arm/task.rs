@@ -154,7 +154,7 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
     let distance = wrist_radial.hypot(wrist_height);
     let (min, max) = geometry.wrist_reach();
     let cos_elbow = (l2 * l2 + distance * distance - l3 * l3) / (2.0 * l2 * distance);
-    if !(distance >= min && distance <= max) || !(-1.0..=1.0).contains(&cos_elbow) {
+    if !(distance >= min && distance <= max && (-1.0..=1.0).contains(&cos_elbow)) {
         return Err(IkError::OutOfReach { target: shown, needed: distance, min, max });
     }
     let base = target.y.atan2(target.x);

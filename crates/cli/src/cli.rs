@@ -1,0 +1,73 @@
+//! The command line.
+
+use crate::args;
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+
+/// chessarm: from a chess move to the joint torques of a 4-DOF arm, verified in simulation.
+///
+/// All values are SI (m, rad, s, kg, N·m) unless a flag says otherwise. With no command,
+/// runs `demo`.
+#[derive(Debug, Parser)]
+#[command(name = "chessarm", version, about, long_about = None)]
+pub struct Cli {
+    /// Setup file (TOML) describing the arm and the board; `chessarm arm` prints the default.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub arm: Option<PathBuf>,
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Print the arm and board setup as TOML (the report's arm unless --arm is given).
+    Arm,
+    /// Forward kinematics: tool tip, pitch and every DH frame for joint angles (rad), as JSON.
+    Fk(FkArgs),
+    /// Inverse kinematics (elbow up, tool down unless --pitch): joint angles for a tip position.
+    Ik(IkArgs),
+    /// Print the arm as URDF (links with mass, COM and inertia; joints with limits; a tool frame).
+    Urdf,
+    /// Plan a scenario: Cartesian LSPB path → IK → joint trajectory; CSV, plots, optional XLSX.
+    Plan(PlanArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct FkArgs {
+    /// Joint angles q1,q2,q3,q4 in rad.
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
+    pub q: [f64; 4],
+}
+
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("target").required(true).args(["xyz", "square"])))]
+pub struct IkArgs {
+    /// Tool-tip position x,y,z in m (base frame).
+    #[arg(long, value_name = "X,Y,Z", value_parser = args::three, allow_hyphen_values = true)]
+    pub xyz: Option<[f64; 3]>,
+    /// A board square, e.g. d4; the tip goes --height above its centre.
+    #[arg(long)]
+    pub square: Option<String>,
+    /// Height above the square's centre, m.
+    #[arg(long, default_value_t = 0.05, value_parser = args::finite, allow_hyphen_values = true)]
+    pub height: f64,
+    /// Tool pitch above the horizontal, rad (−π/2: pointing down).
+    #[arg(long, default_value_t = -std::f64::consts::FRAC_PI_2, value_parser = args::finite, allow_hyphen_values = true)]
+    pub pitch: f64,
+}
+
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// Built-in scenario.
+    #[arg(long, default_value = "queens-gambit")]
+    pub scenario: String,
+    /// Output folder.
+    #[arg(long, default_value = "out/plan")]
+    pub out: PathBuf,
+    /// Sample time of the written trajectory, s (the report: 5 ms).
+    #[arg(long, default_value_t = 0.005, value_parser = args::positive)]
+    pub dt: f64,
+    /// Also write joint.xlsx (the report exported a spreadsheet).
+    #[arg(long)]
+    pub xlsx: bool,
+}

@@ -1,0 +1,42 @@
+//! `fk` and `ik`.
+
+use crate::cli::{FkArgs, IkArgs};
+use crate::config::Setup;
+use crate::print_json;
+use anyhow::{Result, bail};
+use chessarm_chess::board::parse_square;
+use chessarm_core::arm::kinematics::FrameChain;
+use chessarm_core::arm::model::JointVector;
+use chessarm_core::arm::task::{inverse_kinematics, tool_point};
+use chessarm_core::nalgebra::Vector3;
+use serde_json::json;
+
+pub fn fk(setup: &Setup, args: &FkArgs) -> Result<()> {
+    let q = JointVector::<4>::from(args.q);
+    let chain = FrameChain::new(&setup.arm, &q);
+    let task = tool_point(&setup.arm, &q);
+    let frames: Vec<_> = (0..4)
+        .map(|i| {
+            let pose = chain.body_pose(i);
+            let rotation = pose.rotation.matrix();
+            json!({
+                "name": format!("frame{}", i + 1),
+                "origin": pose.translation.vector.as_slice(),
+                "rotation": (0..3).map(|r| (0..3).map(|c| rotation[(r, c)]).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    print_json(&json!({ "tip": [task.x, task.y, task.z], "pitch": task.w, "frames": frames }));
+    Ok(())
+}
+
+pub fn ik(setup: &Setup, args: &IkArgs) -> Result<()> {
+    let target = match (&args.xyz, &args.square) {
+        (Some(xyz), None) => Vector3::from(*xyz),
+        (None, Some(name)) => setup.board.above(parse_square(name)?, args.height),
+        _ => bail!("give either --xyz or --square"),
+    };
+    let q = inverse_kinematics(&setup.arm, &target, args.pitch)?;
+    print_json(&json!({ "q": q.as_slice() }));
+    Ok(())
+}

@@ -1,0 +1,233 @@
+//! Line plots and heat maps as PNG (plotters, bitmap backend, embedded DejaVu Sans font).
+//! Callers convert units for display and say so in the axis labels.
+
+use crate::output::render_atomic;
+use anyhow::{Result, anyhow};
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+use std::path::Path;
+use std::sync::Once;
+
+static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+fn register_font() {
+    REGISTER.call_once(|| {
+        // The font is compiled in; registration only fails on a corrupt font file.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// Distinguishable line colours (red, green, blue, black, then more).
+pub const PALETTE: [RGBColor; 8] = [
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(31, 119, 180),
+    RGBColor(0, 0, 0),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+];
+
+/// One line of a panel.
+#[derive(Debug, Clone)]
+pub struct Series {
+    pub label: String,
+    pub points: Vec<(f64, f64)>,
+    /// Index into [`PALETTE`].
+    pub color: usize,
+    /// Dashed lines show desired/reference values.
+    pub dashed: bool,
+}
+
+/// One chart of a stacked figure.
+#[derive(Debug, Clone)]
+pub struct Panel {
+    pub title: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
+}
+
+fn range_of(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (low, high) =
+        values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    if !low.is_finite() {
+        return (-1.0, 1.0);
+    }
+    let span = high - low;
+    let pad = if span > 1e-12 { 0.05 * span } else { low.abs().max(1.0) * 0.05 };
+    (low - pad, high + pad)
+}
+
+/// Draws `panels` stacked vertically over a shared x axis into the PNG at `path`.
+pub fn plot_panels(path: &Path, title: &str, x_label: &str, panels: &[Panel]) -> Result<()> {
+    register_font();
+    let height = 40 + 300 * panels.len() as u32;
+    render_atomic(path, |temporary| {
+        let root = BitMapBackend::new(temporary, (1200, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+        let root = root.titled(title, ("sans-serif", 26)).map_err(|e| anyhow!("{e}"))?;
+        let areas = root.split_evenly((panels.len(), 1));
+        for (area, panel) in areas.iter().zip(panels) {
+            draw_panel(area, panel, x_label).map_err(|e| anyhow!("{e}"))?;
+        }
+        root.present().map_err(|e| anyhow!("{e}"))?;
+        Ok(())
+    })
+}
+
+fn draw_panel(
+    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    panel: &Panel,
+    x_label: &str,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let points = || panel.series.iter().flat_map(|s| s.points.iter());
+    let (x_low, x_high) = range_of(points().map(|p| p.0));
+    let (y_low, y_high) = range_of(points().map(|p| p.1));
+    let mut chart = ChartBuilder::on(area)
+        .caption(&panel.title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x_low..x_high, y_low..y_high)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(&panel.y_label)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()?;
+    for series in &panel.series {
+        let color = PALETTE[series.color % PALETTE.len()];
+        let style = color.stroke_width(2);
+        let annotation = if series.dashed {
+            chart.draw_series(DashedLineSeries::new(series.points.iter().copied(), 8, 5, style))?
+        } else {
+            chart.draw_series(LineSeries::new(series.points.iter().copied(), style))?
+        };
+        annotation
+            .label(series.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()?;
+    Ok(())
+}
+
+/// A heat map of `values[row][column]` over a grid of x (columns) and y (rows) values, with a
+/// colour bar; `None` cells (failed candidates) are grey, `marked` cells get a black frame.
+#[derive(Debug)]
+pub struct HeatMap<'a> {
+    pub title: &'a str,
+    pub x_label: &'a str,
+    pub y_label: &'a str,
+    pub value_label: &'a str,
+    pub x_values: &'a [f64],
+    pub y_values: &'a [f64],
+    pub values: &'a [Vec<Option<f64>>],
+    pub marked: Option<(usize, usize)>,
+}
+
+fn heat_color(fraction: f64) -> RGBColor {
+    // Viridis-like ramp from dark blue (low, good for error metrics) to yellow (high).
+    let stops =
+        [(68.0, 1.0, 84.0), (59.0, 82.0, 139.0), (33.0, 145.0, 140.0), (94.0, 201.0, 98.0), (253.0, 231.0, 37.0)];
+    let scaled = fraction.clamp(0.0, 1.0) * (stops.len() - 1) as f64;
+    let index = (scaled.floor() as usize).min(stops.len() - 2);
+    let t = scaled - index as f64;
+    let (a, b) = (stops[index], stops[index + 1]);
+    let mix = |u: f64, v: f64| (u + (v - u) * t).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// Draws a heat map into the PNG at `path`.
+pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
+    register_font();
+    let finite: Vec<f64> = map.values.iter().flatten().flatten().copied().filter(|v| v.is_finite()).collect();
+    let low = finite.iter().copied().fold(f64::INFINITY, f64::min);
+    let high = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let span = if high > low { high - low } else { 1.0 };
+    render_atomic(path, |temporary| {
+        let root = BitMapBackend::new(temporary, (1000, 800)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+        let (chart_area, bar_area) = root.split_horizontally(860);
+        let columns = map.x_values.len();
+        let rows = map.y_values.len();
+        let mut chart = ChartBuilder::on(&chart_area)
+            .caption(map.title, ("sans-serif", 22))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..columns as f64, 0.0..rows as f64)
+            .map_err(|e| anyhow!("{e}"))?;
+        let x_values = map.x_values.to_vec();
+        let y_values = map.y_values.to_vec();
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(map.x_label)
+            .y_desc(map.y_label)
+            .x_labels(columns.min(10))
+            .y_labels(rows.min(10))
+            .x_label_formatter(&|v| label_at(&x_values, *v))
+            .y_label_formatter(&|v| label_at(&y_values, *v))
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        let cells = map.values.iter().enumerate().flat_map(|(row, line)| {
+            line.iter().enumerate().map(move |(column, value)| {
+                let color = match value {
+                    Some(v) if v.is_finite() => heat_color((v - low) / span),
+                    _ => RGBColor(190, 190, 190),
+                };
+                Rectangle::new([(column as f64, row as f64), (column as f64 + 1.0, row as f64 + 1.0)], color.filled())
+            })
+        });
+        chart.draw_series(cells).map_err(|e| anyhow!("{e}"))?;
+        if let Some((row, column)) = map.marked {
+            let frame = [(column as f64, row as f64), (column as f64 + 1.0, row as f64 + 1.0)];
+            chart
+                .draw_series(std::iter::once(Rectangle::new(frame, BLACK.stroke_width(3))))
+                .map_err(|e| anyhow!("{e}"))?;
+        }
+        // Colour bar.
+        let mut bar = ChartBuilder::on(&bar_area)
+            .margin_top(60)
+            .margin_bottom(65)
+            .margin_right(10)
+            .y_label_area_size(80)
+            .caption(map.value_label, ("sans-serif", 14))
+            .build_cartesian_2d(0.0..1.0, low..low + span)
+            .map_err(|e| anyhow!("{e}"))?;
+        bar.configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        let steps = 100;
+        bar.draw_series((0..steps).map(|k| {
+            let from = low + span * k as f64 / steps as f64;
+            let to = low + span * (k + 1) as f64 / steps as f64;
+            Rectangle::new([(0.0, from), (1.0, to)], heat_color(k as f64 / steps as f64).filled())
+        }))
+        .map_err(|e| anyhow!("{e}"))?;
+        root.present().map_err(|e| anyhow!("{e}"))?;
+        Ok(())
+    })
+}
+
+fn label_at(values: &[f64], position: f64) -> String {
+    let index = position.floor() as usize;
+    match values.get(index) {
+        Some(v) if (position - index as f64 - 0.5).abs() < 0.51 => format!("{v:.4}"),
+        _ => String::new(),
+    }
+}

@@ -1,0 +1,236 @@
+//! The binary, end to end: kinematics commands, setup files, URDF and planning outputs.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+use chessarm_core::arm::kinematics::FrameChain;
+use chessarm_core::arm::model::JointVector;
+use chessarm_core::arm::preset::report_arm;
+use chessarm_core::nalgebra::{Matrix4, Rotation3, Vector3};
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn chessarm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).output().expect("the binary runs")
+}
+
+fn json_of(output: &Output) -> Value {
+    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_slice(&output.stdout).expect("stdout is JSON")
+}
+
+/// Exit code 2, exactly one line on stderr, containing every `needle`.
+fn assert_one_line_error(output: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "stderr: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "not one line: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "'{needle}' missing from: {stderr}");
+    }
+    assert!(output.stdout.is_empty(), "partial output on stdout");
+}
+
+fn numbers(value: &Value) -> Vec<f64> {
+    value.as_array().expect("array").iter().map(|v| v.as_f64().expect("number")).collect()
+}
+
+#[test]
+fn ik_then_fk_returns_the_square() {
+    let ik = json_of(&chessarm(&["ik", "--square", "d4", "--height", "0.05"]));
+    let q = numbers(&ik["q"]);
+    let q_text = q.iter().map(|v| format!("{v:?}")).collect::<Vec<_>>().join(",");
+    let fk = json_of(&chessarm(&["fk", "--q", &q_text]));
+    let tip = numbers(&fk["tip"]);
+    for (got, want) in tip.iter().zip([-0.03, 0.30, 0.05]) {
+        assert!((got - want).abs() < 1e-9, "{tip:?}");
+    }
+    assert!((fk["pitch"].as_f64().unwrap() + std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+    assert_eq!(fk["frames"].as_array().unwrap().len(), 4);
+    let xyz = json_of(&chessarm(&["ik", "--xyz", "-0.03,0.3,0.05"]));
+    // The square's centre is computed as −0.21 + 3·0.06, which differs from −0.03 in the last bit.
+    for (a, b) in numbers(&xyz["q"]).iter().zip(&q) {
+        assert!((a - b).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn bad_kinematics_input_is_one_line_with_exit_code_2() {
+    assert_one_line_error(
+        &chessarm(&["ik", "--xyz", "0,0.9,0.05"]),
+        &["out of reach", "(0.0000, 0.9000, 0.0500) m", "0.6096"],
+    );
+    assert_one_line_error(&chessarm(&["ik", "--square", "k9"]), &["'k9'"]);
+    assert_one_line_error(&chessarm(&["ik", "--xyz", "0,0,0.1"]), &["base axis"]);
+    assert_one_line_error(&chessarm(&["ik", "--xyz", "0,0.02,-0.25"]), &["joint 2", "outside its limits"]);
+    assert_one_line_error(&chessarm(&["fk", "--q", "1,2,x,4"]), &["'x'"]);
+    assert_one_line_error(&chessarm(&["fk", "--q", "1,2,3"]), &["expected 4", "'1,2,3'"]);
+    assert_one_line_error(&chessarm(&["fk", "--q", "1,2,3,NaN"]), &["not finite"]);
+    assert_one_line_error(&chessarm(&["plan", "--scenario", "sicilian"]), &["unknown scenario 'sicilian'"]);
+    assert_one_line_error(&chessarm(&["plan", "--dt", "-1"]), &["-1"]);
+    assert_one_line_error(&chessarm(&["frobnicate"]), &["frobnicate"]);
+}
+
+fn write_setup(dir: &Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn setup_file_round_trips_and_bad_files_name_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let printed = chessarm(&["arm"]);
+    assert!(printed.status.success());
+    let text = String::from_utf8(printed.stdout).unwrap();
+    let file = write_setup(dir.path(), "arm.toml", &text);
+    // The printed setup loads back and describes the same arm.
+    let again = chessarm(&["--arm", &file, "arm"]);
+    assert_eq!(String::from_utf8(again.stdout).unwrap(), text);
+
+    let negative_mass = text.replacen("mass = 0.5261671", "mass = -0.5261671", 1);
+    let file = write_setup(dir.path(), "negative.toml", &negative_mass);
+    assert_one_line_error(
+        &chessarm(&["--arm", &file, "fk", "--q", "0,0,0,0"]),
+        &["negative.toml", "link 2 mass = -0.5261671"],
+    );
+
+    let bad_tensor = text.replacen("0.007064321", "0.07064321", 1);
+    let file = write_setup(dir.path(), "tensor.toml", &bad_tensor);
+    assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["link 2 inertia", "triangle"]);
+
+    let file = write_setup(dir.path(), "syntax.toml", "gravity = [0, 0,\n[board\n");
+    assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["syntax.toml", "line "]);
+
+    let file = write_setup(
+        dir.path(),
+        "unknown.toml",
+        "[board]\nsquare_size = 0.05\ncenter = [0, 0.3]\nsurface_height = 0\ncolour = 1\n",
+    );
+    assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["colour"]);
+
+    let file = write_setup(dir.path(), "nan.toml", "gravity = [0, 0, nan]\n");
+    assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["gravity.z = NaN"]);
+
+    let three_links = &text[..text.rfind("\n[[links]]").unwrap()];
+    let file = write_setup(dir.path(), "three.toml", three_links);
+    assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["4 joints", "lists 3"]);
+
+    assert_one_line_error(&chessarm(&["--arm", "/nonexistent/arm.toml", "arm"]), &["/nonexistent/arm.toml"]);
+
+    // A partial file: only the board changes, and IK follows it.
+    let file = write_setup(
+        dir.path(),
+        "board.toml",
+        "[board]\nsquare_size = 0.05\ncenter = [0.0, 0.3]\nsurface_height = 0.0\n",
+    );
+    let q = numbers(&json_of(&chessarm(&["--arm", &file, "ik", "--square", "a1", "--height", "0.05"]))["q"]);
+    let tip = report_arm_tip(&q);
+    assert!((tip - Vector3::new(-0.175, 0.125, 0.05)).norm() < 1e-9, "{tip}");
+}
+
+fn report_arm_tip(q: &[f64]) -> Vector3<f64> {
+    FrameChain::new(&report_arm(), &JointVector::<4>::from_column_slice(q)).tip()
+}
+
+/// Reads `<origin xyz=".." rpy=".."/>` of every joint, in order, from our URDF.
+fn joint_origins(urdf: &str) -> Vec<(String, Matrix4<f64>)> {
+    let mut result = Vec::new();
+    for block in urdf.split("<joint ").skip(1) {
+        let kind = block.split("type=\"").nth(1).unwrap().split('"').next().unwrap().to_string();
+        let attribute = |name: &str| -> Vec<f64> {
+            let text = block.split(&format!("{name}=\"")).nth(1).unwrap().split('"').next().unwrap();
+            text.split_whitespace().map(|v| v.parse().unwrap()).collect()
+        };
+        let (xyz, rpy) = (attribute("xyz"), attribute("rpy"));
+        let rotation = Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]);
+        let mut transform = Matrix4::identity();
+        transform.fixed_view_mut::<3, 3>(0, 0).copy_from(rotation.matrix());
+        transform.fixed_view_mut::<3, 1>(0, 3).copy_from(&Vector3::new(xyz[0], xyz[1], xyz[2]));
+        result.push((kind, transform));
+    }
+    result
+}
+
+#[test]
+fn urdf_chain_reproduces_forward_kinematics() {
+    let output = chessarm(&["urdf"]);
+    assert!(output.status.success());
+    let urdf = String::from_utf8(output.stdout).unwrap();
+    assert_eq!(urdf.matches("<link name=").count(), 6);
+    assert_eq!(urdf.matches("type=\"revolute\"").count(), 4);
+    assert!(urdf.contains("<link name=\"tool\"/>") && urdf.contains("type=\"fixed\""));
+    assert!(urdf.contains("<mass value=\"0.5261671\"/>"));
+    assert!(urdf.contains("effort=\"25\""));
+    let joints = joint_origins(&urdf);
+    let model = report_arm();
+    for q in [[0.3, 0.8, -2.0, -0.4], [-1.2, 1.4, -2.6, 0.2], [2.0, 0.1, 0.5, -1.0]] {
+        let mut transform = Matrix4::identity();
+        let mut revolute = 0;
+        for (kind, origin) in &joints {
+            transform *= origin;
+            if kind == "revolute" {
+                let mut turn = Matrix4::identity();
+                turn.fixed_view_mut::<3, 3>(0, 0)
+                    .copy_from(Rotation3::from_axis_angle(&Vector3::z_axis(), q[revolute]).matrix());
+                transform *= turn;
+                revolute += 1;
+            }
+        }
+        let tool = FrameChain::new(&model, &JointVector::<4>::from(q)).body_pose(3).to_homogeneous();
+        assert!((transform - tool).abs().max() < 1e-12, "URDF tool pose differs from FK at {q:?}");
+    }
+}
+
+#[test]
+fn plan_writes_the_report_files_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plan");
+    let out_text = out.display().to_string();
+    let summary = json_of(&chessarm(&["plan", "--scenario", "queens-gambit", "--out", &out_text, "--xlsx"]));
+    assert_eq!(summary["samples"].as_u64(), Some(2601));
+    assert!((summary["duration_s"].as_f64().unwrap() - 13.0).abs() < 1e-12);
+    let mut names: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    assert_eq!(names, ["cartesian.csv", "cartesian.png", "joint.csv", "joint.png", "joint.xlsx"], "stray files");
+
+    let mut cartesian = csv::Reader::from_path(out.join("cartesian.csv")).unwrap();
+    assert_eq!(
+        cartesian.headers().unwrap().iter().collect::<Vec<_>>(),
+        ["t", "x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az"]
+    );
+    let rows: Vec<Vec<f64>> =
+        cartesian.records().map(|r| r.unwrap().iter().map(|v| v.parse().unwrap()).collect()).collect();
+    assert_eq!(rows.len(), 2601);
+    for (got, want) in rows[1200][..4].iter().zip([6.0, -0.03, 0.18, 0.05]) {
+        assert!((got - want).abs() < 1e-12, "{:?}", &rows[1200]);
+    }
+
+    let mut joint = csv::Reader::from_path(out.join("joint.csv")).unwrap();
+    let header: Vec<String> = joint.headers().unwrap().iter().map(String::from).collect();
+    assert_eq!(header.len(), 13);
+    assert_eq!(header[0], "t");
+    assert_eq!(header[12], "qdd4");
+    // Every joint row maps back onto the Cartesian row by forward kinematics.
+    for (record, cartesian_row) in joint.records().zip(&rows).step_by(50) {
+        let values: Vec<f64> = record.unwrap().iter().map(|v| v.parse().unwrap()).collect();
+        let tip = report_arm_tip(&values[1..5]);
+        assert!((tip - Vector3::new(cartesian_row[1], cartesian_row[2], cartesian_row[3])).norm() < 1e-9);
+    }
+    for png in ["cartesian.png", "joint.png"] {
+        let bytes = std::fs::read(out.join(png)).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+        assert!(bytes.len() > 20_000, "{png} is nearly empty");
+    }
+    let xlsx = std::fs::read(out.join("joint.xlsx")).unwrap();
+    assert_eq!(&xlsx[..2], b"PK");
+}
+
+#[test]
+fn plan_into_an_unwritable_place_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let blocker = dir.path().join("file");
+    std::fs::write(&blocker, "not a folder").unwrap();
+    let out = blocker.join("plan").display().to_string();
+    assert_one_line_error(&chessarm(&["plan", "--out", &out]), &["output folder"]);
+}
