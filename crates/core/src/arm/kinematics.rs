@@ -13,8 +13,12 @@ pub type Pose = IsometryMatrix3<f64>;
 
 /// `A = Rz(θ) · Tz(d) · Tx(a) · Rx(α)`, the standard DH transform from frame `i−1` to `i`.
 pub fn dh_transform(dh: &DhParameters, joint_angle: f64) -> Pose {
+    dh_transform_with_twist(dh, dh.alpha.sin_cos(), joint_angle)
+}
+
+/// [`dh_transform`] with `(sin α, cos α)` given (the model caches them).
+fn dh_transform_with_twist(dh: &DhParameters, (sa, ca): (f64, f64), joint_angle: f64) -> Pose {
     let (st, ct) = (joint_angle + dh.theta_offset).sin_cos();
-    let (sa, ca) = dh.alpha.sin_cos();
     let rotation = Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca);
     Pose::from_parts(Translation3::new(dh.a * ct, dh.a * st, dh.d), Rotation3::from_matrix_unchecked(rotation))
 }
@@ -31,7 +35,7 @@ impl<const N: usize> FrameChain<N> {
         let mut poses = [Pose::identity(); N];
         let mut accumulated = Pose::identity();
         for (i, pose) in poses.iter_mut().enumerate() {
-            accumulated *= dh_transform(&model.link(i).dh, q[i]);
+            accumulated *= dh_transform_with_twist(&model.link(i).dh, model.twist_trig(i), q[i]);
             *pose = accumulated;
         }
         Self { poses }

@@ -1,6 +1,8 @@
 //! The arm: model, kinematics, inverse kinematics and dynamics.
 
+pub mod dynamics;
 pub mod kinematics;
+pub mod lagrange;
 pub mod model;
 pub mod preset;
 pub mod task;

@@ -75,12 +75,11 @@ pub struct Payload {
 }
 
 impl Payload {
-    /// A solid cylinder of `mass` kg, `height` m tall and `radius` m, hanging straight below
-    /// the tool tip along the tool's x axis (the tool points down), its top at the tip
-    /// offset by `grip_offset` m along x (the grip point sits that far below the piece's top).
-    pub fn cylinder_below_tool(mass: f64, height: f64, radius: f64, grip_offset: f64) -> Self {
-        // Centre of the cylinder along the tool x axis (which points down).
-        let com = Vector3::new(height / 2.0 - grip_offset, 0.0, 0.0);
+    /// A solid cylinder of `mass` kg, `height` m tall and `radius` m, standing upright and
+    /// gripped with the tool tip `grip_height` m above its base. The tool points down (tool x
+    /// axis = world −z), so the centre of mass lies `grip_height − height/2` along tool x.
+    pub fn upright_cylinder(mass: f64, height: f64, radius: f64, grip_height: f64) -> Self {
+        let com = Vector3::new(grip_height - height / 2.0, 0.0, 0.0);
         let axial = 0.5 * mass * radius * radius;
         let transverse = mass * (3.0 * radius * radius + height * height) / 12.0;
         Self {
@@ -157,6 +156,8 @@ pub struct ArmModel<const N: usize = 4> {
     gravity: Vector3<f64>,
     payload: Option<Payload>,
     bodies: [Inertial; N],
+    /// `(sin α_i, cos α_i)` of every link, cached for the kinematics.
+    twist_trig: [(f64, f64); N],
 }
 
 impl<const N: usize> ArmModel<N> {
@@ -174,7 +175,8 @@ impl<const N: usize> ArmModel<N> {
                 return Err(invalid(format!("gravity.{axis}"), value, "must be finite"));
             }
         }
-        let mut model = Self { links, gravity, payload: None, bodies: [Inertial::zero(); N] };
+        let twist_trig = std::array::from_fn(|i| links[i].dh.alpha.sin_cos());
+        let mut model = Self { links, gravity, payload: None, bodies: [Inertial::zero(); N], twist_trig };
         model.bodies = model.combined_bodies();
         Ok(model)
     }
@@ -206,6 +208,11 @@ impl<const N: usize> ArmModel<N> {
 
     pub fn link(&self, index: usize) -> &Link {
         &self.links[index]
+    }
+
+    /// `(sin α_i, cos α_i)` of link `index`.
+    pub fn twist_trig(&self, index: usize) -> (f64, f64) {
+        self.twist_trig[index]
     }
 
     /// Gravitational acceleration in the base frame, m/s².
