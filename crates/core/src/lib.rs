@@ -9,6 +9,8 @@
 //! it and return fixed-size values, so nothing allocates on the hot paths.
 
 pub mod arm;
+pub mod control;
 pub mod plan;
+pub mod sim;
 
 pub use nalgebra;

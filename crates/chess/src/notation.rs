@@ -1,0 +1,585 @@
+//! Chess notation: games given as PGN files, as move lists (SAN or UCI) or as a FEN start position.
+//!
+//! Everything here produces a [`GameRecord`]: a legal start position and a list of legal moves.
+//! Parse problems are reported as [`NotationError`]s whose one-line messages name the offending
+//! value and, for moves, the game, the move number and the position (as FEN) in which it failed.
+//!
+//! PGN parsing is done with `pgn-reader`: tags are kept, comments, NAGs and variations are ignored
+//! (only the main line is played), `[FEN "..."]` tags give the start position, and a result token
+//! (`1-0`, `0-1`, `1/2-1/2`, `*`) ends a game. Because `pgn-reader` silently skips tokens that are
+//! not SAN, the movetext is also scanned here so that such tokens are reported instead of dropped.
+
+use std::fmt;
+use std::io;
+use std::ops::ControlFlow;
+
+use pgn_reader::{Outcome, RawTag, Reader, SanPlus, Skip, Visitor};
+use shakmaty::fen::Fen;
+use shakmaty::san::SanError;
+use shakmaty::uci::UciMove;
+use shakmaty::{CastlingMode, Chess, Color, EnPassantMode, Move, Position};
+
+/// A game to play: the start position and the moves, all legal.
+#[derive(Debug, Clone)]
+pub struct GameRecord {
+    /// PGN tag pairs in file order (e.g. `("White", "Kasparov, Garry")`); empty for move lists.
+    pub headers: Vec<(String, String)>,
+    /// The position before the first move.
+    pub start: Chess,
+    /// The moves, each legal in the position reached by the moves before it.
+    pub moves: Vec<Move>,
+}
+
+impl GameRecord {
+    /// Value of the first header called `name` (exact, case-sensitive match), if any.
+    pub fn header(&self, name: &str) -> Option<&str> {
+        self.headers.iter().find(|(key, _)| key == name).map(|(_, value)| value.as_str())
+    }
+
+    /// SAN of every move (with `+`/`#` suffixes), computed from the positions.
+    pub fn san_moves(&self) -> Vec<String> {
+        let mut pos = self.start.clone();
+        self.moves.iter().map(|&m| SanPlus::from_move_and_play_unchecked(&mut pos, m).to_string()).collect()
+    }
+
+    /// The position after the last move.
+    pub fn final_position(&self) -> Chess {
+        let mut pos = self.start.clone();
+        for &m in &self.moves {
+            pos.play_unchecked(m);
+        }
+        pos
+    }
+}
+
+/// Why a move token was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MoveProblem {
+    /// The token is not syntactically valid SAN (PGN movetext).
+    NotSan,
+    /// The token is neither syntactically valid SAN nor UCI (move lists).
+    NotSanOrUci,
+    /// The token is well-formed but matches no legal move.
+    Illegal,
+    /// The SAN matches several legal moves (missing disambiguation).
+    Ambiguous,
+}
+
+impl fmt::Display for MoveProblem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            MoveProblem::NotSan => "is not valid SAN",
+            MoveProblem::NotSanOrUci => "is not valid SAN or UCI",
+            MoveProblem::Illegal => "is illegal",
+            MoveProblem::Ambiguous => "is ambiguous",
+        })
+    }
+}
+
+impl From<SanError> for MoveProblem {
+    fn from(err: SanError) -> Self {
+        match err {
+            SanError::IllegalSan => MoveProblem::Illegal,
+            SanError::AmbiguousSan => MoveProblem::Ambiguous,
+        }
+    }
+}
+
+/// Errors of the notation parsers. Messages are one line and name the problem and the value.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NotationError {
+    /// A FEN string given directly is malformed or describes an illegal position.
+    #[error("invalid FEN '{fen}': {reason}")]
+    InvalidFen {
+        /// The FEN as given.
+        fen: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The PGN text contains no game.
+    #[error("no games in the PGN")]
+    NoGames,
+    /// [`select_game`] was asked for a game number outside `1..=count`.
+    #[error("game {requested} requested but the file has {count} game{}", plural_s(.count))]
+    NoSuchGame {
+        /// The requested 1-based game number.
+        requested: usize,
+        /// The number of games available.
+        count: usize,
+    },
+    /// The PGN is structurally broken (e.g. an unterminated comment or tag).
+    #[error("game {game}: malformed PGN: {reason}")]
+    MalformedPgn {
+        /// 1-based game number.
+        game: usize,
+        /// What the PGN reader reported.
+        reason: String,
+    },
+    /// The `[FEN]` tag of a game is malformed or describes an illegal position.
+    #[error("game {game}: invalid FEN tag '{fen}': {reason}")]
+    InvalidFenTag {
+        /// 1-based game number.
+        game: usize,
+        /// The FEN tag value.
+        fen: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The `[Variant]` tag names something other than standard chess.
+    #[error("game {game}: variant '{variant}' is not supported (standard chess only)")]
+    UnsupportedVariant {
+        /// 1-based game number.
+        game: usize,
+        /// The variant tag value.
+        variant: String,
+    },
+    /// A main-line move of a PGN game is not valid SAN, illegal or ambiguous.
+    #[error("game {game}, move {}: '{san}' {problem} in {fen}", move_label(.number, .color))]
+    PgnMove {
+        /// 1-based game number.
+        game: usize,
+        /// Full-move number of the move.
+        number: u32,
+        /// Side to move.
+        color: Color,
+        /// The move text as written.
+        san: String,
+        /// What is wrong with it.
+        problem: MoveProblem,
+        /// The position before the move.
+        fen: String,
+    },
+    /// An entry of a move list is not valid SAN/UCI, illegal or ambiguous.
+    #[error("move {index} '{token}' (game move {}) {problem} in {fen}", move_label(.number, .color))]
+    ListMove {
+        /// 1-based index of the move in the list (move numbers and results not counted).
+        index: usize,
+        /// Full-move number of the move in the game.
+        number: u32,
+        /// Side to move.
+        color: Color,
+        /// The token as written.
+        token: String,
+        /// What is wrong with it.
+        problem: MoveProblem,
+        /// The position before the move.
+        fen: String,
+    },
+}
+
+/// `"14. (white)"` or `"14... (black)"`.
+fn move_label(number: &u32, color: &Color) -> String {
+    let dots = if color.is_white() { "." } else { "..." };
+    format!("{number}{dots} ({color})")
+}
+
+fn plural_s(count: &usize) -> &'static str {
+    if *count == 1 { "" } else { "s" }
+}
+
+fn fen_of(pos: &Chess) -> String {
+    Fen::from_position(pos, EnPassantMode::Legal).to_string()
+}
+
+/// Parses a FEN of a legal standard-chess position (castling rights in standard mode).
+///
+/// Leading and trailing whitespace is ignored.
+pub fn parse_fen(fen: &str) -> Result<Chess, NotationError> {
+    fen_to_position(fen.trim())
+        .map_err(|reason| NotationError::InvalidFen { fen: fen.trim().to_owned(), reason })
+}
+
+fn fen_to_position(fen: &str) -> Result<Chess, String> {
+    let parsed = Fen::from_ascii(fen.as_bytes()).map_err(|e| e.to_string())?;
+    parsed.into_position(CastlingMode::Standard).map_err(|e| e.to_string())
+}
+
+/// Picks game `number` (1-based) out of `games`.
+pub fn select_game(games: Vec<GameRecord>, number: usize) -> Result<GameRecord, NotationError> {
+    let count = games.len();
+    match number.checked_sub(1) {
+        Some(index) if index < count => games.into_iter().nth(index).ok_or(NotationError::NoSuchGame {
+            requested: number,
+            count,
+        }),
+        _ => Err(NotationError::NoSuchGame { requested: number, count }),
+    }
+}
+
+/// Parses a move list played from `start`.
+///
+/// Tokens are separated by whitespace and/or commas. Each token is a move in SAN (`e4`, `Nf3`,
+/// `O-O`, `0-0-0`, `exd6`, `e8=Q+`, `Qxf7#`, trailing `!`/`?` allowed) or UCI (`e2e4`, `e7e8q`,
+/// `e1g1`). Move numbers (`1.`, `1...`, `12.`, also glued as in `1.e4`) and result tokens (`1-0`,
+/// `0-1`, `1/2-1/2`, `*`) are skipped. The record has no headers.
+pub fn parse_move_list(text: &str, start: Chess) -> Result<GameRecord, NotationError> {
+    let mut pos = start.clone();
+    let mut moves = Vec::new();
+    for raw in text.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()) {
+        let Some(token) = strip_move_number(raw) else { continue };
+        if is_result(token) {
+            continue;
+        }
+        match list_token_to_move(token, &pos) {
+            Ok(m) => {
+                pos.play_unchecked(m);
+                moves.push(m);
+            }
+            Err(problem) => {
+                return Err(NotationError::ListMove {
+                    index: moves.len() + 1,
+                    number: pos.fullmoves().get(),
+                    color: pos.turn(),
+                    token: token.to_owned(),
+                    problem,
+                    fen: fen_of(&pos),
+                });
+            }
+        }
+    }
+    Ok(GameRecord { headers: Vec::new(), start, moves })
+}
+
+/// Removes a leading move number (`12.`, `12...`); `None` if nothing is left.
+/// Tokens starting with digits but without a dot (e.g. `0-0`, `1-0`, `12`) are returned unchanged.
+fn strip_move_number(token: &str) -> Option<&str> {
+    let after_digits = token.trim_start_matches(|c: char| c.is_ascii_digit());
+    if after_digits.len() == token.len() || !after_digits.starts_with('.') {
+        return Some(token);
+    }
+    let rest = after_digits.trim_start_matches('.');
+    if rest.is_empty() { None } else { Some(rest) }
+}
+
+fn is_result(token: &str) -> bool {
+    matches!(token, "1-0" | "0-1" | "1/2-1/2" | "½-½" | "*")
+}
+
+fn list_token_to_move(token: &str, pos: &Chess) -> Result<Move, MoveProblem> {
+    let trimmed = token.trim_end_matches(['!', '?']);
+    if let Ok(uci) = UciMove::from_ascii(trimmed.as_bytes()) {
+        return uci.to_move(pos).map_err(|_| MoveProblem::Illegal);
+    }
+    // Castling written with zeros, as some sources do.
+    let normalized;
+    let san_text = if trimmed.starts_with("0-0") {
+        normalized = trimmed.replace('0', "O");
+        normalized.as_str()
+    } else {
+        trimmed
+    };
+    let san = SanPlus::from_ascii(san_text.as_bytes()).map_err(|_| MoveProblem::NotSanOrUci)?;
+    san.san.to_move(pos).map_err(MoveProblem::from)
+}
+
+/// Parses all games of a PGN file.
+///
+/// Headers are kept; comments, NAGs and variations are ignored (only the main line is played).
+/// A `[FEN]` tag gives the start position (a `[Variant]` tag other than standard chess is
+/// rejected). A result token ends a game. Fails on the first problem, naming the game, or with
+/// [`NotationError::NoGames`] if the text holds no game.
+pub fn parse_pgn(text: &str) -> Result<Vec<GameRecord>, NotationError> {
+    let mut records = Vec::new();
+    for chunk in split_games(text) {
+        let mut reader = Reader::new(chunk.text);
+        let mut visitor = GameVisitor;
+        let mut first_of_chunk = true;
+        loop {
+            let game = records.len() + 1;
+            let parsed = match reader.read_game(&mut visitor) {
+                Ok(Some(parsed)) => parsed,
+                Ok(None) => break,
+                Err(err) => return Err(malformed(game, &err)),
+            };
+            let bad_token = if first_of_chunk { chunk.bad_token.as_ref() } else { None };
+            first_of_chunk = false;
+            records.push(finish_game(game, parsed, bad_token)?);
+        }
+    }
+    if records.is_empty() { Err(NotationError::NoGames) } else { Ok(records) }
+}
+
+fn malformed(game: usize, err: &io::Error) -> NotationError {
+    NotationError::MalformedPgn { game, reason: err.to_string() }
+}
+
+/// Turns the visitor output into a record, or into the first error of the game.
+fn finish_game(game: usize, parsed: ParsedGame, bad_token: Option<&BadToken>) -> Result<GameRecord, NotationError> {
+    let ParsedGame { headers, start, moves, failure } = parsed;
+    let failed_at = match failure {
+        Some(Failure::FenTag { fen, reason }) => return Err(NotationError::InvalidFenTag { game, fen, reason }),
+        Some(Failure::Variant(variant)) => return Err(NotationError::UnsupportedVariant { game, variant }),
+        Some(Failure::Move { ply, san, problem }) => Some((ply, san, problem)),
+        None => None,
+    };
+    // Report whichever problem comes first in the main line: a token that is not SAN (which
+    // pgn-reader skipped) or an illegal/ambiguous move.
+    let (ply, san, problem) = match (bad_token, failed_at) {
+        (Some(bad), failed) if bad.ply <= moves.len() && failed.as_ref().is_none_or(|(ply, ..)| bad.ply <= *ply) => {
+            (bad.ply, bad.token.clone(), MoveProblem::NotSan)
+        }
+        (_, Some(failed)) => failed,
+        (_, None) => return Ok(GameRecord { headers, start, moves }),
+    };
+    let mut pos = start;
+    for &m in moves.iter().take(ply) {
+        pos.play_unchecked(m);
+    }
+    Err(move_error(game, &pos, san, problem))
+}
+
+fn move_error(game: usize, pos: &Chess, san: String, problem: MoveProblem) -> NotationError {
+    NotationError::PgnMove { game, number: pos.fullmoves().get(), color: pos.turn(), san, problem, fen: fen_of(pos) }
+}
+
+/// What went wrong while visiting one game.
+#[derive(Debug)]
+enum Failure {
+    FenTag { fen: String, reason: String },
+    Variant(String),
+    Move { ply: usize, san: String, problem: MoveProblem },
+}
+
+/// One game as produced by [`GameVisitor`]: the moves up to the first failure, if any.
+#[derive(Debug, Default)]
+struct ParsedGame {
+    headers: Vec<(String, String)>,
+    start: Chess,
+    moves: Vec<Move>,
+    failure: Option<Failure>,
+}
+
+/// Movetext state: the game so far and the current position.
+#[derive(Debug, Default)]
+struct Movetext {
+    game: ParsedGame,
+    pos: Chess,
+}
+
+/// `pgn-reader` visitor that plays the main line.
+#[derive(Debug)]
+struct GameVisitor;
+
+impl Visitor for GameVisitor {
+    type Tags = Vec<(String, String)>;
+    type Movetext = Movetext;
+    type Output = ParsedGame;
+
+    fn begin_tags(&mut self) -> ControlFlow<Self::Output, Self::Tags> {
+        ControlFlow::Continue(Vec::new())
+    }
+
+    fn tag(&mut self, tags: &mut Self::Tags, name: &[u8], value: RawTag<'_>) -> ControlFlow<Self::Output> {
+        tags.push((String::from_utf8_lossy(name).into_owned(), value.decode_utf8_lossy().into_owned()));
+        ControlFlow::Continue(())
+    }
+
+    fn begin_movetext(&mut self, tags: Self::Tags) -> ControlFlow<Self::Output, Self::Movetext> {
+        let tag = |name: &str| tags.iter().find(|(k, _)| k.eq_ignore_ascii_case(name)).map(|(_, v)| v.trim());
+        let start = if let Some(variant) = tag("Variant").filter(|v| !is_standard_variant(v)) {
+            Err(Failure::Variant(variant.to_owned()))
+        } else if let Some(fen) = tag("FEN") {
+            fen_to_position(fen).map_err(|reason| Failure::FenTag { fen: fen.to_owned(), reason })
+        } else {
+            Ok(Chess::default())
+        };
+        match start {
+            Ok(start) => ControlFlow::Continue(Movetext {
+                game: ParsedGame { headers: tags, start: start.clone(), moves: Vec::new(), failure: None },
+                pos: start,
+            }),
+            Err(failure) => {
+                ControlFlow::Break(ParsedGame { headers: tags, start: Chess::default(), moves: Vec::new(), failure: Some(failure) })
+            }
+        }
+    }
+
+    fn san(&mut self, movetext: &mut Self::Movetext, san_plus: SanPlus) -> ControlFlow<Self::Output> {
+        match san_plus.san.to_move(&movetext.pos) {
+            Ok(m) => {
+                movetext.pos.play_unchecked(m);
+                movetext.game.moves.push(m);
+                ControlFlow::Continue(())
+            }
+            Err(err) => {
+                let mut game = std::mem::take(&mut movetext.game);
+                game.failure =
+                    Some(Failure::Move { ply: game.moves.len(), san: san_plus.to_string(), problem: err.into() });
+                ControlFlow::Break(game)
+            }
+        }
+    }
+
+    fn begin_variation(&mut self, _movetext: &mut Self::Movetext) -> ControlFlow<Self::Output, Skip> {
+        ControlFlow::Continue(Skip(true))
+    }
+
+    fn outcome(&mut self, movetext: &mut Self::Movetext, _outcome: Outcome) -> ControlFlow<Self::Output> {
+        // The result token ends the game.
+        ControlFlow::Break(std::mem::take(&mut movetext.game))
+    }
+
+    fn end_game(&mut self, movetext: Self::Movetext) -> Self::Output {
+        movetext.game
+    }
+}
+
+fn is_standard_variant(variant: &str) -> bool {
+    ["standard", "chess", "normal", "from position", "fromposition"].iter().any(|v| variant.eq_ignore_ascii_case(v))
+}
+
+/// A main-line token that `pgn-reader` would skip silently because it is not SAN.
+#[derive(Debug, Clone)]
+struct BadToken {
+    /// Number of valid main-line SAN tokens before it.
+    ply: usize,
+    token: String,
+}
+
+/// The text of one game and the first non-SAN main-line token in it.
+#[derive(Debug)]
+struct GameChunk<'a> {
+    text: &'a [u8],
+    bad_token: Option<BadToken>,
+}
+
+/// Bytes that end a movetext token, as in `pgn-reader`.
+fn is_token_end(byte: u8) -> bool {
+    matches!(byte, b' ' | b'\t' | b'\n' | b'\r' | b'{' | b'}' | b'(' | b')' | b'!' | b'?' | b'$' | b';' | b'.' | b'*')
+}
+
+/// Splits PGN text into games, following `pgn-reader`'s rules (a game's movetext ends at a blank
+/// line or a line starting with `[`) and additionally ending a game after its result token.
+/// Also records the first main-line token of each game that is not SAN. Chunks without tags,
+/// moves or result (e.g. trailing whitespace or a lone comment) are dropped.
+fn split_games(text: &str) -> Vec<GameChunk<'_>> {
+    let bytes = text.as_bytes();
+    let mut i = if bytes.starts_with(b"\xef\xbb\xbf") { 3 } else { 0 };
+    let mut chunks = Vec::new();
+    while i < bytes.len() {
+        let start = i;
+        let mut has_content = false;
+
+        // Tag section (and whitespace / escape lines before it).
+        let mut line_start = true;
+        while i < bytes.len() {
+            match bytes[i] {
+                b'\n' => {
+                    line_start = true;
+                    i += 1;
+                }
+                b' ' | b'\t' | b'\r' => i += 1,
+                b'%' if line_start => i = line_end(bytes, i),
+                b'[' => {
+                    has_content = true;
+                    i = skip_tag(bytes, i);
+                    line_start = false;
+                }
+                _ => break,
+            }
+        }
+
+        // Movetext.
+        let mut depth = 0usize;
+        let mut ply = 0usize;
+        let mut bad_token = None;
+        while i < bytes.len() {
+            match bytes[i] {
+                b'{' => i = bytes[i..].iter().position(|&b| b == b'}').map_or(bytes.len(), |p| i + p + 1),
+                b';' => i = line_end(bytes, i),
+                b'\n' => {
+                    i += 1;
+                    match bytes.get(i) {
+                        Some(b'%') => i = line_end(bytes, i),
+                        Some(b'[' | b'\n') => break,
+                        Some(b'\r') if bytes.get(i + 1) == Some(&b'\n') => break,
+                        _ => {}
+                    }
+                }
+                b'(' => {
+                    depth += 1;
+                    i += 1;
+                }
+                b')' => {
+                    depth = depth.saturating_sub(1);
+                    i += 1;
+                }
+                b' ' | b'\t' | b'\r' | b'.' | b'!' | b'?' => i += 1,
+                _ if depth > 0 => i += 1,
+                b'$' => i = token_end(bytes, i + 1),
+                _ => {
+                    // At least one byte, like pgn-reader (which skips a stray `}` as a bad token too).
+                    let end = token_end(bytes, i + 1);
+                    let token = String::from_utf8_lossy(&bytes[i..end]);
+                    i = end;
+                    if token == "*" || is_result(&token) {
+                        has_content = true;
+                        break;
+                    }
+                    // `pgn-reader` reads a leading move number (digits; the dots are separate tokens).
+                    let rest = if token.starts_with(|c: char| c.is_ascii_digit() && c != '0') {
+                        token.trim_start_matches(|c: char| c.is_ascii_digit())
+                    } else {
+                        &token
+                    };
+                    if rest.is_empty() {
+                        continue;
+                    }
+                    has_content = true;
+                    let is_san = if rest.starts_with('0') {
+                        // Castling written with zeros, read by pgn-reader itself.
+                        matches!(rest, "0-0" | "0-0+" | "0-0#" | "0-0-0" | "0-0-0+" | "0-0-0#")
+                    } else {
+                        matches!(SanPlus::from_ascii_prefix(rest.as_bytes()), Ok((_, len)) if len == rest.len())
+                    };
+                    if is_san {
+                        ply += 1;
+                    } else if bad_token.is_none() {
+                        bad_token = Some(BadToken { ply, token: token.into_owned() });
+                    }
+                }
+            }
+        }
+        if has_content {
+            chunks.push(GameChunk { text: &bytes[start..i], bad_token });
+        }
+    }
+    chunks
+}
+
+/// Index of the `\n` ending the line containing `i` (or the end of the text).
+fn line_end(bytes: &[u8], i: usize) -> usize {
+    bytes[i..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |p| i + p)
+}
+
+/// Index just after the token starting at `i`.
+fn token_end(bytes: &[u8], i: usize) -> usize {
+    bytes[i..].iter().position(|&b| is_token_end(b)).map_or(bytes.len(), |p| i + p)
+}
+
+/// Index after the tag pair starting with `[` at `i`: after its closing quote and `]`.
+fn skip_tag(bytes: &[u8], i: usize) -> usize {
+    let mut j = i + 1;
+    // Up to the opening quote; a line without one is skipped like pgn-reader does.
+    while j < bytes.len() && !matches!(bytes[j], b'"' | b'\n' | b']') {
+        j += 1;
+    }
+    if j >= bytes.len() || bytes[j] != b'"' {
+        return (j + 1).min(bytes.len());
+    }
+    j += 1;
+    while j < bytes.len() {
+        match bytes[j] {
+            b'\\' => j += 2,
+            b'"' => {
+                j += 1;
+                break;
+            }
+            b'\n' => break,
+            _ => j += 1,
+        }
+    }
+    let j = j.min(bytes.len());
+    let after_spaces = j + bytes[j..].iter().take_while(|&&b| b == b' ' || b == b'\t').count();
+    if bytes.get(after_spaces) == Some(&b']') { after_spaces + 1 } else { j }
+}

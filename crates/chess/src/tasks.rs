@@ -1,0 +1,513 @@
+//! From a chess move to pick-and-place tasks, and from a task to a tool-tip path.
+//!
+//! A move becomes one to four tasks (captures clear the destination first, castling moves the
+//! king then the rook, a promotion swaps the pawn for a piece from the graveyard or the
+//! reserve). Each task becomes the report's pattern of straight moves: rise, traverse, descend
+//! and grip, rise, traverse, descend and release, rise, with LSPB timing at the fastest the
+//! speed and acceleration limits allow.
+
+use crate::pieces::{PieceSet, piece_name};
+use crate::table::{Location, Table, TableError};
+use chessarm_core::arm::model::ArmModel;
+use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
+use chessarm_core::nalgebra::{Vector2, Vector3};
+use chessarm_core::plan::path::{CartesianPath, GripperAction, Segment};
+use chessarm_core::plan::profile::ProfileError;
+use shakmaty::san::San;
+use shakmaty::uci::UciMove;
+use shakmaty::{CastlingMode, Chess, File, Move, Piece, Position, Role, Square};
+use std::fmt;
+
+/// Longest distance between two IK-checked points of a straight move, m.
+const CHECK_STEP: f64 = 0.005;
+
+/// What kind of chess move it is, as far as moving pieces is concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MoveKind {
+    /// A piece moves to an empty square.
+    Quiet,
+    /// A piece takes the piece on its destination square.
+    Capture,
+    /// A pawn takes en passant: the taken pawn is not on the destination square.
+    EnPassant,
+    /// King and rook castle on the king's side (O-O).
+    CastleKingside,
+    /// King and rook castle on the queen's side (O-O-O).
+    CastleQueenside,
+    /// A pawn reaches the last rank on an empty square and is exchanged.
+    Promotion,
+    /// A pawn takes on the last rank and is exchanged.
+    PromotionCapture,
+}
+
+impl MoveKind {
+    /// Short name: "quiet", "capture", "en-passant", "castle-kingside", "castle-queenside",
+    /// "promotion", "promotion-capture".
+    pub fn name(&self) -> &'static str {
+        match self {
+            MoveKind::Quiet => "quiet",
+            MoveKind::Capture => "capture",
+            MoveKind::EnPassant => "en-passant",
+            MoveKind::CastleKingside => "castle-kingside",
+            MoveKind::CastleQueenside => "castle-queenside",
+            MoveKind::Promotion => "promotion",
+            MoveKind::PromotionCapture => "promotion-capture",
+        }
+    }
+}
+
+impl fmt::Display for MoveKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One pick-and-place: carry `piece` from `from` to `to`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Task {
+    /// The piece carried.
+    pub piece: Piece,
+    /// Where it is picked up.
+    pub from: Location,
+    /// Where it is put down.
+    pub to: Location,
+}
+
+impl fmt::Display for Task {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} from {} to {}", piece_name(self.piece), self.from, self.to)
+    }
+}
+
+/// Why a move or task cannot be carried out.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TaskError {
+    /// The move is not legal in the position.
+    #[error("move {mv} is not legal in this position")]
+    IllegalMove {
+        /// The move in UCI notation.
+        mv: String,
+    },
+    /// Drops (crazyhouse) have no pick-and-place here.
+    #[error("move {mv} is a piece drop, which standard chess does not have")]
+    UnsupportedMove {
+        /// The move in UCI notation.
+        mv: String,
+    },
+    /// The table does not hold the piece the rules expect.
+    #[error("move {mv}: the rules have a {expected} on {location}, the table has {found}")]
+    TableMismatch {
+        /// The move (SAN and UCI).
+        mv: String,
+        /// Where the piece should be.
+        location: Location,
+        /// The piece the rules expect.
+        expected: String,
+        /// What the table holds there.
+        found: String,
+    },
+    /// A promotion's new piece is neither in the graveyard nor in the reserve.
+    #[error("move {mv}: no {piece} in the graveyard or the reserve to promote to")]
+    MissingPiece {
+        /// The move (SAN and UCI).
+        mv: String,
+        /// The piece needed, e.g. "white queen".
+        piece: String,
+    },
+    /// A table operation failed while sequencing a move.
+    #[error("move {mv}: {source}")]
+    Table {
+        /// The move (SAN and UCI).
+        mv: String,
+        /// The table's error.
+        source: TableError,
+    },
+    /// A motion limit is not usable.
+    #[error("motion limit {field} = {value}: {reason}")]
+    Limits {
+        /// Field of [`MotionLimits`].
+        field: &'static str,
+        /// The offending value (m, s, m/s or m/s²).
+        value: f64,
+        /// What is required.
+        reason: &'static str,
+    },
+    /// No piece stands where the task picks one up.
+    #[error("task {task}: {source}")]
+    TaskTable {
+        /// The task.
+        task: String,
+        /// The table's error.
+        source: TableError,
+    },
+    /// A point of the task's path is out of the arm's reach.
+    #[error("task {task}: {source}")]
+    Unreachable {
+        /// The task.
+        task: String,
+        /// Why inverse kinematics failed.
+        source: IkError,
+    },
+    /// The path's timing could not be built.
+    #[error("task {task}: {source}")]
+    Profile {
+        /// The task.
+        task: String,
+        /// The profile's error.
+        source: ProfileError,
+    },
+    /// A task of a move failed.
+    #[error("move {mv}: {source}")]
+    Move {
+        /// The move (SAN and UCI).
+        mv: String,
+        /// The task's error.
+        source: Box<TaskError>,
+    },
+}
+
+/// The kind of a move (the position is the one the move is played in).
+pub fn classify(_position: &Chess, mv: &Move) -> MoveKind {
+    match *mv {
+        Move::Normal { capture, promotion, .. } => match (capture.is_some(), promotion.is_some()) {
+            (true, true) => MoveKind::PromotionCapture,
+            (false, true) => MoveKind::Promotion,
+            (true, false) => MoveKind::Capture,
+            (false, false) => MoveKind::Quiet,
+        },
+        Move::EnPassant { .. } => MoveKind::EnPassant,
+        Move::Castle { king, rook } => {
+            if rook.file() > king.file() {
+                MoveKind::CastleKingside
+            } else {
+                MoveKind::CastleQueenside
+            }
+        }
+        Move::Put { .. } => MoveKind::Quiet,
+    }
+}
+
+/// A move for messages: SAN and UCI, e.g. "exd8=Q (e7d8q)".
+pub fn describe_move(position: &Chess, mv: &Move) -> String {
+    let uci = UciMove::from_move(*mv, CastlingMode::Standard);
+    if position.is_legal(*mv) { format!("{} ({uci})", San::from_move(position, *mv)) } else { uci.to_string() }
+}
+
+/// The pick-and-place tasks of a legal move in `position` (side to move), in execution order,
+/// given the table before the move:
+///
+/// - capture: the captured piece first, to the lowest free graveyard slot of its colour;
+/// - en passant: the captured pawn (beside the destination) to the graveyard, then the pawn;
+/// - castling: the king (to the g or c file), then the rook (to the f or d file);
+/// - promotion: the captured piece (if any), the pawn to its colour's graveyard, then the new
+///   piece from the graveyard if one of that kind and colour lies there, else from the reserve.
+pub fn move_tasks(position: &Chess, mv: &Move, table: &Table) -> Result<Vec<Task>, TaskError> {
+    if !position.is_legal(*mv) {
+        return Err(TaskError::IllegalMove { mv: UciMove::from_move(*mv, CastlingMode::Standard).to_string() });
+    }
+    let name = describe_move(position, mv);
+    let us = position.turn();
+    let them = us.other();
+    // The tasks are applied to a copy of the table as they are made, so later tasks see the
+    // slots that earlier ones filled or freed.
+    let mut scratch = table.clone();
+    let mut tasks = Vec::new();
+    let mut push = |scratch: &mut Table, piece: Piece, from: Location, to: Location| -> Result<(), TaskError> {
+        let found = scratch.piece_at(from).map(|p| p.piece);
+        if found != Some(piece) {
+            return Err(TaskError::TableMismatch {
+                mv: name.clone(),
+                location: from,
+                expected: piece_name(piece),
+                found: found.map_or_else(|| "nothing".to_string(), |p| format!("a {}", piece_name(p))),
+            });
+        }
+        let actual = scratch.nominal_position(to);
+        scratch.relocate(from, to, actual).map_err(|source| TaskError::Table { mv: name.clone(), source })?;
+        tasks.push(Task { piece, from, to });
+        Ok(())
+    };
+    let to_graveyard = |scratch: &Table, color| {
+        scratch
+            .free_graveyard_slot(color)
+            .map(|slot| Location::Graveyard { color, slot })
+            .map_err(|source| TaskError::Table { mv: name.clone(), source })
+    };
+    match *mv {
+        Move::Normal { role, from, capture, to, promotion } => {
+            if let Some(captured) = capture {
+                let grave = to_graveyard(&scratch, them)?;
+                push(&mut scratch, captured.of(them), Location::Square(to), grave)?;
+            }
+            match promotion {
+                None => push(&mut scratch, role.of(us), Location::Square(from), Location::Square(to))?,
+                Some(new_role) => {
+                    let grave = to_graveyard(&scratch, us)?;
+                    push(&mut scratch, us.pawn(), Location::Square(from), grave)?;
+                    let new_piece = new_role.of(us);
+                    let source = scratch
+                        .graveyard_slot_holding(new_piece)
+                        .map(|slot| Location::Graveyard { color: us, slot })
+                        .or_else(|| {
+                            scratch.reserve_slot_holding(new_piece).map(|slot| Location::Reserve { color: us, slot })
+                        })
+                        .ok_or_else(|| TaskError::MissingPiece { mv: name.clone(), piece: piece_name(new_piece) })?;
+                    push(&mut scratch, new_piece, source, Location::Square(to))?;
+                }
+            }
+        }
+        Move::EnPassant { from, to } => {
+            let taken = Square::from_coords(to.file(), from.rank());
+            let grave = to_graveyard(&scratch, them)?;
+            push(&mut scratch, Role::Pawn.of(them), Location::Square(taken), grave)?;
+            push(&mut scratch, us.pawn(), Location::Square(from), Location::Square(to))?;
+        }
+        Move::Castle { king, rook } => {
+            let kingside = rook.file() > king.file();
+            let (king_file, rook_file) = if kingside { (File::G, File::F) } else { (File::C, File::D) };
+            let king_to = Square::from_coords(king_file, king.rank());
+            let rook_to = Square::from_coords(rook_file, rook.rank());
+            let king_task = (us.king(), Location::Square(king), Location::Square(king_to));
+            let rook_task = (us.rook(), Location::Square(rook), Location::Square(rook_to));
+            // King first; in Chess960 the king may land on its rook's square, then the rook goes first.
+            let order = if king_to == rook { [rook_task, king_task] } else { [king_task, rook_task] };
+            for (piece, from, to) in order {
+                if from != to {
+                    push(&mut scratch, piece, from, to)?;
+                }
+            }
+        }
+        Move::Put { .. } => {
+            return Err(TaskError::UnsupportedMove {
+                mv: UciMove::from_move(*mv, CastlingMode::Standard).to_string(),
+            });
+        }
+    }
+    Ok(tasks)
+}
+
+/// Speed, acceleration and timing limits of the pick-and-place motions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionLimits {
+    /// Largest tool-tip speed on traverses, m/s.
+    pub max_speed: f64,
+    /// Largest tool-tip acceleration on traverses, m/s².
+    pub max_acceleration: f64,
+    /// Largest tool-tip speed on vertical moves (rise, descend), m/s.
+    pub vertical_speed: f64,
+    /// Largest tool-tip acceleration on vertical moves, m/s².
+    pub vertical_acceleration: f64,
+    /// Rest between consecutive moves, s (0 for none).
+    pub pause: f64,
+    /// Clearance between the lowest point of the tool or carried piece and the tallest piece
+    /// passed over, m.
+    pub clearance_margin: f64,
+    /// Time the gripper needs to close or open, s (0 for none).
+    pub grip_dwell: f64,
+}
+
+impl Default for MotionLimits {
+    /// 0.25 m/s and 0.8 m/s² on traverses, 0.15 m/s and 0.6 m/s² vertically, 0.25 s pauses,
+    /// 3 cm clearance, 0.3 s for the gripper.
+    fn default() -> Self {
+        Self {
+            max_speed: 0.25,
+            max_acceleration: 0.8,
+            vertical_speed: 0.15,
+            vertical_acceleration: 0.6,
+            pause: 0.25,
+            clearance_margin: 0.03,
+            grip_dwell: 0.3,
+        }
+    }
+}
+
+impl MotionLimits {
+    /// Checks that speeds, accelerations and the margin are finite and > 0 and the pauses
+    /// finite and ≥ 0.
+    pub fn validated(self) -> Result<Self, TaskError> {
+        let positive = [
+            ("max_speed", self.max_speed),
+            ("max_acceleration", self.max_acceleration),
+            ("vertical_speed", self.vertical_speed),
+            ("vertical_acceleration", self.vertical_acceleration),
+            ("clearance_margin", self.clearance_margin),
+        ];
+        for (field, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(TaskError::Limits { field, value, reason: "must be finite and > 0" });
+            }
+        }
+        for (field, value) in [("pause", self.pause), ("grip_dwell", self.grip_dwell)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(TaskError::Limits { field, value, reason: "must be finite and >= 0" });
+            }
+        }
+        Ok(self)
+    }
+
+    /// The highest traverse any task can need, m above the table: the tallest piece, the
+    /// margin, and the longest carried piece below the tool (the largest grip height).
+    /// Use it with [`Table::check_reachable`].
+    pub fn highest_traverse(&self, pieces: &PieceSet) -> f64 {
+        pieces.tallest() + self.clearance_margin + pieces.highest_grip()
+    }
+}
+
+/// Timing and heights of one planned task.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TaskPlan {
+    /// Tool-tip height on both traverses, m above the table surface.
+    pub traverse_height: f64,
+    /// When the gripper closes on the piece, s from the path's start.
+    pub grip_time: f64,
+    /// When the gripper opens, s from the path's start.
+    pub release_time: f64,
+    /// Planned tool-tip position at release (x, y, z, m).
+    pub release_point: Vector3<f64>,
+}
+
+/// Extends `path` (which ends where the tool currently is) by one task: rise (or sink) to the
+/// traverse height, traverse above `from`, descend to the grip height, mark
+/// [`GripperAction::Grip`] and wait `grip_dwell`, rise, traverse above `to`, descend until the
+/// piece's base touches the table, mark [`GripperAction::Release`] and wait `grip_dwell`,
+/// rise. Consecutive moves are separated by `pause`.
+///
+/// `table` is the table before this task (after the earlier tasks of the move). The piece is
+/// picked where it actually stands and put on the nominal centre of `to`. The tool tip grips at
+/// the piece's grip height above the table surface (`BoardGeometry::surface_height`).
+///
+/// Traverse height (above the table) = the largest of the tallest piece under the empty
+/// traverse (towards `from`) + margin and the tallest piece under the loaded traverse
+/// (`from` → `to`, the carried piece left out) + margin + the carried piece's grip height
+/// (the length of piece below the tool). Pieces count as under a traverse when their base
+/// centres lie within half the carried piece's base diameter plus half the widest base of the
+/// set of it. Durations come from [`chessarm_core::plan::profile::Lspb::min_time`]; every
+/// waypoint and points every 5 mm along each move are checked with inverse kinematics (tool
+/// down) before anything is appended, so on error `path` is unchanged.
+pub fn append_task_path(
+    path: &mut CartesianPath,
+    task: &Task,
+    table: &Table,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+    arm: &ArmModel<4>,
+) -> Result<TaskPlan, TaskError> {
+    let limits = limits.validated()?;
+    let task_name = task.to_string();
+    let standing =
+        table.piece_at(task.from).ok_or(TaskError::TaskTable { task: task_name.clone(), source: TableError::Empty(task.from) })?;
+    let carried = pieces.dimensions(task.piece.role);
+    let surface = table.geometry().surface_height;
+    let start = path.end();
+    let here = Vector2::new(start.x, start.y);
+    let pick = standing.position;
+    let place = table.nominal_position(task.to);
+
+    let radius = 0.5 * (carried.base_diameter + pieces.widest());
+    let margin = limits.clearance_margin;
+    let empty = table.tallest_under(here, pick, radius, pieces, None) + margin;
+    let loaded = table.tallest_under(pick, place, radius, pieces, Some(task.from)) + margin + carried.grip_height;
+    let traverse_height = empty.max(loaded);
+
+    let at = |xy: Vector2<f64>, height: f64| Vector3::new(xy.x, xy.y, surface + height);
+    let grip_z = carried.grip_height;
+    // (target, vertical move?, gripper action at the end)
+    let steps = [
+        (at(here, traverse_height), true, None),
+        (at(pick, traverse_height), false, None),
+        (at(pick, grip_z), true, Some(GripperAction::Grip)),
+        (at(pick, traverse_height), true, None),
+        (at(place, traverse_height), false, None),
+        (at(place, grip_z), true, Some(GripperAction::Release)),
+        (at(place, traverse_height), true, None),
+    ];
+
+    let mut previous = start;
+    for (target, _, _) in &steps {
+        check_segment(arm, &previous, target).map_err(|source| TaskError::Unreachable { task: task_name.clone(), source })?;
+        previous = *target;
+    }
+
+    let profile_error = |source| TaskError::Profile { task: task_name.clone(), source };
+    let mut extended = path.clone();
+    let mut grip_time = 0.0;
+    let mut release_time = 0.0;
+    for (target, vertical, action) in steps {
+        if (target - extended.end()).norm() > 0.0 {
+            let rested = matches!(extended.segments().last(), None | Some(Segment::Pause { .. }));
+            if !rested && limits.pause > 0.0 {
+                extended.pause(limits.pause).map_err(profile_error)?;
+            }
+            let (speed, acceleration) = if vertical {
+                (limits.vertical_speed, limits.vertical_acceleration)
+            } else {
+                (limits.max_speed, limits.max_acceleration)
+            };
+            extended.move_to_limited(target, speed, acceleration).map_err(profile_error)?;
+        }
+        if let Some(action) = action {
+            match action {
+                GripperAction::Grip => grip_time = extended.duration(),
+                GripperAction::Release => release_time = extended.duration(),
+            }
+            extended.mark(action);
+            if limits.grip_dwell > 0.0 {
+                extended.pause(limits.grip_dwell).map_err(profile_error)?;
+            }
+        }
+    }
+    *path = extended;
+    Ok(TaskPlan { traverse_height, grip_time, release_time, release_point: at(place, grip_z) })
+}
+
+/// Checks the straight move `from` → `to` with inverse kinematics (tool down) at its end and
+/// at points at most [`CHECK_STEP`] apart.
+fn check_segment(arm: &ArmModel<4>, from: &Vector3<f64>, to: &Vector3<f64>) -> Result<(), IkError> {
+    let steps = ((to - from).norm() / CHECK_STEP).ceil().max(1.0) as usize;
+    for k in 1..=steps {
+        let point = from + (to - from) * (k as f64 / steps as f64);
+        inverse_kinematics(arm, &point, TOOL_DOWN)?;
+    }
+    Ok(())
+}
+
+/// One task of a planned move with its plan.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlannedTask {
+    /// The pick-and-place.
+    pub task: Task,
+    /// Its heights and timing.
+    pub plan: TaskPlan,
+}
+
+/// Plans every task of a legal move ([`move_tasks`]) into `path` with [`append_task_path`],
+/// assuming each piece is released exactly on its nominal position (a copy of `table` is
+/// updated between tasks; `table` itself is not changed). Errors name the move; on error `path`
+/// is unchanged.
+pub fn append_move_path(
+    path: &mut CartesianPath,
+    position: &Chess,
+    mv: &Move,
+    table: &Table,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+    arm: &ArmModel<4>,
+) -> Result<Vec<PlannedTask>, TaskError> {
+    let tasks = move_tasks(position, mv, table)?;
+    let wrap = |source: TaskError| TaskError::Move { mv: describe_move(position, mv), source: Box::new(source) };
+    let mut scratch = table.clone();
+    let mut extended = path.clone();
+    let mut planned = Vec::with_capacity(tasks.len());
+    for task in tasks {
+        let plan = append_task_path(&mut extended, &task, &scratch, pieces, limits, arm).map_err(wrap)?;
+        let actual = scratch.nominal_position(task.to);
+        scratch
+            .relocate(task.from, task.to, actual)
+            .map_err(|source| wrap(TaskError::TaskTable { task: task.to_string(), source }))?;
+        planned.push(PlannedTask { task, plan });
+    }
+    *path = extended;
+    Ok(planned)
+}
+

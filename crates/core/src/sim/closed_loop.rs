@@ -1,0 +1,277 @@
+//! The closed loop: controller ⇄ plant.
+//!
+//! The plant is integrated by RK4 every `dt`; the controller is sampled every
+//! `control_period` (an integer multiple of `dt`) and its torque, clipped to the joint torque
+//! limits, is held in between (zero-order hold). Payload events grip or release objects at
+//! given instants. Metrics accumulate on the fly; time series go to an [`Observer`] only if the
+//! caller wants them, so a run allocates nothing per step.
+
+use crate::arm::dynamics::DynamicsError;
+use crate::arm::kinematics::FrameChain;
+use crate::arm::model::{JointVector, ModelError, Payload};
+use crate::control::{Controller, JointState, Reference};
+use crate::plan::trajectory::JointTrajectory;
+use crate::sim::plant::Plant;
+use nalgebra::Vector3;
+
+/// Settings of a closed-loop run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimConfig<const N: usize> {
+    /// Integration step, s (default 1 ms).
+    pub dt: f64,
+    /// Controller sample period, s (default 1 ms = 1 kHz); a multiple of `dt`.
+    pub control_period: f64,
+    /// Torque limits, N·m (default: the plant model's joint limits).
+    pub torque_limits: JointVector<N>,
+    /// A joint faster than this (rad/s) means the run diverged (default 100 rad/s).
+    pub runaway_speed: f64,
+}
+
+impl<const N: usize> SimConfig<N> {
+    /// 1 ms RK4, 1 kHz control, the plant's torque limits.
+    pub fn new(plant: &Plant<N>) -> Self {
+        Self { dt: 1e-3, control_period: 1e-3, torque_limits: plant.model().torque_limits(), runaway_speed: 100.0 }
+    }
+
+    /// Checks the numbers and returns the number of integration steps per controller sample.
+    fn steps_per_sample(&self) -> Result<usize, SimError> {
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(SimError::Config(format!("time step dt = {} s must be finite and > 0", self.dt)));
+        }
+        if !(self.control_period.is_finite() && self.control_period > 0.0) {
+            return Err(SimError::Config(format!("control period {} s must be finite and > 0", self.control_period)));
+        }
+        let ratio = self.control_period / self.dt;
+        let steps = ratio.round();
+        if steps < 1.0 || (ratio - steps).abs() > 1e-9 * ratio {
+            return Err(SimError::Config(format!(
+                "control period {} s must be a whole multiple of the time step {} s",
+                self.control_period, self.dt
+            )));
+        }
+        if let Some((j, limit)) = self.torque_limits.iter().enumerate().find(|(_, l)| !(l.is_finite() && **l > 0.0)) {
+            return Err(SimError::Config(format!(
+                "torque limit of joint {} = {limit} N·m must be finite and > 0",
+                j + 1
+            )));
+        }
+        Ok(steps as usize)
+    }
+}
+
+/// A payload gripped (`Some`) or released (`None`) at `time` (s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PayloadEvent {
+    pub time: f64,
+    pub payload: Option<Payload>,
+    /// Whether the controller's model is told as well.
+    pub controller_knows: bool,
+}
+
+/// Desired joint motion over time.
+pub trait ReferenceSource<const N: usize> {
+    fn reference(&self, t: f64) -> Reference<N>;
+    /// s.
+    fn duration(&self) -> f64;
+}
+
+impl ReferenceSource<4> for JointTrajectory {
+    fn reference(&self, t: f64) -> Reference<4> {
+        let sample = self.held_at(t);
+        Reference { q: sample.q, qd: sample.qd, qdd: sample.qdd }
+    }
+
+    fn duration(&self) -> f64 {
+        JointTrajectory::duration(self)
+    }
+}
+
+/// What happened at one integration step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepRecord<const N: usize> {
+    pub t: f64,
+    pub state: JointState<N>,
+    pub reference: Reference<N>,
+    /// Applied (saturated) torque, N·m.
+    pub torque: JointVector<N>,
+    /// Tool tip, actual and desired (FK of the reference), m.
+    pub tip: Vector3<f64>,
+    pub tip_desired: Vector3<f64>,
+}
+
+/// Receives every step of a run.
+pub trait Observer<const N: usize> {
+    fn observe(&mut self, record: &StepRecord<N>);
+}
+
+/// An observer that keeps nothing.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NoObserver;
+
+impl<const N: usize> Observer<N> for NoObserver {
+    fn observe(&mut self, _record: &StepRecord<N>) {}
+}
+
+impl<const N: usize> Observer<N> for Vec<StepRecord<N>> {
+    fn observe(&mut self, record: &StepRecord<N>) {
+        self.push(*record);
+    }
+}
+
+/// Why a run stopped.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    #[error("invalid simulation settings: {0}")]
+    Config(String),
+    #[error(
+        "the simulation diverged at t = {time:.4} s: joint {joint} {quantity} = {value:.4e} (runaway or NaN); lower the gains or the time step"
+    )]
+    Diverged { time: f64, joint: usize, quantity: &'static str, value: f64 },
+    #[error("at t = {time:.4} s: {source}")]
+    Dynamics { time: f64, source: DynamicsError },
+    #[error("payload event at t = {time:.4} s: {source}")]
+    Payload { time: f64, source: ModelError },
+}
+
+/// Metrics of a run (SI: rad, m, N·m, s).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimSummary<const N: usize> {
+    pub duration: f64,
+    pub steps: usize,
+    pub rms_joint_error: JointVector<N>,
+    pub max_joint_error: JointVector<N>,
+    pub rms_tip_error: f64,
+    pub max_tip_error: f64,
+    /// Peak |τ| applied per joint.
+    pub peak_torque: JointVector<N>,
+    /// Controller samples at which at least one joint's torque was clipped.
+    pub saturated_samples: usize,
+    /// Per joint: controller samples at which its torque was clipped.
+    pub saturated_per_joint: [usize; N],
+    /// Actual tool tip at each requested instant (the `marks`), m.
+    pub tip_at_marks: Vec<Vector3<f64>>,
+    /// |actual − desired tip| at each mark, m.
+    pub tip_error_at_marks: Vec<f64>,
+    pub final_state: JointState<N>,
+}
+
+/// Runs `controller` against `plant` along `reference` from `initial` (default: at rest on
+/// the reference's first point) for the reference's duration.
+///
+/// `events` must be sorted by time; `marks` are instants (s) at which the tip position and
+/// error are reported (e.g. grip and release).
+#[allow(clippy::too_many_arguments)]
+pub fn simulate<const N: usize, C, R, O>(
+    plant: &mut Plant<N>,
+    controller: &mut C,
+    reference: &R,
+    initial: Option<JointState<N>>,
+    events: &[PayloadEvent],
+    marks: &[f64],
+    config: &SimConfig<N>,
+    observer: &mut O,
+) -> Result<SimSummary<N>, SimError>
+where
+    C: Controller<N> + ?Sized,
+    R: ReferenceSource<N> + ?Sized,
+    O: Observer<N> + ?Sized,
+{
+    let steps_per_sample = config.steps_per_sample()?;
+    let dt = config.dt;
+    let steps = (reference.duration() / dt).round() as usize;
+    let mut state = initial.unwrap_or_else(|| JointState::at_rest(reference.reference(0.0).q));
+    controller.reset();
+
+    let mut squared_joint_error = JointVector::<N>::zeros();
+    let mut max_joint_error = JointVector::<N>::zeros();
+    let (mut squared_tip_error, mut max_tip_error) = (0.0, 0.0f64);
+    let mut peak_torque = JointVector::<N>::zeros();
+    let mut saturated_samples = 0;
+    let mut saturated_per_joint = [0; N];
+    let mut tip_at_marks = vec![Vector3::zeros(); marks.len()];
+    let mut tip_error_at_marks = vec![f64::NAN; marks.len()];
+    let mut next_event = 0;
+    let mut torque = JointVector::<N>::zeros();
+
+    for step in 0..=steps {
+        let t = step as f64 * dt;
+        while next_event < events.len() && events[next_event].time <= t + 0.5 * dt {
+            let event = &events[next_event];
+            plant.set_payload(event.payload).map_err(|source| SimError::Payload { time: t, source })?;
+            if event.controller_knows {
+                controller.set_payload(event.payload).map_err(|source| SimError::Payload { time: t, source })?;
+            }
+            next_event += 1;
+        }
+        let desired = reference.reference(t);
+        if step % steps_per_sample == 0 {
+            let command = controller.torque(&state, &desired, config.control_period);
+            let mut clipped = false;
+            for j in 0..N {
+                if !command[j].is_finite() {
+                    return Err(SimError::Diverged {
+                        time: t,
+                        joint: j + 1,
+                        quantity: "torque command",
+                        value: command[j],
+                    });
+                }
+                let limit = config.torque_limits[j];
+                torque[j] = command[j].clamp(-limit, limit);
+                if torque[j] != command[j] {
+                    saturated_per_joint[j] += 1;
+                    clipped = true;
+                }
+            }
+            saturated_samples += usize::from(clipped);
+        }
+        let error = desired.q - state.q;
+        squared_joint_error += error.component_mul(&error);
+        max_joint_error = max_joint_error.sup(&error.abs());
+        peak_torque = peak_torque.sup(&torque.abs());
+        let tip = FrameChain::new(plant.model(), &state.q).tip();
+        let tip_desired = FrameChain::new(plant.model(), &desired.q).tip();
+        let tip_error = (tip - tip_desired).norm();
+        squared_tip_error += tip_error * tip_error;
+        max_tip_error = max_tip_error.max(tip_error);
+        for (k, &mark) in marks.iter().enumerate() {
+            if (mark - t).abs() <= 0.5 * dt {
+                tip_at_marks[k] = tip;
+                tip_error_at_marks[k] = tip_error;
+            }
+        }
+        observer.observe(&StepRecord { t, state, reference: desired, torque, tip, tip_desired });
+        if step == steps {
+            break;
+        }
+        state = plant.rk4_step(&state, &torque, dt).map_err(|source| SimError::Dynamics { time: t, source })?;
+        check_state(&state, t + dt, config.runaway_speed)?;
+    }
+    let samples = (steps + 1) as f64;
+    Ok(SimSummary {
+        duration: steps as f64 * dt,
+        steps,
+        rms_joint_error: (squared_joint_error / samples).map(f64::sqrt),
+        max_joint_error,
+        rms_tip_error: (squared_tip_error / samples).sqrt(),
+        max_tip_error,
+        peak_torque,
+        saturated_samples,
+        saturated_per_joint,
+        tip_at_marks,
+        tip_error_at_marks,
+        final_state: state,
+    })
+}
+
+fn check_state<const N: usize>(state: &JointState<N>, time: f64, runaway_speed: f64) -> Result<(), SimError> {
+    for j in 0..N {
+        if !state.q[j].is_finite() {
+            return Err(SimError::Diverged { time, joint: j + 1, quantity: "angle", value: state.q[j] });
+        }
+        if !(state.qd[j].abs() <= runaway_speed) {
+            return Err(SimError::Diverged { time, joint: j + 1, quantity: "rate", value: state.qd[j] });
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,10 @@
+//! Simulation: the plant, a fixed-step RK4 integrator, and the closed loop with a sampled
+//! controller, torque saturation, payload events and metrics.
+
+pub mod closed_loop;
+pub mod plant;
+
+pub use closed_loop::{
+    NoObserver, Observer, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary, StepRecord, simulate,
+};
+pub use plant::Plant;

@@ -1,0 +1,260 @@
+//! Closed-loop simulation against closed forms: energy in free motion, the PD error response,
+//! the steady error of an unknown payload, and PID removing it.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+use chessarm_core::arm::dynamics::{gravity_torques, mass_matrix};
+use chessarm_core::arm::lagrange::energy;
+use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
+use chessarm_core::arm::preset::report_arm;
+use chessarm_core::arm::task::TOOL_DOWN;
+use chessarm_core::control::computed_torque::ComputedTorque;
+use chessarm_core::control::gains::{Gains, REPORT_PD, normalised_error_response};
+use chessarm_core::control::{JointState, Reference};
+use chessarm_core::nalgebra::Vector3;
+use chessarm_core::plan::path::CartesianPath;
+use chessarm_core::plan::trajectory::JointTrajectory;
+use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, ReferenceSource, SimConfig, SimError, StepRecord, simulate};
+
+fn q(values: [f64; 4]) -> JointVector<4> {
+    JointVector::<4>::from(values)
+}
+
+/// Holds still at one configuration for a given time.
+struct Hold {
+    q: JointVector<4>,
+    duration: f64,
+}
+
+impl ReferenceSource<4> for Hold {
+    fn reference(&self, _t: f64) -> Reference<4> {
+        Reference::hold(self.q)
+    }
+    fn duration(&self) -> f64 {
+        self.duration
+    }
+}
+
+/// The first `duration` seconds of a trajectory.
+struct Prefix<'a> {
+    trajectory: &'a JointTrajectory,
+    duration: f64,
+}
+
+impl ReferenceSource<4> for Prefix<'_> {
+    fn reference(&self, t: f64) -> Reference<4> {
+        self.trajectory.reference(t)
+    }
+    fn duration(&self) -> f64 {
+        self.duration
+    }
+}
+
+#[test]
+fn energy_is_conserved_in_free_motion() {
+    // No torque, no friction: the arm falls and swings. RK4 at 0.1 ms has local error
+    // ~(ω dt)⁵ with ω ≲ 20 rad/s, i.e. ~3e-11 per step, ~1e-6 J over 2 s at worst.
+    let plant = Plant::new(report_arm());
+    let mut state = JointState { q: q([0.2, 1.2, -0.5, -0.3]), qd: q([1.0, -0.5, 2.0, 1.5]) };
+    let (kinetic, potential) = energy(plant.model(), &state.q, &state.qd);
+    let initial = kinetic + potential;
+    let dt = 1e-4;
+    let mut largest_kinetic = kinetic;
+    let mut worst_drift = 0.0f64;
+    for _ in 0..20_000 {
+        state = plant.rk4_step(&state, &JointVector::zeros(), dt).unwrap();
+        let (kinetic, potential) = energy(plant.model(), &state.q, &state.qd);
+        largest_kinetic = largest_kinetic.max(kinetic);
+        worst_drift = worst_drift.max((kinetic + potential - initial).abs());
+    }
+    // Relative to the largest kinetic energy reached (the energy actually exchanged), not to
+    // the potential energy's arbitrary zero.
+    assert!(largest_kinetic > 1.0, "the arm barely moved: {largest_kinetic} J");
+    assert!(worst_drift / largest_kinetic < 1e-6, "drift {worst_drift} J of {largest_kinetic} J");
+}
+
+fn pd_controller(model: ArmModel<4>) -> ComputedTorque<4> {
+    ComputedTorque::new("pd", model, Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).unwrap())
+}
+
+fn report_move() -> CartesianPath {
+    let mut path = CartesianPath::new(Vector3::new(0.21, 0.0, 0.0));
+    path.move_to(Vector3::new(0.21, 0.0, 0.15), 1.0).unwrap();
+    path.move_to(Vector3::new(-0.03, 0.18, 0.15), 3.0).unwrap();
+    path
+}
+
+#[test]
+fn pd_error_follows_the_closed_form_when_the_model_is_exact() {
+    let model = report_arm();
+    let dt = 1e-4;
+    let trajectory = JointTrajectory::from_path(&model, &report_move(), dt, TOOL_DOWN).unwrap();
+    let mut plant = Plant::new(model);
+    let mut controller = pd_controller(model);
+    let initial_error = q([0.02, -0.03, 0.04, 0.01]);
+    let start = JointState::at_rest(trajectory.first().q - initial_error);
+    let config = SimConfig { dt, control_period: dt, ..SimConfig::new(&plant) };
+    let mut records: Vec<StepRecord<4>> = Vec::new();
+    let reference = Prefix { trajectory: &trajectory, duration: 1.5 };
+    let summary =
+        simulate(&mut plant, &mut controller, &reference, Some(start), &[], &[], &config, &mut records).unwrap();
+    assert_eq!(summary.saturated_samples, 0);
+    // ë + 20ė + 400e = 0: ωn = 20 rad/s, ζ = 0.5. The trajectory starts at rest, so ė(0) = 0.
+    let (wn, zeta) = (20.0, 0.5);
+    let mut worst = 0.0f64;
+    for record in &records {
+        let expected = initial_error * normalised_error_response(zeta, wn * record.t);
+        let error = record.reference.q - record.state.q;
+        worst = worst.max((error - expected).amax());
+    }
+    // The zero-order hold delays the control by dt/2 on average: a phase error ≈ ωn·dt/2 =
+    // 1e-3 of the response, so 2e-3 × |e0| = 8e-5 rad bounds it with margin.
+    assert!(worst < 2e-3 * initial_error.amax(), "worst deviation {worst} rad");
+}
+
+fn steady_error_prediction(
+    plant_model: &ArmModel<4>,
+    controller_model: &ArmModel<4>,
+    target: &JointVector<4>,
+    kp: f64,
+) -> JointVector<4> {
+    // At rest, τ = M̂(q)(kp e) + ĝ(q) must equal g(q), with q = q_d − e: iterate the fixed point.
+    let mut error = JointVector::<4>::zeros();
+    for _ in 0..50 {
+        let q = target - error;
+        let difference = gravity_torques(plant_model, &q) - gravity_torques(controller_model, &q);
+        error = mass_matrix(controller_model, &q).cholesky().unwrap().solve(&difference) / kp;
+    }
+    error
+}
+
+#[test]
+fn unknown_payload_leaves_the_predicted_steady_error_and_pid_removes_it() {
+    let model = report_arm();
+    let loaded = model.with_payload(Some(Payload::point_mass(0.25))).unwrap();
+    let target = q([0.8, 0.9, -2.1, -0.37]);
+    let reference = Hold { q: target, duration: 10.0 };
+    let mut plant = Plant::new(loaded);
+    let config = SimConfig::new(&plant);
+    let mut pd = pd_controller(model);
+    let summary = simulate(
+        &mut plant,
+        &mut pd,
+        &reference,
+        Some(JointState::at_rest(target)),
+        &[],
+        &[],
+        &config,
+        &mut NoObserver,
+    )
+    .unwrap();
+    let predicted = steady_error_prediction(&loaded, &model, &target, REPORT_PD.0);
+    let measured = target - summary.final_state.q;
+    // The unknown payload makes the plant up to ~3× heavier than the controller believes, so
+    // the transient decays at ≈ kd/(2·3) ≈ 3 1/s: after 10 s by e⁻³⁰; the fixed point remains.
+    assert!(predicted.amax() > 1e-3, "payload too light to test: {predicted}");
+    assert!((measured - predicted).amax() < 1e-9, "measured {measured} predicted {predicted}");
+
+    // PID with poles at −20 (triple): the integral drives the error to zero.
+    let gains = Gains::pid_from_poles(20.0, 1.0, 1.0).unwrap();
+    let mut pid = ComputedTorque::new("pid", model, gains);
+    let reference = Hold { q: target, duration: 4.0 };
+    let mut plant = Plant::new(loaded);
+    let summary = simulate(
+        &mut plant,
+        &mut pid,
+        &reference,
+        Some(JointState::at_rest(target)),
+        &[],
+        &[],
+        &config,
+        &mut NoObserver,
+    )
+    .unwrap();
+    let residual = (target - summary.final_state.q).amax();
+    assert!(residual < 1e-6 * predicted.amax().max(1.0), "PID left {residual} rad");
+}
+
+#[test]
+fn a_payload_event_changes_the_plant_and_informed_controllers() {
+    let model = report_arm();
+    let target = q([0.8, 0.9, -2.1, -0.37]);
+    let reference = Hold { q: target, duration: 3.0 };
+    let grip = |knows| [PayloadEvent { time: 0.5, payload: Some(Payload::point_mass(0.25)), controller_knows: knows }];
+    let run = |events: &[PayloadEvent]| {
+        let mut plant = Plant::new(model);
+        let config = SimConfig::new(&plant);
+        let mut pd = pd_controller(model);
+        let start = Some(JointState::at_rest(target));
+        simulate(&mut plant, &mut pd, &reference, start, events, &[0.0, 3.0], &config, &mut NoObserver).unwrap()
+    };
+    let unknown = run(&grip(false));
+    let known = run(&grip(true));
+    assert!((target - unknown.final_state.q).amax() > 1e-3);
+    assert!((target - known.final_state.q).amax() < 1e-9);
+    assert!(unknown.tip_error_at_marks[1] > 1e-4 && unknown.tip_error_at_marks[0] < 1e-12);
+}
+
+#[test]
+fn divergence_is_an_error_not_garbage() {
+    let model = report_arm();
+    let target = q([0.8, 0.9, -2.1, -0.37]);
+    let mut plant = Plant::new(model);
+    // kp = 1e7 with a 1 kHz hold: the sampled loop is unstable.
+    let mut controller = ComputedTorque::new("wild", model, Gains::uniform(1e7, 0.0, 0.0).unwrap());
+    let config = SimConfig { torque_limits: JointVector::repeat(1e9), ..SimConfig::new(&plant) };
+    let start = Some(JointState::at_rest(target + q([0.0, 0.01, 0.0, 0.0])));
+    let error = simulate(
+        &mut plant,
+        &mut controller,
+        &Hold { q: target, duration: 2.0 },
+        start,
+        &[],
+        &[],
+        &config,
+        &mut NoObserver,
+    )
+    .unwrap_err();
+    assert!(matches!(error, SimError::Diverged { .. }), "{error:?}");
+    assert!(error.to_string().contains("diverged"));
+}
+
+#[test]
+fn torque_limits_saturate_and_are_counted() {
+    let model = report_arm();
+    let target = q([0.8, 0.9, -2.1, -0.37]);
+    let mut plant = Plant::new(model);
+    let mut controller = pd_controller(model);
+    let limits = q([10.0, 2.0, 15.0, 5.0]); // the shoulder needs ≈ 2.8 N·m just to hold
+    let config = SimConfig { torque_limits: limits, ..SimConfig::new(&plant) };
+    let start = Some(JointState::at_rest(target));
+    let summary = simulate(
+        &mut plant,
+        &mut controller,
+        &Hold { q: target, duration: 0.5 },
+        start,
+        &[],
+        &[],
+        &config,
+        &mut NoObserver,
+    )
+    .unwrap();
+    assert!(summary.saturated_per_joint[1] > 400, "{:?}", summary.saturated_per_joint);
+    assert_eq!(summary.saturated_per_joint[0], 0);
+    assert!((summary.peak_torque[1] - 2.0).abs() < 1e-12);
+    assert!(summary.max_joint_error[1] > 0.01, "the arm should sag when the shoulder saturates");
+
+    let bad = SimConfig { control_period: 1.5e-3, ..SimConfig::new(&plant) };
+    let error = simulate(
+        &mut plant,
+        &mut controller,
+        &Hold { q: target, duration: 0.5 },
+        None,
+        &[],
+        &[],
+        &bad,
+        &mut NoObserver,
+    )
+    .unwrap_err();
+    assert!(error.to_string().contains("whole multiple"), "{error}");
+}
