@@ -150,7 +150,7 @@ pub enum NotationError {
         fen: String,
     },
     /// An entry of a move list is not valid SAN/UCI, illegal or ambiguous.
-    #[error("move {index} '{token}' (game move {}) {problem} in {fen}", move_label(.number, .color))]
+    #[error("move {index} '{token}' (game move {}) {problem} in {fen}", move_short(.number, .color))]
     ListMove {
         /// 1-based index of the move in the list (move numbers and results not counted).
         index: usize,
@@ -173,6 +173,12 @@ fn move_label(number: &u32, color: &Color) -> String {
     format!("{number}{dots} ({color})")
 }
 
+/// `"14. white"` or `"14... black"`.
+fn move_short(number: &u32, color: &Color) -> String {
+    let dots = if color.is_white() { "." } else { "..." };
+    format!("{number}{dots} {color}")
+}
+
 fn plural_s(count: &usize) -> &'static str {
     if *count == 1 { "" } else { "s" }
 }
@@ -185,8 +191,7 @@ fn fen_of(pos: &Chess) -> String {
 ///
 /// Leading and trailing whitespace is ignored.
 pub fn parse_fen(fen: &str) -> Result<Chess, NotationError> {
-    fen_to_position(fen.trim())
-        .map_err(|reason| NotationError::InvalidFen { fen: fen.trim().to_owned(), reason })
+    fen_to_position(fen.trim()).map_err(|reason| NotationError::InvalidFen { fen: fen.trim().to_owned(), reason })
 }
 
 fn fen_to_position(fen: &str) -> Result<Chess, String> {
@@ -197,13 +202,10 @@ fn fen_to_position(fen: &str) -> Result<Chess, String> {
 /// Picks game `number` (1-based) out of `games`.
 pub fn select_game(games: Vec<GameRecord>, number: usize) -> Result<GameRecord, NotationError> {
     let count = games.len();
-    match number.checked_sub(1) {
-        Some(index) if index < count => games.into_iter().nth(index).ok_or(NotationError::NoSuchGame {
-            requested: number,
-            count,
-        }),
-        _ => Err(NotationError::NoSuchGame { requested: number, count }),
-    }
+    number
+        .checked_sub(1)
+        .and_then(|index| games.into_iter().nth(index))
+        .ok_or(NotationError::NoSuchGame { requested: number, count })
 }
 
 /// Parses a move list played from `start`.
@@ -388,9 +390,12 @@ impl Visitor for GameVisitor {
                 game: ParsedGame { headers: tags, start: start.clone(), moves: Vec::new(), failure: None },
                 pos: start,
             }),
-            Err(failure) => {
-                ControlFlow::Break(ParsedGame { headers: tags, start: Chess::default(), moves: Vec::new(), failure: Some(failure) })
-            }
+            Err(failure) => ControlFlow::Break(ParsedGame {
+                headers: tags,
+                start: Chess::default(),
+                moves: Vec::new(),
+                failure: Some(failure),
+            }),
         }
     }
 

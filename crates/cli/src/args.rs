@@ -50,3 +50,12 @@ pub fn finite(text: &str) -> Result<f64, String> {
         Err(_) => Err(format!("'{text}' is not a number")),
     }
 }
+
+/// One number for every joint, or exactly four comma-separated numbers; each finite and ≥ 0.
+pub fn gain(text: &str) -> Result<[f64; 4], String> {
+    let values = if text.contains(',') { four(text)? } else { [finite(text)?; 4] };
+    match values.iter().find(|v| **v < 0.0) {
+        Some(v) => Err(format!("gain {v} in '{text}' must be >= 0")),
+        None => Ok(values),
+    }
+}
