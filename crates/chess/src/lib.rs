@@ -4,6 +4,9 @@
 pub mod board;
 pub mod notation;
 pub mod opponent;
+pub mod pieces;
 pub mod scenario;
+pub mod table;
+pub mod tasks;
 
 pub use shakmaty;

@@ -226,8 +226,7 @@ impl Table {
             Location::Graveyard { color, slot } => {
                 let column = slot / GRAVEYARD_ROWS;
                 let row = slot % GRAVEYARD_ROWS;
-                let column_x = GRAVEYARD_COLUMN_X[0]
-                    + (GRAVEYARD_COLUMN_X[1] - GRAVEYARD_COLUMN_X[0]) * column as f64;
+                let column_x = GRAVEYARD_COLUMN_X[0] + (GRAVEYARD_COLUMN_X[1] - GRAVEYARD_COLUMN_X[0]) * column as f64;
                 (side(color) * column_x, GRAVEYARD_FIRST_ROW_Y + GRAVEYARD_ROW_STEP * row as f64)
             }
             Location::Reserve { color, slot } => {

@@ -166,7 +166,9 @@ pub enum TaskError {
     },
 }
 
-/// The kind of a move (the position is the one the move is played in).
+/// The kind of a move played in `position`. shakmaty's [`Move`] carries the capture,
+/// promotion and castling itself, so the position is not consulted; it is taken so that
+/// callers need not know that.
 pub fn classify(_position: &Chess, mv: &Move) -> MoveKind {
     match *mv {
         Move::Normal { capture, promotion, .. } => match (capture.is_some(), promotion.is_some()) {
@@ -278,9 +280,7 @@ pub fn move_tasks(position: &Chess, mv: &Move, table: &Table) -> Result<Vec<Task
             }
         }
         Move::Put { .. } => {
-            return Err(TaskError::UnsupportedMove {
-                mv: UciMove::from_move(*mv, CastlingMode::Standard).to_string(),
-            });
+            return Err(TaskError::UnsupportedMove { mv: UciMove::from_move(*mv, CastlingMode::Standard).to_string() });
         }
     }
     Ok(tasks)
@@ -395,8 +395,9 @@ pub fn append_task_path(
 ) -> Result<TaskPlan, TaskError> {
     let limits = limits.validated()?;
     let task_name = task.to_string();
-    let standing =
-        table.piece_at(task.from).ok_or(TaskError::TaskTable { task: task_name.clone(), source: TableError::Empty(task.from) })?;
+    let standing = table
+        .piece_at(task.from)
+        .ok_or(TaskError::TaskTable { task: task_name.clone(), source: TableError::Empty(task.from) })?;
     let carried = pieces.dimensions(task.piece.role);
     let surface = table.geometry().surface_height;
     let start = path.end();
@@ -425,7 +426,8 @@ pub fn append_task_path(
 
     let mut previous = start;
     for (target, _, _) in &steps {
-        check_segment(arm, &previous, target).map_err(|source| TaskError::Unreachable { task: task_name.clone(), source })?;
+        check_segment(arm, &previous, target)
+            .map_err(|source| TaskError::Unreachable { task: task_name.clone(), source })?;
         previous = *target;
     }
 
@@ -510,4 +512,3 @@ pub fn append_move_path(
     *path = extended;
     Ok(planned)
 }
-

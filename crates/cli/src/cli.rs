@@ -30,6 +30,80 @@ pub enum Command {
     Urdf,
     /// Plan a scenario: Cartesian LSPB path → IK → joint trajectory; CSV, plots, optional XLSX.
     Plan(PlanArgs),
+    /// Dynamics terms at a state: M(q), C(q, q̇)·q̇ and g(q), as JSON.
+    Dynamics(DynamicsArgs),
+    /// Closed-loop simulation of a scenario with computed-torque PD and/or PID control.
+    Simulate(SimulateArgs),
+    /// The report's study end to end (plan, PD and PID simulations, plots, summary) into out/.
+    Demo(DemoArgs),
+}
+
+/// Which controllers to simulate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ControllerChoice {
+    /// Computed torque with a PD outer loop (report: kp = 400, kd = 20).
+    Pd,
+    /// Computed torque with a PID outer loop (report: kp = 600, kd = 25, ki = 75).
+    Pid,
+    /// Both, compared.
+    Both,
+}
+
+#[derive(Debug, Args)]
+pub struct DynamicsArgs {
+    /// Joint angles q1,q2,q3,q4 in rad.
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
+    pub q: [f64; 4],
+    /// Joint rates in rad/s.
+    #[arg(long, value_name = "QD1,QD2,QD3,QD4", value_parser = args::four, allow_hyphen_values = true, default_value = "0,0,0,0")]
+    pub qd: [f64; 4],
+    /// Mass of a gripped pawn-sized piece at the tool, kg.
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative)]
+    pub payload_mass: f64,
+}
+
+#[derive(Debug, Args, Clone)]
+pub struct SimulateArgs {
+    /// Built-in scenario.
+    #[arg(long, default_value = "queens-gambit")]
+    pub scenario: String,
+    /// Controllers to simulate.
+    #[arg(long, value_enum, default_value_t = ControllerChoice::Both)]
+    pub controller: ControllerChoice,
+    /// Proportional gain, 1/s²: one value or one per joint (a,b,c,d). Default: the report's.
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub kp: Option<[f64; 4]>,
+    /// Derivative gain, 1/s: one value or one per joint.
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub kd: Option<[f64; 4]>,
+    /// Integral gain (PID), 1/s³: one value or one per joint.
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub ki: Option<[f64; 4]>,
+    /// RK4 time step, s.
+    #[arg(long, default_value_t = 0.001, value_parser = args::positive)]
+    pub dt: f64,
+    /// Controller sample rate, Hz (its period must be a multiple of --dt).
+    #[arg(long, default_value_t = 1000.0, value_parser = args::positive)]
+    pub control_rate: f64,
+    /// Initial joint angles (rad), at rest; default: on the trajectory's first point.
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
+    pub q0: Option<[f64; 4]>,
+    /// Mass of the gripped piece (pawn-sized), kg, carried from grip to release.
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative)]
+    pub payload_mass: f64,
+    /// The controller's model includes the gripped piece.
+    #[arg(long)]
+    pub controller_knows_payload: bool,
+    /// Output folder.
+    #[arg(long, default_value = "out/simulate")]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Output folder (plan/ and simulate/ go inside).
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, Args)]

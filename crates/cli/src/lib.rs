@@ -7,6 +7,7 @@ pub mod commands;
 pub mod config;
 pub mod output;
 pub mod plots;
+pub mod progress;
 pub mod urdf;
 
 use anyhow::Result;
@@ -17,10 +18,10 @@ use config::Setup;
 pub fn run(cli: Cli) -> Result<()> {
     let setup = Setup::load(cli.arm.as_deref())?;
     match cli.command {
-        None => commands::plan::run(
-            &setup,
-            &cli::PlanArgs { scenario: "queens-gambit".into(), out: "out/plan".into(), dt: 0.005, xlsx: false },
-        ),
+        None => commands::demo::run(&setup, &cli::DemoArgs { out: "out".into() }),
+        Some(Command::Demo(args)) => commands::demo::run(&setup, &args),
+        Some(Command::Dynamics(args)) => commands::simulate::dynamics(&setup, &args),
+        Some(Command::Simulate(args)) => commands::simulate::run(&setup, &args),
         Some(Command::Arm) => {
             print!("{}", setup.to_toml()?);
             Ok(())

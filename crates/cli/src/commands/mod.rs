@@ -1,4 +1,6 @@
 //! One module per command.
 
+pub mod demo;
 pub mod kinematics;
 pub mod plan;
+pub mod simulate;

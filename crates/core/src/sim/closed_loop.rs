@@ -269,7 +269,7 @@ fn check_state<const N: usize>(state: &JointState<N>, time: f64, runaway_speed: 
         if !state.q[j].is_finite() {
             return Err(SimError::Diverged { time, joint: j + 1, quantity: "angle", value: state.q[j] });
         }
-        if !(state.qd[j].abs() <= runaway_speed) {
+        if state.qd[j].is_nan() || state.qd[j].abs() > runaway_speed {
             return Err(SimError::Diverged { time, joint: j + 1, quantity: "rate", value: state.qd[j] });
         }
     }

@@ -1,0 +1,385 @@
+//! `simulate` and `dynamics`: the report's closed-loop study and the dynamics terms.
+
+use crate::cli::{ControllerChoice, DynamicsArgs, SimulateArgs};
+use crate::commands::plan::{Plan, plan_scenario};
+use crate::config::Setup;
+use crate::output::{ensure_dir, numbered, write_csv, write_json};
+use crate::plots::{Panel, Series, plot_panels};
+use crate::print_json;
+use anyhow::{Context, Result, bail};
+use chessarm_core::arm::dynamics::{DynamicsTerms, coriolis_torques, gravity_torques};
+use chessarm_core::arm::model::{JointVector, Payload};
+use chessarm_core::control::JointState;
+use chessarm_core::control::computed_torque::ComputedTorque;
+use chessarm_core::control::gains::{Gains, REPORT_PD, REPORT_PID};
+use chessarm_core::plan::path::GripperAction;
+use chessarm_core::sim::{Observer, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate};
+use indicatif::ProgressBar;
+use serde_json::{Value, json};
+use std::path::Path;
+use std::time::Instant;
+
+/// The piece gripped in the report's scenario: a pawn-sized upright cylinder (5 cm tall,
+/// 2.9 cm across) held at its top, of the given mass (kg).
+pub fn gripped_pawn(mass: f64) -> Payload {
+    Payload::upright_cylinder(mass, 0.05, 0.0145, 0.05)
+}
+
+/// A controller to simulate: its name and gains.
+#[derive(Debug, Clone)]
+pub struct ControllerSpec {
+    pub name: String,
+    pub gains: Gains<4>,
+}
+
+/// Simulation settings shared by the controllers of one study.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    pub dt: f64,
+    pub control_period: f64,
+    pub q0: Option<[f64; 4]>,
+    pub payload_mass: f64,
+    pub controller_knows_payload: bool,
+}
+
+/// One controller's run: metrics and the time series.
+#[derive(Debug)]
+pub struct ControllerRun {
+    pub spec: ControllerSpec,
+    pub summary: SimSummary<4>,
+    pub records: Vec<StepRecord<4>>,
+    pub wall_time_s: f64,
+}
+
+/// The controllers `args` asks for, with the report's gains unless overridden.
+pub fn controller_specs(
+    choice: ControllerChoice,
+    kp: Option<[f64; 4]>,
+    kd: Option<[f64; 4]>,
+    ki: Option<[f64; 4]>,
+) -> Result<Vec<ControllerSpec>> {
+    let make = |name: &str, (default_kp, default_kd, default_ki): (f64, f64, f64)| -> Result<ControllerSpec> {
+        let pick = |given: Option<[f64; 4]>, default: f64| JointVector::<4>::from(given.unwrap_or([default; 4]));
+        let ki = if name == "pd" { JointVector::zeros() } else { pick(ki, default_ki) };
+        let gains = Gains::per_joint(pick(kp, default_kp), pick(kd, default_kd), ki)?;
+        Ok(ControllerSpec { name: name.to_string(), gains })
+    };
+    if ki.is_some() && choice == ControllerChoice::Pd {
+        bail!("--ki given with --controller pd: the PD controller has no integral term");
+    }
+    let pd = || make("pd", (REPORT_PD.0, REPORT_PD.1, 0.0));
+    let pid = || make("pid", REPORT_PID);
+    Ok(match choice {
+        ControllerChoice::Pd => vec![pd()?],
+        ControllerChoice::Pid => vec![pid()?],
+        ControllerChoice::Both => vec![pd()?, pid()?],
+    })
+}
+
+/// Keeps every step and moves a progress bar.
+struct Recorder<'a> {
+    records: Vec<StepRecord<4>>,
+    progress: Option<&'a ProgressBar>,
+}
+
+impl Observer<4> for Recorder<'_> {
+    fn observe(&mut self, record: &StepRecord<4>) {
+        self.records.push(*record);
+        if let Some(bar) = self.progress
+            && self.records.len() % 500 == 0
+        {
+            bar.inc(500);
+        }
+    }
+}
+
+/// Simulates one controller along `plan` (whose trajectory must be sampled at the control
+/// period). The gripped piece is carried from each grip to the next release.
+pub fn run_controller(
+    setup: &Setup,
+    plan: &Plan,
+    spec: &ControllerSpec,
+    options: &RunOptions,
+    progress: Option<&ProgressBar>,
+) -> Result<ControllerRun> {
+    let mut plant = Plant::new(setup.arm);
+    let mut controller = ComputedTorque::new(spec.name.clone(), setup.arm, spec.gains);
+    let config = SimConfig { dt: options.dt, control_period: options.control_period, ..SimConfig::new(&plant) };
+    let events: Vec<PayloadEvent> = if options.payload_mass > 0.0 {
+        plan.path
+            .events()
+            .iter()
+            .map(|event| PayloadEvent {
+                time: event.time,
+                payload: (event.action == GripperAction::Grip).then(|| gripped_pawn(options.payload_mass)),
+                controller_knows: options.controller_knows_payload,
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let marks: Vec<f64> = plan.path.events().iter().map(|e| e.time).collect();
+    let initial = options.q0.map(|q0| JointState::at_rest(JointVector::from(q0)));
+    let mut recorder = Recorder { records: Vec::with_capacity(plan.joint.samples().len() + 1), progress };
+    let started = Instant::now();
+    let summary = simulate(&mut plant, &mut controller, &plan.joint, initial, &events, &marks, &config, &mut recorder)
+        .with_context(|| format!("controller {}", spec.name))?;
+    let wall_time_s = started.elapsed().as_secs_f64();
+    Ok(ControllerRun { spec: spec.clone(), summary, records: recorder.records, wall_time_s })
+}
+
+/// The per-controller summary written to summary.json (SI, plus mm for tip errors).
+pub fn summary_json(run: &ControllerRun, plan: &Plan) -> Value {
+    let summary = &run.summary;
+    let gains = &run.spec.gains;
+    let poles: Vec<Vec<[f64; 2]>> =
+        (0..4).map(|j| gains.closed_loop_poles(j).iter().map(|p| [p.re, p.im]).collect()).collect();
+    let events: Vec<Value> = plan
+        .path
+        .events()
+        .iter()
+        .zip(&summary.tip_error_at_marks)
+        .map(|(event, error)| {
+            let kind = match event.action {
+                GripperAction::Grip => "grip",
+                GripperAction::Release => "release",
+            };
+            json!({ "event": kind, "t_s": event.time, "tip_error_mm": error * 1e3 })
+        })
+        .collect();
+    json!({
+        "controller": run.spec.name,
+        "gains": { "kp": gains.kp.as_slice(), "kd": gains.kd.as_slice(), "ki": gains.ki.as_slice() },
+        "closed_loop_poles": poles,
+        "rms_joint_error_rad": summary.rms_joint_error.as_slice(),
+        "max_joint_error_rad": summary.max_joint_error.as_slice(),
+        "rms_tip_error_mm": summary.rms_tip_error * 1e3,
+        "max_tip_error_mm": summary.max_tip_error * 1e3,
+        "tip_error_at_events": events,
+        "peak_torque_nm": summary.peak_torque.as_slice(),
+        "saturation_count": summary.saturated_samples,
+        "saturation_per_joint": summary.saturated_per_joint,
+        "duration_s": summary.duration,
+        "steps": summary.steps,
+        "wall_time_s": run.wall_time_s,
+    })
+}
+
+fn run_header() -> Vec<String> {
+    let mut header = vec!["t".to_string()];
+    for prefix in ["q", "qd", "qdes", "qddes", "e", "tau"] {
+        header.extend(numbered(prefix, 4));
+    }
+    header.extend(["x", "y", "z", "xdes", "ydes", "zdes"].map(String::from));
+    header
+}
+
+fn run_row(record: &StepRecord<4>) -> Vec<f64> {
+    let error = record.reference.q - record.state.q;
+    let mut row = vec![record.t];
+    for part in [&record.state.q, &record.state.qd, &record.reference.q, &record.reference.qd, &error, &record.torque] {
+        row.extend(part.iter());
+    }
+    row.extend(record.tip.iter().chain(record.tip_desired.iter()));
+    row
+}
+
+/// Writes `<name>.csv`, `<name>_joints.png` and `<name>_torques.png` for one run.
+pub fn write_run(run: &ControllerRun, out: &Path) -> Result<Vec<String>> {
+    let name = &run.spec.name;
+    let csv = out.join(format!("{name}.csv"));
+    write_csv(&csv, &run_header(), run.records.iter().map(run_row))?;
+    let upper = name.to_uppercase();
+    let joints = out.join(format!("{name}_joints.png"));
+    let panels: Vec<Panel> = (0..4)
+        .map(|j| Panel {
+            title: format!("joint {}", j + 1),
+            y_label: "angle (rad)".into(),
+            series: vec![
+                Series {
+                    label: format!("θ{} actual", j + 1),
+                    points: run.records.iter().map(|r| (r.t, r.state.q[j])).collect(),
+                    color: 2,
+                    dashed: false,
+                },
+                Series {
+                    label: format!("θ{} desired", j + 1),
+                    points: run.records.iter().map(|r| (r.t, r.reference.q[j])).collect(),
+                    color: 0,
+                    dashed: true,
+                },
+            ],
+        })
+        .collect();
+    plot_panels(&joints, &format!("{upper}: joint angles, actual and desired"), "time (s)", &panels)?;
+    let torques = out.join(format!("{name}_torques.png"));
+    let panel = Panel {
+        title: "joint torques".into(),
+        y_label: "torque (N·m)".into(),
+        series: (0..4)
+            .map(|j| Series {
+                label: format!("τ{}", j + 1),
+                points: run.records.iter().map(|r| (r.t, r.torque[j])).collect(),
+                color: j,
+                dashed: false,
+            })
+            .collect(),
+    };
+    plot_panels(&torques, &format!("{upper}: joint torques"), "time (s)", &[panel])?;
+    Ok([csv, joints, torques].iter().map(|p| p.display().to_string()).collect())
+}
+
+/// Writes the comparison plots of several runs: joint tracking errors (report Figure 11) and
+/// the tool-tip error.
+pub fn write_comparison(runs: &[ControllerRun], out: &Path) -> Result<Vec<String>> {
+    // Displayed in mrad and mm; the CSVs keep rad and m.
+    let color_of = |name: &str| if name == "pid" { 0 } else { 2 };
+    let errors = out.join("tracking_error.png");
+    let panels: Vec<Panel> = (0..4)
+        .map(|j| Panel {
+            title: format!("joint {} tracking error", j + 1),
+            y_label: "error (mrad)".into(),
+            series: runs
+                .iter()
+                .map(|run| Series {
+                    label: run.spec.name.to_uppercase(),
+                    points: run.records.iter().map(|r| (r.t, 1e3 * (r.reference.q[j] - r.state.q[j]))).collect(),
+                    color: color_of(&run.spec.name),
+                    dashed: false,
+                })
+                .collect(),
+        })
+        .collect();
+    plot_panels(&errors, "Tracking error: PD (blue) vs PID (red)", "time (s)", &panels)?;
+    let tip = out.join("tip_error.png");
+    let panel = Panel {
+        title: "distance between the actual and the desired tool tip".into(),
+        y_label: "tip error (mm)".into(),
+        series: runs
+            .iter()
+            .map(|run| Series {
+                label: run.spec.name.to_uppercase(),
+                points: run.records.iter().map(|r| (r.t, 1e3 * (r.tip - r.tip_desired).norm())).collect(),
+                color: color_of(&run.spec.name),
+                dashed: false,
+            })
+            .collect(),
+    };
+    plot_panels(&tip, "Tool-tip error", "time (s)", &[panel])?;
+    Ok([errors, tip].iter().map(|p| p.display().to_string()).collect())
+}
+
+/// A fixed-width comparison table of the runs, for the terminal.
+pub fn comparison_table(runs: &[ControllerRun]) -> String {
+    let mut table = format!(
+        "{:<8} {:>12} {:>12} {:>22} {:>30} {:>9} {:>9}\n",
+        "control",
+        "rms tip mm",
+        "max tip mm",
+        "tip at grip/release mm",
+        "peak |τ| per joint N·m",
+        "saturated",
+        "wall ms"
+    );
+    for run in runs {
+        let s = &run.summary;
+        let events = s.tip_error_at_marks.iter().map(|e| format!("{:.4}", e * 1e3)).collect::<Vec<_>>().join(" / ");
+        let torques = s.peak_torque.iter().map(|t| format!("{t:.2}")).collect::<Vec<_>>().join(" ");
+        table.push_str(&format!(
+            "{:<8} {:>12.4} {:>12.4} {:>22} {:>30} {:>9} {:>9.1}\n",
+            run.spec.name,
+            s.rms_tip_error * 1e3,
+            s.max_tip_error * 1e3,
+            events,
+            torques,
+            s.saturated_samples,
+            run.wall_time_s * 1e3
+        ));
+    }
+    table
+}
+
+/// Runs the study (every controller) and writes all outputs to `out`. Returns the runs and
+/// the summary JSON.
+pub fn run_study(
+    setup: &Setup,
+    scenario: &str,
+    specs: &[ControllerSpec],
+    options: &RunOptions,
+    out: &Path,
+    progress: Option<&ProgressBar>,
+) -> Result<(Vec<ControllerRun>, Value)> {
+    let plan = plan_scenario(setup, scenario, options.control_period)?;
+    ensure_dir(out)?;
+    let mut runs = Vec::new();
+    let mut files = Vec::new();
+    for spec in specs {
+        let run = run_controller(setup, &plan, spec, options, progress)?;
+        files.extend(write_run(&run, out)?);
+        runs.push(run);
+    }
+    files.extend(write_comparison(&runs, out)?);
+    let summary = json!({
+        "scenario": scenario,
+        "dt_s": options.dt,
+        "control_period_s": options.control_period,
+        "payload_mass_kg": options.payload_mass,
+        "controller_knows_payload": options.controller_knows_payload,
+        "q0_rad": options.q0,
+        "controllers": runs.iter().map(|run| summary_json(run, &plan)).collect::<Vec<_>>(),
+    });
+    let summary_path = out.join("summary.json");
+    write_json(&summary_path, &summary)?;
+    files.push(summary_path.display().to_string());
+    Ok((runs, json!({ "summary": summary, "files": files })))
+}
+
+/// Steps one study takes per controller, for progress bars.
+pub fn study_steps(setup: &Setup, scenario: &str, options: &RunOptions) -> Result<u64> {
+    let path = chessarm_chess::scenario::scenario(scenario, &setup.board)
+        .map(|s| s.path(&setup.board))
+        .transpose()?
+        .map_or(0.0, |p| p.duration());
+    Ok((path / options.dt).round() as u64 + 1)
+}
+
+pub fn options_from(args: &SimulateArgs) -> RunOptions {
+    RunOptions {
+        dt: args.dt,
+        control_period: 1.0 / args.control_rate,
+        q0: args.q0,
+        payload_mass: args.payload_mass,
+        controller_knows_payload: args.controller_knows_payload,
+    }
+}
+
+pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
+    let specs = controller_specs(args.controller, args.kp, args.kd, args.ki)?;
+    let options = options_from(args);
+    let total = study_steps(setup, &args.scenario, &options)? * specs.len() as u64;
+    let bar = crate::progress::bar(total, "simulating");
+    let (runs, result) = run_study(setup, &args.scenario, &specs, &options, &args.out, Some(&bar))?;
+    bar.finish_and_clear();
+    eprint!("{}", comparison_table(&runs));
+    print_json(&result);
+    Ok(())
+}
+
+/// `dynamics`: `M(q)`, `C(q, q̇) q̇` and `g(q)` as JSON.
+pub fn dynamics(setup: &Setup, args: &DynamicsArgs) -> Result<()> {
+    let model = if args.payload_mass > 0.0 {
+        setup.arm.with_payload(Some(gripped_pawn(args.payload_mass)))?
+    } else {
+        setup.arm
+    };
+    let q = JointVector::<4>::from(args.q);
+    let qd = JointVector::<4>::from(args.qd);
+    let terms = DynamicsTerms::new(&model, &q, &qd);
+    let rows: Vec<Vec<f64>> = (0..4).map(|r| (0..4).map(|c| terms.mass_matrix[(r, c)]).collect()).collect();
+    print_json(&json!({
+        "M": rows,
+        "c": coriolis_torques(&model, &q, &qd).as_slice(),
+        "g": gravity_torques(&model, &q).as_slice(),
+    }));
+    Ok(())
+}
