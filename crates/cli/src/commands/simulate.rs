@@ -86,7 +86,7 @@ impl Observer<4> for Recorder<'_> {
     fn observe(&mut self, record: &StepRecord<4>) {
         self.records.push(*record);
         if let Some(bar) = self.progress
-            && self.records.len() % 500 == 0
+            && self.records.len().is_multiple_of(500)
         {
             bar.inc(500);
         }

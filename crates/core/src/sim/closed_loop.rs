@@ -204,7 +204,7 @@ where
             next_event += 1;
         }
         let desired = reference.reference(t);
-        if step % steps_per_sample == 0 {
+        if step.is_multiple_of(steps_per_sample) {
             let command = controller.torque(&state, &desired, config.control_period);
             let mut clipped = false;
             for j in 0..N {
