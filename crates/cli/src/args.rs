@@ -59,3 +59,64 @@ pub fn gain(text: &str) -> Result<[f64; 4], String> {
         None => Ok(values),
     }
 }
+
+/// `N` evenly spaced gains from `A` to `B` inclusive (`A..B:N`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GainRange {
+    pub from: f64,
+    pub to: f64,
+    pub count: usize,
+}
+
+impl GainRange {
+    /// The values, `from` first.
+    pub fn values(&self) -> Vec<f64> {
+        if self.count == 1 {
+            return vec![self.from];
+        }
+        let step = (self.to - self.from) / (self.count - 1) as f64;
+        (0..self.count).map(|i| if i + 1 == self.count { self.to } else { self.from + step * i as f64 }).collect()
+    }
+}
+
+/// Parses `A..B:N`: finite `0 ≤ A ≤ B`, whole `N ≥ 1`.
+pub fn range(text: &str) -> Result<GainRange, String> {
+    let shape = || format!("'{text}' is not a range A..B:N (e.g. 100..900:40)");
+    let (bounds, count) = text.split_once(':').ok_or_else(shape)?;
+    let (from, to) = bounds.split_once("..").ok_or_else(shape)?;
+    let number = |part: &str| -> Result<f64, String> {
+        match part.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            Ok(v) => Err(format!("{v} in '{text}' is not finite")),
+            Err(_) => Err(format!("'{part}' in '{text}' is not a number")),
+        }
+    };
+    let (from, to) = (number(from)?, number(to)?);
+    let count: usize =
+        count.trim().parse().map_err(|_| format!("count '{count}' in '{text}' is not a whole number"))?;
+    if count == 0 {
+        return Err(format!("count 0 in '{text}': need at least one value"));
+    }
+    if from < 0.0 {
+        return Err(format!("gain {from} in '{text}' must be >= 0"));
+    }
+    if from > to {
+        return Err(format!("start {from} is above end {to} in '{text}'"));
+    }
+    if count > 1_000_000 {
+        return Err(format!("count {count} in '{text}' is too large (at most 1000000)"));
+    }
+    Ok(GainRange { from, to, count })
+}
+
+/// Parses `K/N` with `1 ≤ K ≤ N`.
+pub fn shard(text: &str) -> Result<(usize, usize), String> {
+    let (k, n) = text.split_once('/').ok_or_else(|| format!("'{text}' is not a shard K/N (e.g. 2/8)"))?;
+    let parse =
+        |part: &str| part.trim().parse::<usize>().map_err(|_| format!("'{part}' in '{text}' is not a whole number"));
+    let (k, n) = (parse(k)?, parse(n)?);
+    if n == 0 || k == 0 || k > n {
+        return Err(format!("shard {k}/{n} needs 1 <= K <= N"));
+    }
+    Ok((k, n))
+}

@@ -36,6 +36,99 @@ pub enum Command {
     Simulate(SimulateArgs),
     /// The report's study end to end (plan, PD and PID simulations, plots, summary) into out/.
     Demo(DemoArgs),
+    /// Gains from response specs (settling time and overshoot, or ωn and ζ), verified by simulation.
+    Gains(GainsArgs),
+    /// Sweep gain combinations in parallel; CSV of every candidate, heat map, best picks.
+    Tune(TuneArgs),
+}
+
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("spec").required(true).args(["settling_time", "wn"])))]
+pub struct GainsArgs {
+    /// Wanted 2 % settling time of the error response, s.
+    #[arg(long, value_parser = args::positive)]
+    pub settling_time: Option<f64>,
+    /// Wanted overshoot of the error response, % (with --settling-time; 0 = critically damped).
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative)]
+    pub overshoot: f64,
+    /// Natural frequency, rad/s (instead of --settling-time).
+    #[arg(long, value_parser = args::positive, requires = "zeta")]
+    pub wn: Option<f64>,
+    /// Damping ratio (with --wn).
+    #[arg(long, value_parser = args::positive)]
+    pub zeta: Option<f64>,
+    /// Controller: pd, or pid by pole placement (third pole at −ratio·ωn).
+    #[arg(long, value_enum, default_value_t = ControllerChoice::Pd)]
+    pub controller: ControllerChoice,
+    /// PID only: the integral pole sits at −ratio·ωn. Default: with specs, the ratio that
+    /// settles fastest; with --wn/--zeta, 0.2.
+    #[arg(long, value_parser = args::positive)]
+    pub integral_pole_ratio: Option<f64>,
+    /// Scenario simulated to verify the design.
+    #[arg(long, default_value = "queens-gambit")]
+    pub scenario: String,
+    /// Initial error of every joint for the verification run, rad.
+    #[arg(long, default_value_t = 0.05, value_parser = args::positive)]
+    pub initial_error: f64,
+    /// Skip the verification run.
+    #[arg(long)]
+    pub no_verify: bool,
+}
+
+/// A metric to rank candidates by (smaller is better).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Metric {
+    /// Largest tool-tip error over the run, mm.
+    MaxTipError,
+    /// RMS joint error over all joints and samples, rad.
+    RmsJointError,
+    /// Largest |τ| over all joints relative to the joint's limit.
+    PeakTorque,
+    /// Largest tool-tip error at the grip and release instants, mm.
+    PlaceError,
+}
+
+#[derive(Debug, Args, Clone)]
+pub struct TuneArgs {
+    /// Scenario to simulate each candidate on.
+    #[arg(long, default_value = "queens-gambit")]
+    pub scenario: String,
+    /// Outer loop to tune.
+    #[arg(long, value_enum, default_value_t = ControllerChoice::Pd)]
+    pub controller: ControllerChoice,
+    /// kp range A..B:N (N values from A to B), 1/s².
+    #[arg(long, value_parser = args::range)]
+    pub kp: args::GainRange,
+    /// kd range A..B:N, 1/s.
+    #[arg(long, value_parser = args::range)]
+    pub kd: args::GainRange,
+    /// ki range A..B:N, 1/s³ (PID only).
+    #[arg(long, value_parser = args::range)]
+    pub ki: Option<args::GainRange>,
+    /// Mass of the gripped piece, kg, carried from grip to release.
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative)]
+    pub payload_mass: f64,
+    /// The controller's model includes the gripped piece.
+    #[arg(long)]
+    pub controller_knows_payload: bool,
+    /// Initial joint angles (rad), at rest; default: on the trajectory's first point.
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
+    pub q0: Option<[f64; 4]>,
+    /// Metric to rank candidates by and to draw.
+    #[arg(long, value_enum, default_value_t = Metric::MaxTipError)]
+    pub metric: Metric,
+    /// Run only slice K of N (1-based), e.g. 2/8; the slices' CSVs concatenate to the full sweep.
+    #[arg(long, value_parser = args::shard)]
+    pub shard: Option<(usize, usize)>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// How many best candidates to print.
+    #[arg(long, default_value_t = 5)]
+    pub top: usize,
+    /// Output folder.
+    #[arg(long, default_value = "out/tune")]
+    pub out: PathBuf,
 }
 
 /// Which controllers to simulate.

@@ -22,6 +22,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Demo(args)) => commands::demo::run(&setup, &args),
         Some(Command::Dynamics(args)) => commands::simulate::dynamics(&setup, &args),
         Some(Command::Simulate(args)) => commands::simulate::run(&setup, &args),
+        Some(Command::Gains(args)) => commands::gains::run(&setup, &args),
+        Some(Command::Tune(args)) => commands::tune::run(&setup, &args),
         Some(Command::Arm) => {
             print!("{}", setup.to_toml()?);
             Ok(())

@@ -1,6 +1,8 @@
 //! One module per command.
 
 pub mod demo;
+pub mod gains;
 pub mod kinematics;
 pub mod plan;
 pub mod simulate;
+pub mod tune;

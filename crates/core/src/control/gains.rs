@@ -5,7 +5,7 @@
 //! `e⃛ + kd ë + kp ė + ki e = 0`, poles of `s³ + kd s² + kp s + ki`.
 
 use crate::arm::model::JointVector;
-use nalgebra::{Complex, Matrix3};
+use nalgebra::{Complex, Matrix3, Vector3};
 use std::f64::consts::PI;
 
 /// Why gains are not usable.
@@ -13,6 +13,10 @@ use std::f64::consts::PI;
 pub enum GainError {
     #[error("gain {name} = {value}: {reason}")]
     Invalid { name: String, value: f64, reason: &'static str },
+    #[error(
+        "overshoot {requested}% is below what PID reaches from an initial error ({least:.2}% at best: its integral must unwind); allow more overshoot"
+    )]
+    UnreachableOvershoot { requested: f64, least: f64 },
 }
 
 /// Per-joint gains: `kp` (1/s²), `kd` (1/s), `ki` (1/s³; zero for PD).
@@ -154,8 +158,89 @@ pub fn normalised_settling_time(zeta: f64) -> f64 {
         .unwrap_or(0.0)
 }
 
-/// PD gains meeting a 2 % settling time (s) and a percent overshoot of the error response.
-pub fn pd_from_specs<const N: usize>(settling_time: f64, overshoot_percent: f64) -> Result<Gains<N>, GainError> {
+/// Percent overshoot of the second-order error response for damping `zeta`:
+/// `100 · exp(−πζ/√(1 − ζ²))` below critical damping, 0 at or above it.
+pub fn overshoot_for_damping(zeta: f64) -> f64 {
+    if zeta >= 1.0 { 0.0 } else { 100.0 * (-PI * zeta / (1.0 - zeta * zeta).sqrt()).exp() }
+}
+
+/// Shape of the error response from `e(0) = 1`, `ė(0) = 0`, `∫e(0) = 0`, in normalised time
+/// `τ = ωn t`, for gains designed by [`Gains::pid_from_poles`] (`alpha = 0`: PD).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ResponseShape {
+    /// 2 % settling time × ωn.
+    pub settling: f64,
+    /// Largest excursion past zero, % of `e(0)`.
+    pub overshoot_percent: f64,
+}
+
+impl ResponseShape {
+    /// Exact response of `x = (∫e, e, ė)`, `ẋ = A x` with `ki = α`, `kp = 1 + 2ζα`,
+    /// `kd = 2ζ + α` (ωn = 1), stepped by the matrix exponential `exp(A h)` on a grid of
+    /// `h = 2e-3` until it has stayed inside 1e-4 for a long stretch.
+    pub fn of(zeta: f64, alpha: f64) -> Self {
+        let (ki, kp, kd) = (alpha, 1.0 + 2.0 * zeta * alpha, 2.0 * zeta + alpha);
+        let system = Matrix3::new(0.0, 1.0, 0.0, 0.0, 0.0, 1.0, -ki, -kp, -kd);
+        let step: f64 = 2e-3;
+        // Slowest decay rate: the integral pole α, the pair's ζ (underdamped) or ≈ 1/(2ζ).
+        let pair = if zeta < 1.0 { zeta } else { 1.0 / (2.0 * zeta) };
+        let slowest = if alpha > 0.0 { pair.min(alpha) } else { pair };
+        let horizon = 40.0 / slowest;
+        // At most 20 000 steps: slow tails get a coarser grid (settling error ≤ step/τs).
+        let step = step.max(horizon / 20_000.0);
+        let transition = (system * step).exp();
+        let mut state = Vector3::new(0.0, 1.0, 0.0);
+        let (mut settling, mut overshoot) = (0.0, 0.0f64);
+        let mut tau = 0.0;
+        while tau < horizon {
+            state = transition * state;
+            tau += step;
+            let error = state[1];
+            if error.abs() > 0.02 {
+                settling = tau;
+            }
+            overshoot = overshoot.max(-error);
+        }
+        Self { settling, overshoot_percent: 100.0 * overshoot }
+    }
+}
+
+/// Damping ratio in `[0.05, 4]` whose response (with integral pole ratio `alpha`) overshoots
+/// by `overshoot_percent`, or `None` if that overshoot is below the least reachable. Overshoot
+/// falls with ζ up to a minimum (≈ critical damping) and rises after it: bisect on the
+/// falling branch. For PD with 0 % the answer is critical damping.
+fn damping_for_response(overshoot_percent: f64, alpha: f64) -> Option<f64> {
+    if alpha == 0.0 {
+        return damping_for_overshoot(overshoot_percent).ok();
+    }
+    let grid: Vec<f64> = (0..=40).map(|k| 0.05 + 0.05 * k as f64).collect();
+    let (least_zeta, least) =
+        grid.iter().map(|&z| (z, ResponseShape::of(z, alpha).overshoot_percent)).min_by(|a, b| a.1.total_cmp(&b.1))?;
+    if overshoot_percent < least {
+        return None;
+    }
+    let (mut low, mut high) = (0.05, least_zeta);
+    for _ in 0..40 {
+        let middle = 0.5 * (low + high);
+        if ResponseShape::of(middle, alpha).overshoot_percent > overshoot_percent {
+            low = middle
+        } else {
+            high = middle
+        }
+    }
+    Some(high)
+}
+
+/// Gains meeting a 2 % settling time `settling_time` (s) and `overshoot_percent` of the error
+/// response from an initial error. PD: ζ from the overshoot, `ωn = (ωn Ts)(ζ) / Ts`. PID by
+/// pole placement with the integral pole at `−α ωn`: for the given α (or, with `None`, the α on
+/// a log grid 0.01…1 that settles fastest) ζ is found by bisection on the exact third-order
+/// response, then ωn from its settling time. Returns the gains, ωn, ζ and α (0 for PD).
+pub fn design_from_specs<const N: usize>(
+    settling_time: f64,
+    overshoot_percent: f64,
+    pid: Option<Option<f64>>,
+) -> Result<(Gains<N>, f64, f64, f64), GainError> {
     if !(settling_time.is_finite() && settling_time > 0.0) {
         return Err(GainError::Invalid {
             name: "settling time".into(),
@@ -163,6 +248,31 @@ pub fn pd_from_specs<const N: usize>(settling_time: f64, overshoot_percent: f64)
             reason: "must be finite and > 0",
         });
     }
-    let zeta = damping_for_overshoot(overshoot_percent)?;
-    Gains::pd_from_natural_frequency(normalised_settling_time(zeta) / settling_time, zeta)
+    damping_for_overshoot(overshoot_percent)?;
+    let alphas: Vec<f64> = match pid {
+        None => vec![0.0],
+        Some(Some(alpha)) => vec![alpha],
+        Some(None) => (0..=16).map(|k| 0.01 * 10f64.powf(k as f64 / 8.0)).collect(),
+    };
+    let best = alphas
+        .iter()
+        .filter_map(|&alpha| {
+            let zeta = damping_for_response(overshoot_percent, alpha)?;
+            Some((alpha, zeta, ResponseShape::of(zeta, alpha).settling))
+        })
+        .min_by(|a, b| a.2.total_cmp(&b.2));
+    let Some((alpha, zeta, normalised_settling)) = best else {
+        let least = alphas
+            .iter()
+            .flat_map(|&alpha| (1..=80).map(move |k| ResponseShape::of(0.05 * k as f64, alpha).overshoot_percent))
+            .fold(f64::INFINITY, f64::min);
+        return Err(GainError::UnreachableOvershoot { requested: overshoot_percent, least });
+    };
+    let wn = normalised_settling / settling_time;
+    let gains = if pid.is_some() {
+        Gains::pid_from_poles(wn, zeta, alpha)?
+    } else {
+        Gains::pd_from_natural_frequency(wn, zeta)?
+    };
+    Ok((gains, wn, zeta, alpha))
 }

@@ -2,6 +2,7 @@
 //! controller, torque saturation, payload events and metrics.
 
 pub mod closed_loop;
+pub mod metrics;
 pub mod plant;
 
 pub use closed_loop::{

@@ -1,0 +1,339 @@
+//! `tune`: sweep gain combinations in parallel (rayon), one row per candidate.
+//!
+//! Each candidate is the whole scenario simulated without recording its time series. The rows
+//! come out in candidate order whatever the number of threads, so a sweep is reproducible and
+//! `--shard K/N` slices concatenate (`cat`) to the full sweep: only slice 1 carries the header.
+
+use crate::cli::{ControllerChoice, Metric, TuneArgs};
+use crate::commands::plan::plan_scenario;
+use crate::commands::simulate::gripped_pawn;
+use crate::config::Setup;
+use crate::output::{ensure_dir, write_atomic};
+use crate::plots::{HeatMap, plot_heat_map};
+use crate::print_json;
+use anyhow::{Context, Result, bail};
+use chessarm_core::arm::model::JointVector;
+use chessarm_core::control::JointState;
+use chessarm_core::control::computed_torque::ComputedTorque;
+use chessarm_core::control::gains::Gains;
+use chessarm_core::plan::path::GripperAction;
+use chessarm_core::plan::trajectory::JointTrajectory;
+use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, SimConfig, simulate};
+use rayon::prelude::*;
+use serde_json::json;
+use std::time::Instant;
+
+/// What one candidate is simulated on.
+#[derive(Debug)]
+pub struct Study {
+    pub trajectory: JointTrajectory,
+    pub events: Vec<PayloadEvent>,
+    /// Grip and release instants, s.
+    pub marks: Vec<f64>,
+    pub initial: Option<JointState<4>>,
+}
+
+/// One candidate's gains and metrics (SI, tip errors in mm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    pub index: usize,
+    pub kp: f64,
+    pub kd: f64,
+    pub ki: f64,
+    /// "ok", or why the run failed (e.g. it diverged).
+    pub status: String,
+    pub max_tip_error_mm: f64,
+    pub rms_tip_error_mm: f64,
+    pub place_error_mm: f64,
+    pub rms_joint_error_rad: f64,
+    pub max_joint_error_rad: f64,
+    pub peak_torque_nm: f64,
+    /// Largest peak |τ| / torque limit over the joints.
+    pub peak_torque_ratio: f64,
+    pub saturated_samples: usize,
+}
+
+pub const CSV_HEADER: &str = "index,kp,kd,ki,status,max_tip_error_mm,rms_tip_error_mm,place_error_mm,rms_joint_error_rad,max_joint_error_rad,peak_torque_nm,peak_torque_ratio,saturated_samples";
+
+impl Candidate {
+    pub fn metric(&self, metric: Metric) -> f64 {
+        match metric {
+            Metric::MaxTipError => self.max_tip_error_mm,
+            Metric::RmsJointError => self.rms_joint_error_rad,
+            Metric::PeakTorque => self.peak_torque_ratio,
+            Metric::PlaceError => self.place_error_mm,
+        }
+    }
+
+    /// Finished, and never hit a torque limit.
+    pub fn respects_limits(&self) -> bool {
+        self.status == "ok" && self.saturated_samples == 0
+    }
+
+    fn csv_line(&self) -> String {
+        format!(
+            "{},{:?},{:?},{:?},{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{}",
+            self.index,
+            self.kp,
+            self.kd,
+            self.ki,
+            self.status.replace(',', ";"),
+            self.max_tip_error_mm,
+            self.rms_tip_error_mm,
+            self.place_error_mm,
+            self.rms_joint_error_rad,
+            self.max_joint_error_rad,
+            self.peak_torque_nm,
+            self.peak_torque_ratio,
+            self.saturated_samples
+        )
+    }
+}
+
+/// Simulates one candidate (1 ms RK4, 1 kHz control, torque limits of the model).
+pub fn simulate_candidate(setup: &Setup, study: &Study, index: usize, gains: &Gains<4>) -> Candidate {
+    let mut plant = Plant::new(setup.arm);
+    let mut controller = ComputedTorque::new("candidate", setup.arm, *gains);
+    let config = SimConfig::new(&plant);
+    let result = simulate(
+        &mut plant,
+        &mut controller,
+        &study.trajectory,
+        study.initial,
+        &study.events,
+        &study.marks,
+        &config,
+        &mut NoObserver,
+    );
+    let mut candidate = Candidate {
+        index,
+        kp: gains.kp[0],
+        kd: gains.kd[0],
+        ki: gains.ki[0],
+        status: "ok".into(),
+        max_tip_error_mm: f64::NAN,
+        rms_tip_error_mm: f64::NAN,
+        place_error_mm: f64::NAN,
+        rms_joint_error_rad: f64::NAN,
+        max_joint_error_rad: f64::NAN,
+        peak_torque_nm: f64::NAN,
+        peak_torque_ratio: f64::NAN,
+        saturated_samples: 0,
+    };
+    match result {
+        Ok(summary) => {
+            candidate.max_tip_error_mm = summary.max_tip_error * 1e3;
+            candidate.rms_tip_error_mm = summary.rms_tip_error * 1e3;
+            candidate.place_error_mm = summary.tip_error_at_marks.iter().fold(0.0f64, |a, b| a.max(*b)) * 1e3;
+            candidate.rms_joint_error_rad = (summary.rms_joint_error.norm_squared() / 4.0).sqrt();
+            candidate.max_joint_error_rad = summary.max_joint_error.max();
+            candidate.peak_torque_nm = summary.peak_torque.max();
+            candidate.peak_torque_ratio = summary.peak_torque.component_div(&config.torque_limits).max();
+            candidate.saturated_samples = summary.saturated_samples;
+        }
+        Err(error) => candidate.status = format!("failed: {error}"),
+    }
+    candidate
+}
+
+/// The gains of every candidate, in sweep order: kp outermost, then kd, then ki.
+pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
+    let pid = match args.controller {
+        ControllerChoice::Pd => false,
+        ControllerChoice::Pid => true,
+        ControllerChoice::Both => bail!("tune one controller at a time: --controller pd or pid"),
+    };
+    if args.ki.is_some() && !pid {
+        bail!("--ki given with --controller pd: the PD controller has no integral term");
+    }
+    if args.kp.from <= 0.0 {
+        bail!("kp range starts at {}: kp must be > 0", args.kp.from);
+    }
+    let ki_values = match (&args.ki, pid) {
+        (Some(range), _) => range.values(),
+        (None, true) => bail!("--controller pid needs a --ki range"),
+        (None, false) => vec![0.0],
+    };
+    let mut all = Vec::new();
+    for kp in args.kp.values() {
+        for kd in args.kd.values() {
+            for &ki in &ki_values {
+                all.push(Gains::uniform(kp, kd, ki)?);
+            }
+        }
+    }
+    Ok(all)
+}
+
+/// The scenario study for the tune/gains commands.
+pub fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
+    let plan = plan_scenario(setup, &args.scenario, 1e-3)?;
+    let events = if args.payload_mass > 0.0 {
+        plan.path
+            .events()
+            .iter()
+            .map(|e| PayloadEvent {
+                time: e.time,
+                payload: (e.action == GripperAction::Grip).then(|| gripped_pawn(args.payload_mass)),
+                controller_knows: args.controller_knows_payload,
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let marks = plan.path.events().iter().map(|e| e.time).collect();
+    let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(q)));
+    Ok(Study { trajectory: plan.joint, events, marks, initial })
+}
+
+/// The candidate indices of slice `k` of `n` (1-based): contiguous blocks.
+pub fn shard_range(total: usize, shard: Option<(usize, usize)>) -> std::ops::Range<usize> {
+    match shard {
+        None => 0..total,
+        Some((k, n)) => (total * (k - 1) / n)..(total * k / n),
+    }
+}
+
+/// Runs the candidates `range` on `threads` worker threads (all cores when `None`).
+pub fn sweep(
+    setup: &Setup,
+    study: &Study,
+    gains: &[Gains<4>],
+    range: std::ops::Range<usize>,
+    threads: Option<usize>,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Result<Vec<Candidate>> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(threads) = threads {
+        if threads == 0 {
+            bail!("--threads 0: need at least one thread");
+        }
+        builder = builder.num_threads(threads);
+    }
+    let pool = builder.build().context("cannot start the worker threads")?;
+    Ok(pool.install(|| {
+        range
+            .into_par_iter()
+            .map(|index| {
+                let candidate = simulate_candidate(setup, study, index, &gains[index]);
+                if let Some(bar) = progress {
+                    bar.inc(1);
+                }
+                candidate
+            })
+            .collect()
+    }))
+}
+
+pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
+    let gains = candidate_gains(args)?;
+    let range = shard_range(gains.len(), args.shard);
+    let study = scenario_study(setup, args)?;
+    ensure_dir(&args.out)?;
+    let bar = crate::progress::bar(range.len() as u64, "tuning");
+    let started = Instant::now();
+    let candidates = sweep(setup, &study, &gains, range.clone(), args.threads, Some(&bar))?;
+    let wall_time_s = started.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    let csv_path = args.out.join("tune.csv");
+    let with_header = args.shard.is_none_or(|(k, _)| k == 1);
+    write_atomic(&csv_path, |writer| {
+        if with_header {
+            writeln!(writer, "{CSV_HEADER}")?;
+        }
+        for candidate in &candidates {
+            writeln!(writer, "{}", candidate.csv_line())?;
+        }
+        Ok(())
+    })?;
+    let heat_map_path = args.out.join("tune.png");
+    draw_heat_map(args, &candidates, &heat_map_path)?;
+
+    let mut best: Vec<&Candidate> = candidates.iter().filter(|c| c.respects_limits()).collect();
+    best.sort_by(|a, b| a.metric(args.metric).total_cmp(&b.metric(args.metric)).then(a.index.cmp(&b.index)));
+    best.truncate(args.top);
+    eprint!("{}", best_table(&best, args.metric));
+    let failed = candidates.iter().filter(|c| c.status != "ok").count();
+    let saturated = candidates.iter().filter(|c| c.status == "ok" && c.saturated_samples > 0).count();
+    print_json(&json!({
+        "candidates": candidates.len(),
+        "sweep_size": gains.len(),
+        "shard": args.shard.map(|(k, n)| format!("{k}/{n}")),
+        "failed": failed,
+        "saturated": saturated,
+        "wall_time_s": wall_time_s,
+        "candidates_per_second": candidates.len() as f64 / wall_time_s,
+        "metric": format!("{:?}", args.metric),
+        "best": best.iter().map(|c| json!({
+            "index": c.index, "kp": c.kp, "kd": c.kd, "ki": c.ki, "metric": c.metric(args.metric),
+            "max_tip_error_mm": c.max_tip_error_mm, "place_error_mm": c.place_error_mm,
+            "rms_joint_error_rad": c.rms_joint_error_rad, "peak_torque_nm": c.peak_torque_nm,
+        })).collect::<Vec<_>>(),
+        "files": [csv_path.display().to_string(), heat_map_path.display().to_string()],
+    }));
+    Ok(())
+}
+
+fn metric_label(metric: Metric) -> &'static str {
+    match metric {
+        Metric::MaxTipError => "max tip error (mm)",
+        Metric::RmsJointError => "RMS joint error (rad)",
+        Metric::PeakTorque => "peak |τ| / limit",
+        Metric::PlaceError => "tip error at grip/release (mm)",
+    }
+}
+
+fn best_table(best: &[&Candidate], metric: Metric) -> String {
+    let mut table = format!("{:>6} {:>12} {:>12} {:>12} {:>30}\n", "rank", "kp", "kd", "ki", metric_label(metric));
+    for (rank, c) in best.iter().enumerate() {
+        table.push_str(&format!(
+            "{:>6} {:>12.3} {:>12.3} {:>12.3} {:>30.6}\n",
+            rank + 1,
+            c.kp,
+            c.kd,
+            c.ki,
+            c.metric(metric)
+        ));
+    }
+    if best.is_empty() {
+        table.push_str("no candidate finished within the torque limits\n");
+    }
+    table
+}
+
+/// Heat map over kp (x) and kd (y); with a ki sweep each cell shows the best over ki. Failed
+/// candidates are grey; the best one within the torque limits is framed.
+fn draw_heat_map(args: &TuneArgs, candidates: &[Candidate], path: &std::path::Path) -> Result<()> {
+    let kp_values = args.kp.values();
+    let kd_values = args.kd.values();
+    let per_cell = args.ki.map_or(1, |r| r.count);
+    let mut cells = vec![vec![None::<f64>; kp_values.len()]; kd_values.len()];
+    let mut best: Option<(f64, (usize, usize))> = None;
+    for candidate in candidates {
+        let cell = candidate.index / per_cell;
+        let (row, column) = (cell % kd_values.len(), cell / kd_values.len());
+        let value = candidate.metric(args.metric);
+        if candidate.status == "ok" && value.is_finite() {
+            let slot = &mut cells[row][column];
+            *slot = Some(slot.map_or(value, |v: f64| v.min(value)));
+            if candidate.respects_limits() && best.is_none_or(|(b, _)| value < b) {
+                best = Some((value, (row, column)));
+            }
+        }
+    }
+    let title = format!("{} sweep: {}", if per_cell > 1 { "PID" } else { "PD" }, metric_label(args.metric));
+    plot_heat_map(
+        path,
+        &HeatMap {
+            title: &title,
+            x_label: "kp (1/s²)",
+            y_label: "kd (1/s)",
+            value_label: metric_label(args.metric),
+            x_values: &kp_values,
+            y_values: &kd_values,
+            values: &cells,
+            marked: best.map(|(_, cell)| cell),
+        },
+    )
+}
