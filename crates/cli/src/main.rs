@@ -14,9 +14,15 @@ fn main() -> ExitCode {
                     ExitCode::SUCCESS
                 }
                 _ => {
+                    // One line: clap's message without its usage and help hints.
                     let rendered = error.render().to_string();
-                    let first = rendered.lines().find(|l| !l.trim().is_empty()).unwrap_or("error: bad arguments");
-                    eprintln!("{first}");
+                    let message: Vec<&str> = rendered
+                        .lines()
+                        .take_while(|line| !line.starts_with("Usage:") && !line.starts_with("For more information"))
+                        .map(str::trim)
+                        .filter(|line| !line.is_empty())
+                        .collect();
+                    eprintln!("{}", message.join(" "));
                     ExitCode::from(2)
                 }
             };

@@ -1,0 +1,158 @@
+//! The binary, end to end: gains from specs and parallel sweeps.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+use serde_json::Value;
+use std::process::{Command, Output};
+
+fn chessarm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).output().expect("the binary runs")
+}
+
+fn json_of(output: &Output) -> Value {
+    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_slice(&output.stdout).expect("stdout is JSON")
+}
+
+fn assert_one_line_error(output: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "stderr: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "not one line: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "'{needle}' missing from: {stderr}");
+    }
+}
+
+#[test]
+fn specs_give_gains_whose_simulated_response_meets_them() {
+    for (controller, settling, overshoot) in [("pd", "0.3", "0"), ("pd", "0.5", "10"), ("pid", "0.4", "8")] {
+        let output = json_of(&chessarm(&[
+            "gains",
+            "--settling-time",
+            settling,
+            "--overshoot",
+            overshoot,
+            "--controller",
+            controller,
+        ]));
+        let design = &output["designs"][0];
+        let measured = &design["measured"];
+        let (settling, overshoot): (f64, f64) = (settling.parse().unwrap(), overshoot.parse().unwrap());
+        let measured_settling = measured["worst_settling_time_s"].as_f64().unwrap();
+        let measured_overshoot = measured["worst_overshoot_percent"].as_f64().unwrap();
+        // Within 10 % of the spec; an overshoot of 0 % is met within half a percentage point.
+        assert!((measured_settling - settling).abs() <= 0.1 * settling, "{controller}: {measured}");
+        assert!((measured_overshoot - overshoot).abs() <= (0.1 * overshoot).max(0.5), "{controller}: {measured}");
+        assert_eq!(measured["saturation_count"].as_u64(), Some(0));
+        let poles = design["closed_loop_poles"].as_array().unwrap();
+        assert_eq!(poles.len(), if controller == "pid" { 3 } else { 2 });
+        assert!(poles.iter().all(|p| p[0].as_f64().unwrap() < 0.0), "unstable design {poles:?}");
+    }
+    // ωn and ζ directly: kp = ωn², kd = 2ζωn.
+    let output = json_of(&chessarm(&["gains", "--wn", "20", "--zeta", "0.5", "--no-verify"]));
+    assert_eq!(output["designs"][0]["kp"][0].as_f64(), Some(400.0));
+    assert_eq!(output["designs"][0]["kd"][0].as_f64(), Some(20.0));
+    assert_one_line_error(
+        &chessarm(&["gains", "--settling-time", "0.3", "--controller", "pid"]),
+        &["overshoot 0%", "at best"],
+    );
+    assert_one_line_error(&chessarm(&["gains", "--settling-time", "-1"]), &["-1"]);
+    assert_one_line_error(&chessarm(&["gains", "--settling-time", "0.3", "--overshoot", "150"]), &["150"]);
+    assert_one_line_error(&chessarm(&["gains"]), &["--settling-time"]);
+}
+
+fn rows(csv: &str) -> Vec<Vec<String>> {
+    csv.lines().skip(1).map(|line| line.split(',').map(String::from).collect()).collect()
+}
+
+#[test]
+fn a_sweep_has_one_row_per_candidate_and_its_best_row_re_simulates() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("tune");
+    let result = json_of(&chessarm(&[
+        "tune",
+        "--kp",
+        "100..900:3",
+        "--kd",
+        "10..40:2",
+        "--q0",
+        "0,0.8,-2.4,0",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    assert_eq!(result["candidates"].as_u64(), Some(6));
+    let csv = std::fs::read_to_string(out.join("tune.csv")).unwrap();
+    assert!(csv.starts_with("index,kp,kd,ki,status,max_tip_error_mm"));
+    let rows = rows(&csv);
+    assert_eq!(rows.len(), 6);
+    let gains: Vec<(f64, f64)> = rows.iter().map(|r| (r[1].parse().unwrap(), r[2].parse().unwrap())).collect();
+    assert_eq!(gains, [(100.0, 10.0), (100.0, 40.0), (500.0, 10.0), (500.0, 40.0), (900.0, 10.0), (900.0, 40.0)]);
+    assert!(std::fs::metadata(out.join("tune.png")).unwrap().len() > 10_000);
+    // The best candidate, simulated on its own, gives the same metric.
+    let best = &result["best"][0];
+    let (kp, kd) = (best["kp"].as_f64().unwrap(), best["kd"].as_f64().unwrap());
+    let single = dir.path().join("single");
+    json_of(&chessarm(&[
+        "simulate",
+        "--controller",
+        "pd",
+        "--kp",
+        &format!("{kp:?}"),
+        "--kd",
+        &format!("{kd:?}"),
+        "--q0",
+        "0,0.8,-2.4,0",
+        "--out",
+        single.to_str().unwrap(),
+    ]));
+    let summary: Value = serde_json::from_str(&std::fs::read_to_string(single.join("summary.json")).unwrap()).unwrap();
+    let again = summary["controllers"][0]["max_tip_error_mm"].as_f64().unwrap();
+    assert_eq!(again, best["metric"].as_f64().unwrap(), "the sweep and a single run disagree");
+    // The best is the smallest metric among candidates within the torque limits.
+    let smallest = rows
+        .iter()
+        .filter(|r| r[4] == "ok" && r[12] == "0")
+        .map(|r| r[5].parse::<f64>().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(smallest, again);
+}
+
+#[test]
+fn shards_concatenate_to_the_full_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["tune", "--kp", "200..800:3", "--kd", "15..35:2", "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        json_of(&chessarm(&args));
+        std::fs::read_to_string(out.join("tune.csv")).unwrap()
+    };
+    let full = sweep("full", &["--threads", "2"]);
+    let parts: String = ["1/4", "2/4", "3/4", "4/4"]
+        .iter()
+        .map(|k| sweep(&k.replace('/', "-"), &["--shard", k, "--threads", "1"]))
+        .collect();
+    assert_eq!(parts, full);
+}
+
+#[test]
+fn bad_ranges_are_one_line_errors_naming_the_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let tune = |kp: &str| chessarm(&["tune", "--kp", kp, "--kd", "10..20:2", "--out", out]);
+    assert_one_line_error(&tune(".."), &["'..'"]);
+    assert_one_line_error(&tune("100..200:0"), &["count 0"]);
+    assert_one_line_error(&tune("300..200:4"), &["300", "200"]);
+    assert_one_line_error(&tune("-5..200:4"), &["-5"]);
+    assert_one_line_error(&tune("NaN..200:4"), &["NaN"]);
+    assert_one_line_error(&tune("100..200:x"), &["'x'"]);
+    assert_one_line_error(&tune("0..200:3"), &["kp must be > 0"]);
+    assert_one_line_error(
+        &chessarm(&["tune", "--kp", "1..2:2", "--kd", "1..2:2", "--shard", "5/4", "--out", out]),
+        &["5/4"],
+    );
+    assert_one_line_error(
+        &chessarm(&["tune", "--kp", "1..2:2", "--kd", "1..2:2", "--controller", "pid", "--out", out]),
+        &["--ki"],
+    );
+}
