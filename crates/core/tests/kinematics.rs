@@ -192,3 +192,25 @@ fn wrap_angle_stays_in_half_open_interval() {
         assert!((wrap_angle(input) - expected).abs() < 1e-12, "{input} → {}", wrap_angle(input));
     }
 }
+
+proptest! {
+    #[test]
+    fn frame_chain_equals_the_product_of_dh_transforms(
+        a in -3.0f64..3.0, b in -3.0f64..3.0, c in -3.0f64..3.0, d in -3.0f64..3.0, twist in -1.5f64..1.5
+    ) {
+        use chessarm_core::arm::kinematics::dh_transform;
+        let mut links = *report_arm().links();
+        links[2].dh.alpha = twist;
+        links[1].dh.d = 0.03;
+        links[3].dh.theta_offset = 0.4;
+        let model = report_arm().with_links(links).unwrap();
+        let q = random_configuration([a, b, c, d]);
+        let chain = FrameChain::new(&model, &q);
+        let mut product = chessarm_core::arm::kinematics::Pose::identity();
+        for i in 0..4 {
+            product *= dh_transform(&model.link(i).dh, q[i]);
+            let difference = chain.body_pose(i).to_homogeneous() - product.to_homogeneous();
+            prop_assert!(difference.abs().max() < 1e-14, "frame {} differs by {}", i + 1, difference.abs().max());
+        }
+    }
+}

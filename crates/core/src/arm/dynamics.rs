@@ -184,7 +184,8 @@ pub fn bias_torques<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, qd:
 pub fn friction_torques<const N: usize>(model: &ArmModel<N>, qd: &JointVector<N>) -> JointVector<N> {
     JointVector::from_fn(|j, _| {
         let friction = &model.link(j).friction;
-        -(friction.viscous * qd[j] + friction.coulomb * (qd[j] / COULOMB_SMOOTHING).tanh())
+        let coulomb = if friction.coulomb == 0.0 { 0.0 } else { friction.coulomb * (qd[j] / COULOMB_SMOOTHING).tanh() };
+        -(friction.viscous * qd[j] + coulomb)
     })
 }
 
@@ -205,7 +206,12 @@ pub struct DynamicsTerms<const N: usize> {
 
 impl<const N: usize> DynamicsTerms<N> {
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> Self {
-        let frames = BodyFrames::new(model, q);
+        Self::from_chain(model, &FrameChain::new(model, q), qd)
+    }
+
+    /// The terms with forward kinematics at `q` already done.
+    pub fn from_chain(model: &ArmModel<N>, chain: &FrameChain<N>, qd: &JointVector<N>) -> Self {
+        let frames = BodyFrames::from_chain(model, chain);
         Self {
             mass_matrix: mass_matrix_with_frames(model, &frames),
             bias: rnea_with_frames(model, &frames, qd, &JointVector::zeros(), &model.gravity()),
@@ -221,7 +227,18 @@ pub fn forward_dynamics<const N: usize>(
     qd: &JointVector<N>,
     torque: &JointVector<N>,
 ) -> Result<JointVector<N>, DynamicsError> {
-    let terms = DynamicsTerms::new(model, q, qd);
+    forward_dynamics_from_chain(model, &FrameChain::new(model, q), q, qd, torque)
+}
+
+/// [`forward_dynamics`] with forward kinematics at `q` already done.
+pub fn forward_dynamics_from_chain<const N: usize>(
+    model: &ArmModel<N>,
+    chain: &FrameChain<N>,
+    q: &JointVector<N>,
+    qd: &JointVector<N>,
+    torque: &JointVector<N>,
+) -> Result<JointVector<N>, DynamicsError> {
+    let terms = DynamicsTerms::from_chain(model, chain, qd);
     let rhs = torque + friction_torques(model, qd) - terms.bias;
     Cholesky::<f64, Const<N>>::new(terms.mass_matrix)
         .map(|cholesky| cholesky.solve(&rhs))

@@ -13,11 +13,7 @@ pub type Pose = IsometryMatrix3<f64>;
 
 /// `A = Rz(θ) · Tz(d) · Tx(a) · Rx(α)`, the standard DH transform from frame `i−1` to `i`.
 pub fn dh_transform(dh: &DhParameters, joint_angle: f64) -> Pose {
-    dh_transform_with_twist(dh, dh.alpha.sin_cos(), joint_angle)
-}
-
-/// [`dh_transform`] with `(sin α, cos α)` given (the model caches them).
-fn dh_transform_with_twist(dh: &DhParameters, (sa, ca): (f64, f64), joint_angle: f64) -> Pose {
+    let (sa, ca) = dh.alpha.sin_cos();
     let (st, ct) = (joint_angle + dh.theta_offset).sin_cos();
     let rotation = Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca);
     Pose::from_parts(Translation3::new(dh.a * ct, dh.a * st, dh.d), Rotation3::from_matrix_unchecked(rotation))
@@ -31,12 +27,27 @@ pub struct FrameChain<const N: usize> {
 
 impl<const N: usize> FrameChain<N> {
     /// Forward kinematics: `T_0i = A_1 ⋯ A_i` for every i.
+    ///
+    /// Composed column by column rather than by 3×3 products: with `R' = R · Rz(θ)`, two
+    /// columns mix by (cos θ, sin θ); the translation gains `a·x' + d·z'`; then `Rx(α)` mixes
+    /// the y and z columns (skipped when α = 0). Same result as multiplying [`dh_transform`]s.
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
         let mut poses = [Pose::identity(); N];
-        let mut accumulated = Pose::identity();
+        let mut rotation = Matrix3::<f64>::identity();
+        let mut translation = Vector3::<f64>::zeros();
         for (i, pose) in poses.iter_mut().enumerate() {
-            accumulated *= dh_transform_with_twist(&model.link(i).dh, model.twist_trig(i), q[i]);
-            *pose = accumulated;
+            let dh = &model.link(i).dh;
+            let (st, ct) = (q[i] + dh.theta_offset).sin_cos();
+            let (x, y, z) = (rotation.column(0).into_owned(), rotation.column(1).into_owned(), rotation.column(2).into_owned());
+            let turned_x = x * ct + y * st;
+            let turned_y = y * ct - x * st;
+            translation += turned_x * dh.a + z * dh.d;
+            let (sa, ca) = model.twist_trig(i);
+            let (new_y, new_z) = if dh.alpha == 0.0 { (turned_y, z) } else { (turned_y * ca + z * sa, z * ca - turned_y * sa) };
+            rotation.set_column(0, &turned_x);
+            rotation.set_column(1, &new_y);
+            rotation.set_column(2, &new_z);
+            *pose = Pose::from_parts(Translation3::from(translation), Rotation3::from_matrix_unchecked(rotation));
         }
         Self { poses }
     }

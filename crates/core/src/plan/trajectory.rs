@@ -12,6 +12,8 @@ use nalgebra::{Vector3, Vector4};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointSample {
     pub t: f64,
+    /// The tool-tip position this sample puts the arm at, m.
+    pub position: Vector3<f64>,
     pub q: JointVector<4>,
     pub qd: JointVector<4>,
     pub qdd: JointVector<4>,
@@ -66,7 +68,7 @@ pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64)
             });
         }
     }
-    Ok(JointSample { t: sample.t, q, qd, qdd })
+    Ok(JointSample { t: sample.t, position: sample.position, q, qd, qdd })
 }
 
 /// A joint trajectory sampled every `dt` seconds from `t = 0`.

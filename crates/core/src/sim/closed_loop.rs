@@ -71,6 +71,10 @@ pub struct PayloadEvent {
 /// Desired joint motion over time.
 pub trait ReferenceSource<const N: usize> {
     fn reference(&self, t: f64) -> Reference<N>;
+    /// The desired tool tip at `t`, m, if known without forward kinematics.
+    fn desired_tip(&self, _t: f64) -> Option<Vector3<f64>> {
+        None
+    }
     /// s.
     fn duration(&self) -> f64;
 }
@@ -79,6 +83,10 @@ impl ReferenceSource<4> for JointTrajectory {
     fn reference(&self, t: f64) -> Reference<4> {
         let sample = self.held_at(t);
         Reference { q: sample.q, qd: sample.qd, qdd: sample.qdd }
+    }
+
+    fn desired_tip(&self, t: f64) -> Option<Vector3<f64>> {
+        Some(self.held_at(t).position)
     }
 
     fn duration(&self) -> f64 {
@@ -229,8 +237,10 @@ where
         squared_joint_error += error.component_mul(&error);
         max_joint_error = max_joint_error.sup(&error.abs());
         peak_torque = peak_torque.sup(&torque.abs());
-        let tip = FrameChain::new(plant.model(), &state.q).tip();
-        let tip_desired = FrameChain::new(plant.model(), &desired.q).tip();
+        let chain = FrameChain::new(plant.model(), &state.q);
+        let tip = chain.tip();
+        let tip_desired =
+            reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
         let tip_error = (tip - tip_desired).norm();
         squared_tip_error += tip_error * tip_error;
         max_tip_error = max_tip_error.max(tip_error);
@@ -244,7 +254,9 @@ where
         if step == steps {
             break;
         }
-        state = plant.rk4_step(&state, &torque, dt).map_err(|source| SimError::Dynamics { time: t, source })?;
+        state = plant
+            .rk4_step_from_chain(&state, &chain, &torque, dt)
+            .map_err(|source| SimError::Dynamics { time: t, source })?;
         check_state(&state, t + dt, config.runaway_speed)?;
     }
     let samples = (steps + 1) as f64;

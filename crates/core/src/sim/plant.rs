@@ -1,7 +1,8 @@
 //! The simulated arm: true dynamics (the plant's own model, with payload and friction) and a
 //! fixed-step fourth-order Runge–Kutta integrator of `ẋ = (q̇, q̈(q, q̇, τ))`.
 
-use crate::arm::dynamics::{DynamicsError, forward_dynamics};
+use crate::arm::dynamics::{DynamicsError, forward_dynamics, forward_dynamics_from_chain};
+use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::JointState;
 
@@ -36,18 +37,26 @@ impl<const N: usize> Plant<N> {
     }
 
     /// One RK4 step of `dt` seconds with `torque` held constant (zero-order hold).
-    pub fn rk4_step(
+    pub fn rk4_step(&self, state: &JointState<N>, torque: &JointVector<N>, dt: f64) -> Result<JointState<N>, DynamicsError> {
+        self.rk4_step_from_chain(state, &FrameChain::new(&self.model, &state.q), torque, dt)
+    }
+
+    /// [`Plant::rk4_step`] reusing forward kinematics at `state.q` for the first stage.
+    pub fn rk4_step_from_chain(
         &self,
         state: &JointState<N>,
+        chain: &FrameChain<N>,
         torque: &JointVector<N>,
         dt: f64,
     ) -> Result<JointState<N>, DynamicsError> {
         let derivative = |s: &JointState<N>| -> Result<JointState<N>, DynamicsError> {
             Ok(JointState { q: s.qd, qd: self.acceleration(s, torque)? })
         };
-        let offset =
-            |s: &JointState<N>, k: &JointState<N>, h: f64| JointState { q: s.q + k.q * h, qd: s.qd + k.qd * h };
-        let k1 = derivative(state)?;
+        let offset = |s: &JointState<N>, k: &JointState<N>, h: f64| JointState { q: s.q + k.q * h, qd: s.qd + k.qd * h };
+        let k1 = JointState {
+            q: state.qd,
+            qd: forward_dynamics_from_chain(&self.model, chain, &state.q, &state.qd, torque)?,
+        };
         let k2 = derivative(&offset(state, &k1, dt / 2.0))?;
         let k3 = derivative(&offset(state, &k2, dt / 2.0))?;
         let k4 = derivative(&offset(state, &k3, dt))?;

@@ -1,0 +1,29 @@
+//! Where a closed-loop step spends its time.
+
+use chessarm_core::arm::dynamics::{BodyFrames, mass_matrix_with_frames, rnea_with_frames};
+use chessarm_core::arm::kinematics::FrameChain;
+use chessarm_core::arm::model::JointVector;
+use chessarm_core::arm::preset::report_arm;
+use chessarm_core::nalgebra::{Cholesky, Const, Vector3};
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+
+fn breakdown(c: &mut Criterion) {
+    let model = report_arm();
+    let q = JointVector::<4>::new(1.67, 0.90, -2.09, -0.37);
+    let qd = JointVector::<4>::new(0.3, -0.2, 0.4, 0.1);
+    let chain = FrameChain::new(&model, &q);
+    let frames = BodyFrames::from_chain(&model, &chain);
+    let m = mass_matrix_with_frames(&model, &frames);
+    c.bench_function("fk chain", |b| b.iter(|| FrameChain::new(&model, black_box(&q))));
+    c.bench_function("body frames from chain", |b| b.iter(|| BodyFrames::from_chain(&model, black_box(&chain))));
+    c.bench_function("crba from frames", |b| b.iter(|| mass_matrix_with_frames(&model, black_box(&frames))));
+    c.bench_function("rnea from frames", |b| {
+        b.iter(|| rnea_with_frames(&model, black_box(&frames), &qd, &JointVector::zeros(), &Vector3::new(0.0, 0.0, -9.8)))
+    });
+    c.bench_function("cholesky solve 4x4", |b| b.iter(|| Cholesky::<f64, Const<4>>::new(black_box(m)).map(|ch| ch.solve(&qd))));
+    c.bench_function("4 sin_cos", |b| b.iter(|| black_box(q).map(|v| v.sin_cos().0 + v.sin_cos().1)));
+}
+
+criterion_group!(benches, breakdown);
+criterion_main!(benches);
