@@ -19,9 +19,13 @@ fn breakdown(c: &mut Criterion) {
     c.bench_function("body frames from chain", |b| b.iter(|| BodyFrames::from_chain(&model, black_box(&chain))));
     c.bench_function("crba from frames", |b| b.iter(|| mass_matrix_with_frames(&model, black_box(&frames))));
     c.bench_function("rnea from frames", |b| {
-        b.iter(|| rnea_with_frames(&model, black_box(&frames), &qd, &JointVector::zeros(), &Vector3::new(0.0, 0.0, -9.8)))
+        b.iter(|| {
+            rnea_with_frames(&model, black_box(&frames), &qd, &JointVector::zeros(), &Vector3::new(0.0, 0.0, -9.8))
+        })
     });
-    c.bench_function("cholesky solve 4x4", |b| b.iter(|| Cholesky::<f64, Const<4>>::new(black_box(m)).map(|ch| ch.solve(&qd))));
+    c.bench_function("cholesky solve 4x4", |b| {
+        b.iter(|| Cholesky::<f64, Const<4>>::new(black_box(m)).map(|ch| ch.solve(&qd)))
+    });
     c.bench_function("4 sin_cos", |b| b.iter(|| black_box(q).map(|v| v.sin_cos().0 + v.sin_cos().1)));
 }
 

@@ -5,6 +5,7 @@ pub mod board;
 pub mod notation;
 pub mod opponent;
 pub mod pieces;
+pub mod play;
 pub mod scenario;
 pub mod table;
 pub mod tasks;

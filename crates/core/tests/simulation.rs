@@ -258,3 +258,20 @@ fn torque_limits_saturate_and_are_counted() {
     .unwrap_err();
     assert!(error.to_string().contains("whole multiple"), "{error}");
 }
+
+#[test]
+fn marks_between_steps_are_recorded_once() {
+    let model = report_arm();
+    let target = q([0.8, 0.9, -2.1, -0.37]);
+    let mut plant = Plant::new(model);
+    let mut controller = pd_controller(model);
+    let config = SimConfig::new(&plant);
+    // Half-way between steps, where rounding of the time decides: every mark must be reached.
+    let marks: Vec<f64> = (0..200).map(|k| 0.0005 + 0.0013 * k as f64 + 0.0005).chain([0.2325, 0.0, 0.3]).collect();
+    let reference = Hold { q: target, duration: 0.3 };
+    let start = Some(JointState::at_rest(target));
+    let summary =
+        simulate(&mut plant, &mut controller, &reference, start, &[], &marks, &config, &mut NoObserver).unwrap();
+    assert!(summary.tip_at_marks.iter().all(|tip| tip.iter().all(|v| v.is_finite())));
+    assert!(summary.tip_error_at_marks.iter().all(|e| e.is_finite()));
+}

@@ -38,12 +38,14 @@ impl<const N: usize> FrameChain<N> {
         for (i, pose) in poses.iter_mut().enumerate() {
             let dh = &model.link(i).dh;
             let (st, ct) = (q[i] + dh.theta_offset).sin_cos();
-            let (x, y, z) = (rotation.column(0).into_owned(), rotation.column(1).into_owned(), rotation.column(2).into_owned());
+            let (x, y, z) =
+                (rotation.column(0).into_owned(), rotation.column(1).into_owned(), rotation.column(2).into_owned());
             let turned_x = x * ct + y * st;
             let turned_y = y * ct - x * st;
             translation += turned_x * dh.a + z * dh.d;
             let (sa, ca) = model.twist_trig(i);
-            let (new_y, new_z) = if dh.alpha == 0.0 { (turned_y, z) } else { (turned_y * ca + z * sa, z * ca - turned_y * sa) };
+            let (new_y, new_z) =
+                if dh.alpha == 0.0 { (turned_y, z) } else { (turned_y * ca + z * sa, z * ca - turned_y * sa) };
             rotation.set_column(0, &turned_x);
             rotation.set_column(1, &new_y);
             rotation.set_column(2, &new_z);

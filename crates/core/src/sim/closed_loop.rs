@@ -196,7 +196,10 @@ where
     let mut peak_torque = JointVector::<N>::zeros();
     let mut saturated_samples = 0;
     let mut saturated_per_joint = [0; N];
-    let mut tip_at_marks = vec![Vector3::zeros(); marks.len()];
+    // Each mark belongs to the step nearest to it, once (a mark half-way between two steps
+    // goes to one of them, whatever the rounding of its time). Unreached marks stay NaN.
+    let mark_steps: Vec<usize> = marks.iter().map(|mark| (mark / dt).round().max(0.0) as usize).collect();
+    let mut tip_at_marks = vec![Vector3::repeat(f64::NAN); marks.len()];
     let mut tip_error_at_marks = vec![f64::NAN; marks.len()];
     let mut next_event = 0;
     let mut torque = JointVector::<N>::zeros();
@@ -239,13 +242,12 @@ where
         peak_torque = peak_torque.sup(&torque.abs());
         let chain = FrameChain::new(plant.model(), &state.q);
         let tip = chain.tip();
-        let tip_desired =
-            reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
+        let tip_desired = reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
         let tip_error = (tip - tip_desired).norm();
         squared_tip_error += tip_error * tip_error;
         max_tip_error = max_tip_error.max(tip_error);
-        for (k, &mark) in marks.iter().enumerate() {
-            if (mark - t).abs() <= 0.5 * dt {
+        for (k, &mark_step) in mark_steps.iter().enumerate() {
+            if mark_step == step {
                 tip_at_marks[k] = tip;
                 tip_error_at_marks[k] = tip_error;
             }

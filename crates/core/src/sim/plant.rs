@@ -37,7 +37,12 @@ impl<const N: usize> Plant<N> {
     }
 
     /// One RK4 step of `dt` seconds with `torque` held constant (zero-order hold).
-    pub fn rk4_step(&self, state: &JointState<N>, torque: &JointVector<N>, dt: f64) -> Result<JointState<N>, DynamicsError> {
+    pub fn rk4_step(
+        &self,
+        state: &JointState<N>,
+        torque: &JointVector<N>,
+        dt: f64,
+    ) -> Result<JointState<N>, DynamicsError> {
         self.rk4_step_from_chain(state, &FrameChain::new(&self.model, &state.q), torque, dt)
     }
 
@@ -52,7 +57,8 @@ impl<const N: usize> Plant<N> {
         let derivative = |s: &JointState<N>| -> Result<JointState<N>, DynamicsError> {
             Ok(JointState { q: s.qd, qd: self.acceleration(s, torque)? })
         };
-        let offset = |s: &JointState<N>, k: &JointState<N>, h: f64| JointState { q: s.q + k.q * h, qd: s.qd + k.qd * h };
+        let offset =
+            |s: &JointState<N>, k: &JointState<N>, h: f64| JointState { q: s.q + k.q * h, qd: s.qd + k.qd * h };
         let k1 = JointState {
             q: state.qd,
             qd: forward_dynamics_from_chain(&self.model, chain, &state.q, &state.qd, torque)?,

@@ -1,0 +1,333 @@
+//! Playing chess with the simulated arm: each robot move becomes pick-and-place tasks, a tool
+//! path, a joint trajectory and a closed-loop simulation in which the gripped piece is a payload
+//! of the plant; every piece is put down where the simulated tool actually releases it, and the
+//! table is checked against the rules after every move.
+//!
+//! Moves of the side the robot does not play are made by the opponent's hand: their pieces go
+//! exactly to their squares.
+
+use crate::board::BoardGeometry;
+use crate::pieces::PieceSet;
+use crate::table::{Location, Misplaced, Table, TableError};
+use crate::tasks::{MotionLimits, MoveKind, TaskError, append_move_path, classify, move_tasks};
+use chessarm_core::arm::model::ArmModel;
+use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
+use chessarm_core::control::JointState;
+use chessarm_core::control::computed_torque::ComputedTorque;
+use chessarm_core::control::gains::Gains;
+use chessarm_core::nalgebra::{Vector2, Vector3};
+use chessarm_core::plan::path::CartesianPath;
+use chessarm_core::plan::trajectory::{JointTrajectory, PlanError};
+use chessarm_core::sim::{Observer, PayloadEvent, Plant, SimConfig, SimError, StepRecord, simulate};
+use shakmaty::fen::Fen;
+use shakmaty::san::SanPlus;
+use shakmaty::uci::UciMove;
+use shakmaty::{CastlingMode, Chess, Color, EnPassantMode, Move, Position};
+
+/// Settings of a game.
+#[derive(Debug, Clone)]
+pub struct PlaySettings {
+    pub pieces: PieceSet,
+    pub limits: MotionLimits,
+    /// Controller name for reports ("pd", "pid").
+    pub controller: String,
+    pub gains: Gains<4>,
+    /// Whether the controller's model is told about gripped pieces.
+    pub controller_knows_payload: bool,
+    /// Largest accepted distance of a piece from its square centre, m (default 5 mm).
+    pub tolerance: f64,
+    /// RK4 step and controller period, s.
+    pub dt: f64,
+    pub control_period: f64,
+    /// Keep every n-th simulation step in the move reports (0: keep none).
+    pub record_every: usize,
+}
+
+impl PlaySettings {
+    /// Report-style defaults with the given controller.
+    pub fn new(controller: impl Into<String>, gains: Gains<4>) -> Self {
+        Self {
+            pieces: PieceSet::default(),
+            limits: MotionLimits::default(),
+            controller: controller.into(),
+            gains,
+            controller_knows_payload: false,
+            tolerance: 0.005,
+            dt: 1e-3,
+            control_period: 1e-3,
+            record_every: 10,
+        }
+    }
+}
+
+/// Why a game cannot go on.
+#[derive(Debug, thiserror::Error)]
+pub enum PlayError {
+    #[error(transparent)]
+    Task(#[from] TaskError),
+    #[error("move {mv}: {source}")]
+    Plan { mv: String, source: PlanError },
+    #[error("move {mv}: {source}")]
+    Simulation { mv: String, source: SimError },
+    #[error("move {mv}: {source}")]
+    Table { mv: String, source: TableError },
+    #[error("the arm's home position is unreachable: {0}")]
+    Home(IkError),
+    #[error("the table cannot be served by this arm: {0}")]
+    Reach(TableError),
+    #[error("tolerance {0} m must be finite and > 0")]
+    Tolerance(f64),
+}
+
+/// Who moves the pieces of a move.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mover {
+    /// The simulated arm.
+    Robot,
+    /// The opponent's hand (pieces land exactly on their squares).
+    Opponent,
+}
+
+/// What happened in one move.
+#[derive(Debug, Clone)]
+pub struct MoveReport {
+    /// 1-based half-move number.
+    pub ply: usize,
+    pub san: String,
+    pub uci: String,
+    pub kind: MoveKind,
+    pub mover: Mover,
+    /// The pick-and-place tasks, described.
+    pub tasks: Vec<String>,
+    /// Robot time of the move, s (0 for the opponent's).
+    pub duration: f64,
+    /// Largest tool-tip error during the move, m (robot moves only).
+    pub max_tip_error: Option<f64>,
+    /// Per task: distance of the released piece from its target's centre, m.
+    pub place_errors: Vec<f64>,
+    /// Discrepancies first seen after this move.
+    pub new_misplaced: Vec<Misplaced>,
+    /// Sampled simulation steps, times from the start of the move.
+    pub records: Vec<StepRecord<4>>,
+    /// Time of the move's start in the game's robot time, s.
+    pub start_time: f64,
+}
+
+/// Keeps every n-th step.
+struct Sampler {
+    every: usize,
+    seen: usize,
+    records: Vec<StepRecord<4>>,
+}
+
+impl Observer<4> for Sampler {
+    fn observe(&mut self, record: &StepRecord<4>) {
+        if self.every > 0 && self.seen.is_multiple_of(self.every) {
+            self.records.push(*record);
+        }
+        self.seen += 1;
+    }
+}
+
+/// A game in progress: rules position, physical table and the simulated arm.
+#[derive(Debug)]
+pub struct Game {
+    arm: ArmModel<4>,
+    settings: PlaySettings,
+    position: Chess,
+    table: Table,
+    /// Planned tool tip at the end of the last robot move, m.
+    tool: Vector3<f64>,
+    /// The arm's actual state at the end of the last robot move.
+    state: JointState<4>,
+    ply: usize,
+    robot_time: f64,
+    misplaced: Vec<(usize, String, Misplaced)>,
+}
+
+impl Game {
+    /// Sets up `start` on the table; the arm rests above the middle of rank 1 at the highest
+    /// traverse height. Checks every square and slot is reachable.
+    pub fn new(
+        arm: ArmModel<4>,
+        board: BoardGeometry,
+        start: Chess,
+        settings: PlaySettings,
+    ) -> Result<Self, PlayError> {
+        if !(settings.tolerance.is_finite() && settings.tolerance > 0.0) {
+            return Err(PlayError::Tolerance(settings.tolerance));
+        }
+        let limits = settings.limits.validated()?;
+        let table = Table::from_position(board, &start);
+        let traverse = limits.highest_traverse(&settings.pieces);
+        table.check_reachable(&arm, &settings.pieces, traverse).map_err(PlayError::Reach)?;
+        let rank_one = board.square_center(shakmaty::Square::D1);
+        let tool = Vector3::new(board.center.x, rank_one.y, board.surface_height + traverse);
+        let q = inverse_kinematics(&arm, &tool, TOOL_DOWN).map_err(PlayError::Home)?;
+        let misplaced =
+            table.verify(start.board(), settings.tolerance).into_iter().map(|m| (0, "start".to_string(), m)).collect();
+        Ok(Self {
+            arm,
+            settings,
+            position: start,
+            table,
+            tool,
+            state: JointState::at_rest(q),
+            ply: 0,
+            robot_time: 0.0,
+            misplaced,
+        })
+    }
+
+    pub fn position(&self) -> &Chess {
+        &self.position
+    }
+
+    pub fn table(&self) -> &Table {
+        &self.table
+    }
+
+    /// Total robot time so far, s.
+    pub fn robot_time(&self) -> f64 {
+        self.robot_time
+    }
+
+    /// Every discrepancy still on the table with the ply and SAN of the move that caused it.
+    pub fn misplaced(&self) -> &[(usize, String, Misplaced)] {
+        &self.misplaced
+    }
+
+    /// FEN of the rules' position.
+    pub fn fen_rules(&self) -> String {
+        Fen::from_position(&self.position, EnPassantMode::Legal).to_string()
+    }
+
+    /// The rules' FEN with its piece placement replaced by what stands on the table, each
+    /// piece snapped to the square under it.
+    pub fn fen_physical(&self) -> String {
+        let rules = self.fen_rules();
+        let rest = rules.split_once(' ').map_or("", |(_, rest)| rest);
+        format!("{} {rest}", self.table.snapped_board().0)
+    }
+
+    /// Plays a legal move: the robot executes it (simulated) or the opponent's hand does.
+    pub fn play(&mut self, mv: &Move, mover: Mover) -> Result<MoveReport, PlayError> {
+        let san = SanPlus::from_move(self.position.clone(), *mv).to_string();
+        let uci = UciMove::from_move(*mv, CastlingMode::Standard).to_string();
+        let name = format!("{} {san} ({uci})", self.move_number());
+        let kind = classify(&self.position, mv);
+        let mut report = MoveReport {
+            ply: self.ply + 1,
+            san: san.clone(),
+            uci,
+            kind,
+            mover,
+            tasks: Vec::new(),
+            duration: 0.0,
+            max_tip_error: None,
+            place_errors: Vec::new(),
+            new_misplaced: Vec::new(),
+            records: Vec::new(),
+            start_time: self.robot_time,
+        };
+        match mover {
+            Mover::Opponent => {
+                for task in move_tasks(&self.position, mv, &self.table)? {
+                    let target = self.table.nominal_position(task.to);
+                    self.relocate(&name, task.from, task.to, target)?;
+                    report.tasks.push(task.to_string());
+                    report.place_errors.push(0.0);
+                }
+            }
+            Mover::Robot => self.execute(mv, &name, &mut report)?,
+        }
+        self.position.play_unchecked(*mv);
+        self.ply += 1;
+        let before: Vec<String> = self.misplaced.iter().map(|(_, _, m)| m.reason.clone()).collect();
+        let now = self.table.verify(self.position.board(), self.settings.tolerance);
+        self.misplaced.retain(|(_, _, m)| now.iter().any(|n| n.reason == m.reason));
+        for discrepancy in now {
+            if !before.contains(&discrepancy.reason) {
+                report.new_misplaced.push(discrepancy.clone());
+                self.misplaced.push((report.ply, san.clone(), discrepancy));
+            }
+        }
+        Ok(report)
+    }
+
+    fn move_number(&self) -> String {
+        let number = self.position.fullmoves().get();
+        match self.position.turn() {
+            Color::White => format!("{number}."),
+            Color::Black => format!("{number}..."),
+        }
+    }
+
+    fn relocate(&mut self, name: &str, from: Location, to: Location, at: Vector2<f64>) -> Result<(), PlayError> {
+        self.table.relocate(from, to, at).map_err(|source| PlayError::Table { mv: name.to_string(), source })
+    }
+
+    /// Plans, simulates and applies one robot move.
+    fn execute(&mut self, mv: &Move, name: &str, report: &mut MoveReport) -> Result<(), PlayError> {
+        let settings = &self.settings;
+        let mut path = CartesianPath::new(self.tool);
+        let planned = append_move_path(
+            &mut path,
+            &self.position,
+            mv,
+            &self.table,
+            &settings.pieces,
+            &settings.limits,
+            &self.arm,
+        )?;
+        let trajectory = JointTrajectory::from_path(&self.arm, &path, settings.control_period, TOOL_DOWN)
+            .map_err(|source| PlayError::Plan { mv: name.to_string(), source })?;
+        let mut events = Vec::with_capacity(2 * planned.len());
+        let mut marks = Vec::with_capacity(2 * planned.len());
+        for step in &planned {
+            let piece = self.table.piece_at(step.task.from).map(|p| p.piece.role).unwrap_or(step.task.piece.role);
+            let payload = settings.pieces.payload(piece);
+            let knows = settings.controller_knows_payload;
+            events.push(PayloadEvent { time: step.plan.grip_time, payload: Some(payload), controller_knows: knows });
+            events.push(PayloadEvent { time: step.plan.release_time, payload: None, controller_knows: knows });
+            marks.extend([step.plan.grip_time, step.plan.release_time]);
+        }
+        let mut plant = Plant::new(self.arm);
+        let mut controller = ComputedTorque::new(settings.controller.clone(), self.arm, settings.gains);
+        let config = SimConfig { dt: settings.dt, control_period: settings.control_period, ..SimConfig::new(&plant) };
+        let mut sampler = Sampler { every: settings.record_every, seen: 0, records: Vec::new() };
+        let summary = simulate(
+            &mut plant,
+            &mut controller,
+            &trajectory,
+            Some(self.state),
+            &events,
+            &marks,
+            &config,
+            &mut sampler,
+        )
+        .map_err(|source| PlayError::Simulation { mv: name.to_string(), source })?;
+        // Each piece moves rigidly with the gripper from grip to release.
+        for (index, step) in planned.iter().enumerate() {
+            let grip_tip = summary.tip_at_marks[2 * index].xy();
+            let release_tip = summary.tip_at_marks[2 * index + 1].xy();
+            let standing = self
+                .table
+                .piece_at(step.task.from)
+                .map(|p| p.position)
+                .unwrap_or_else(|| self.table.nominal_position(step.task.from));
+            let placed = release_tip + (standing - grip_tip);
+            let target = self.table.nominal_position(step.task.to);
+            self.relocate(name, step.task.from, step.task.to, placed)?;
+            report.tasks.push(step.task.to_string());
+            report.place_errors.push((placed - target).norm());
+        }
+        report.duration = summary.duration;
+        report.max_tip_error = Some(summary.max_tip_error);
+        report.records = sampler.records;
+        self.robot_time += summary.duration;
+        self.tool = path.end();
+        self.state = summary.final_state;
+        Ok(())
+    }
+}

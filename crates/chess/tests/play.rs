@@ -1,0 +1,115 @@
+//! Whole pipeline: chess move → tasks → path → simulated arm → pieces where the tool let go →
+//! physical board equal to the rules' board.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+use chessarm_chess::board::BoardGeometry;
+use chessarm_chess::notation::{parse_fen, parse_pgn};
+use chessarm_chess::play::{Game, Mover, PlaySettings};
+use chessarm_chess::shakmaty::uci::UciMove;
+use chessarm_chess::tasks::MoveKind;
+use chessarm_core::arm::preset::report_arm;
+use chessarm_core::control::gains::{Gains, REPORT_PD};
+
+fn settings() -> PlaySettings {
+    let mut settings = PlaySettings::new("pd", Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).unwrap());
+    settings.record_every = 0;
+    settings
+}
+
+fn play_one(fen: &str, uci: &str, expected: MoveKind) {
+    let position = parse_fen(fen).unwrap();
+    let mv = uci.parse::<UciMove>().unwrap().to_move(&position).unwrap();
+    let mut game = Game::new(report_arm(), BoardGeometry::default(), position, settings()).unwrap();
+    let report = game.play(&mv, Mover::Robot).unwrap();
+    assert_eq!(report.kind, expected, "{uci} in {fen}");
+    assert_eq!(game.fen_physical(), game.fen_rules(), "{uci} in {fen}: {:?}", game.misplaced());
+    assert!(game.misplaced().is_empty(), "{uci}: {:?}", game.misplaced());
+    assert!(report.duration > 1.0);
+    // The exact model carries no payload knowledge: the pieces still land within a fraction
+    // of the 5 mm tolerance.
+    for error in &report.place_errors {
+        assert!(*error < 0.001, "{uci}: placed {error} m off");
+    }
+    let tasks = match expected {
+        MoveKind::Quiet => 1,
+        MoveKind::Capture | MoveKind::EnPassant | MoveKind::CastleKingside | MoveKind::CastleQueenside => 2,
+        MoveKind::Promotion => 2,
+        MoveKind::PromotionCapture => 3,
+    };
+    assert_eq!(report.tasks.len(), tasks, "{uci}: {:?}", report.tasks);
+}
+
+#[test]
+fn every_kind_of_move_for_both_colours_ends_with_the_physical_board_equal_to_the_rules() {
+    let cases = [
+        ("rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1", "g1f3", MoveKind::Quiet),
+        ("rnbqkbnr/pppppppp/8/8/4P3/8/PPPP1PPP/RNBQKBNR b KQkq - 0 1", "e7e5", MoveKind::Quiet),
+        ("rnbqkbnr/ppp1pppp/8/3p4/4P3/8/PPPP1PPP/RNBQKBNR w KQkq - 0 2", "e4d5", MoveKind::Capture),
+        ("rnbqkbnr/ppp1pppp/8/3p4/4P3/2N5/PPPP1PPP/R1BQKBNR b KQkq - 1 2", "d5e4", MoveKind::Capture),
+        ("rnbqkbnr/ppp1p1pp/8/3pPp2/8/8/PPPP1PPP/RNBQKBNR w KQkq f6 0 3", "e5f6", MoveKind::EnPassant),
+        ("rnbqkbnr/pppp1ppp/8/8/3Pp3/5N2/PPP1PPPP/RNBQKB1R b KQkq d3 0 3", "e4d3", MoveKind::EnPassant),
+        ("r3k2r/pppq1ppp/2npbn2/4p3/4P3/2NPBN2/PPPQ1PPP/R3K2R w KQkq - 0 8", "e1g1", MoveKind::CastleKingside),
+        ("r3k2r/pppq1ppp/2npbn2/4p3/4P3/2NPBN2/PPPQ1PPP/R3K2R w KQkq - 0 8", "e1c1", MoveKind::CastleQueenside),
+        ("r3k2r/pppq1ppp/2npbn2/4p3/4P3/2NPBN2/PPPQ1PPP/R3K2R b KQkq - 0 8", "e8g8", MoveKind::CastleKingside),
+        ("r3k2r/pppq1ppp/2npbn2/4p3/4P3/2NPBN2/PPPQ1PPP/R3K2R b KQkq - 0 8", "e8c8", MoveKind::CastleQueenside),
+        ("8/1P5k/8/8/8/8/6K1/8 w - - 0 1", "b7b8q", MoveKind::Promotion),
+        ("8/1P5k/8/8/8/8/6K1/8 w - - 0 1", "b7b8n", MoveKind::Promotion),
+        ("2r4k/1P6/8/8/8/8/6K1/8 w - - 0 1", "b7c8q", MoveKind::PromotionCapture),
+        ("8/6k1/8/8/8/8/1p5K/8 b - - 0 1", "b2b1q", MoveKind::Promotion),
+        ("8/6k1/8/8/8/8/1p5K/8 b - - 0 1", "b2b1n", MoveKind::Promotion),
+        ("8/6k1/8/8/8/8/1p5K/2R5 b - - 0 1", "b2c1r", MoveKind::PromotionCapture),
+    ];
+    for (fen, uci, kind) in cases {
+        play_one(fen, uci, kind);
+    }
+}
+
+#[test]
+fn a_master_game_plays_through_with_every_piece_on_its_square() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/opera_game.pgn")).unwrap();
+    let record = parse_pgn(&text).unwrap().remove(0);
+    let mut game = Game::new(report_arm(), BoardGeometry::default(), record.start.clone(), settings()).unwrap();
+    let mut worst = 0.0f64;
+    for (ply, mv) in record.moves.iter().enumerate() {
+        let report = game.play(mv, Mover::Robot).unwrap();
+        assert!(report.new_misplaced.is_empty(), "ply {}: {:?}", ply + 1, report.new_misplaced);
+        worst = report.place_errors.iter().fold(worst, |a, b| a.max(*b));
+    }
+    assert_eq!(game.fen_physical(), game.fen_rules());
+    assert_eq!(
+        game.fen_rules(),
+        chessarm_chess::shakmaty::fen::Fen::from_position(
+            &record.final_position(),
+            chessarm_chess::shakmaty::EnPassantMode::Legal
+        )
+        .to_string()
+    );
+    assert!(worst < 0.001, "worst placement {worst} m");
+    assert!(game.robot_time() > 60.0);
+}
+
+#[test]
+fn a_sloppy_controller_misplaces_pieces_and_the_check_names_the_move() {
+    // Gains far too soft for the speed: the arm lags by centimetres and drops pieces off-centre.
+    let mut settings = settings();
+    settings.gains = Gains::uniform(4.0, 1.0, 0.0).unwrap();
+    let position = parse_fen("rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1").unwrap();
+    let mut game = Game::new(report_arm(), BoardGeometry::default(), position, settings).unwrap();
+    let mv = "g1f3".parse::<UciMove>().unwrap().to_move(game.position()).unwrap();
+    let report = game.play(&mv, Mover::Robot).unwrap();
+    assert!(report.place_errors[0] > 0.005, "{:?}", report.place_errors);
+    assert!(!report.new_misplaced.is_empty());
+    assert_eq!(game.misplaced()[0].1, "Nf3");
+}
+
+#[test]
+fn the_opponent_hand_places_exactly() {
+    let position = parse_fen("rnbqkbnr/pppppppp/8/8/4P3/8/PPPP1PPP/RNBQKBNR b KQkq - 0 1").unwrap();
+    let mut game = Game::new(report_arm(), BoardGeometry::default(), position, settings()).unwrap();
+    let mv = "d7d5".parse::<UciMove>().unwrap().to_move(game.position()).unwrap();
+    let report = game.play(&mv, Mover::Opponent).unwrap();
+    assert_eq!(report.duration, 0.0);
+    assert_eq!(report.place_errors, vec![0.0]);
+    assert_eq!(game.fen_physical(), game.fen_rules());
+}
