@@ -189,8 +189,8 @@ mod fake_engines {
         let mut attempts = 0;
         loop {
             match UciEngine::spawn(path, movetime_ms, timeout) {
-                Err(OpponentError::EngineSpawn { source, .. })
-                    if source.raw_os_error() == Some(ETXTBSY) && attempts < 50 =>
+                Err(OpponentError::EngineSpawn { cause, .. })
+                    if cause.raw_os_error() == Some(ETXTBSY) && attempts < 50 =>
                 {
                     attempts += 1;
                     std::thread::sleep(Duration::from_millis(20));

@@ -40,6 +40,69 @@ pub enum Command {
     Gains(GainsArgs),
     /// Sweep gain combinations in parallel; CSV of every candidate, heat map, best picks.
     Tune(TuneArgs),
+    /// Play chess with the simulated arm: a PGN game, a move list, or against an engine.
+    Play(PlayArgs),
+}
+
+/// Which side the arm plays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RobotSide {
+    White,
+    Black,
+    Both,
+}
+
+#[derive(Debug, Args)]
+pub struct PlayArgs {
+    /// A PGN file to replay (comments and variations are ignored).
+    pub game_file: Option<PathBuf>,
+    /// Which game of the PGN file, 1-based.
+    #[arg(long, default_value_t = 1)]
+    pub game: usize,
+    /// Moves in SAN or UCI, e.g. "e4 e5 Nf3" (instead of a PGN file).
+    #[arg(long, conflicts_with = "game_file")]
+    pub moves: Option<String>,
+    /// Start position as FEN (default: the initial position).
+    #[arg(long)]
+    pub fen: Option<String>,
+    /// Opponent engine when no game is given: "builtin" or the path of a UCI engine.
+    #[arg(long, default_value = "builtin")]
+    pub engine: String,
+    /// Half-moves to play against the engine (the game may end sooner).
+    #[arg(long, default_value_t = 120)]
+    pub plies: usize,
+    /// Engine thinking time per move, ms.
+    #[arg(long, default_value_t = 100)]
+    pub movetime: u64,
+    /// How long to wait for a UCI engine beyond its thinking time, ms.
+    #[arg(long, default_value_t = 5000)]
+    pub engine_timeout: u64,
+    /// Search depth of the robot's own (built-in) engine.
+    #[arg(long, default_value_t = 3)]
+    pub depth: u32,
+    /// The side the arm plays; the other side's pieces are moved by the opponent's hand.
+    /// Against an engine the robot's moves come from its built-in engine (with both: all moves from --engine).
+    #[arg(long, value_enum, default_value_t = RobotSide::Both)]
+    pub robot: RobotSide,
+    /// Outer loop of the computed-torque controller.
+    #[arg(long, value_enum, default_value_t = ControllerChoice::Pd)]
+    pub controller: ControllerChoice,
+    /// Gains (default: the report's for the chosen controller), one value or one per joint.
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub kp: Option<[f64; 4]>,
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub kd: Option<[f64; 4]>,
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub ki: Option<[f64; 4]>,
+    /// The controller's model includes each gripped piece.
+    #[arg(long)]
+    pub controller_knows_payload: bool,
+    /// A piece further than this from its square centre is misplaced, mm.
+    #[arg(long, default_value_t = 5.0, value_parser = args::positive)]
+    pub tolerance_mm: f64,
+    /// Output folder.
+    #[arg(long, default_value = "out/play")]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, Args)]

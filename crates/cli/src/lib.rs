@@ -24,6 +24,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Simulate(args)) => commands::simulate::run(&setup, &args),
         Some(Command::Gains(args)) => commands::gains::run(&setup, &args),
         Some(Command::Tune(args)) => commands::tune::run(&setup, &args),
+        Some(Command::Play(args)) => commands::play::run(&setup, &args),
         Some(Command::Arm) => {
             print!("{}", setup.to_toml()?);
             Ok(())

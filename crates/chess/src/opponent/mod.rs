@@ -34,13 +34,12 @@ pub enum OpponentError {
     NoLegalMoves,
 
     /// The engine executable could not be started.
-    #[error("cannot start UCI engine {}: {source}", path.display())]
+    #[error("cannot start UCI engine {}: {cause}", path.display())]
     EngineSpawn {
         /// Path of the executable that was run.
         path: PathBuf,
-        /// The operating-system error.
-        #[source]
-        source: std::io::Error,
+        /// The operating-system error (in the message, so not also a `source`).
+        cause: std::io::Error,
     },
 
     /// The engine process exited, crashed or closed its pipes.

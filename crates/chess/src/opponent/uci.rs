@@ -55,7 +55,7 @@ impl UciEngine {
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
-            .map_err(|source| OpponentError::EngineSpawn { path: path.to_path_buf(), source })?;
+            .map_err(|cause| OpponentError::EngineSpawn { path: path.to_path_buf(), cause })?;
         let stdin = child.stdin.take();
         let stdout = child.stdout.take();
         let (sender, lines) = mpsc::channel();

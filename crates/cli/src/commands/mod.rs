@@ -4,5 +4,6 @@ pub mod demo;
 pub mod gains;
 pub mod kinematics;
 pub mod plan;
+pub mod play;
 pub mod simulate;
 pub mod tune;

@@ -1,0 +1,254 @@
+//! `play`: a game of chess with the simulated arm, every piece checked on its square.
+
+use crate::cli::{ControllerChoice, PlayArgs, RobotSide};
+use crate::commands::simulate::controller_specs;
+use crate::config::Setup;
+use crate::output::{ensure_dir, numbered, write_csv, write_json};
+use crate::plots::{Panel, Series, plot_panels};
+use crate::print_json;
+use anyhow::{Context, Result, bail};
+use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list, parse_pgn, select_game};
+use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
+use chessarm_chess::play::{Game, MoveReport, Mover, PlaySettings};
+use chessarm_chess::shakmaty::{Chess, Color, Position};
+use serde_json::{Value, json};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// Where the moves come from.
+enum Source {
+    Record(GameRecord),
+    Engines { start: Chess, robot: Box<dyn Opponent>, opponent: Box<dyn Opponent> },
+}
+
+fn start_position(args: &PlayArgs) -> Result<Chess> {
+    Ok(match &args.fen {
+        Some(fen) => parse_fen(fen)?,
+        None => Chess::default(),
+    })
+}
+
+fn opponent(args: &PlayArgs) -> Result<Box<dyn Opponent>> {
+    if args.engine == "builtin" {
+        return Ok(Box::new(BuiltinEngine::new(args.depth, Some(Duration::from_millis(args.movetime)))));
+    }
+    let engine = UciEngine::spawn(Path::new(&args.engine), args.movetime, Duration::from_millis(args.engine_timeout))?;
+    Ok(Box::new(engine))
+}
+
+fn source(args: &PlayArgs) -> Result<Source> {
+    if let Some(path) = &args.game_file {
+        if args.fen.is_some() {
+            bail!("--fen goes with --moves or an engine game; a PGN file sets its own start ([FEN] tag)");
+        }
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read PGN file {}", path.display()))?;
+        let games = parse_pgn(&text).with_context(|| format!("PGN file {}", path.display()))?;
+        return Ok(Source::Record(select_game(games, args.game)?));
+    }
+    if let Some(moves) = &args.moves {
+        return Ok(Source::Record(parse_move_list(moves, start_position(args)?)?));
+    }
+    let robot: Box<dyn Opponent> = if args.robot == RobotSide::Both {
+        opponent(args)?
+    } else {
+        Box::new(BuiltinEngine::new(args.depth, Some(Duration::from_millis(args.movetime))))
+    };
+    Ok(Source::Engines { start: start_position(args)?, robot, opponent: opponent(args)? })
+}
+
+fn robot_moves(side: RobotSide, turn: Color) -> bool {
+    matches!((side, turn), (RobotSide::Both, _) | (RobotSide::White, Color::White) | (RobotSide::Black, Color::Black))
+}
+
+pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
+    if args.controller == ControllerChoice::Both {
+        bail!("play with one controller: --controller pd or pid");
+    }
+    let spec = controller_specs(args.controller, args.kp, args.kd, args.ki)?.remove(0);
+    let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
+    settings.controller_knows_payload = args.controller_knows_payload;
+    settings.tolerance = args.tolerance_mm / 1e3;
+    let mut source = source(args)?;
+    let start = match &source {
+        Source::Record(record) => record.start.clone(),
+        Source::Engines { start, .. } => start.clone(),
+    };
+    let total = match &source {
+        Source::Record(record) => record.moves.len(),
+        Source::Engines { .. } => args.plies,
+    };
+    ensure_dir(&args.out)?;
+    let moves_dir = args.out.join("moves");
+    ensure_dir(&moves_dir)?;
+    let started = Instant::now();
+    let mut game = Game::new(setup.arm, setup.board, start, settings)?;
+    let bar = crate::progress::bar(total as u64, "playing");
+    let header = format!(
+        "{:>4} {:>8} {:>6} {:<18} {:>8} {:>12} {:>22}",
+        "ply", "san", "by", "kind", "time s", "max tip mm", "placement mm"
+    );
+    let mut reports = Vec::new();
+    for ply in 0..total {
+        // A given game is replayed whole; an engine game stops when it is over.
+        if matches!(source, Source::Engines { .. }) && game.position().is_game_over() {
+            break;
+        }
+        let turn = game.position().turn();
+        let mv = match &mut source {
+            Source::Record(record) => record.moves[ply],
+            Source::Engines { robot, opponent, .. } => {
+                let player = if robot_moves(args.robot, turn) { robot } else { opponent };
+                player.choose_move(game.position()).with_context(|| format!("ply {}", ply + 1))?
+            }
+        };
+        let mover = if robot_moves(args.robot, turn) { Mover::Robot } else { Mover::Opponent };
+        let report = game.play(&mv, mover)?;
+        if reports.is_empty() {
+            say(&bar, header.clone());
+        }
+        say(&bar, move_line(&report));
+        if report.mover == Mover::Robot {
+            write_move_csv(&moves_dir, &report)?;
+        }
+        bar.inc(1);
+        reports.push(report);
+    }
+    bar.finish_and_clear();
+    let wall_time_s = started.elapsed().as_secs_f64();
+    let plot = args.out.join("tip_error.png");
+    let placement_plot = args.out.join("placement.png");
+    plot_game(&plot, &placement_plot, &reports)?;
+    let summary = game_json(&game, &reports, wall_time_s);
+    let game_json_path = args.out.join("game.json");
+    write_json(&game_json_path, &summary)?;
+    eprintln!(
+        "{} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced",
+        reports.len(),
+        game.robot_time(),
+        wall_time_s,
+        if game.fen_physical() == game.fen_rules() { "equals" } else { "DIFFERS FROM" },
+        game.misplaced().len()
+    );
+    let files: Vec<String> =
+        [game_json_path, plot, placement_plot, moves_dir].iter().map(|p| p.display().to_string()).collect();
+    print_json(&json!({
+        "plies": reports.len(),
+        "final_fen_rules": game.fen_rules(),
+        "final_fen_physical": game.fen_physical(),
+        "misplaced": game.misplaced().len(),
+        "files": files,
+    }));
+    Ok(())
+}
+
+/// A line above the progress bar, or plainly on stderr when there is no terminal to draw on.
+fn say(bar: &indicatif::ProgressBar, line: String) {
+    if bar.is_hidden() { eprintln!("{line}") } else { bar.println(line) }
+}
+
+fn move_line(report: &MoveReport) -> String {
+    let by = if report.mover == Mover::Robot { "robot" } else { "hand" };
+    let tip = report.max_tip_error.map_or("-".to_string(), |e| format!("{:.4}", e * 1e3));
+    let place = report.place_errors.iter().map(|e| format!("{:.3}", e * 1e3)).collect::<Vec<_>>().join(" ");
+    let mut line = format!(
+        "{:>4} {:>8} {:>6} {:<18} {:>8.2} {:>12} {:>22}",
+        report.ply,
+        report.san,
+        by,
+        report.kind.name(),
+        report.duration,
+        tip,
+        place
+    );
+    for misplaced in &report.new_misplaced {
+        line.push_str(&format!("\n     MISPLACED: {misplaced}"));
+    }
+    line
+}
+
+fn game_json(game: &Game, reports: &[MoveReport], wall_time_s: f64) -> Value {
+    let moves: Vec<Value> = reports
+        .iter()
+        .map(|r| {
+            json!({
+                "ply": r.ply,
+                "san": r.san,
+                "uci": r.uci,
+                "kind": r.kind.name(),
+                "by": if r.mover == Mover::Robot { "robot" } else { "hand" },
+                "tasks": r.tasks,
+                "duration_s": r.duration,
+                "max_tip_error_mm": r.max_tip_error.map(|e| e * 1e3),
+                "place_errors_mm": r.place_errors.iter().map(|e| e * 1e3).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let misplaced: Vec<Value> = game
+        .misplaced()
+        .iter()
+        .map(|(ply, san, m)| {
+            json!({
+                "ply": ply, "san": san, "square": m.square.map(|s| s.to_string()),
+                "offset_mm": m.offset_m * 1e3, "reason": m.reason,
+            })
+        })
+        .collect();
+    json!({
+        "moves": moves,
+        "final_fen_rules": game.fen_rules(),
+        "final_fen_physical": game.fen_physical(),
+        "misplaced": misplaced,
+        "total_robot_time_s": game.robot_time(),
+        "wall_time_s": wall_time_s,
+    })
+}
+
+fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
+    let mut header = vec!["t".to_string()];
+    header.extend(numbered("q", 4).chain(numbered("qdes", 4)));
+    header.extend(["x", "y", "z", "xdes", "ydes", "zdes", "tip_error_mm"].map(String::from));
+    let path = dir.join(format!("{:03}-{}.csv", report.ply, report.uci));
+    write_csv(
+        &path,
+        &header,
+        report.records.iter().map(|r| {
+            let mut row = vec![report.start_time + r.t];
+            row.extend(r.state.q.iter().chain(r.reference.q.iter()).chain(r.tip.iter()).chain(r.tip_desired.iter()));
+            row.push((r.tip - r.tip_desired).norm() * 1e3);
+            row
+        }),
+    )
+}
+
+fn plot_game(path: &Path, placement_path: &Path, reports: &[MoveReport]) -> Result<()> {
+    // Displayed in mm; game.json and the CSVs say mm too.
+    let tip = Panel {
+        title: "tool-tip tracking error over the game (robot time)".into(),
+        y_label: "tip error (mm)".into(),
+        series: vec![Series {
+            label: "|tip − desired tip|".into(),
+            points: reports
+                .iter()
+                .flat_map(|r| r.records.iter().map(move |s| (r.start_time + s.t, (s.tip - s.tip_desired).norm() * 1e3)))
+                .collect(),
+            color: 2,
+            dashed: false,
+        }],
+    };
+    let placement = Panel {
+        title: "distance of each placed piece from its target".into(),
+        y_label: "placement error (mm)".into(),
+        series: vec![Series {
+            label: "worst task of the move".into(),
+            points: reports
+                .iter()
+                .filter(|r| r.mover == Mover::Robot)
+                .map(|r| (r.ply as f64, r.place_errors.iter().fold(0.0f64, |a, b| a.max(*b)) * 1e3))
+                .collect(),
+            color: 0,
+            dashed: false,
+        }],
+    };
+    plot_panels(path, "Game: tool-tip tracking", "robot time (s)", &[tip])?;
+    plot_panels(placement_path, "Game: piece placement", "ply", &[placement])
+}

@@ -1,0 +1,161 @@
+//! The binary, end to end: chess games played by the simulated arm.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn chessarm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).output().expect("the binary runs")
+}
+
+fn fixture(name: &str) -> String {
+    format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn assert_one_line_error(output: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "stderr: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "not one line: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "'{needle}' missing from: {stderr}");
+    }
+}
+
+/// Plays and returns game.json, asserting the physical board equals the rules' board.
+fn play(dir: &Path, args: &[&str]) -> Value {
+    let mut all = vec!["play", "--out", dir.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let output = chessarm(&all);
+    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
+    let game: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("game.json")).unwrap()).unwrap();
+    assert_eq!(game["final_fen_physical"], game["final_fen_rules"], "{}", game["misplaced"]);
+    assert_eq!(game["misplaced"].as_array().unwrap().len(), 0, "{}", game["misplaced"]);
+    game
+}
+
+#[test]
+fn special_moves_game_plays_through_and_reports_every_move() {
+    let dir = tempfile::tempdir().unwrap();
+    let game = play(dir.path(), &[&fixture("special_moves.pgn")]);
+    let moves = game["moves"].as_array().unwrap();
+    let kinds: Vec<&str> = moves.iter().map(|m| m["kind"].as_str().unwrap()).collect();
+    for kind in ["en-passant", "castle-kingside", "castle-queenside", "promotion", "capture"] {
+        assert!(kinds.contains(&kind), "no {kind} in {kinds:?}");
+    }
+    for m in moves {
+        for key in ["ply", "san", "uci", "kind", "tasks", "duration_s", "max_tip_error_mm", "place_errors_mm"] {
+            assert!(!m[key].is_null(), "{key} missing in {m}");
+        }
+        for error in m["place_errors_mm"].as_array().unwrap() {
+            assert!(error.as_f64().unwrap() < 5.0);
+        }
+    }
+    assert!(game["total_robot_time_s"].as_f64().unwrap() > 100.0);
+    assert!(game["wall_time_s"].as_f64().unwrap() > 0.0);
+    let csvs = std::fs::read_dir(dir.path().join("moves")).unwrap().count();
+    assert_eq!(csvs, moves.len());
+    assert!(dir.path().join("tip_error.png").exists());
+}
+
+#[test]
+fn move_lists_robot_side_and_fen_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let game = play(dir.path(), &["--moves", "e4 e5 Nf3 Nc6 Bb5 a6", "--robot", "black"]);
+    let by: Vec<&str> = game["moves"].as_array().unwrap().iter().map(|m| m["by"].as_str().unwrap()).collect();
+    assert_eq!(by, ["hand", "robot", "hand", "robot", "hand", "robot"]);
+    let dir = tempfile::tempdir().unwrap();
+    let game = play(dir.path(), &["--fen", "8/1P5k/8/8/8/8/6K1/8 w - - 0 1", "--moves", "b8=N Kg6"]);
+    assert_eq!(game["final_fen_rules"], "1N6/8/6k1/8/8/8/6K1/8 w - - 1 2");
+}
+
+#[test]
+fn a_game_against_the_builtin_engine() {
+    let dir = tempfile::tempdir().unwrap();
+    let game = play(dir.path(), &["--plies", "16", "--robot", "white", "--depth", "2"]);
+    assert_eq!(game["moves"].as_array().unwrap().len(), 16);
+}
+
+fn find_stockfish() -> Option<PathBuf> {
+    let on_path = std::env::var_os("PATH")
+        .map(|paths| std::env::split_paths(&paths).map(|dir| dir.join("stockfish")).collect::<Vec<_>>())
+        .unwrap_or_default();
+    on_path.into_iter().chain([PathBuf::from("/usr/games/stockfish")]).find(|p| p.is_file())
+}
+
+#[test]
+fn a_game_against_stockfish() {
+    let Some(stockfish) = find_stockfish() else {
+        assert!(std::env::var("CI").as_deref() != Ok("true"), "CI must install stockfish");
+        eprintln!("skipping: stockfish is not installed");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let game = play(
+        dir.path(),
+        &["--engine", stockfish.to_str().unwrap(), "--robot", "white", "--plies", "20", "--movetime", "20"],
+    );
+    assert!(game["moves"].as_array().unwrap().len() >= 10);
+}
+
+fn fake_engine(dir: &Path, name: &str, on_go: &str) -> String {
+    use std::os::unix::fs::PermissionsExt;
+    let path = dir.join(name);
+    let script = format!(
+        "#!/bin/sh\nwhile read line; do\n  case \"$line\" in\n    uci) echo 'id name fake'; echo uciok ;;\n    isready) echo readyok ;;\n    go*) {on_go} ;;\n    quit) exit 0 ;;\n  esac\ndone\n"
+    );
+    std::fs::write(&path, script).unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn bad_games_and_engines_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    assert_one_line_error(
+        &chessarm(&["play", &fixture("illegal_move.pgn"), "--out", out]),
+        &["game", "move", "illegal"],
+    );
+    assert_one_line_error(
+        &chessarm(&["play", &fixture("several_games.pgn"), "--game", "9", "--out", out]),
+        &["game 9"],
+    );
+    assert_one_line_error(&chessarm(&["play", "--moves", "e4 e5 Qh9", "--out", out]), &["'Qh9'"]);
+    assert_one_line_error(&chessarm(&["play", "--fen", "not a fen", "--moves", "e4", "--out", out]), &["not a fen"]);
+    assert_one_line_error(&chessarm(&["play", "/nonexistent/game.pgn", "--out", out]), &["/nonexistent/game.pgn"]);
+    assert_one_line_error(
+        &chessarm(&["play", "--engine", "/nonexistent/engine", "--out", out]),
+        &["/nonexistent/engine"],
+    );
+    let illegal = fake_engine(dir.path(), "illegal.sh", "echo 'bestmove e2e5'");
+    // The robot plays white with its own engine; the fake engine answers for black.
+    assert_one_line_error(
+        &chessarm(&["play", "--engine", &illegal, "--robot", "black", "--plies", "2", "--out", out]),
+        &["e2e5", "illegal"],
+    );
+    let hanging = fake_engine(dir.path(), "hang.sh", "exec sleep 30");
+    let started = std::time::Instant::now();
+    assert_one_line_error(
+        &chessarm(&[
+            "play",
+            "--engine",
+            &hanging,
+            "--robot",
+            "black",
+            "--engine-timeout",
+            "300",
+            "--movetime",
+            "10",
+            "--out",
+            out,
+        ]),
+        &["within", "ms"],
+    );
+    assert!(started.elapsed().as_secs() < 10);
+    let dying = fake_engine(dir.path(), "die.sh", "exit 3");
+    assert_one_line_error(&chessarm(&["play", "--engine", &dying, "--robot", "black", "--out", out]), &["died"]);
+    assert_one_line_error(&chessarm(&["play", "--moves", "e4", "--tolerance-mm", "0", "--out", out]), &["0"]);
+}
