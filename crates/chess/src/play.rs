@@ -18,7 +18,7 @@ use chessarm_core::control::gains::Gains;
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use chessarm_core::plan::path::CartesianPath;
 use chessarm_core::plan::trajectory::{JointTrajectory, PlanError};
-use chessarm_core::sim::{Observer, PayloadEvent, Plant, SimConfig, SimError, StepRecord, simulate};
+use chessarm_core::sim::{Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, simulate};
 use shakmaty::fen::Fen;
 use shakmaty::san::SanPlus;
 use shakmaty::uci::UciMove;
@@ -109,6 +109,8 @@ pub struct MoveReport {
     pub new_misplaced: Vec<Misplaced>,
     /// Sampled simulation steps, times from the start of the move.
     pub records: Vec<StepRecord<4>>,
+    /// Metrics of the move's simulation (robot moves only).
+    pub summary: Option<SimSummary<4>>,
     /// Time of the move's start in the game's robot time, s.
     pub start_time: f64,
 }
@@ -228,6 +230,7 @@ impl Game {
             place_errors: Vec::new(),
             new_misplaced: Vec::new(),
             records: Vec::new(),
+            summary: None,
             start_time: self.robot_time,
         };
         match mover {
@@ -325,6 +328,7 @@ impl Game {
         report.duration = summary.duration;
         report.max_tip_error = Some(summary.max_tip_error);
         report.records = sampler.records;
+        report.summary = Some(summary.clone());
         self.robot_time += summary.duration;
         self.tool = path.end();
         self.state = summary.final_state;

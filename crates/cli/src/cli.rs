@@ -153,6 +153,11 @@ pub enum Metric {
 
 #[derive(Debug, Args, Clone)]
 pub struct TuneArgs {
+    /// A PGN game each candidate plays whole (instead of the scenario).
+    pub game_file: Option<PathBuf>,
+    /// Which game of the PGN file, 1-based.
+    #[arg(long, default_value_t = 1)]
+    pub game: usize,
     /// Scenario to simulate each candidate on.
     #[arg(long, default_value = "queens-gambit")]
     pub scenario: String,

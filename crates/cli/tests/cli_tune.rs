@@ -156,3 +156,31 @@ fn bad_ranges_are_one_line_errors_naming_the_value() {
         &["--ki"],
     );
 }
+
+#[test]
+fn a_sweep_over_a_game_counts_misplaced_pieces() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("game");
+    let pgn = format!("{}/../chess/tests/fixtures/opera_game.pgn", env!("CARGO_MANIFEST_DIR"));
+    let result = json_of(&chessarm(&[
+        "tune",
+        &pgn,
+        "--kp",
+        "25..900:2",
+        "--kd",
+        "4..40:2",
+        "--metric",
+        "place-error",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let csv = std::fs::read_to_string(out.join("tune.csv")).unwrap();
+    let rows = rows(&csv);
+    assert_eq!(rows.len(), 4);
+    // kp = 25 1/s² is far too soft for the moves' speed: pieces land off their squares.
+    assert!(rows.iter().filter(|r| r[1] == "25.0").all(|r| r[13].parse::<usize>().unwrap() > 0), "{csv}");
+    assert!(rows.iter().filter(|r| r[1] == "900.0").all(|r| r[13] == "0"), "{csv}");
+    // The best pick is among the candidates that misplaced nothing.
+    assert_eq!(result["best"][0]["kp"].as_f64(), Some(900.0));
+    assert!(result["best"][0]["metric"].as_f64().unwrap() < 5.0);
+}

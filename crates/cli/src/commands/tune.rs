@@ -12,20 +12,29 @@ use crate::output::{ensure_dir, write_atomic};
 use crate::plots::{HeatMap, plot_heat_map};
 use crate::print_json;
 use anyhow::{Context, Result, bail};
+use chessarm_chess::notation::{GameRecord, parse_pgn, select_game};
+use chessarm_chess::play::{Game, Mover, PlaySettings};
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::control::JointState;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::Gains;
 use chessarm_core::plan::path::GripperAction;
 use chessarm_core::plan::trajectory::JointTrajectory;
-use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, SimConfig, simulate};
+use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, simulate};
 use rayon::prelude::*;
 use serde_json::json;
 use std::time::Instant;
 
-/// What one candidate is simulated on.
+/// What one candidate is simulated on: a scenario, or a whole game played by the arm.
 #[derive(Debug)]
-pub struct Study {
+pub enum Study {
+    Scenario(ScenarioStudy),
+    Game(GameRecord),
+}
+
+/// A scenario's trajectory with its payload events.
+#[derive(Debug)]
+pub struct ScenarioStudy {
     pub trajectory: JointTrajectory,
     pub events: Vec<PayloadEvent>,
     /// Grip and release instants, s.
@@ -51,9 +60,11 @@ pub struct Candidate {
     /// Largest peak |τ| / torque limit over the joints.
     pub peak_torque_ratio: f64,
     pub saturated_samples: usize,
+    /// Pieces off their squares at the end (games only).
+    pub misplaced: usize,
 }
 
-pub const CSV_HEADER: &str = "index,kp,kd,ki,status,max_tip_error_mm,rms_tip_error_mm,place_error_mm,rms_joint_error_rad,max_joint_error_rad,peak_torque_nm,peak_torque_ratio,saturated_samples";
+pub const CSV_HEADER: &str = "index,kp,kd,ki,status,max_tip_error_mm,rms_tip_error_mm,place_error_mm,rms_joint_error_rad,max_joint_error_rad,peak_torque_nm,peak_torque_ratio,saturated_samples,misplaced";
 
 impl Candidate {
     pub fn metric(&self, metric: Metric) -> f64 {
@@ -65,14 +76,14 @@ impl Candidate {
         }
     }
 
-    /// Finished, and never hit a torque limit.
+    /// Finished, never hit a torque limit and left no piece misplaced.
     pub fn respects_limits(&self) -> bool {
-        self.status == "ok" && self.saturated_samples == 0
+        self.status == "ok" && self.saturated_samples == 0 && self.misplaced == 0
     }
 
     fn csv_line(&self) -> String {
         format!(
-            "{},{:?},{:?},{:?},{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{}",
+            "{},{:?},{:?},{:?},{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{},{}",
             self.index,
             self.kp,
             self.kd,
@@ -85,27 +96,15 @@ impl Candidate {
             self.max_joint_error_rad,
             self.peak_torque_nm,
             self.peak_torque_ratio,
-            self.saturated_samples
+            self.saturated_samples,
+            self.misplaced
         )
     }
 }
 
-/// Simulates one candidate (1 ms RK4, 1 kHz control, torque limits of the model).
-pub fn simulate_candidate(setup: &Setup, study: &Study, index: usize, gains: &Gains<4>) -> Candidate {
-    let mut plant = Plant::new(setup.arm);
-    let mut controller = ComputedTorque::new("candidate", setup.arm, *gains);
-    let config = SimConfig::new(&plant);
-    let result = simulate(
-        &mut plant,
-        &mut controller,
-        &study.trajectory,
-        study.initial,
-        &study.events,
-        &study.marks,
-        &config,
-        &mut NoObserver,
-    );
-    let mut candidate = Candidate {
+/// A candidate with its gains and no results yet.
+fn blank_candidate(index: usize, gains: &Gains<4>) -> Candidate {
+    Candidate {
         index,
         kp: gains.kp[0],
         kd: gains.kd[0],
@@ -119,21 +118,114 @@ pub fn simulate_candidate(setup: &Setup, study: &Study, index: usize, gains: &Ga
         peak_torque_nm: f64::NAN,
         peak_torque_ratio: f64::NAN,
         saturated_samples: 0,
-    };
-    match result {
-        Ok(summary) => {
-            candidate.max_tip_error_mm = summary.max_tip_error * 1e3;
-            candidate.rms_tip_error_mm = summary.rms_tip_error * 1e3;
-            candidate.place_error_mm = summary.tip_error_at_marks.iter().fold(0.0f64, |a, b| a.max(*b)) * 1e3;
-            candidate.rms_joint_error_rad = (summary.rms_joint_error.norm_squared() / 4.0).sqrt();
-            candidate.max_joint_error_rad = summary.max_joint_error.max();
-            candidate.peak_torque_nm = summary.peak_torque.max();
-            candidate.peak_torque_ratio = summary.peak_torque.component_div(&config.torque_limits).max();
-            candidate.saturated_samples = summary.saturated_samples;
+        misplaced: 0,
+    }
+}
+
+/// Metrics accumulated over one or more simulations.
+#[derive(Default)]
+struct Totals {
+    samples: f64,
+    squared_tip: f64,
+    squared_joint: f64,
+    max_tip: f64,
+    max_joint: f64,
+    peak_torque: f64,
+    peak_ratio: f64,
+    saturated: usize,
+}
+
+impl Totals {
+    fn add(&mut self, summary: &SimSummary<4>, limits: &JointVector<4>) {
+        let samples = (summary.steps + 1) as f64;
+        self.samples += samples;
+        self.squared_tip += summary.rms_tip_error.powi(2) * samples;
+        self.squared_joint += summary.rms_joint_error.norm_squared() / 4.0 * samples;
+        self.max_tip = self.max_tip.max(summary.max_tip_error);
+        self.max_joint = self.max_joint.max(summary.max_joint_error.max());
+        self.peak_torque = self.peak_torque.max(summary.peak_torque.max());
+        self.peak_ratio = self.peak_ratio.max(summary.peak_torque.component_div(limits).max());
+        self.saturated += summary.saturated_samples;
+    }
+
+    fn fill(&self, candidate: &mut Candidate, place_error: f64) {
+        candidate.max_tip_error_mm = self.max_tip * 1e3;
+        candidate.rms_tip_error_mm = (self.squared_tip / self.samples).sqrt() * 1e3;
+        candidate.place_error_mm = place_error * 1e3;
+        candidate.rms_joint_error_rad = (self.squared_joint / self.samples).sqrt();
+        candidate.max_joint_error_rad = self.max_joint;
+        candidate.peak_torque_nm = self.peak_torque;
+        candidate.peak_torque_ratio = self.peak_ratio;
+        candidate.saturated_samples = self.saturated;
+    }
+}
+
+/// Simulates one candidate (1 ms RK4, 1 kHz control, torque limits of the model).
+pub fn simulate_candidate(
+    setup: &Setup,
+    study: &Study,
+    options: &CandidateOptions,
+    index: usize,
+    gains: &Gains<4>,
+) -> Candidate {
+    let mut candidate = blank_candidate(index, gains);
+    let limits = setup.arm.torque_limits();
+    let mut totals = Totals::default();
+    match study {
+        Study::Scenario(scenario) => {
+            let mut plant = Plant::new(setup.arm);
+            let mut controller = ComputedTorque::new("candidate", setup.arm, *gains);
+            let config = SimConfig::new(&plant);
+            let result = simulate(
+                &mut plant,
+                &mut controller,
+                &scenario.trajectory,
+                scenario.initial,
+                &scenario.events,
+                &scenario.marks,
+                &config,
+                &mut NoObserver,
+            );
+            match result {
+                Ok(summary) => {
+                    totals.add(&summary, &limits);
+                    let place = summary.tip_error_at_marks.iter().fold(0.0f64, |a, b| a.max(*b));
+                    totals.fill(&mut candidate, place);
+                }
+                Err(error) => candidate.status = format!("failed: {error}"),
+            }
         }
-        Err(error) => candidate.status = format!("failed: {error}"),
+        Study::Game(record) => {
+            let mut settings = PlaySettings::new("candidate", *gains);
+            settings.record_every = 0;
+            settings.controller_knows_payload = options.controller_knows_payload;
+            let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
+                let mut place = 0.0f64;
+                for mv in &record.moves {
+                    let report = game.play(mv, Mover::Robot)?;
+                    if let Some(summary) = &report.summary {
+                        totals.add(summary, &limits);
+                    }
+                    place = report.place_errors.iter().fold(place, |a, b| a.max(*b));
+                }
+                Ok((place, game.misplaced().len()))
+            });
+            match played {
+                Ok((place, misplaced)) => {
+                    totals.fill(&mut candidate, place);
+                    candidate.misplaced = misplaced;
+                }
+                Err(error) => candidate.status = format!("failed: {error}"),
+            }
+        }
     }
     candidate
+}
+
+/// Settings every candidate shares.
+#[derive(Debug, Clone, Copy)]
+pub struct CandidateOptions {
+    pub controller_knows_payload: bool,
 }
 
 /// The gains of every candidate, in sweep order: kp outermost, then kd, then ki.
@@ -165,8 +257,21 @@ pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
     Ok(all)
 }
 
-/// The scenario study for the tune/gains commands.
-pub fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
+/// The study a sweep runs: the PGN game if one is given, else the scenario.
+pub fn study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
+    if let Some(path) = &args.game_file {
+        if args.payload_mass > 0.0 || args.q0.is_some() {
+            bail!("--payload-mass and --q0 go with a scenario; a game grips real pieces from its home position");
+        }
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read PGN file {}", path.display()))?;
+        let games = parse_pgn(&text).with_context(|| format!("PGN file {}", path.display()))?;
+        return Ok(Study::Game(select_game(games, args.game)?));
+    }
+    scenario_study(setup, args).map(Study::Scenario)
+}
+
+/// The scenario study for the tune command.
+fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
     let plan = plan_scenario(setup, &args.scenario, 1e-3)?;
     let events = if args.payload_mass > 0.0 {
         plan.path
@@ -183,7 +288,7 @@ pub fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
     };
     let marks = plan.path.events().iter().map(|e| e.time).collect();
     let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(q)));
-    Ok(Study { trajectory: plan.joint, events, marks, initial })
+    Ok(ScenarioStudy { trajectory: plan.joint, events, marks, initial })
 }
 
 /// The candidate indices of slice `k` of `n` (1-based): contiguous blocks.
@@ -195,9 +300,11 @@ pub fn shard_range(total: usize, shard: Option<(usize, usize)>) -> std::ops::Ran
 }
 
 /// Runs the candidates `range` on `threads` worker threads (all cores when `None`).
+#[allow(clippy::too_many_arguments)]
 pub fn sweep(
     setup: &Setup,
     study: &Study,
+    options: &CandidateOptions,
     gains: &[Gains<4>],
     range: std::ops::Range<usize>,
     threads: Option<usize>,
@@ -215,7 +322,7 @@ pub fn sweep(
         range
             .into_par_iter()
             .map(|index| {
-                let candidate = simulate_candidate(setup, study, index, &gains[index]);
+                let candidate = simulate_candidate(setup, study, options, index, &gains[index]);
                 if let Some(bar) = progress {
                     bar.inc(1);
                 }
@@ -228,11 +335,12 @@ pub fn sweep(
 pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let gains = candidate_gains(args)?;
     let range = shard_range(gains.len(), args.shard);
-    let study = scenario_study(setup, args)?;
+    let study = study(setup, args)?;
+    let options = CandidateOptions { controller_knows_payload: args.controller_knows_payload };
     ensure_dir(&args.out)?;
     let bar = crate::progress::bar(range.len() as u64, "tuning");
     let started = Instant::now();
-    let candidates = sweep(setup, &study, &gains, range.clone(), args.threads, Some(&bar))?;
+    let candidates = sweep(setup, &study, &options, &gains, range.clone(), args.threads, Some(&bar))?;
     let wall_time_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
@@ -280,7 +388,7 @@ fn metric_label(metric: Metric) -> &'static str {
         Metric::MaxTipError => "max tip error (mm)",
         Metric::RmsJointError => "RMS joint error (rad)",
         Metric::PeakTorque => "peak |τ| / limit",
-        Metric::PlaceError => "tip error at grip/release (mm)",
+        Metric::PlaceError => "placement error (mm)",
     }
 }
 
