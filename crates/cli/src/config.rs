@@ -5,6 +5,7 @@
 
 use anyhow::{Context, Result, anyhow};
 use chessarm_chess::board::BoardGeometry;
+use chessarm_chess::pieces::{PieceDimensions, PieceSet};
 use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointLimits, Link};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
@@ -68,6 +69,32 @@ pub struct BoardFile {
     pub surface_height: f64,
 }
 
+/// One kind of chess piece in the file.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PieceFile {
+    /// Height, m.
+    pub height: f64,
+    /// Base diameter, m.
+    pub base_diameter: f64,
+    /// Mass, kg.
+    pub mass: f64,
+    /// Height above the piece's base where the tool tip grips it, m.
+    pub grip_height: f64,
+}
+
+/// The piece set in the file (each kind optional).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PiecesFile {
+    pub pawn: Option<PieceFile>,
+    pub knight: Option<PieceFile>,
+    pub bishop: Option<PieceFile>,
+    pub rook: Option<PieceFile>,
+    pub queen: Option<PieceFile>,
+    pub king: Option<PieceFile>,
+}
+
 /// The whole setup file.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -75,6 +102,8 @@ pub struct SetupFile {
     /// Gravitational acceleration in the base frame, m/s².
     pub gravity: [f64; 3],
     pub board: BoardFile,
+    /// The chess pieces as physical objects.
+    pub pieces: PiecesFile,
     /// Links from the base to the tool, in order.
     pub links: Vec<LinkFile>,
 }
@@ -84,11 +113,12 @@ pub struct SetupFile {
 pub struct Setup {
     pub arm: ArmModel<4>,
     pub board: BoardGeometry,
+    pub pieces: PieceSet,
 }
 
 impl Default for Setup {
     fn default() -> Self {
-        Self { arm: report_arm(), board: BoardGeometry::default() }
+        Self { arm: report_arm(), board: BoardGeometry::default(), pieces: PieceSet::default() }
     }
 }
 
@@ -97,6 +127,7 @@ impl Default for Setup {
 struct PartialSetupFile {
     gravity: Option<[f64; 3]>,
     board: Option<BoardFile>,
+    pieces: Option<PiecesFile>,
     links: Option<Vec<LinkFile>>,
 }
 
@@ -120,6 +151,7 @@ impl Setup {
         let file = SetupFile {
             gravity: partial.gravity.unwrap_or(defaults.gravity),
             board: partial.board.unwrap_or(defaults.board),
+            pieces: partial.pieces.unwrap_or_default(),
             links: partial.links.unwrap_or(defaults.links),
         };
         file.to_setup()
@@ -133,7 +165,8 @@ impl Setup {
 }
 
 const HEADER: &str = "\
-# chessarm setup: the arm (standard DH, one [[links]] table per joint, base to tool) and the board.
+# chessarm setup: the arm (standard DH, one [[links]] table per joint, base to tool), the board
+# and the chess pieces (height, base diameter, mass, grip height above the piece's base).
 # Units: m, rad, kg, kg·m² (inertia about the COM in DH frame i, rotated by inertia_rpy), N·m, s.
 # Every field may be left out; the report's values are the defaults.
 ";
@@ -166,7 +199,25 @@ impl SetupFile {
             surface_height: self.board.surface_height,
         }
         .validated()?;
-        Ok(Setup { arm, board })
+        let defaults = PieceSet::default();
+        let pick = |given: Option<PieceFile>, default: PieceDimensions| {
+            given.map_or(default, |p| PieceDimensions {
+                height: p.height,
+                base_diameter: p.base_diameter,
+                mass: p.mass,
+                grip_height: p.grip_height,
+            })
+        };
+        let pieces = PieceSet {
+            pawn: pick(self.pieces.pawn, defaults.pawn),
+            knight: pick(self.pieces.knight, defaults.knight),
+            bishop: pick(self.pieces.bishop, defaults.bishop),
+            rook: pick(self.pieces.rook, defaults.rook),
+            queen: pick(self.pieces.queen, defaults.queen),
+            king: pick(self.pieces.king, defaults.king),
+        }
+        .validated()?;
+        Ok(Setup { arm, board, pieces })
     }
 }
 
@@ -226,6 +277,25 @@ impl From<&Setup> for SetupFile {
                 square_size: setup.board.square_size,
                 center: setup.board.center.into(),
                 surface_height: setup.board.surface_height,
+            },
+            pieces: {
+                let file = |d: &PieceDimensions| {
+                    Some(PieceFile {
+                        height: d.height,
+                        base_diameter: d.base_diameter,
+                        mass: d.mass,
+                        grip_height: d.grip_height,
+                    })
+                };
+                let p = &setup.pieces;
+                PiecesFile {
+                    pawn: file(&p.pawn),
+                    knight: file(&p.knight),
+                    bishop: file(&p.bishop),
+                    rook: file(&p.rook),
+                    queen: file(&p.queen),
+                    king: file(&p.king),
+                }
             },
             links,
         }

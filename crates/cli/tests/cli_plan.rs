@@ -117,6 +117,22 @@ fn setup_file_round_trips_and_bad_files_name_the_field() {
 
     assert_one_line_error(&chessarm(&["--arm", "/nonexistent/arm.toml", "arm"]), &["/nonexistent/arm.toml"]);
 
+    // Pieces: a grip above the piece's top is refused; a heavier pawn is accepted and printed back.
+    let file = write_setup(
+        dir.path(),
+        "grip.toml",
+        "[pieces.pawn]\nheight = 0.05\nbase_diameter = 0.029\nmass = 0.03\ngrip_height = 0.06\n",
+    );
+    assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["pawn", "grip_height", "0.06"]);
+    let file = write_setup(
+        dir.path(),
+        "pawn.toml",
+        "[pieces.pawn]\nheight = 0.05\nbase_diameter = 0.029\nmass = 0.08\ngrip_height = 0.05\n",
+    );
+    let printed = String::from_utf8(chessarm(&["--arm", &file, "arm"]).stdout).unwrap();
+    assert!(printed.contains("[pieces.pawn]") && printed.contains("mass = 0.08"), "{printed}");
+    assert!(printed.contains("[pieces.king]"));
+
     // A partial file: only the board changes, and IK follows it.
     let file = write_setup(
         dir.path(),

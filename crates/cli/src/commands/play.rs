@@ -66,6 +66,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     }
     let spec = controller_specs(args.controller, args.kp, args.kd, args.ki)?.remove(0);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
+    settings.pieces = setup.pieces;
     settings.controller_knows_payload = args.controller_knows_payload;
     settings.tolerance = args.tolerance_mm / 1e3;
     let mut source = source(args)?;

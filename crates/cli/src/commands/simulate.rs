@@ -7,6 +7,7 @@ use crate::output::{ensure_dir, numbered, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
 use anyhow::{Context, Result, bail};
+use chessarm_chess::pieces::PieceDimensions;
 use chessarm_core::arm::dynamics::{DynamicsTerms, coriolis_torques, gravity_torques};
 use chessarm_core::arm::model::{JointVector, Payload};
 use chessarm_core::control::JointState;
@@ -19,10 +20,9 @@ use serde_json::{Value, json};
 use std::path::Path;
 use std::time::Instant;
 
-/// The piece gripped in the report's scenario: a pawn-sized upright cylinder (5 cm tall,
-/// 2.9 cm across) held at its top, of the given mass (kg).
-pub fn gripped_pawn(mass: f64) -> Payload {
-    Payload::upright_cylinder(mass, 0.05, 0.0145, 0.05)
+/// The piece gripped in the report's scenario: the setup's pawn with the given mass (kg).
+pub fn gripped_pawn(setup: &Setup, mass: f64) -> Payload {
+    PieceDimensions { mass, ..setup.pieces.pawn }.payload()
 }
 
 /// A controller to simulate: its name and gains.
@@ -111,7 +111,7 @@ pub fn run_controller(
             .iter()
             .map(|event| PayloadEvent {
                 time: event.time,
-                payload: (event.action == GripperAction::Grip).then(|| gripped_pawn(options.payload_mass)),
+                payload: (event.action == GripperAction::Grip).then(|| gripped_pawn(setup, options.payload_mass)),
                 controller_knows: options.controller_knows_payload,
             })
             .collect()
@@ -368,7 +368,7 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
 /// `dynamics`: `M(q)`, `C(q, q̇) q̇` and `g(q)` as JSON.
 pub fn dynamics(setup: &Setup, args: &DynamicsArgs) -> Result<()> {
     let model = if args.payload_mass > 0.0 {
-        setup.arm.with_payload(Some(gripped_pawn(args.payload_mass)))?
+        setup.arm.with_payload(Some(gripped_pawn(setup, args.payload_mass)))?
     } else {
         setup.arm
     };

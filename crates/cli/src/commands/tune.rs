@@ -197,6 +197,7 @@ pub fn simulate_candidate(
         }
         Study::Game(record) => {
             let mut settings = PlaySettings::new("candidate", *gains);
+            settings.pieces = setup.pieces;
             settings.record_every = 0;
             settings.controller_knows_payload = options.controller_knows_payload;
             let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
@@ -279,7 +280,7 @@ fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
             .iter()
             .map(|e| PayloadEvent {
                 time: e.time,
-                payload: (e.action == GripperAction::Grip).then(|| gripped_pawn(args.payload_mass)),
+                payload: (e.action == GripperAction::Grip).then(|| gripped_pawn(setup, args.payload_mass)),
                 controller_knows: args.controller_knows_payload,
             })
             .collect()
