@@ -87,13 +87,8 @@ pub struct PlayArgs {
     /// Outer loop of the computed-torque controller.
     #[arg(long, value_enum, default_value_t = ControllerChoice::Pd)]
     pub controller: ControllerChoice,
-    /// Gains (default: the report's for the chosen controller), one value or one per joint.
-    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
-    pub kp: Option<[f64; 4]>,
-    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
-    pub kd: Option<[f64; 4]>,
-    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
-    pub ki: Option<[f64; 4]>,
+    #[command(flatten)]
+    pub gains: GainArgs,
     /// The controller's model includes each gripped piece.
     #[arg(long)]
     pub controller_knows_payload: bool,
@@ -199,6 +194,20 @@ pub struct TuneArgs {
     pub out: PathBuf,
 }
 
+/// Outer-loop gains given on the command line; the report's are used for what is left out.
+#[derive(Debug, Args, Clone, Copy, Default)]
+pub struct GainArgs {
+    /// Proportional gain, 1/s²: one value or one per joint (a,b,c,d). Default: the report's.
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub kp: Option<[f64; 4]>,
+    /// Derivative gain, 1/s: one value or one per joint.
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub kd: Option<[f64; 4]>,
+    /// Integral gain (PID), 1/s³: one value or one per joint.
+    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
+    pub ki: Option<[f64; 4]>,
+}
+
 /// Which controllers to simulate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ControllerChoice {
@@ -231,15 +240,8 @@ pub struct SimulateArgs {
     /// Controllers to simulate.
     #[arg(long, value_enum, default_value_t = ControllerChoice::Both)]
     pub controller: ControllerChoice,
-    /// Proportional gain, 1/s²: one value or one per joint (a,b,c,d). Default: the report's.
-    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
-    pub kp: Option<[f64; 4]>,
-    /// Derivative gain, 1/s: one value or one per joint.
-    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
-    pub kd: Option<[f64; 4]>,
-    /// Integral gain (PID), 1/s³: one value or one per joint.
-    #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
-    pub ki: Option<[f64; 4]>,
+    #[command(flatten)]
+    pub gains: GainArgs,
     /// RK4 time step, s.
     #[arg(long, default_value_t = 0.001, value_parser = args::positive)]
     pub dt: f64,

@@ -2,37 +2,14 @@
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
+mod common;
+use common::{assert_one_line_error, chessarm, json_of, numbers};
+
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::{Matrix4, Rotation3, Vector3};
-use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn chessarm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).output().expect("the binary runs")
-}
-
-fn json_of(output: &Output) -> Value {
-    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
-    serde_json::from_slice(&output.stdout).expect("stdout is JSON")
-}
-
-/// Exit code 2, exactly one line on stderr, containing every `needle`.
-fn assert_one_line_error(output: &Output, needles: &[&str]) {
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "stderr: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "not one line: {stderr}");
-    for needle in needles {
-        assert!(stderr.contains(needle), "'{needle}' missing from: {stderr}");
-    }
-    assert!(output.stdout.is_empty(), "partial output on stdout");
-}
-
-fn numbers(value: &Value) -> Vec<f64> {
-    value.as_array().expect("array").iter().map(|v| v.as_f64().expect("number")).collect()
-}
 
 #[test]
 fn ik_then_fk_returns_the_square() {

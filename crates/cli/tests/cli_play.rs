@@ -2,25 +2,14 @@
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
+mod common;
+use common::{assert_one_line_error, chessarm};
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn chessarm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).output().expect("the binary runs")
-}
 
 fn fixture(name: &str) -> String {
     format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn assert_one_line_error(output: &Output, needles: &[&str]) {
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "stderr: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "not one line: {stderr}");
-    for needle in needles {
-        assert!(stderr.contains(needle), "'{needle}' missing from: {stderr}");
-    }
 }
 
 /// Plays and returns game.json, asserting the physical board equals the rules' board.

@@ -2,26 +2,10 @@
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
+mod common;
+use common::{assert_one_line_error, chessarm, json_of};
+
 use serde_json::Value;
-use std::process::{Command, Output};
-
-fn chessarm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).output().expect("the binary runs")
-}
-
-fn json_of(output: &Output) -> Value {
-    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
-    serde_json::from_slice(&output.stdout).expect("stdout is JSON")
-}
-
-fn assert_one_line_error(output: &Output, needles: &[&str]) {
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "stderr: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "not one line: {stderr}");
-    for needle in needles {
-        assert!(stderr.contains(needle), "'{needle}' missing from: {stderr}");
-    }
-}
 
 #[test]
 fn specs_give_gains_whose_simulated_response_meets_them() {

@@ -1,6 +1,6 @@
 //! `demo` (and `chessarm` with no command): the report's study end to end.
 
-use crate::cli::{ControllerChoice, DemoArgs};
+use crate::cli::{ControllerChoice, DemoArgs, GainArgs};
 use crate::commands::plan::{plan_scenario, write_plan};
 use crate::commands::simulate::{
     ControllerRun, RunOptions, comparison_table, controller_specs, run_study, study_steps,
@@ -22,7 +22,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
         payload_mass: 0.0,
         controller_knows_payload: false,
     };
-    let specs = controller_specs(ControllerChoice::Both, None, None, None)?;
+    let specs = controller_specs(ControllerChoice::Both, &GainArgs::default())?;
     let steps = study_steps(setup, SCENARIO, &options)?;
     let bar = crate::progress::bar(steps * specs.len() as u64 + steps / 10, "demo");
     bar.set_message("planning");

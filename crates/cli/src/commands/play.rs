@@ -64,7 +64,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     if args.controller == ControllerChoice::Both {
         bail!("play with one controller: --controller pd or pid");
     }
-    let spec = controller_specs(args.controller, args.kp, args.kd, args.ki)?.remove(0);
+    let spec = controller_specs(args.controller, &args.gains)?.remove(0);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     settings.pieces = setup.pieces;
     settings.controller_knows_payload = args.controller_knows_payload;

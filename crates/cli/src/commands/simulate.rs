@@ -1,6 +1,6 @@
 //! `simulate` and `dynamics`: the report's closed-loop study and the dynamics terms.
 
-use crate::cli::{ControllerChoice, DynamicsArgs, SimulateArgs};
+use crate::cli::{ControllerChoice, DynamicsArgs, GainArgs, SimulateArgs};
 use crate::commands::plan::{Plan, plan_scenario};
 use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, write_csv, write_json};
@@ -13,7 +13,7 @@ use chessarm_core::arm::model::{JointVector, Payload};
 use chessarm_core::control::JointState;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD, REPORT_PID};
-use chessarm_core::plan::path::GripperAction;
+use chessarm_core::plan::path::{CartesianPath, GripperAction};
 use chessarm_core::sim::{Observer, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate};
 use indicatif::ProgressBar;
 use serde_json::{Value, json};
@@ -23,6 +23,22 @@ use std::time::Instant;
 /// The piece gripped in the report's scenario: the setup's pawn with the given mass (kg).
 pub fn gripped_pawn(setup: &Setup, mass: f64) -> Payload {
     PieceDimensions { mass, ..setup.pieces.pawn }.payload()
+}
+
+/// Payload events of a path: the setup's pawn, of `mass` kg, gripped at every grip mark and
+/// released at every release mark (none when the mass is 0).
+pub fn pawn_events(setup: &Setup, path: &CartesianPath, mass: f64, controller_knows: bool) -> Vec<PayloadEvent> {
+    if mass <= 0.0 {
+        return Vec::new();
+    }
+    path.events()
+        .iter()
+        .map(|event| PayloadEvent {
+            time: event.time,
+            payload: (event.action == GripperAction::Grip).then(|| gripped_pawn(setup, mass)),
+            controller_knows,
+        })
+        .collect()
 }
 
 /// A controller to simulate: its name and gains.
@@ -52,12 +68,8 @@ pub struct ControllerRun {
 }
 
 /// The controllers `args` asks for, with the report's gains unless overridden.
-pub fn controller_specs(
-    choice: ControllerChoice,
-    kp: Option<[f64; 4]>,
-    kd: Option<[f64; 4]>,
-    ki: Option<[f64; 4]>,
-) -> Result<Vec<ControllerSpec>> {
+pub fn controller_specs(choice: ControllerChoice, given: &GainArgs) -> Result<Vec<ControllerSpec>> {
+    let GainArgs { kp, kd, ki } = *given;
     let make = |name: &str, (default_kp, default_kd, default_ki): (f64, f64, f64)| -> Result<ControllerSpec> {
         let pick = |given: Option<[f64; 4]>, default: f64| JointVector::<4>::from(given.unwrap_or([default; 4]));
         let ki = if name == "pd" { JointVector::zeros() } else { pick(ki, default_ki) };
@@ -105,19 +117,7 @@ pub fn run_controller(
     let mut plant = Plant::new(setup.arm);
     let mut controller = ComputedTorque::new(spec.name.clone(), setup.arm, spec.gains);
     let config = SimConfig { dt: options.dt, control_period: options.control_period, ..SimConfig::new(&plant) };
-    let events: Vec<PayloadEvent> = if options.payload_mass > 0.0 {
-        plan.path
-            .events()
-            .iter()
-            .map(|event| PayloadEvent {
-                time: event.time,
-                payload: (event.action == GripperAction::Grip).then(|| gripped_pawn(setup, options.payload_mass)),
-                controller_knows: options.controller_knows_payload,
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let events = pawn_events(setup, &plan.path, options.payload_mass, options.controller_knows_payload);
     let marks: Vec<f64> = plan.path.events().iter().map(|e| e.time).collect();
     let initial = options.q0.map(|q0| JointState::at_rest(JointVector::from(q0)));
     let mut recorder = Recorder { records: Vec::with_capacity(plan.joint.samples().len() + 1), progress };
@@ -354,7 +354,7 @@ pub fn options_from(args: &SimulateArgs) -> RunOptions {
 }
 
 pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
-    let specs = controller_specs(args.controller, args.kp, args.kd, args.ki)?;
+    let specs = controller_specs(args.controller, &args.gains)?;
     let options = options_from(args);
     let total = study_steps(setup, &args.scenario, &options)? * specs.len() as u64;
     let bar = crate::progress::bar(total, "simulating");

@@ -6,7 +6,7 @@
 
 use crate::cli::{ControllerChoice, Metric, TuneArgs};
 use crate::commands::plan::plan_scenario;
-use crate::commands::simulate::gripped_pawn;
+use crate::commands::simulate::pawn_events;
 use crate::config::Setup;
 use crate::output::{ensure_dir, write_atomic};
 use crate::plots::{HeatMap, plot_heat_map};
@@ -18,7 +18,6 @@ use chessarm_core::arm::model::JointVector;
 use chessarm_core::control::JointState;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::Gains;
-use chessarm_core::plan::path::GripperAction;
 use chessarm_core::plan::trajectory::JointTrajectory;
 use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, simulate};
 use rayon::prelude::*;
@@ -274,19 +273,7 @@ pub fn study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
 /// The scenario study for the tune command.
 fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
     let plan = plan_scenario(setup, &args.scenario, 1e-3)?;
-    let events = if args.payload_mass > 0.0 {
-        plan.path
-            .events()
-            .iter()
-            .map(|e| PayloadEvent {
-                time: e.time,
-                payload: (e.action == GripperAction::Grip).then(|| gripped_pawn(setup, args.payload_mass)),
-                controller_knows: args.controller_knows_payload,
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let events = pawn_events(setup, &plan.path, args.payload_mass, args.controller_knows_payload);
     let marks = plan.path.events().iter().map(|e| e.time).collect();
     let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(q)));
     Ok(ScenarioStudy { trajectory: plan.joint, events, marks, initial })

@@ -1,0 +1,33 @@
+//! Helpers shared by the command-line tests.
+
+#![allow(clippy::unwrap_used, dead_code)] // test helpers; not every test file uses every one
+
+use serde_json::Value;
+use std::process::{Command, Output};
+
+/// Runs the `chessarm` binary with `args`.
+pub fn chessarm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).output().expect("the binary runs")
+}
+
+/// Standard output as JSON, after checking the command succeeded.
+pub fn json_of(output: &Output) -> Value {
+    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_slice(&output.stdout).expect("stdout is JSON")
+}
+
+/// Exit code 2, exactly one line on stderr containing every `needle`, nothing on stdout.
+pub fn assert_one_line_error(output: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "stderr: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "not one line: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "'{needle}' missing from: {stderr}");
+    }
+    assert!(output.stdout.is_empty(), "partial output on stdout");
+}
+
+/// The numbers of a JSON array.
+pub fn numbers(value: &Value) -> Vec<f64> {
+    value.as_array().expect("array").iter().map(|v| v.as_f64().expect("number")).collect()
+}
