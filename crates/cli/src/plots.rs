@@ -164,7 +164,8 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
             .margin(15)
             .x_label_area_size(50)
             .y_label_area_size(70)
-            .build_cartesian_2d(0.0..columns as f64, 0.0..rows as f64)
+            // Cell i spans [i − ½, i + ½], so whole numbers are cell centres and carry the labels.
+            .build_cartesian_2d(-0.5..columns as f64 - 0.5, -0.5..rows as f64 - 0.5)
             .map_err(|e| anyhow!("{e}"))?;
         let x_values = map.x_values.to_vec();
         let y_values = map.y_values.to_vec();
@@ -187,12 +188,14 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
                     Some(v) if v.is_finite() => heat_color((v - low) / span),
                     _ => RGBColor(190, 190, 190),
                 };
-                Rectangle::new([(column as f64, row as f64), (column as f64 + 1.0, row as f64 + 1.0)], color.filled())
+                let (x, y) = (column as f64, row as f64);
+                Rectangle::new([(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)], color.filled())
             })
         });
         chart.draw_series(cells).map_err(|e| anyhow!("{e}"))?;
         if let Some((row, column)) = map.marked {
-            let frame = [(column as f64, row as f64), (column as f64 + 1.0, row as f64 + 1.0)];
+            let (x, y) = (column as f64, row as f64);
+            let frame = [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)];
             chart
                 .draw_series(std::iter::once(Rectangle::new(frame, BLACK.stroke_width(3))))
                 .map_err(|e| anyhow!("{e}"))?;
@@ -201,14 +204,16 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
         let mut bar = ChartBuilder::on(&bar_area)
             .margin_top(60)
             .margin_bottom(65)
-            .margin_right(10)
-            .y_label_area_size(80)
-            .caption(map.value_label, ("sans-serif", 14))
+            .margin_right(45)
+            .y_label_area_size(75)
             .build_cartesian_2d(0.0..1.0, low..low + span)
             .map_err(|e| anyhow!("{e}"))?;
         bar.configure_mesh()
             .disable_mesh()
             .disable_x_axis()
+            .y_desc(map.value_label)
+            .y_label_formatter(&|v| format!("{v:.4}"))
+            .axis_desc_style(("sans-serif", 14))
             .label_style(("sans-serif", 13))
             .draw()
             .map_err(|e| anyhow!("{e}"))?;
@@ -224,10 +229,14 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
     })
 }
 
+/// The grid value at a whole-number axis position (a cell centre), shortest form; blank elsewhere.
 fn label_at(values: &[f64], position: f64) -> String {
-    let index = position.floor() as usize;
-    match values.get(index) {
-        Some(v) if (position - index as f64 - 0.5).abs() < 0.51 => format!("{v:.4}"),
-        _ => String::new(),
+    let nearest = position.round();
+    if (position - nearest).abs() > 1e-6 || nearest < 0.0 {
+        return String::new();
     }
+    values.get(nearest as usize).map_or(String::new(), |v| {
+        let text = format!("{v:.3}");
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    })
 }
