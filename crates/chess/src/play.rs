@@ -115,6 +115,20 @@ pub struct MoveReport {
     pub start_time: f64,
 }
 
+/// How many times a move is replanned slower before its joint-speed violation is an error.
+const SLOWDOWN_ATTEMPTS: usize = 8;
+
+/// The limits with every speed and acceleration scaled by 0.7.
+fn slower(limits: &MotionLimits) -> MotionLimits {
+    MotionLimits {
+        max_speed: 0.7 * limits.max_speed,
+        max_acceleration: 0.7 * limits.max_acceleration,
+        vertical_speed: 0.7 * limits.vertical_speed,
+        vertical_acceleration: 0.7 * limits.vertical_acceleration,
+        ..*limits
+    }
+}
+
 /// Keeps every n-th step.
 struct Sampler {
     every: usize,
@@ -273,18 +287,23 @@ impl Game {
     /// Plans, simulates and applies one robot move.
     fn execute(&mut self, mv: &Move, name: &str, report: &mut MoveReport) -> Result<(), PlayError> {
         let settings = &self.settings;
-        let mut path = CartesianPath::new(self.tool);
-        let planned = append_move_path(
-            &mut path,
-            &self.position,
-            mv,
-            &self.table,
-            &settings.pieces,
-            &settings.limits,
-            &self.arm,
-        )?;
-        let trajectory = JointTrajectory::from_path(&self.arm, &path, settings.control_period, TOOL_DOWN)
-            .map_err(|source| PlayError::Plan { mv: name.to_string(), source })?;
+        // Cartesian limits do not bound joint rates near the base axis (joint 1 turns at
+        // v/r): when a joint would exceed its speed limit, the move is replanned slower.
+        let mut limits = settings.limits;
+        let mut attempt = 0;
+        let (path, planned, trajectory) = loop {
+            let mut path = CartesianPath::new(self.tool);
+            let planned =
+                append_move_path(&mut path, &self.position, mv, &self.table, &settings.pieces, &limits, &self.arm)?;
+            match JointTrajectory::from_path(&self.arm, &path, settings.control_period, TOOL_DOWN) {
+                Ok(trajectory) => break (path, planned, trajectory),
+                Err(PlanError::VelocityLimit { .. }) if attempt < SLOWDOWN_ATTEMPTS => {
+                    attempt += 1;
+                    limits = slower(&limits);
+                }
+                Err(source) => return Err(PlayError::Plan { mv: name.to_string(), source }),
+            }
+        };
         let mut events = Vec::with_capacity(2 * planned.len());
         let mut marks = Vec::with_capacity(2 * planned.len());
         for step in &planned {

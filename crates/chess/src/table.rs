@@ -36,11 +36,12 @@ pub const GRAVEYARD_COLUMN_X: [f64; 2] = [14.0 / 3.0, 17.0 / 3.0];
 pub const GRAVEYARD_FIRST_ROW_Y: f64 = -3.5;
 /// Distance between graveyard rows, in square sizes (0.05 m on 6 cm squares).
 pub const GRAVEYARD_ROW_STEP: f64 = 5.0 / 6.0;
-/// The spare pieces of each colour's reserve, by slot.
-pub const RESERVE_ROLES: [Role; 4] = [Role::Queen, Role::Rook, Role::Bishop, Role::Knight];
+/// The spare pieces of each colour's reserve, by slot: two queens (promotions are mostly to
+/// queens), a rook, a bishop and a knight.
+pub const RESERVE_ROLES: [Role; 5] = [Role::Queen, Role::Rook, Role::Bishop, Role::Knight, Role::Queen];
 /// Distance of the reserve slots from the board centre along x, in square sizes (0.09, 0.15,
-/// 0.21, 0.27 m on 6 cm squares); white's at +x, black's at −x.
-pub const RESERVE_X: [f64; 4] = [1.5, 2.5, 3.5, 4.5];
+/// 0.21, 0.27, 0.33 m on 6 cm squares); white's at +x, black's at −x.
+pub const RESERVE_X: [f64; 5] = [1.5, 2.5, 3.5, 4.5, 5.5];
 /// y of the reserve relative to the board centre, in square sizes (half a square outside the
 /// near edge: 0.06 m on the report's board).
 pub const RESERVE_Y: f64 = -4.5;
@@ -57,7 +58,7 @@ pub enum Location {
         /// Slot index.
         slot: usize,
     },
-    /// A slot (`0..4`, see [`RESERVE_ROLES`]) of the spare pieces of `color`.
+    /// A slot (`0..RESERVE_ROLES.len()`, see [`RESERVE_ROLES`]) of the spare pieces of `color`.
     Reserve {
         /// Colour of the pieces kept there.
         color: Color,

@@ -150,8 +150,11 @@ fn heat_color(fraction: f64) -> RGBColor {
 pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
     register_font();
     let finite: Vec<f64> = map.values.iter().flatten().flatten().copied().filter(|v| v.is_finite()).collect();
-    let low = finite.iter().copied().fold(f64::INFINITY, f64::min);
-    let high = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    // With no finite value (every candidate failed, or an empty shard) the scale is 0..1.
+    let (low, high) = match finite.iter().copied().reduce(f64::min) {
+        Some(low) => (low, finite.iter().copied().fold(low, f64::max)),
+        None => (0.0, 1.0),
+    };
     let span = if high > low { high - low } else { 1.0 };
     render_atomic(path, |temporary| {
         let root = BitMapBackend::new(temporary, (1000, 800)).into_drawing_area();

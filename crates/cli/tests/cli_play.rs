@@ -60,6 +60,18 @@ fn move_lists_robot_side_and_fen_start() {
 }
 
 #[test]
+fn promotions_near_the_base_and_a_second_queen() {
+    // Carrying black's spare queen from beside the base to h1 passes 8 cm from the base axis,
+    // where the default speed would turn joint 1 faster than 3 rad/s: the move is slowed.
+    let dir = tempfile::tempdir().unwrap();
+    play(dir.path(), &["--fen", "4k3/8/8/8/8/8/7p/K7 b - - 0 1", "--moves", "h1=Q"]);
+    // Two queen promotions: the reserve holds two spare queens.
+    let dir = tempfile::tempdir().unwrap();
+    let game = play(dir.path(), &["--fen", "4k3/PP6/8/8/8/8/8/3QK3 w - - 0 1", "--moves", "a8=Q Ke7 b8=Q"]);
+    assert_eq!(game["final_fen_rules"], "QQ6/4k3/8/8/8/8/8/3QK3 b - - 0 2");
+}
+
+#[test]
 fn a_game_against_the_builtin_engine() {
     let dir = tempfile::tempdir().unwrap();
     let game = play(dir.path(), &["--plies", "16", "--robot", "white", "--depth", "2"]);
@@ -132,6 +144,26 @@ fn bad_games_and_engines_are_one_line_errors() {
             "play",
             "--engine",
             &hanging,
+            "--robot",
+            "black",
+            "--engine-timeout",
+            "300",
+            "--movetime",
+            "10",
+            "--out",
+            out,
+        ]),
+        &["within", "ms"],
+    );
+    assert!(started.elapsed().as_secs() < 10);
+    // An engine that floods `info` lines after `go` must still time out.
+    let flooding = fake_engine(dir.path(), "flood.sh", "exec yes 'info depth 1 score cp 0'");
+    let started = std::time::Instant::now();
+    assert_one_line_error(
+        &chessarm(&[
+            "play",
+            "--engine",
+            &flooding,
             "--robot",
             "black",
             "--engine-timeout",

@@ -120,6 +120,33 @@ fn shards_concatenate_to_the_full_sweep() {
 }
 
 #[test]
+fn a_sweep_where_every_candidate_fails_still_finishes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("wild");
+    // kp = 1e7 with no damping cannot be held by a 1 kHz loop: every run diverges.
+    let result = json_of(&chessarm(&["tune", "--kp", "1e7..1e7:1", "--kd", "0..0:1", "--out", out.to_str().unwrap()]));
+    assert_eq!(result["failed"].as_u64(), Some(1));
+    assert_eq!(result["best"].as_array().unwrap().len(), 0);
+    let csv = std::fs::read_to_string(out.join("tune.csv")).unwrap();
+    assert!(rows(&csv)[0][4].starts_with("failed: "), "{csv}");
+    // An empty shard writes an empty slice.
+    let shard = dir.path().join("shard");
+    let result = json_of(&chessarm(&[
+        "tune",
+        "--kp",
+        "400..400:1",
+        "--kd",
+        "20..20:1",
+        "--shard",
+        "2/3",
+        "--out",
+        shard.to_str().unwrap(),
+    ]));
+    assert_eq!(result["candidates"].as_u64(), Some(0));
+    assert_eq!(std::fs::read_to_string(shard.join("tune.csv")).unwrap(), "");
+}
+
+#[test]
 fn bad_ranges_are_one_line_errors_naming_the_value() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();

@@ -9,7 +9,7 @@
 use std::io::{self, BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender};
 use std::thread;
 use std::time::{Duration, Instant};
 
@@ -58,7 +58,8 @@ impl UciEngine {
             .map_err(|cause| OpponentError::EngineSpawn { path: path.to_path_buf(), cause })?;
         let stdin = child.stdin.take();
         let stdout = child.stdout.take();
-        let (sender, lines) = mpsc::channel();
+        // Bounded: an engine that floods its output blocks on its own pipe instead of filling memory.
+        let (sender, lines) = mpsc::sync_channel(LINE_BUFFER);
         // From here on, dropping `engine` (also on the error paths below) cleans up the process.
         let mut engine =
             Self { path: path.to_path_buf(), id_name: None, child, stdin, lines, movetime_ms, timeout, dead: None };
@@ -136,7 +137,10 @@ impl UciEngine {
     ) -> Result<T, OpponentError> {
         let deadline = Instant::now().checked_add(timeout);
         loop {
+            // Checked before every line: a chatty engine must not keep a missed deadline alive.
+            let expired = deadline.is_some_and(|deadline| Instant::now() >= deadline);
             let received = match deadline {
+                _ if expired => Err(RecvTimeoutError::Timeout),
                 Some(deadline) => self.lines.recv_timeout(deadline.saturating_duration_since(Instant::now())),
                 // A timeout too large to represent: wait without one.
                 None => self.lines.recv().map_err(|_| RecvTimeoutError::Disconnected),
@@ -206,7 +210,11 @@ impl Opponent for UciEngine {
         }
         let fen = Fen::from_position(position, EnPassantMode::Legal).to_string();
         // Discard anything left over from earlier commands (late `info` lines and the like).
-        while self.lines.try_recv().is_ok() {}
+        for _ in 0..LINE_BUFFER {
+            if self.lines.try_recv().is_err() {
+                break;
+            }
+        }
         self.send(&format!("position fen {fen}"))?;
         self.send(&format!("go movetime {}", self.movetime_ms))?;
         let wait = Duration::from_millis(self.movetime_ms).saturating_add(self.timeout);
@@ -247,7 +255,10 @@ fn is_pipe_closed(error: &io::Error) -> bool {
 }
 
 /// Forwards the engine's output line by line until it closes (or the receiver is gone).
-fn forward_lines(stdout: ChildStdout, lines: &Sender<String>) {
+/// Lines buffered between the engine's output thread and the client.
+const LINE_BUFFER: usize = 1024;
+
+fn forward_lines(stdout: ChildStdout, lines: &SyncSender<String>) {
     let mut reader = BufReader::new(stdout);
     let mut buffer = Vec::new();
     loop {
