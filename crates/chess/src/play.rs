@@ -15,7 +15,7 @@ use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
 use chessarm_core::control::JointState;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::Gains;
-use chessarm_core::nalgebra::{Vector2, Vector3};
+use chessarm_core::nalgebra::{Rotation2, Vector2, Vector3};
 use chessarm_core::plan::path::CartesianPath;
 use chessarm_core::plan::trajectory::{JointTrajectory, PlanError};
 use chessarm_core::sim::{Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, simulate};
@@ -329,16 +329,19 @@ impl Game {
             &mut sampler,
         )
         .map_err(|source| PlayError::Simulation { mv: name.to_string(), source })?;
-        // Each piece moves rigidly with the gripper from grip to release.
+        // Each piece moves rigidly with the gripper from grip to release: its offset from the
+        // tool tip turns with the tool's yaw, which for this arm is the tip's bearing about
+        // the base axis (joint 1).
         for (index, step) in planned.iter().enumerate() {
             let grip_tip = summary.tip_at_marks[2 * index].xy();
             let release_tip = summary.tip_at_marks[2 * index + 1].xy();
+            let turn = Rotation2::new(release_tip.y.atan2(release_tip.x) - grip_tip.y.atan2(grip_tip.x));
             let standing = self
                 .table
                 .piece_at(step.task.from)
                 .map(|p| p.position)
                 .unwrap_or_else(|| self.table.nominal_position(step.task.from));
-            let placed = release_tip + (standing - grip_tip);
+            let placed = release_tip + turn * (standing - grip_tip);
             let target = self.table.nominal_position(step.task.to);
             self.relocate(name, step.task.from, step.task.to, placed)?;
             report.tasks.push(step.task.to_string());

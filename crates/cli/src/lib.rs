@@ -39,7 +39,29 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// Prints a JSON value to standard output on one line.
+/// Prints a JSON value to standard output on one line. A closed pipe (`| head`) is not an
+/// error worth a panic: the output is simply dropped.
 pub fn print_json(value: &serde_json::Value) {
-    println!("{value}");
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout(), "{value}");
+}
+
+/// Writes text for the person at the terminal to standard error (dropped if it is closed).
+pub fn tell(text: &str) {
+    use std::io::Write;
+    let _ = write!(std::io::stderr(), "{text}");
+}
+
+/// The error and its causes on one line, each cause only if the message does not already
+/// contain it (several errors quote their cause in their own message).
+pub fn one_line(error: &anyhow::Error) -> String {
+    let mut message = error.to_string();
+    for cause in error.chain().skip(1) {
+        let text = cause.to_string();
+        if !message.contains(&text) {
+            message.push_str(": ");
+            message.push_str(&text);
+        }
+    }
+    message.replace('\n', " ")
 }

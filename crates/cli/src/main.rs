@@ -22,7 +22,7 @@ fn main() -> ExitCode {
                         .map(str::trim)
                         .filter(|line| !line.is_empty())
                         .collect();
-                    eprintln!("{}", message.join(" "));
+                    chessarm::tell(&format!("{}\n", message.join(" ")));
                     ExitCode::from(2)
                 }
             };
@@ -31,7 +31,7 @@ fn main() -> ExitCode {
     match chessarm::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {}", format!("{error:#}").replace('\n', " "));
+            chessarm::tell(&format!("error: {}\n", chessarm::one_line(&error)));
             ExitCode::from(2)
         }
     }

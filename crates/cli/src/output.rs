@@ -94,3 +94,16 @@ pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
 pub fn numbered(prefix: &str, count: usize) -> impl Iterator<Item = String> + '_ {
     (1..=count).map(move |i| format!("{prefix}{i}"))
 }
+
+/// Deletes result files left by an earlier run, so a failed run cannot leave them looking
+/// like its own.
+pub fn remove_stale(paths: &[PathBuf]) -> Result<()> {
+    for path in paths {
+        match std::fs::remove_file(path) {
+            Ok(()) => {}
+            Err(error) if error.kind() == std::io::ErrorKind::NotFound => {}
+            Err(error) => return Err(error).with_context(|| format!("cannot remove the old {}", path.display())),
+        }
+    }
+    Ok(())
+}

@@ -266,12 +266,35 @@ fn marks_between_steps_are_recorded_once() {
     let mut plant = Plant::new(model);
     let mut controller = pd_controller(model);
     let config = SimConfig::new(&plant);
-    // Half-way between steps, where rounding of the time decides: every mark must be reached.
-    let marks: Vec<f64> = (0..200).map(|k| 0.0005 + 0.0013 * k as f64 + 0.0005).chain([0.2325, 0.0, 0.3]).collect();
+    // Half-way between steps, where the rounding of the time decides, and on steps.
+    let marks: Vec<f64> = (0..299).map(|k| (k as f64 + 0.5) * 1e-3).chain([0.2325, 0.0, 0.3]).collect();
     let reference = Hold { q: target, duration: 0.3 };
-    let start = Some(JointState::at_rest(target));
-    let summary =
-        simulate(&mut plant, &mut controller, &reference, start, &[], &marks, &config, &mut NoObserver).unwrap();
-    assert!(summary.tip_at_marks.iter().all(|tip| tip.iter().all(|v| v.is_finite())));
+    // Start 0.01 rad off so that the tip moves and every step's tip differs.
+    let start = Some(JointState::at_rest(target + q([0.0, 0.01, 0.0, 0.0])));
+    let mut records: Vec<StepRecord<4>> = Vec::new();
+    let summary = simulate(&mut plant, &mut controller, &reference, start, &[], &marks, &config, &mut records).unwrap();
+    for (mark, tip) in marks.iter().zip(&summary.tip_at_marks) {
+        let nearest = &records[(mark / config.dt).round() as usize];
+        assert_eq!(*tip, nearest.tip, "mark {mark} s was not taken at its nearest step");
+    }
     assert!(summary.tip_error_at_marks.iter().all(|e| e.is_finite()));
+}
+
+#[test]
+fn closed_loop_poles_are_the_roots_of_the_characteristic_polynomial() {
+    use chessarm_core::nalgebra::Complex;
+    for (kp, kd, ki) in [(400.0, 20.0, 0.0), (100.0, 40.0, 0.0), (100.0, 1e7, 0.0), (600.0, 25.0, 75.0)] {
+        let gains = Gains::<4>::uniform(kp, kd, ki).unwrap();
+        for pole in gains.closed_loop_poles(0) {
+            let value = if ki > 0.0 {
+                pole * pole * pole + pole * pole * kd + pole * kp + Complex::new(ki, 0.0)
+            } else {
+                pole * pole + pole * kd + Complex::new(kp, 0.0)
+            };
+            // Relative to the polynomial's largest term at that pole.
+            let scale = (pole.norm().powi(2) + kd * pole.norm() + kp + ki).max(1.0);
+            assert!(value.norm() / scale < 1e-12, "pole {pole} of {kp},{kd},{ki}: residual {}", value.norm());
+            assert!(pole.re < 0.0, "pole {pole} of {kp},{kd},{ki} is not in the left half-plane");
+        }
+    }
 }

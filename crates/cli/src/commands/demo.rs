@@ -32,10 +32,12 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     bar.set_message("simulating");
     let (runs, study) = run_study(setup, SCENARIO, &specs, &options, &args.out.join("simulate"), Some(&bar))?;
     bar.finish_and_clear();
-    eprintln!("The report's study: {SCENARIO} (d2→d4), computed torque, plant = model, 1 kHz, start at rest at q = 0.");
-    eprint!("{}", comparison_table(&runs));
-    eprintln!("{}", conclusion(&runs));
-    eprintln!("Plots and CSVs: {}/plan and {}/simulate", args.out.display(), args.out.display());
+    crate::tell(&format!(
+        "The report's study: {SCENARIO} (d2→d4), computed torque, plant = model, 1 kHz, start at rest at q = 0.\n"
+    ));
+    crate::tell(&comparison_table(&runs));
+    crate::tell(&format!("{}\n", conclusion(&runs)));
+    crate::tell(&format!("Plots and CSVs: {}/plan and {}/simulate\n", args.out.display(), args.out.display()));
     print_json(&json!({ "plan_files": plan_files, "simulate": study }));
     Ok(())
 }

@@ -3,7 +3,7 @@
 use crate::cli::{ControllerChoice, PlayArgs, RobotSide};
 use crate::commands::simulate::controller_specs;
 use crate::config::Setup;
-use crate::output::{ensure_dir, numbered, write_csv, write_json};
+use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
 use anyhow::{Context, Result, bail};
@@ -48,12 +48,11 @@ fn source(args: &PlayArgs) -> Result<Source> {
     if let Some(moves) = &args.moves {
         return Ok(Source::Record(parse_move_list(moves, start_position(args)?)?));
     }
-    let robot: Box<dyn Opponent> = if args.robot == RobotSide::Both {
-        opponent(args)?
-    } else {
-        Box::new(BuiltinEngine::new(args.depth, Some(Duration::from_millis(args.movetime))))
-    };
-    Ok(Source::Engines { start: start_position(args)?, robot, opponent: opponent(args)? })
+    let start = start_position(args)?;
+    let opponent = opponent(args)?;
+    // With --robot both every move comes from --engine; the robot's own engine is not asked.
+    let robot: Box<dyn Opponent> = Box::new(BuiltinEngine::new(args.depth, Some(Duration::from_millis(args.movetime))));
+    Ok(Source::Engines { start, robot, opponent })
 }
 
 fn robot_moves(side: RobotSide, turn: Color) -> bool {
@@ -80,6 +79,11 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     };
     ensure_dir(&args.out)?;
     let moves_dir = args.out.join("moves");
+    // Results of an earlier game in the same folder must not pass for this one's.
+    remove_stale(&[args.out.join("game.json")])?;
+    if moves_dir.exists() {
+        std::fs::remove_dir_all(&moves_dir).with_context(|| format!("cannot clear {}", moves_dir.display()))?;
+    }
     ensure_dir(&moves_dir)?;
     let started = Instant::now();
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
@@ -98,7 +102,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         let mv = match &mut source {
             Source::Record(record) => record.moves[ply],
             Source::Engines { robot, opponent, .. } => {
-                let player = if robot_moves(args.robot, turn) { robot } else { opponent };
+                let player =
+                    if robot_moves(args.robot, turn) && args.robot != RobotSide::Both { robot } else { opponent };
                 player.choose_move(game.position()).with_context(|| format!("ply {}", ply + 1))?
             }
         };
@@ -122,14 +127,14 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let summary = game_json(&game, &reports, wall_time_s);
     let game_json_path = args.out.join("game.json");
     write_json(&game_json_path, &summary)?;
-    eprintln!(
-        "{} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced",
+    crate::tell(&format!(
+        "{} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
         reports.len(),
         game.robot_time(),
         wall_time_s,
         if game.fen_physical() == game.fen_rules() { "equals" } else { "DIFFERS FROM" },
         game.misplaced().len()
-    );
+    ));
     let files: Vec<String> =
         [game_json_path, plot, placement_plot, moves_dir].iter().map(|p| p.display().to_string()).collect();
     print_json(&json!({
@@ -144,7 +149,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
 
 /// A line above the progress bar, or plainly on stderr when there is no terminal to draw on.
 fn say(bar: &indicatif::ProgressBar, line: String) {
-    if bar.is_hidden() { eprintln!("{line}") } else { bar.println(line) }
+    if bar.is_hidden() { crate::tell(&format!("{line}\n")) } else { bar.println(line) }
 }
 
 fn move_line(report: &MoveReport) -> String {

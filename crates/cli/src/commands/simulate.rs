@@ -3,7 +3,7 @@
 use crate::cli::{ControllerChoice, DynamicsArgs, GainArgs, SimulateArgs};
 use crate::commands::plan::{Plan, plan_scenario};
 use crate::config::Setup;
-use crate::output::{ensure_dir, numbered, write_csv, write_json};
+use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
 use anyhow::{Context, Result, bail};
@@ -311,6 +311,7 @@ pub fn run_study(
 ) -> Result<(Vec<ControllerRun>, Value)> {
     let plan = plan_scenario(setup, scenario, options.control_period)?;
     ensure_dir(out)?;
+    remove_stale(&[out.join("summary.json")])?;
     let mut runs = Vec::new();
     let mut files = Vec::new();
     for spec in specs {
@@ -360,7 +361,7 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     let bar = crate::progress::bar(total, "simulating");
     let (runs, result) = run_study(setup, &args.scenario, &specs, &options, &args.out, Some(&bar))?;
     bar.finish_and_clear();
-    eprint!("{}", comparison_table(&runs));
+    crate::tell(&comparison_table(&runs));
     print_json(&result);
     Ok(())
 }

@@ -228,6 +228,9 @@ pub struct CandidateOptions {
     pub controller_knows_payload: bool,
 }
 
+/// Most candidates one sweep may describe.
+pub const MAX_CANDIDATES: usize = 10_000_000;
+
 /// The gains of every candidate, in sweep order: kp outermost, then kd, then ki.
 pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
     let pid = match args.controller {
@@ -246,6 +249,10 @@ pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
         (None, true) => bail!("--controller pid needs a --ki range"),
         (None, false) => vec![0.0],
     };
+    let count = args.kp.count as f64 * args.kd.count as f64 * ki_values.len() as f64;
+    if count > MAX_CANDIDATES as f64 {
+        bail!("the sweep has {count:e} candidates, more than {MAX_CANDIDATES}; split it with fewer values or --shard");
+    }
     let mut all = Vec::new();
     for kp in args.kp.values() {
         for kd in args.kd.values() {
@@ -349,7 +356,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let mut best: Vec<&Candidate> = candidates.iter().filter(|c| c.respects_limits()).collect();
     best.sort_by(|a, b| a.metric(args.metric).total_cmp(&b.metric(args.metric)).then(a.index.cmp(&b.index)));
     best.truncate(args.top);
-    eprint!("{}", best_table(&best, args.metric));
+    crate::tell(&best_table(&best, args.metric));
     let failed = candidates.iter().filter(|c| c.status != "ok").count();
     let saturated = candidates.iter().filter(|c| c.status == "ok" && c.saturated_samples > 0).count();
     print_json(&json!({

@@ -93,8 +93,14 @@ impl<const N: usize> Gains<N> {
             poles
         } else {
             let discriminant = kd * kd - 4.0 * kp;
-            let root = Complex::new(discriminant, 0.0).sqrt();
-            vec![(Complex::new(-kd, 0.0) - root) / 2.0, (Complex::new(-kd, 0.0) + root) / 2.0]
+            if discriminant < 0.0 {
+                let imaginary = (-discriminant).sqrt() / 2.0;
+                return vec![Complex::new(-kd / 2.0, -imaginary), Complex::new(-kd / 2.0, imaginary)];
+            }
+            // Real poles: the large one directly, the small one as kp / large (no cancellation).
+            let large = -(kd + discriminant.sqrt()) / 2.0;
+            let small = if large != 0.0 { kp / large } else { 0.0 };
+            vec![Complex::new(large, 0.0), Complex::new(small, 0.0)]
         }
     }
 }

@@ -19,6 +19,8 @@ pub enum ProfileError {
     CruiseVelocity { velocity: f64, distance: f64, duration: f64, min: f64, max: f64 },
     #[error("sample time {0} s must be finite and > 0")]
     SampleTime(f64),
+    #[error("sampling {duration} s every {dt} s needs more than {limit} samples; use a larger time step")]
+    TooManySamples { duration: f64, dt: f64, limit: usize },
     #[error("waypoint ({}, {}, {}) m must be finite", .0[0], .0[1], .0[2])]
     Waypoint([f64; 3]),
     #[error("speed limit {velocity} and acceleration limit {acceleration} must be finite and > 0")]

@@ -186,7 +186,15 @@ where
 {
     let steps_per_sample = config.steps_per_sample()?;
     let dt = config.dt;
-    let steps = (reference.duration() / dt).round() as usize;
+    let steps = (reference.duration() / dt).round();
+    if steps > crate::plan::path::MAX_SAMPLES as f64 {
+        return Err(SimError::Config(format!(
+            "{} s at a time step of {dt} s is more than {} steps; use a larger time step",
+            reference.duration(),
+            crate::plan::path::MAX_SAMPLES
+        )));
+    }
+    let steps = steps as usize;
     let mut state = initial.unwrap_or_else(|| JointState::at_rest(reference.reference(0.0).q));
     controller.reset();
 
