@@ -95,9 +95,9 @@ pub struct PiecesFile {
     pub king: Option<PieceFile>,
 }
 
-/// The whole setup file.
+/// The whole setup file. Fields left out take the report's values.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct SetupFile {
     /// Gravitational acceleration in the base frame, m/s².
     pub gravity: [f64; 3],
@@ -122,15 +122,6 @@ impl Default for Setup {
     }
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct PartialSetupFile {
-    gravity: Option<[f64; 3]>,
-    board: Option<BoardFile>,
-    pieces: Option<PiecesFile>,
-    links: Option<Vec<LinkFile>>,
-}
-
 impl Setup {
     /// The report's setup, or the one in `path` with defaults for what it leaves out.
     pub fn load(path: Option<&Path>) -> Result<Self> {
@@ -146,14 +137,7 @@ impl Setup {
 
     /// Parses and validates a setup from TOML text.
     pub fn parse(text: &str) -> Result<Self> {
-        let partial: PartialSetupFile = toml::from_str(text).map_err(|e| anyhow!(one_line_toml_error(text, &e)))?;
-        let defaults = SetupFile::from(&Setup::default());
-        let file = SetupFile {
-            gravity: partial.gravity.unwrap_or(defaults.gravity),
-            board: partial.board.unwrap_or(defaults.board),
-            pieces: partial.pieces.unwrap_or_default(),
-            links: partial.links.unwrap_or(defaults.links),
-        };
+        let file: SetupFile = toml::from_str(text).map_err(|e| anyhow!(one_line_toml_error(text, &e)))?;
         file.to_setup()
     }
 
@@ -243,6 +227,12 @@ impl LinkFile {
             },
             friction: Friction { viscous: self.viscous, coulomb: self.coulomb },
         }
+    }
+}
+
+impl Default for SetupFile {
+    fn default() -> Self {
+        Self::from(&Setup::default())
     }
 }
 

@@ -120,11 +120,12 @@ impl<const N: usize> ChainVelocities<N> {
         Self { body_angular, frame_origin }
     }
 
-    /// Angular velocity of body `i`, or zero for the base (`i = None`).
+    /// Angular velocity of the body before joint `j` (zero for the base).
     fn omega_before(&self, j: usize) -> Vector3<f64> {
         if j == 0 { Vector3::zeros() } else { self.body_angular[j - 1] }
     }
 
+    /// Velocity of the origin of frame `j` (zero for the base frame).
     fn origin_velocity(&self, j: usize) -> Vector3<f64> {
         if j == 0 { Vector3::zeros() } else { self.frame_origin[j - 1] }
     }

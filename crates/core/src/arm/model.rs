@@ -192,11 +192,6 @@ impl<const N: usize> ArmModel<N> {
         Ok(model)
     }
 
-    /// The same arm under another gravity vector, m/s².
-    pub fn with_gravity(&self, gravity: Vector3<f64>) -> Result<Self, ModelError> {
-        Self::new(self.links, gravity).and_then(|m| m.with_payload(self.payload))
-    }
-
     /// The same arm with other links (e.g. other limits), keeping gravity and payload.
     pub fn with_links(&self, links: [Link; N]) -> Result<Self, ModelError> {
         Self::new(links, self.gravity).and_then(|m| m.with_payload(self.payload))
@@ -228,19 +223,6 @@ impl<const N: usize> ArmModel<N> {
     /// joint, and on the last body the payload.
     pub fn body(&self, index: usize) -> &Inertial {
         &self.bodies[index]
-    }
-
-    /// Total moving mass, kg.
-    pub fn moving_mass(&self) -> f64 {
-        self.bodies.iter().map(|b| b.mass).sum()
-    }
-
-    /// Lower and upper joint-angle limits, rad.
-    pub fn position_limits(&self) -> (JointVector<N>, JointVector<N>) {
-        (
-            JointVector::from_fn(|i, _| self.links[i].limits.lower),
-            JointVector::from_fn(|i, _| self.links[i].limits.upper),
-        )
     }
 
     /// Per-joint torque limits, N·m.

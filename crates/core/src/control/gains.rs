@@ -151,25 +151,6 @@ pub fn normalised_error_response(zeta: f64, tau: f64) -> f64 {
     }
 }
 
-/// Normalised 2 % settling time `ωn·Ts` of the error response for damping `zeta`: the last
-/// instant `|e| > 0.02`, found on a dense grid (step 1e-4) of the exact solution.
-pub fn normalised_settling_time(zeta: f64) -> f64 {
-    let step = 1e-4;
-    let horizon = 20.0 / zeta.min(1.0) + 40.0 * zeta;
-    let count = (horizon / step) as usize;
-    (0..=count)
-        .rev()
-        .map(|k| k as f64 * step)
-        .find(|&tau| normalised_error_response(zeta, tau).abs() > 0.02)
-        .unwrap_or(0.0)
-}
-
-/// Percent overshoot of the second-order error response for damping `zeta`:
-/// `100 · exp(−πζ/√(1 − ζ²))` below critical damping, 0 at or above it.
-pub fn overshoot_for_damping(zeta: f64) -> f64 {
-    if zeta >= 1.0 { 0.0 } else { 100.0 * (-PI * zeta / (1.0 - zeta * zeta).sqrt()).exp() }
-}
-
 /// Shape of the error response from `e(0) = 1`, `ė(0) = 0`, `∫e(0) = 0`, in normalised time
 /// `τ = ωn t`, for gains designed by [`Gains::pid_from_poles`] (`alpha = 0`: PD).
 #[derive(Debug, Clone, Copy, PartialEq)]
