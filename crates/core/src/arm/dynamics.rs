@@ -238,9 +238,22 @@ pub fn forward_dynamics_from_chain<const N: usize>(
     qd: &JointVector<N>,
     torque: &JointVector<N>,
 ) -> Result<JointVector<N>, DynamicsError> {
-    let terms = DynamicsTerms::from_chain(model, chain, qd);
-    let rhs = torque + friction_torques(model, qd) - terms.bias;
-    Cholesky::<f64, Const<N>>::new(terms.mass_matrix)
-        .map(|cholesky| cholesky.solve(&rhs))
-        .ok_or_else(|| DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))
+    DynamicsTerms::from_chain(model, chain, qd).acceleration(model, q, qd, torque)
+}
+
+impl<const N: usize> DynamicsTerms<N> {
+    /// Forward dynamics with these terms (of `model` at `(q, q̇)`) at hand:
+    /// `q̈ = M⁻¹ (τ + τ_friction(q̇) − C q̇ − g)`, rad/s², by Cholesky.
+    pub fn acceleration(
+        &self,
+        model: &ArmModel<N>,
+        q: &JointVector<N>,
+        qd: &JointVector<N>,
+        torque: &JointVector<N>,
+    ) -> Result<JointVector<N>, DynamicsError> {
+        let rhs = torque + friction_torques(model, qd) - self.bias;
+        Cholesky::<f64, Const<N>>::new(self.mass_matrix)
+            .map(|cholesky| cholesky.solve(&rhs))
+            .ok_or_else(|| DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))
+    }
 }

@@ -43,6 +43,21 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
     }
 
     fn torque(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N> {
+        let terms = DynamicsTerms::new(&self.model, &state.q, &state.qd);
+        self.torque_with_terms(state, reference, period, &terms)
+    }
+
+    fn dynamics_model(&self) -> Option<&ArmModel<N>> {
+        Some(&self.model)
+    }
+
+    fn torque_with_terms(
+        &mut self,
+        state: &JointState<N>,
+        reference: &Reference<N>,
+        period: f64,
+        terms: &DynamicsTerms<N>,
+    ) -> JointVector<N> {
         let error = reference.q - state.q;
         let error_rate = reference.qd - state.qd;
         if self.gains.has_integral() {
@@ -52,7 +67,6 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
             + self.gains.kd.component_mul(&error_rate)
             + self.gains.kp.component_mul(&error)
             + self.gains.ki.component_mul(&self.integral);
-        let terms = DynamicsTerms::new(&self.model, &state.q, &state.qd);
         terms.mass_matrix * outer + terms.bias
     }
 

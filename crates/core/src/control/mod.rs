@@ -4,7 +4,8 @@
 pub mod computed_torque;
 pub mod gains;
 
-use crate::arm::model::{JointVector, ModelError, Payload};
+use crate::arm::dynamics::DynamicsTerms;
+use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 
 /// Measured joint state: angles (rad) and rates (rad/s).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,4 +47,22 @@ pub trait Controller<const N: usize>: std::fmt::Debug + Send {
     fn torque(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N>;
     /// Tells the controller's model about a gripped payload (or its release).
     fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError>;
+    /// The model the controller computes `M̂(q)` and `Ĉ q̇ + ĝ` with, if it uses one. When it
+    /// equals the plant's model, the closed loop hands the plant's terms at the measured state
+    /// to [`Controller::torque_with_terms`] rather than have them computed twice.
+    fn dynamics_model(&self) -> Option<&ArmModel<N>> {
+        None
+    }
+    /// [`Controller::torque`] with `terms`, the mass matrix and bias torques of
+    /// [`Controller::dynamics_model`] at `state`, already computed. Must return exactly what
+    /// `torque` would.
+    fn torque_with_terms(
+        &mut self,
+        state: &JointState<N>,
+        reference: &Reference<N>,
+        period: f64,
+        _terms: &DynamicsTerms<N>,
+    ) -> JointVector<N> {
+        self.torque(state, reference, period)
+    }
 }

@@ -1,17 +1,17 @@
 //! The closed loop: controller ⇄ plant.
 //!
-//! The plant is integrated by RK4 every `dt`; the controller is sampled every
+//! The plant is integrated every `dt` (RK4 unless the config says otherwise); the controller is sampled every
 //! `control_period` (an integer multiple of `dt`) and its torque, clipped to the joint torque
 //! limits, is held in between (zero-order hold). Payload events grip or release objects at
 //! given instants. Metrics accumulate on the fly; time series go to an [`Observer`] only if the
 //! caller wants them, so a run allocates nothing per step.
 
-use crate::arm::dynamics::DynamicsError;
+use crate::arm::dynamics::{DynamicsError, DynamicsTerms};
 use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{JointVector, ModelError, Payload};
 use crate::control::{Controller, JointState, Reference};
 use crate::plan::trajectory::JointTrajectory;
-use crate::sim::plant::Plant;
+use crate::sim::plant::{Integrator, Plant};
 use nalgebra::Vector3;
 
 /// Settings of a closed-loop run.
@@ -25,12 +25,20 @@ pub struct SimConfig<const N: usize> {
     pub torque_limits: JointVector<N>,
     /// A joint faster than this (rad/s) means the run diverged (default 100 rad/s).
     pub runaway_speed: f64,
+    /// How the plant is integrated over each `dt` (default RK4).
+    pub integrator: Integrator,
 }
 
 impl<const N: usize> SimConfig<N> {
     /// 1 ms RK4, 1 kHz control, the plant's torque limits.
     pub fn new(plant: &Plant<N>) -> Self {
-        Self { dt: 1e-3, control_period: 1e-3, torque_limits: plant.model().torque_limits(), runaway_speed: 100.0 }
+        Self {
+            dt: 1e-3,
+            control_period: 1e-3,
+            torque_limits: plant.model().torque_limits(),
+            runaway_speed: 100.0,
+            integrator: Integrator::RungeKutta4,
+        }
     }
 
     /// Checks the numbers and returns the number of integration steps per controller sample.
@@ -211,6 +219,10 @@ where
     let mut tip_error_at_marks = vec![f64::NAN; marks.len()];
     let mut next_event = 0;
     let mut torque = JointVector::<N>::zeros();
+    // The plant's M and C q̇ + g at each step are the first stage of its integrator; a
+    // controller with the same model gets them too instead of computing them again.
+    let shares_terms = |plant: &Plant<N>, controller: &C| controller.dynamics_model() == Some(plant.model());
+    let mut controller_shares_terms = shares_terms(plant, controller);
 
     for step in 0..=steps {
         let t = step as f64 * dt;
@@ -221,10 +233,17 @@ where
                 controller.set_payload(event.payload).map_err(|source| SimError::Payload { time: t, source })?;
             }
             next_event += 1;
+            controller_shares_terms = shares_terms(plant, controller);
         }
         let desired = reference.reference(t);
+        let chain = FrameChain::new(plant.model(), &state.q);
+        let plant_terms = DynamicsTerms::from_chain(plant.model(), &chain, &state.qd);
         if step.is_multiple_of(steps_per_sample) {
-            let command = controller.torque(&state, &desired, config.control_period);
+            let command = if controller_shares_terms {
+                controller.torque_with_terms(&state, &desired, config.control_period, &plant_terms)
+            } else {
+                controller.torque(&state, &desired, config.control_period)
+            };
             let mut clipped = false;
             for j in 0..N {
                 if !command[j].is_finite() {
@@ -248,7 +267,6 @@ where
         squared_joint_error += error.component_mul(&error);
         max_joint_error = max_joint_error.sup(&error.abs());
         peak_torque = peak_torque.sup(&torque.abs());
-        let chain = FrameChain::new(plant.model(), &state.q);
         let tip = chain.tip();
         let tip_desired = reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
         let tip_error = (tip - tip_desired).norm();
@@ -265,7 +283,7 @@ where
             break;
         }
         state = plant
-            .rk4_step_from_chain(&state, &chain, &torque, dt)
+            .step(&state, &plant_terms, &torque, dt, config.integrator)
             .map_err(|source| SimError::Dynamics { time: t, source })?;
         check_state(&state, t + dt, config.runaway_speed)?;
     }
