@@ -1,6 +1,6 @@
 //! Where a closed-loop step spends its time.
 
-use chessarm_core::arm::dynamics::{BodyFrames, mass_matrix_with_frames, rnea_with_frames};
+use chessarm_core::arm::dynamics::{BodyFrames, ConfigurationDynamics, mass_matrix_with_frames, rnea_with_frames};
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::arm::preset::report_arm;
@@ -25,6 +25,18 @@ fn breakdown(c: &mut Criterion) {
     });
     c.bench_function("cholesky solve 4x4", |b| {
         b.iter(|| Cholesky::<f64, Const<4>>::new(black_box(m)).map(|ch| ch.solve(&qd)))
+    });
+    c.bench_function("configuration dynamics (FK, frames, CRBA, Cholesky)", |b| {
+        b.iter(|| ConfigurationDynamics::new(&model, black_box(&q)))
+    });
+    let configuration = ConfigurationDynamics::new(&model, &q).expect("positive definite");
+    c.bench_function("acceleration at a configuration (RNEA, solve)", |b| {
+        b.iter(|| configuration.acceleration(&model, black_box(&qd), &qd))
+    });
+    let delta = JointVector::<4>::new(1e-3, -2e-3, 5e-4, 1e-4);
+    c.bench_function("joint trig shifted", |b| b.iter(|| chain.trig().shifted(black_box(&delta))));
+    c.bench_function("fk chain from shifted trig", |b| {
+        b.iter(|| FrameChain::from_trig(&model, chain.trig().shifted(black_box(&delta))))
     });
     c.bench_function("4 sin_cos", |b| b.iter(|| black_box(q).map(|v| v.sin_cos().0 + v.sin_cos().1)));
 }

@@ -10,7 +10,7 @@ use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 use chessarm_core::control::{Controller, JointState};
 use chessarm_core::plan::trajectory::JointTrajectory;
-use chessarm_core::sim::{NoObserver, Plant, SimConfig, simulate};
+use chessarm_core::sim::{Integrator, NoObserver, Plant, SimConfig, simulate};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -46,15 +46,18 @@ fn scenario(c: &mut Criterion) {
     let path = queens_gambit(&board).path(&board).expect("valid");
     let trajectory = JointTrajectory::from_path(&model, &path, 1e-3, TOOL_DOWN).expect("feasible");
     let gains = Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid");
-    c.bench_function("queens-gambit 13 s at 1 kHz, PD, one core", |b| {
-        b.iter(|| {
-            let mut plant = Plant::new(model);
-            let mut controller = ComputedTorque::new("pd", model, gains);
-            let config = SimConfig::new(&plant);
-            simulate(&mut plant, &mut controller, &trajectory, None, &[], &[], &config, &mut NoObserver)
-                .expect("stable")
-        })
-    });
+    for integrator in Integrator::ALL {
+        let name = format!("queens-gambit 13 s at 1 kHz, PD, one core, {}", integrator.name());
+        c.bench_function(&name, |b| {
+            b.iter(|| {
+                let mut plant = Plant::new(model);
+                let mut controller = ComputedTorque::new("pd", model, gains);
+                let config = SimConfig { integrator, ..SimConfig::new(&plant) };
+                simulate(&mut plant, &mut controller, &trajectory, None, &[], &[], &config, &mut NoObserver)
+                    .expect("stable")
+            })
+        });
+    }
 }
 
 criterion_group!(benches, per_call, scenario);

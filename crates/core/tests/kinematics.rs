@@ -214,3 +214,24 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn shifted_joint_trig_agrees_with_sin_cos() {
+    use chessarm_core::arm::kinematics::{FrameChain, JointTrig};
+    let model = report_arm();
+    let base = JointVector::<4>::new(1.67, 0.90, -2.09, -0.37);
+    let trig = JointTrig::new(&model, &base);
+    // Steps inside the series' range (down to a micro-radian), at its edge, and beyond it.
+    for step in [1e-6, -3e-4, 2e-3, -0.01, 0.05, -0.05, 0.0500001, 0.3, -2.5] {
+        let delta = JointVector::<4>::new(step, -step, 0.5 * step, 0.0);
+        let shifted = trig.shifted(&delta);
+        let direct = JointTrig::new(&model, &(base + delta));
+        for i in 0..4 {
+            let ((s, c), (s0, c0)) = (shifted.get(i), direct.get(i));
+            // Angle addition rounds a few times: within 4 ulp of 1.
+            assert!((s - s0).abs() < 1e-15 && (c - c0).abs() < 1e-15, "joint {i}, step {step}: {s},{c} vs {s0},{c0}");
+        }
+        let tip = FrameChain::from_trig(&model, shifted).tip();
+        assert!((tip - FrameChain::new(&model, &(base + delta)).tip()).norm() < 1e-15, "step {step}");
+    }
+}

@@ -23,6 +23,70 @@ pub type MassMatrix<const N: usize> = SMatrix<f64, N, N>;
 /// `τ_c · sign(q̇)` so the plant's right-hand side stays smooth for RK4.
 pub const COULOMB_SMOOTHING: f64 = 1e-3;
 
+/// A symmetric 3×3 matrix stored by its six distinct entries: inertia tensors, kg·m².
+/// Products and sums touch each distinct entry once (a full `Matrix3` would do 9).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SymmetricMatrix3 {
+    pub xx: f64,
+    pub yy: f64,
+    pub zz: f64,
+    pub xy: f64,
+    pub xz: f64,
+    pub yz: f64,
+}
+
+impl SymmetricMatrix3 {
+    /// `R I Rᵀ`: a tensor given in a frame rotated by `rotation`, expressed in the outer axes.
+    pub fn rotated(rotation: &Matrix3<f64>, inertia: &Matrix3<f64>) -> Self {
+        let turned = rotation * inertia;
+        let entry = |a: usize, b: usize| {
+            turned[(a, 0)] * rotation[(b, 0)] + turned[(a, 1)] * rotation[(b, 1)] + turned[(a, 2)] * rotation[(b, 2)]
+        };
+        Self { xx: entry(0, 0), yy: entry(1, 1), zz: entry(2, 2), xy: entry(0, 1), xz: entry(0, 2), yz: entry(1, 2) }
+    }
+
+    /// Inertia of a point mass `mass` at `position` about the origin: `m (|c|² E − c cᵀ)`.
+    pub fn point_mass(mass: f64, position: &Vector3<f64>) -> Self {
+        let weighted = position * mass;
+        let (x, y, z) = (position.x, position.y, position.z);
+        Self {
+            xx: weighted.y * y + weighted.z * z,
+            yy: weighted.x * x + weighted.z * z,
+            zz: weighted.x * x + weighted.y * y,
+            xy: -weighted.x * y,
+            xz: -weighted.x * z,
+            yz: -weighted.y * z,
+        }
+    }
+
+    /// The matrix–vector product `S v`.
+    pub fn mul_vector(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        Vector3::new(
+            self.xx * v.x + self.xy * v.y + self.xz * v.z,
+            self.xy * v.x + self.yy * v.y + self.yz * v.z,
+            self.xz * v.x + self.yz * v.y + self.zz * v.z,
+        )
+    }
+
+    pub fn to_matrix(&self) -> Matrix3<f64> {
+        Matrix3::new(self.xx, self.xy, self.xz, self.xy, self.yy, self.yz, self.xz, self.yz, self.zz)
+    }
+}
+
+impl std::ops::Add for SymmetricMatrix3 {
+    type Output = Self;
+    fn add(self, other: Self) -> Self {
+        Self {
+            xx: self.xx + other.xx,
+            yy: self.yy + other.yy,
+            zz: self.zz + other.zz,
+            xy: self.xy + other.xy,
+            xz: self.xz + other.xz,
+            yz: self.yz + other.yz,
+        }
+    }
+}
+
 /// World-frame quantities of every body at one configuration, shared by RNEA and CRBA.
 #[derive(Debug, Clone, Copy)]
 pub struct BodyFrames<const N: usize> {
@@ -33,7 +97,7 @@ pub struct BodyFrames<const N: usize> {
     /// Centre of mass of body j, m.
     pub com: [Vector3<f64>; N],
     /// Inertia of body j about its COM in world axes, kg·m².
-    pub inertia: [Matrix3<f64>; N],
+    pub inertia: [SymmetricMatrix3; N],
 }
 
 impl<const N: usize> BodyFrames<N> {
@@ -46,16 +110,15 @@ impl<const N: usize> BodyFrames<N> {
             axis: [Vector3::zeros(); N],
             joint_point: [Vector3::zeros(); N],
             com: [Vector3::zeros(); N],
-            inertia: [Matrix3::zeros(); N],
+            inertia: [SymmetricMatrix3::default(); N],
         };
         for j in 0..N {
             let (axis, point) = chain.joint_axis(j);
             let body = model.body(j);
-            let rotation = chain.body_pose(j).rotation.matrix();
             frames.axis[j] = axis;
             frames.joint_point[j] = point;
             frames.com[j] = chain.point_on_body(j, &body.com);
-            frames.inertia[j] = rotation * body.inertia * rotation.transpose();
+            frames.inertia[j] = SymmetricMatrix3::rotated(chain.body_pose(j).rotation.matrix(), &body.inertia);
         }
         frames
     }
@@ -105,10 +168,11 @@ pub fn rnea_with_frames<const N: usize>(
             Some(next) => moment + (next - point).cross(&force),
             None => moment,
         };
+        let inertia = &frames.inertia[j];
         moment = transmitted
             + (frames.com[j] - point).cross(&inertial_force)
-            + frames.inertia[j] * alpha[j]
-            + omega[j].cross(&(frames.inertia[j] * omega[j]));
+            + inertia.mul_vector(&alpha[j])
+            + omega[j].cross(&inertia.mul_vector(&omega[j]));
         force += inertial_force;
         torque[j] = frames.axis[j].dot(&moment) + model.link(j).rotor_inertia * qdd[j];
     }
@@ -117,25 +181,27 @@ pub fn rnea_with_frames<const N: usize>(
 
 /// CRBA on precomputed frames: the joint-space mass matrix, armature included.
 pub fn mass_matrix_with_frames<const N: usize>(model: &ArmModel<N>, frames: &BodyFrames<N>) -> MassMatrix<N> {
+    // Linear part of every joint's unit motion S_j = (z_j, p_j × z_j).
+    let axis_moment: [Vector3<f64>; N] = std::array::from_fn(|j| frames.joint_point[j].cross(&frames.axis[j]));
     // Composite inertia of bodies j..N about the base origin: mass, first moment h = Σ m c and
     // rotational inertia Ī = Σ (I_c + m(|c|² E − c cᵀ)).
     let mut mass = 0.0;
     let mut first_moment = Vector3::zeros();
-    let mut rotational = Matrix3::zeros();
+    let mut rotational = SymmetricMatrix3::default();
     let mut matrix = MassMatrix::<N>::zeros();
     for j in (0..N).rev() {
         let body = model.body(j);
         let c = frames.com[j];
         mass += body.mass;
         first_moment += c * body.mass;
-        rotational += frames.inertia[j] + (Matrix3::identity() * c.norm_squared() - c * c.transpose()) * body.mass;
+        rotational = rotational + frames.inertia[j] + SymmetricMatrix3::point_mass(body.mass, &c);
         // Spatial force F = I^c S_j for the unit motion of joint j.
         let omega = frames.axis[j];
-        let velocity = frames.joint_point[j].cross(&omega);
+        let velocity = axis_moment[j];
         let force = velocity * mass - first_moment.cross(&omega);
-        let moment = rotational * omega + first_moment.cross(&velocity);
+        let moment = rotational.mul_vector(&omega) + first_moment.cross(&velocity);
         for i in 0..=j {
-            let value = frames.axis[i].dot(&moment) + frames.joint_point[i].cross(&frames.axis[i]).dot(&force);
+            let value = frames.axis[i].dot(&moment) + axis_moment[i].dot(&force);
             matrix[(i, j)] = value;
             matrix[(j, i)] = value;
         }
@@ -227,18 +293,7 @@ pub fn forward_dynamics<const N: usize>(
     qd: &JointVector<N>,
     torque: &JointVector<N>,
 ) -> Result<JointVector<N>, DynamicsError> {
-    forward_dynamics_from_chain(model, &FrameChain::new(model, q), q, qd, torque)
-}
-
-/// [`forward_dynamics`] with forward kinematics at `q` already done.
-pub fn forward_dynamics_from_chain<const N: usize>(
-    model: &ArmModel<N>,
-    chain: &FrameChain<N>,
-    q: &JointVector<N>,
-    qd: &JointVector<N>,
-    torque: &JointVector<N>,
-) -> Result<JointVector<N>, DynamicsError> {
-    DynamicsTerms::from_chain(model, chain, qd).acceleration(model, q, qd, torque)
+    Ok(ConfigurationDynamics::new(model, q)?.acceleration(model, qd, torque))
 }
 
 impl<const N: usize> DynamicsTerms<N> {
@@ -251,9 +306,52 @@ impl<const N: usize> DynamicsTerms<N> {
         qd: &JointVector<N>,
         torque: &JointVector<N>,
     ) -> Result<JointVector<N>, DynamicsError> {
-        let rhs = torque + friction_torques(model, qd) - self.bias;
-        Cholesky::<f64, Const<N>>::new(self.mass_matrix)
-            .map(|cholesky| cholesky.solve(&rhs))
-            .ok_or_else(|| DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))
+        let factor = factorise_mass_matrix(self.mass_matrix, q)?;
+        Ok(solve_for_acceleration(&factor, model, qd, torque, &self.bias))
     }
+}
+
+/// Forward dynamics at one configuration `q` for any number of joint rates: the body frames
+/// and the Cholesky factor of `M(q)` are computed once; each rate then costs one RNEA and two
+/// triangular solves. For integrators whose stages share a configuration.
+#[derive(Debug, Clone)]
+pub struct ConfigurationDynamics<const N: usize> {
+    frames: BodyFrames<N>,
+    mass_factor: Cholesky<f64, Const<N>>,
+}
+
+impl<const N: usize> ConfigurationDynamics<N> {
+    pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Result<Self, DynamicsError> {
+        Self::from_chain(model, &FrameChain::new(model, q), q)
+    }
+
+    /// With forward kinematics at `q` already done.
+    pub fn from_chain(model: &ArmModel<N>, chain: &FrameChain<N>, q: &JointVector<N>) -> Result<Self, DynamicsError> {
+        let frames = BodyFrames::from_chain(model, chain);
+        let mass_factor = factorise_mass_matrix(mass_matrix_with_frames(model, &frames), q)?;
+        Ok(Self { frames, mass_factor })
+    }
+
+    /// `q̈ = M⁻¹ (τ + τ_friction(q̇) − C q̇ − g)` at this configuration and rates `qd`, rad/s².
+    pub fn acceleration(&self, model: &ArmModel<N>, qd: &JointVector<N>, torque: &JointVector<N>) -> JointVector<N> {
+        let bias = rnea_with_frames(model, &self.frames, qd, &JointVector::zeros(), &model.gravity());
+        solve_for_acceleration(&self.mass_factor, model, qd, torque, &bias)
+    }
+}
+
+fn factorise_mass_matrix<const N: usize>(
+    mass_matrix: MassMatrix<N>,
+    q: &JointVector<N>,
+) -> Result<Cholesky<f64, Const<N>>, DynamicsError> {
+    Cholesky::new(mass_matrix).ok_or_else(|| DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))
+}
+
+fn solve_for_acceleration<const N: usize>(
+    mass_factor: &Cholesky<f64, Const<N>>,
+    model: &ArmModel<N>,
+    qd: &JointVector<N>,
+    torque: &JointVector<N>,
+    bias: &JointVector<N>,
+) -> JointVector<N> {
+    mass_factor.solve(&(torque + friction_torques(model, qd) - bias))
 }

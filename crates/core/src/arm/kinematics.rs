@@ -19,39 +19,96 @@ pub fn dh_transform(dh: &DhParameters, joint_angle: f64) -> Pose {
     Pose::from_parts(Translation3::new(dh.a * ct, dh.a * st, dh.d), Rotation3::from_matrix_unchecked(rotation))
 }
 
+/// `(sin, cos)` of every joint's DH angle `θ_i = q_i + theta_offset_i`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointTrig<const N: usize> {
+    angle: [f64; N],
+    sin_cos: [(f64, f64); N],
+}
+
+/// Largest angle step (rad) [`JointTrig::shifted`] takes by series; beyond it calls `sin_cos`.
+const SERIES_STEP: f64 = 0.05;
+
+impl<const N: usize> JointTrig<N> {
+    pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
+        let angle = std::array::from_fn(|i| q[i] + model.link(i).dh.theta_offset);
+        Self { angle, sin_cos: angle.map(f64::sin_cos) }
+    }
+
+    /// The same for the angles moved by `delta` (rad), by the angle-addition formulas
+    /// `sin(θ+δ) = sin θ cos δ + cos θ sin δ`, `cos(θ+δ) = cos θ cos δ − sin θ sin δ`, with
+    /// `sin δ`, `cos δ` from their Taylor series up to δ⁹ and δ⁸. For |δ| ≤ 0.05 rad the first
+    /// omitted terms, δ¹¹/11! and δ¹⁰/10!, are below 3·10⁻²⁰: the results are exact to rounding,
+    /// at a fraction of the cost of `sin_cos`. Larger steps call `sin_cos`.
+    ///
+    /// An integrator's stages move the joints by `dt·q̇`, micro-radians to milliradians.
+    pub fn shifted(&self, delta: &JointVector<N>) -> Self {
+        let mut shifted = *self;
+        for i in 0..N {
+            let d = delta[i];
+            shifted.angle[i] = self.angle[i] + d;
+            shifted.sin_cos[i] = if d.abs() <= SERIES_STEP {
+                // Horner form in d², coefficients ±1/k! (multiplications only).
+                let d2 = d * d;
+                let sin_d = d + d * d2 * (-1.0 / 6.0 + d2 * (1.0 / 120.0 + d2 * (-1.0 / 5040.0 + d2 / 362_880.0)));
+                let cos_d = 1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 + d2 * (-1.0 / 720.0 + d2 / 40_320.0)));
+                let (s, c) = self.sin_cos[i];
+                (s * cos_d + c * sin_d, c * cos_d - s * sin_d)
+            } else {
+                shifted.angle[i].sin_cos()
+            };
+        }
+        shifted
+    }
+
+    /// `(sin θ_i, cos θ_i)`.
+    pub fn get(&self, i: usize) -> (f64, f64) {
+        self.sin_cos[i]
+    }
+}
+
 /// World poses of all DH frames for one joint configuration `q` (rad).
 #[derive(Debug, Clone, Copy)]
 pub struct FrameChain<const N: usize> {
     poses: [Pose; N],
+    trig: JointTrig<N>,
 }
 
 impl<const N: usize> FrameChain<N> {
     /// Forward kinematics: `T_0i = A_1 ⋯ A_i` for every i.
+    pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
+        Self::from_trig(model, JointTrig::new(model, q))
+    }
+
+    /// Forward kinematics at the configuration whose joint sines and cosines are `trig`.
     ///
     /// Composed column by column rather than by 3×3 products: with `R' = R · Rz(θ)`, two
     /// columns mix by (cos θ, sin θ); the translation gains `a·x' + d·z'`; then `Rx(α)` mixes
     /// the y and z columns (skipped when α = 0). Same result as multiplying [`dh_transform`]s.
-    pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
+    pub fn from_trig(model: &ArmModel<N>, trig: JointTrig<N>) -> Self {
         let mut poses = [Pose::identity(); N];
-        let mut rotation = Matrix3::<f64>::identity();
+        let (mut x, mut y, mut z) = (Vector3::<f64>::x(), Vector3::<f64>::y(), Vector3::<f64>::z());
         let mut translation = Vector3::<f64>::zeros();
         for (i, pose) in poses.iter_mut().enumerate() {
             let dh = &model.link(i).dh;
-            let (st, ct) = (q[i] + dh.theta_offset).sin_cos();
-            let (x, y, z) =
-                (rotation.column(0).into_owned(), rotation.column(1).into_owned(), rotation.column(2).into_owned());
+            let (st, ct) = trig.get(i);
             let turned_x = x * ct + y * st;
             let turned_y = y * ct - x * st;
             translation += turned_x * dh.a + z * dh.d;
             let (sa, ca) = model.twist_trig(i);
-            let (new_y, new_z) =
-                if dh.alpha == 0.0 { (turned_y, z) } else { (turned_y * ca + z * sa, z * ca - turned_y * sa) };
-            rotation.set_column(0, &turned_x);
-            rotation.set_column(1, &new_y);
-            rotation.set_column(2, &new_z);
-            *pose = Pose::from_parts(Translation3::from(translation), Rotation3::from_matrix_unchecked(rotation));
+            x = turned_x;
+            (y, z) = if dh.alpha == 0.0 { (turned_y, z) } else { (turned_y * ca + z * sa, z * ca - turned_y * sa) };
+            *pose = Pose::from_parts(
+                Translation3::from(translation),
+                Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])),
+            );
         }
-        Self { poses }
+        Self { poses, trig }
+    }
+
+    /// The joint sines and cosines this chain was built from.
+    pub fn trig(&self) -> &JointTrig<N> {
+        &self.trig
     }
 
     /// World pose of frame `i + 1` (the frame carried by body `i`, 0-based).

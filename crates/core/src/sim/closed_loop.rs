@@ -1,12 +1,13 @@
 //! The closed loop: controller ⇄ plant.
 //!
-//! The plant is integrated every `dt` (RK4 unless the config says otherwise); the controller is sampled every
+//! The plant is integrated every `dt` by a fixed-step fourth-order method (or another the
+//! config names); the controller is sampled every
 //! `control_period` (an integer multiple of `dt`) and its torque, clipped to the joint torque
 //! limits, is held in between (zero-order hold). Payload events grip or release objects at
 //! given instants. Metrics accumulate on the fly; time series go to an [`Observer`] only if the
 //! caller wants them, so a run allocates nothing per step.
 
-use crate::arm::dynamics::{DynamicsError, DynamicsTerms};
+use crate::arm::dynamics::DynamicsError;
 use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{JointVector, ModelError, Payload};
 use crate::control::{Controller, JointState, Reference};
@@ -25,19 +26,19 @@ pub struct SimConfig<const N: usize> {
     pub torque_limits: JointVector<N>,
     /// A joint faster than this (rad/s) means the run diverged (default 100 rad/s).
     pub runaway_speed: f64,
-    /// How the plant is integrated over each `dt` (default RK4).
+    /// How the plant is integrated over each `dt` (default: Nyström's fourth-order method).
     pub integrator: Integrator,
 }
 
 impl<const N: usize> SimConfig<N> {
-    /// 1 ms RK4, 1 kHz control, the plant's torque limits.
+    /// 1 ms steps of the default integrator, 1 kHz control, the plant's torque limits.
     pub fn new(plant: &Plant<N>) -> Self {
         Self {
             dt: 1e-3,
             control_period: 1e-3,
             torque_limits: plant.model().torque_limits(),
             runaway_speed: 100.0,
-            integrator: Integrator::RungeKutta4,
+            integrator: Integrator::default(),
         }
     }
 
@@ -236,11 +237,10 @@ where
             controller_shares_terms = shares_terms(plant, controller);
         }
         let desired = reference.reference(t);
-        let chain = FrameChain::new(plant.model(), &state.q);
-        let plant_terms = DynamicsTerms::from_chain(plant.model(), &chain, &state.qd);
+        let at_state = plant.evaluate(&state);
         if step.is_multiple_of(steps_per_sample) {
             let command = if controller_shares_terms {
-                controller.torque_with_terms(&state, &desired, config.control_period, &plant_terms)
+                controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms)
             } else {
                 controller.torque(&state, &desired, config.control_period)
             };
@@ -267,7 +267,7 @@ where
         squared_joint_error += error.component_mul(&error);
         max_joint_error = max_joint_error.sup(&error.abs());
         peak_torque = peak_torque.sup(&torque.abs());
-        let tip = chain.tip();
+        let tip = at_state.chain.tip();
         let tip_desired = reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
         let tip_error = (tip - tip_desired).norm();
         squared_tip_error += tip_error * tip_error;
@@ -283,7 +283,7 @@ where
             break;
         }
         state = plant
-            .step(&state, &plant_terms, &torque, dt, config.integrator)
+            .step(&state, &at_state, &torque, dt, config.integrator)
             .map_err(|source| SimError::Dynamics { time: t, source })?;
         check_state(&state, t + dt, config.runaway_speed)?;
     }

@@ -1,4 +1,4 @@
-//! Simulation: the plant, fixed-step integrators (RK4 by default), and the closed loop with a sampled
+//! Simulation: the plant, fixed-step integrators (fourth-order Runge–Kutta–Nyström by default), and the closed loop with a sampled
 //! controller, torque saturation, payload events and metrics.
 
 pub mod closed_loop;
@@ -8,4 +8,4 @@ pub mod plant;
 pub use closed_loop::{
     NoObserver, Observer, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary, StepRecord, simulate,
 };
-pub use plant::{Integrator, Plant};
+pub use plant::{Integrator, Plant, StateDynamics};
