@@ -18,7 +18,9 @@ use chessarm_core::control::gains::Gains;
 use chessarm_core::nalgebra::{Rotation2, Vector2, Vector3};
 use chessarm_core::plan::path::CartesianPath;
 use chessarm_core::plan::trajectory::{JointTrajectory, PlanError};
-use chessarm_core::sim::{Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, simulate};
+use chessarm_core::sim::{
+    Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, simulate,
+};
 use shakmaty::fen::Fen;
 use shakmaty::san::SanPlus;
 use shakmaty::uci::UciMove;
@@ -36,9 +38,11 @@ pub struct PlaySettings {
     pub controller_knows_payload: bool,
     /// Largest accepted distance of a piece from its square centre, m (default 5 mm).
     pub tolerance: f64,
-    /// RK4 step and controller period, s.
+    /// Integration step and controller period, s.
     pub dt: f64,
     pub control_period: f64,
+    /// How the plant is integrated (default: Nyström's fourth-order Runge–Kutta).
+    pub integrator: Integrator,
     /// Keep every n-th simulation step in the move reports (0: keep none).
     pub record_every: usize,
 }
@@ -55,6 +59,7 @@ impl PlaySettings {
             tolerance: 0.005,
             dt: 1e-3,
             control_period: 1e-3,
+            integrator: Integrator::default(),
             record_every: 10,
         }
     }
@@ -316,7 +321,12 @@ impl Game {
         }
         let mut plant = Plant::new(self.arm);
         let mut controller = ComputedTorque::new(settings.controller.clone(), self.arm, settings.gains);
-        let config = SimConfig { dt: settings.dt, control_period: settings.control_period, ..SimConfig::new(&plant) };
+        let config = SimConfig {
+            dt: settings.dt,
+            control_period: settings.control_period,
+            integrator: settings.integrator,
+            ..SimConfig::new(&plant)
+        };
         let mut sampler = Sampler { every: settings.record_every, seen: 0, records: Vec::new() };
         let summary = simulate(
             &mut plant,

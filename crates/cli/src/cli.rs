@@ -92,6 +92,9 @@ pub struct PlayArgs {
     /// The controller's model includes each gripped piece.
     #[arg(long)]
     pub controller_knows_payload: bool,
+    /// Integrator of the plant.
+    #[arg(long, value_enum, default_value_t)]
+    pub integrator: IntegratorChoice,
     /// A piece further than this from its square centre is misplaced, mm.
     #[arg(long, default_value_t = 5.0, value_parser = args::positive)]
     pub tolerance_mm: f64,
@@ -183,6 +186,9 @@ pub struct TuneArgs {
     /// Run only slice K of N (1-based), e.g. 2/8; the slices' CSVs concatenate to the full sweep.
     #[arg(long, value_parser = args::shard)]
     pub shard: Option<(usize, usize)>,
+    /// Integrator of the plant.
+    #[arg(long, value_enum, default_value_t)]
+    pub integrator: IntegratorChoice,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -206,6 +212,32 @@ pub struct GainArgs {
     /// Integral gain (PID), 1/s³: one value or one per joint.
     #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
     pub ki: Option<[f64; 4]>,
+}
+
+/// How the plant is integrated over each time step (all fixed-step, torque held per step).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum IntegratorChoice {
+    /// Nyström's fourth-order Runge–Kutta: 3 mass matrices and 4 RNEA per step.
+    #[default]
+    Rkn4,
+    /// Classical fourth-order Runge–Kutta: 4 of each.
+    Rk4,
+    /// Explicit midpoint, second order: 2 of each.
+    Midpoint,
+    /// Semi-implicit Euler, first order (as MuJoCo's default): 1 of each.
+    Euler,
+}
+
+impl IntegratorChoice {
+    pub fn integrator(self) -> chessarm_core::sim::Integrator {
+        use chessarm_core::sim::Integrator;
+        match self {
+            IntegratorChoice::Rkn4 => Integrator::RungeKuttaNystrom4,
+            IntegratorChoice::Rk4 => Integrator::RungeKutta4,
+            IntegratorChoice::Midpoint => Integrator::Midpoint,
+            IntegratorChoice::Euler => Integrator::SemiImplicitEuler,
+        }
+    }
 }
 
 /// Which controllers to simulate.
@@ -242,9 +274,12 @@ pub struct SimulateArgs {
     pub controller: ControllerChoice,
     #[command(flatten)]
     pub gains: GainArgs,
-    /// RK4 time step, s.
+    /// Integration time step, s.
     #[arg(long, default_value_t = 0.001, value_parser = args::positive)]
     pub dt: f64,
+    /// Integrator of the plant.
+    #[arg(long, value_enum, default_value_t)]
+    pub integrator: IntegratorChoice,
     /// Controller sample rate, Hz (its period must be a multiple of --dt).
     #[arg(long, default_value_t = 1000.0, value_parser = args::positive)]
     pub control_rate: f64,

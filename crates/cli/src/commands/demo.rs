@@ -8,6 +8,7 @@ use crate::commands::simulate::{
 use crate::config::Setup;
 use crate::print_json;
 use anyhow::Result;
+use chessarm_core::sim::Integrator;
 use serde_json::json;
 
 const SCENARIO: &str = "queens-gambit";
@@ -17,6 +18,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     // position"), so the study does too: the start-up transient is part of the comparison.
     let options = RunOptions {
         dt: 1e-3,
+        integrator: Integrator::default(),
         control_period: 1e-3,
         q0: Some([0.0; 4]),
         payload_mass: 0.0,

@@ -7,6 +7,7 @@ use crate::config::Setup;
 use crate::print_json;
 use anyhow::{Result, bail};
 use chessarm_core::control::gains::{Gains, ResponseShape, design_from_specs};
+use chessarm_core::sim::Integrator;
 use chessarm_core::sim::metrics::error_response;
 use serde_json::{Value, json};
 
@@ -72,8 +73,14 @@ fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Valu
     let plan = plan_scenario(setup, &args.scenario, 1e-3)?;
     let start = plan.joint.first().q;
     let q0: [f64; 4] = std::array::from_fn(|j| start[j] - args.initial_error);
-    let options =
-        RunOptions { dt: 1e-3, control_period: 1e-3, q0: Some(q0), payload_mass: 0.0, controller_knows_payload: false };
+    let options = RunOptions {
+        dt: 1e-3,
+        integrator: Integrator::default(),
+        control_period: 1e-3,
+        q0: Some(q0),
+        payload_mass: 0.0,
+        controller_knows_payload: false,
+    };
     let run = run_controller(setup, &plan, spec, &options, None)?;
     let forced = run_controller(setup, &plan, spec, &RunOptions { q0: None, ..options }, None)?;
     let mut settling = Vec::new();

@@ -67,6 +67,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     settings.pieces = setup.pieces;
     settings.controller_knows_payload = args.controller_knows_payload;
+    settings.integrator = args.integrator.integrator();
     settings.tolerance = args.tolerance_mm / 1e3;
     let mut source = source(args)?;
     let start = match &source {

@@ -14,7 +14,7 @@ use chessarm_core::control::JointState;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD, REPORT_PID};
 use chessarm_core::plan::path::{CartesianPath, GripperAction};
-use chessarm_core::sim::{Observer, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate};
+use chessarm_core::sim::{Integrator, Observer, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate};
 use indicatif::ProgressBar;
 use serde_json::{Value, json};
 use std::path::Path;
@@ -52,6 +52,7 @@ pub struct ControllerSpec {
 #[derive(Debug, Clone)]
 pub struct RunOptions {
     pub dt: f64,
+    pub integrator: Integrator,
     pub control_period: f64,
     pub q0: Option<[f64; 4]>,
     pub payload_mass: f64,
@@ -116,7 +117,12 @@ pub fn run_controller(
 ) -> Result<ControllerRun> {
     let mut plant = Plant::new(setup.arm);
     let mut controller = ComputedTorque::new(spec.name.clone(), setup.arm, spec.gains);
-    let config = SimConfig { dt: options.dt, control_period: options.control_period, ..SimConfig::new(&plant) };
+    let config = SimConfig {
+        dt: options.dt,
+        control_period: options.control_period,
+        integrator: options.integrator,
+        ..SimConfig::new(&plant)
+    };
     let events = pawn_events(setup, &plan.path, options.payload_mass, options.controller_knows_payload);
     let marks: Vec<f64> = plan.path.events().iter().map(|e| e.time).collect();
     let initial = options.q0.map(|q0| JointState::at_rest(JointVector::from(q0)));
@@ -323,6 +329,7 @@ pub fn run_study(
     let summary = json!({
         "scenario": scenario,
         "dt_s": options.dt,
+        "integrator": options.integrator.name(),
         "control_period_s": options.control_period,
         "payload_mass_kg": options.payload_mass,
         "controller_knows_payload": options.controller_knows_payload,
@@ -347,6 +354,7 @@ pub fn study_steps(setup: &Setup, scenario: &str, options: &RunOptions) -> Resul
 pub fn options_from(args: &SimulateArgs) -> RunOptions {
     RunOptions {
         dt: args.dt,
+        integrator: args.integrator.integrator(),
         control_period: 1.0 / args.control_rate,
         q0: args.q0,
         payload_mass: args.payload_mass,

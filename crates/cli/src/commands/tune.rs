@@ -19,7 +19,7 @@ use chessarm_core::control::JointState;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::Gains;
 use chessarm_core::plan::trajectory::JointTrajectory;
-use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, simulate};
+use chessarm_core::sim::{Integrator, NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, simulate};
 use rayon::prelude::*;
 use serde_json::json;
 use std::time::Instant;
@@ -159,7 +159,8 @@ impl Totals {
     }
 }
 
-/// Simulates one candidate (1 ms RK4, 1 kHz control, torque limits of the model).
+/// Simulates one candidate (1 ms steps of `options.integrator`, 1 kHz control, torque limits
+/// of the model).
 pub fn simulate_candidate(
     setup: &Setup,
     study: &Study,
@@ -174,7 +175,7 @@ pub fn simulate_candidate(
         Study::Scenario(scenario) => {
             let mut plant = Plant::new(setup.arm);
             let mut controller = ComputedTorque::new("candidate", setup.arm, *gains);
-            let config = SimConfig::new(&plant);
+            let config = SimConfig { integrator: options.integrator, ..SimConfig::new(&plant) };
             let result = simulate(
                 &mut plant,
                 &mut controller,
@@ -199,6 +200,7 @@ pub fn simulate_candidate(
             settings.pieces = setup.pieces;
             settings.record_every = 0;
             settings.controller_knows_payload = options.controller_knows_payload;
+            settings.integrator = options.integrator;
             let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
                 let mut place = 0.0f64;
                 for mv in &record.moves {
@@ -226,6 +228,7 @@ pub fn simulate_candidate(
 #[derive(Debug, Clone, Copy)]
 pub struct CandidateOptions {
     pub controller_knows_payload: bool,
+    pub integrator: Integrator,
 }
 
 /// Most candidates one sweep may describe.
@@ -331,7 +334,10 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let gains = candidate_gains(args)?;
     let range = shard_range(gains.len(), args.shard);
     let study = study(setup, args)?;
-    let options = CandidateOptions { controller_knows_payload: args.controller_knows_payload };
+    let options = CandidateOptions {
+        controller_knows_payload: args.controller_knows_payload,
+        integrator: args.integrator.integrator(),
+    };
     ensure_dir(&args.out)?;
     let bar = crate::progress::bar(range.len() as u64, "tuning");
     let started = Instant::now();
