@@ -105,6 +105,7 @@ impl<const N: usize> BodyFrames<N> {
         Self::from_chain(model, &FrameChain::new(model, q))
     }
 
+    #[inline(always)]
     pub fn from_chain(model: &ArmModel<N>, chain: &FrameChain<N>) -> Self {
         let mut frames = Self {
             axis: [Vector3::zeros(); N],
@@ -326,6 +327,7 @@ impl<const N: usize> ConfigurationDynamics<N> {
     }
 
     /// With forward kinematics at `q` already done.
+    #[inline(always)]
     pub fn from_chain(model: &ArmModel<N>, chain: &FrameChain<N>, q: &JointVector<N>) -> Result<Self, DynamicsError> {
         let frames = BodyFrames::from_chain(model, chain);
         let mass_factor = factorise_mass_matrix(mass_matrix_with_frames(model, &frames), q)?;

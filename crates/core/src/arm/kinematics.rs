@@ -50,8 +50,9 @@ impl<const N: usize> JointTrig<N> {
             shifted.sin_cos[i] = if d.abs() <= SERIES_STEP {
                 // Horner form in d², coefficients ±1/k! (multiplications only).
                 let d2 = d * d;
-                let sin_d = d + d * d2 * (-1.0 / 6.0 + d2 * (1.0 / 120.0 + d2 * (-1.0 / 5040.0 + d2 / 362_880.0)));
-                let cos_d = 1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 + d2 * (-1.0 / 720.0 + d2 / 40_320.0)));
+                let sin_d =
+                    d + d * d2 * (-1.0 / 6.0 + d2 * (1.0 / 120.0 + d2 * (-1.0 / 5040.0 + d2 * (1.0 / 362_880.0))));
+                let cos_d = 1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 + d2 * (-1.0 / 720.0 + d2 * (1.0 / 40_320.0))));
                 let (s, c) = self.sin_cos[i];
                 (s * cos_d + c * sin_d, c * cos_d - s * sin_d)
             } else {

@@ -57,6 +57,7 @@ impl<const N: usize> Plant<N> {
 
     /// The dynamics at configuration `q` near the step's start, whose sines and cosines come
     /// from the start's by angle addition ([`JointTrig::shifted`]).
+    #[inline(always)]
     fn configuration_near(
         &self,
         start: &JointState<N>,
