@@ -35,6 +35,20 @@ impl ReferenceSource<4> for Hold {
     }
 }
 
+/// Holds `target` for `duration` s from `start` (default: at rest on the target), recording
+/// nothing.
+fn hold(
+    plant: &mut Plant<4>,
+    controller: &mut ComputedTorque<4>,
+    target: JointVector<4>,
+    duration: f64,
+    start: Option<JointState<4>>,
+    config: &SimConfig<4>,
+) -> Result<chessarm_core::sim::SimSummary<4>, SimError> {
+    let start = start.or(Some(JointState::at_rest(target)));
+    simulate(plant, controller, &Hold { q: target, duration }, start, &[], &[], config, &mut NoObserver)
+}
+
 /// The first `duration` seconds of a trajectory.
 struct Prefix<'a> {
     trajectory: &'a JointTrajectory,
@@ -137,21 +151,10 @@ fn unknown_payload_leaves_the_predicted_steady_error_and_pid_removes_it() {
     let model = report_arm();
     let loaded = model.with_payload(Some(Payload::point_mass(0.25))).unwrap();
     let target = q([0.8, 0.9, -2.1, -0.37]);
-    let reference = Hold { q: target, duration: 10.0 };
     let mut plant = Plant::new(loaded);
     let config = SimConfig::new(&plant);
     let mut pd = pd_controller(model);
-    let summary = simulate(
-        &mut plant,
-        &mut pd,
-        &reference,
-        Some(JointState::at_rest(target)),
-        &[],
-        &[],
-        &config,
-        &mut NoObserver,
-    )
-    .unwrap();
+    let summary = hold(&mut plant, &mut pd, target, 10.0, None, &config).unwrap();
     let predicted = steady_error_prediction(&loaded, &model, &target, REPORT_PD.0);
     let measured = target - summary.final_state.q;
     // The unknown payload makes the plant up to ~3× heavier than the controller believes, so
@@ -162,19 +165,8 @@ fn unknown_payload_leaves_the_predicted_steady_error_and_pid_removes_it() {
     // PID with poles at −20 (triple): the integral drives the error to zero.
     let gains = Gains::pid_from_poles(20.0, 1.0, 1.0).unwrap();
     let mut pid = ComputedTorque::new("pid", model, gains);
-    let reference = Hold { q: target, duration: 4.0 };
     let mut plant = Plant::new(loaded);
-    let summary = simulate(
-        &mut plant,
-        &mut pid,
-        &reference,
-        Some(JointState::at_rest(target)),
-        &[],
-        &[],
-        &config,
-        &mut NoObserver,
-    )
-    .unwrap();
+    let summary = hold(&mut plant, &mut pid, target, 4.0, None, &config).unwrap();
     let residual = (target - summary.final_state.q).amax();
     assert!(residual < 1e-6 * predicted.amax().max(1.0), "PID left {residual} rad");
 }
@@ -208,17 +200,7 @@ fn divergence_is_an_error_not_garbage() {
     let mut controller = ComputedTorque::new("wild", model, Gains::uniform(1e7, 0.0, 0.0).unwrap());
     let config = SimConfig { torque_limits: JointVector::repeat(1e9), ..SimConfig::new(&plant) };
     let start = Some(JointState::at_rest(target + q([0.0, 0.01, 0.0, 0.0])));
-    let error = simulate(
-        &mut plant,
-        &mut controller,
-        &Hold { q: target, duration: 2.0 },
-        start,
-        &[],
-        &[],
-        &config,
-        &mut NoObserver,
-    )
-    .unwrap_err();
+    let error = hold(&mut plant, &mut controller, target, 2.0, start, &config).unwrap_err();
     assert!(matches!(error, SimError::Diverged { .. }), "{error:?}");
     assert!(error.to_string().contains("diverged"));
 }
@@ -231,35 +213,14 @@ fn torque_limits_saturate_and_are_counted() {
     let mut controller = pd_controller(model);
     let limits = q([10.0, 2.0, 15.0, 5.0]); // the shoulder needs ≈ 2.8 N·m just to hold
     let config = SimConfig { torque_limits: limits, ..SimConfig::new(&plant) };
-    let start = Some(JointState::at_rest(target));
-    let summary = simulate(
-        &mut plant,
-        &mut controller,
-        &Hold { q: target, duration: 0.5 },
-        start,
-        &[],
-        &[],
-        &config,
-        &mut NoObserver,
-    )
-    .unwrap();
+    let summary = hold(&mut plant, &mut controller, target, 0.5, None, &config).unwrap();
     assert!(summary.saturated_per_joint[1] > 400, "{:?}", summary.saturated_per_joint);
     assert_eq!(summary.saturated_per_joint[0], 0);
     assert!((summary.peak_torque[1] - 2.0).abs() < 1e-12);
     assert!(summary.max_joint_error[1] > 0.01, "the arm should sag when the shoulder saturates");
 
     let bad = SimConfig { control_period: 1.5e-3, ..SimConfig::new(&plant) };
-    let error = simulate(
-        &mut plant,
-        &mut controller,
-        &Hold { q: target, duration: 0.5 },
-        None,
-        &[],
-        &[],
-        &bad,
-        &mut NoObserver,
-    )
-    .unwrap_err();
+    let error = hold(&mut plant, &mut controller, target, 0.5, None, &bad).unwrap_err();
     assert!(error.to_string().contains("whole multiple"), "{error}");
 }
 

@@ -67,10 +67,6 @@ impl SymmetricMatrix3 {
             self.xz * v.x + self.yz * v.y + self.zz * v.z,
         )
     }
-
-    pub fn to_matrix(&self) -> Matrix3<f64> {
-        Matrix3::new(self.xx, self.xy, self.xz, self.xy, self.yy, self.yz, self.xz, self.yz, self.zz)
-    }
 }
 
 impl std::ops::Add for SymmetricMatrix3 {

@@ -2,7 +2,7 @@
 //! fixed-step integrators of `ẋ = (q̇, q̈(q, q̇, τ))` (Nyström's fourth-order Runge–Kutta by
 //! default).
 
-use crate::arm::dynamics::{ConfigurationDynamics, DynamicsError, DynamicsTerms, forward_dynamics};
+use crate::arm::dynamics::{ConfigurationDynamics, DynamicsError, DynamicsTerms};
 use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::JointState;
@@ -26,15 +26,6 @@ impl<const N: usize> Plant<N> {
     pub fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError> {
         self.model = self.model.with_payload(payload)?;
         Ok(())
-    }
-
-    /// Joint accelerations under `torque` (N·m), rad/s².
-    pub fn acceleration(
-        &self,
-        state: &JointState<N>,
-        torque: &JointVector<N>,
-    ) -> Result<JointVector<N>, DynamicsError> {
-        forward_dynamics(&self.model, &state.q, &state.qd, torque)
     }
 
     /// The plant's kinematics, mass matrix and bias torques at `state`: the first stage of
