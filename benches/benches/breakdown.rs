@@ -2,6 +2,7 @@
 
 use chessarm_core::arm::dynamics::{BodyFrames, ConfigurationDynamics, mass_matrix_with_frames, rnea_with_frames};
 use chessarm_core::arm::kinematics::FrameChain;
+use chessarm_core::arm::mass_factor::MassMatrixFactor;
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::{Cholesky, Const, Vector3};
@@ -23,9 +24,14 @@ fn breakdown(c: &mut Criterion) {
             rnea_with_frames(&model, black_box(&frames), &qd, &JointVector::zeros(), &Vector3::new(0.0, 0.0, -9.8))
         })
     });
-    c.bench_function("cholesky solve 4x4", |b| {
+    c.bench_function("cholesky solve 4x4 (nalgebra)", |b| {
         b.iter(|| Cholesky::<f64, Const<4>>::new(black_box(m)).map(|ch| ch.solve(&qd)))
     });
+    c.bench_function("LDLt factor + solve 4x4 (MassMatrixFactor)", |b| {
+        b.iter(|| MassMatrixFactor::new(black_box(&m)).map(|f| f.solve(&qd)))
+    });
+    let factor = MassMatrixFactor::new(&m).expect("positive definite");
+    c.bench_function("LDLt solve 4x4", |b| b.iter(|| black_box(&factor).solve(&qd)));
     c.bench_function("configuration dynamics (FK, frames, CRBA, Cholesky)", |b| {
         b.iter(|| ConfigurationDynamics::new(&model, black_box(&q)))
     });

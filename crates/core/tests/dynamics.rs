@@ -7,6 +7,7 @@ use chessarm_core::arm::dynamics::{
     coriolis_torques, forward_dynamics, gravity_torques, inverse_dynamics, mass_matrix,
 };
 use chessarm_core::arm::lagrange;
+use chessarm_core::arm::mass_factor::MassMatrixFactor;
 use chessarm_core::arm::model::{ArmModel, Inertial, JointVector, Payload};
 use chessarm_core::arm::preset::{REPORT_L2, REPORT_L3, REPORT_L4, report_arm};
 use chessarm_core::nalgebra::{Matrix3, Matrix4, Vector3};
@@ -182,4 +183,60 @@ fn rotor_inertia_adds_to_the_diagonal() {
     let difference = mass_matrix(&geared, &q) - mass_matrix(&model, &q);
     assert!((difference[(0, 0)] - 0.01).abs() < 1e-15);
     assert!(difference.abs().sum() - 0.01 < 1e-15);
+}
+
+/// A random symmetric positive-definite 4×4 matrix `A Aᵀ + ε E`, with entries spread over
+/// several orders of magnitude like a mass matrix's (1e-4 to 1 kg·m²).
+fn spd_matrix(entries: [f64; 16], scales: [f64; 4]) -> Matrix4<f64> {
+    let a = Matrix4::from_row_slice(&entries);
+    let scale = Matrix4::from_diagonal(&chessarm_core::nalgebra::Vector4::from(scales));
+    scale * (a * a.transpose() + Matrix4::identity() * 1e-3) * scale
+}
+
+proptest! {
+    #[test]
+    fn mass_matrix_factor_rebuilds_the_matrix_and_solves_like_cholesky(
+        entries in prop::array::uniform16(-1.0f64..1.0),
+        scales in prop::array::uniform4(0.01f64..1.0),
+        rhs in prop::array::uniform4(-10.0f64..10.0),
+    ) {
+        let matrix = spd_matrix(entries, scales);
+        let factor = MassMatrixFactor::new(&matrix).unwrap();
+        // Relative to the matrix's largest entry: a few dozen flops per entry, 1e-12 ≫ ε.
+        let size = matrix.abs().max();
+        prop_assert!((factor.reconstruct() - matrix).abs().max() < 1e-12 * size);
+        prop_assert!(factor.pivots().iter().all(|&d| d > 0.0));
+        let b = JointVector::<4>::from(rhs);
+        let x = factor.solve(&b);
+        // The residual M x − b, the quantity a backward-stable solve keeps at round-off.
+        prop_assert!((matrix * x - b).abs().max() < 1e-10 * b.abs().max().max(size * x.abs().max()));
+        // Both solves are backward stable, so they differ by at most ~cond(M)·ε relative; the
+        // smallest eigenvalue is ≥ 1e-3·0.01² and the largest ≤ 4, so cond(M) ≤ 4e7: 1e-7.
+        let reference = matrix.cholesky().unwrap().solve(&b);
+        prop_assert!((x - reference).norm() <= 1e-7 * reference.norm(), "{x} vs {reference}");
+        prop_assert!((factor.pivots().product() - matrix.determinant()).abs() < 1e-9 * matrix.determinant().abs());
+    }
+}
+
+#[test]
+fn mass_matrix_factor_rejects_matrices_that_are_not_positive_definite() {
+    let definite = mass_matrix(&report_arm(), &state([0.3, 0.8, -1.2, 0.4]));
+    assert!(MassMatrixFactor::new(&definite).is_some());
+    let mut indefinite = definite;
+    indefinite[(2, 2)] = -indefinite[(2, 2)];
+    assert!(MassMatrixFactor::new(&indefinite).is_none());
+    // Singular: two equal rows and columns (a zero pivot appears at the repeated one).
+    let mut singular = definite;
+    for k in 0..4 {
+        singular[(3, k)] = singular[(2, k)];
+        singular[(k, 3)] = singular[(k, 2)];
+    }
+    singular[(3, 3)] = singular[(2, 2)];
+    assert!(MassMatrixFactor::new(&singular).is_none());
+    let mut not_a_number = definite;
+    not_a_number[(1, 1)] = f64::NAN;
+    assert!(MassMatrixFactor::new(&not_a_number).is_none());
+    assert!(
+        forward_dynamics(&report_arm(), &state([f64::NAN, 0.0, 0.0, 0.0]), &state([0.0; 4]), &state([0.0; 4])).is_err()
+    );
 }

@@ -6,15 +6,17 @@
 //! - the mass matrix by the composite-rigid-body algorithm (CRBA):
 //!   `M_ij = S_iᵀ I^c_max(i,j) S_j`, with joint motion `S_j = (z_j, p_j × z_j)` and `I^c_j` the
 //!   spatial inertia of bodies `j..N` about the base origin;
-//! - forward dynamics `q̈ = M⁻¹(τ − C q̇ − g)` by Cholesky.
+//! - forward dynamics `q̈ = M⁻¹(τ − C q̇ − g)` by an `L D Lᵀ` factorisation
+//!   ([`MassMatrixFactor`]).
 //!
 //! Rotor inertia (armature) adds `diag(I_rotor)` to `M`. Everything lives on the stack: no call
 //! allocates. [`crate::arm::lagrange`] holds the independent Jacobian/Christoffel formulation the
 //! tests compare against.
 
 use super::kinematics::FrameChain;
+use super::mass_factor::MassMatrixFactor;
 use super::model::{ArmModel, JointVector};
-use nalgebra::{Cholesky, Const, Matrix3, SMatrix, Vector3};
+use nalgebra::{Matrix3, SMatrix, Vector3};
 
 /// `M(q)`, kg·m² (N·m·s²/rad).
 pub type MassMatrix<const N: usize> = SMatrix<f64, N, N>;
@@ -295,7 +297,7 @@ pub fn forward_dynamics<const N: usize>(
 
 impl<const N: usize> DynamicsTerms<N> {
     /// Forward dynamics with these terms (of `model` at `(q, q̇)`) at hand:
-    /// `q̈ = M⁻¹ (τ + τ_friction(q̇) − C q̇ − g)`, rad/s², by Cholesky.
+    /// `q̈ = M⁻¹ (τ + τ_friction(q̇) − C q̇ − g)`, rad/s², by `L D Lᵀ`.
     pub fn acceleration(
         &self,
         model: &ArmModel<N>,
@@ -309,12 +311,12 @@ impl<const N: usize> DynamicsTerms<N> {
 }
 
 /// Forward dynamics at one configuration `q` for any number of joint rates: the body frames
-/// and the Cholesky factor of `M(q)` are computed once; each rate then costs one RNEA and two
+/// and the `L D Lᵀ` factor of `M(q)` are computed once; each rate then costs one RNEA and two
 /// triangular solves. For integrators whose stages share a configuration.
 #[derive(Debug, Clone)]
 pub struct ConfigurationDynamics<const N: usize> {
     frames: BodyFrames<N>,
-    mass_factor: Cholesky<f64, Const<N>>,
+    mass_factor: MassMatrixFactor<N>,
 }
 
 impl<const N: usize> ConfigurationDynamics<N> {
@@ -340,12 +342,12 @@ impl<const N: usize> ConfigurationDynamics<N> {
 fn factorise_mass_matrix<const N: usize>(
     mass_matrix: MassMatrix<N>,
     q: &JointVector<N>,
-) -> Result<Cholesky<f64, Const<N>>, DynamicsError> {
-    Cholesky::new(mass_matrix).ok_or_else(|| DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))
+) -> Result<MassMatrixFactor<N>, DynamicsError> {
+    MassMatrixFactor::new(&mass_matrix).ok_or_else(|| DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))
 }
 
 fn solve_for_acceleration<const N: usize>(
-    mass_factor: &Cholesky<f64, Const<N>>,
+    mass_factor: &MassMatrixFactor<N>,
     model: &ArmModel<N>,
     qd: &JointVector<N>,
     torque: &JointVector<N>,

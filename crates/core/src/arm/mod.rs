@@ -3,6 +3,7 @@
 pub mod dynamics;
 pub mod kinematics;
 pub mod lagrange;
+pub mod mass_factor;
 pub mod model;
 pub mod preset;
 pub mod task;
