@@ -27,7 +27,7 @@ fn per_call(c: &mut Criterion) {
     c.bench_function("forward dynamics (CRBA + RNEA + Cholesky)", |b| {
         b.iter(|| forward_dynamics(&model, black_box(&q), &qd, &tau))
     });
-    let plant = Plant::new(model);
+    let mut plant = Plant::new(model);
     let mut controller =
         ComputedTorque::new("pd", model, Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid"));
     let state = JointState { q, qd };

@@ -70,7 +70,7 @@ fn energy_is_conserved_in_free_motion() {
     // No torque, no friction: the arm falls and swings. A fourth-order method at 0.1 ms has
     // local error ~(ω dt)⁵ with ω ≲ 20 rad/s, i.e. ~3e-11 per step, ~1e-6 J over 2 s at worst.
     for integrator in [Integrator::RungeKutta4, Integrator::RungeKuttaNystrom4] {
-        let plant = Plant::new(report_arm());
+        let mut plant = Plant::new(report_arm());
         let mut state = JointState { q: q([0.2, 1.2, -0.5, -0.3]), qd: q([1.0, -0.5, 2.0, 1.5]) };
         let (kinetic, potential) = energy(plant.model(), &state.q, &state.qd);
         let initial = kinetic + potential;
@@ -78,7 +78,7 @@ fn energy_is_conserved_in_free_motion() {
         let mut largest_kinetic = kinetic;
         let mut worst_drift = 0.0f64;
         for _ in 0..20_000 {
-            state = plant.step(&state, &plant.evaluate(&state), &JointVector::zeros(), dt, integrator).unwrap();
+            state = plant.step(&state, &JointVector::zeros(), dt, integrator).unwrap();
             let (kinetic, potential) = energy(plant.model(), &state.q, &state.qd);
             largest_kinetic = largest_kinetic.max(kinetic);
             worst_drift = worst_drift.max((kinetic + potential - initial).abs());
@@ -318,11 +318,11 @@ fn sharing_the_plants_terms_with_the_controller_changes_nothing() {
 /// Largest |state − reference state| after `duration` s of free motion (no torque) from a
 /// moving start, integrated with `integrator` at `dt`.
 fn free_motion_error(integrator: chessarm_core::sim::Integrator, dt: f64, reference: &JointState<4>) -> f64 {
-    let plant = Plant::new(report_arm());
+    let mut plant = Plant::new(report_arm());
     let mut state = JointState { q: q([0.2, 1.2, -0.5, -0.3]), qd: q([1.0, -0.5, 2.0, 1.5]) };
     let torque = gravity_torques(plant.model(), &state.q) * 0.5; // half the arm's weight held
     for _ in 0..(0.2 / dt).round() as usize {
-        state = plant.step(&state, &plant.evaluate(&state), &torque, dt, integrator).unwrap();
+        state = plant.step(&state, &torque, dt, integrator).unwrap();
     }
     (state.q - reference.q).amax().max((state.qd - reference.qd).amax())
 }
@@ -331,7 +331,7 @@ fn free_motion_error(integrator: chessarm_core::sim::Integrator, dt: f64, refere
 fn integrators_converge_at_their_orders() {
     use chessarm_core::sim::Integrator;
     // Reference: RK4 at 10 µs, whose own error (~(dt/1 ms)⁴ × the 1 ms error) is below 1e-13.
-    let plant = Plant::new(report_arm());
+    let mut plant = Plant::new(report_arm());
     let mut reference = JointState { q: q([0.2, 1.2, -0.5, -0.3]), qd: q([1.0, -0.5, 2.0, 1.5]) };
     let torque = gravity_torques(plant.model(), &reference.q) * 0.5;
     for _ in 0..20_000 {
@@ -355,5 +355,34 @@ fn integrators_converge_at_their_orders() {
             integrator.name(),
             dt / 2.0
         );
+    }
+}
+
+#[test]
+fn a_plant_step_does_not_depend_on_what_its_scratch_held_before() {
+    use chessarm_core::sim::Integrator;
+    let state = JointState { q: q([0.4, 1.1, -0.9, -0.2]), qd: q([0.5, -0.3, 0.8, 0.2]) };
+    let torque = q([0.3, 4.0, 1.5, 0.2]);
+    let pawn = Some(Payload::point_mass(0.25));
+    for integrator in Integrator::ALL {
+        let fresh = |payload| {
+            let mut plant = Plant::new(report_arm());
+            plant.set_payload(payload).unwrap();
+            plant.step(&state, &torque, 1e-3, integrator).unwrap()
+        };
+        let (unloaded, loaded) = (fresh(None), fresh(pawn));
+        assert_ne!(unloaded, loaded, "{}: the pawn must change the step", integrator.name());
+        // The scratch evaluated at this very state, then the payload changes: the step must
+        // use the new model, not the kept evaluation.
+        let mut plant = Plant::new(report_arm());
+        plant.evaluate(&state).unwrap();
+        plant.set_payload(pawn).unwrap();
+        assert_eq!(plant.step(&state, &torque, 1e-3, integrator).unwrap(), loaded, "{}", integrator.name());
+        // Evaluated at another state: re-evaluated at the step's own.
+        plant.evaluate(&JointState::at_rest(q([0.0; 4]))).unwrap();
+        assert_eq!(plant.step(&state, &torque, 1e-3, integrator).unwrap(), loaded, "{}", integrator.name());
+        // Evaluated at this state just before: the same bits.
+        plant.evaluate(&state).unwrap();
+        assert_eq!(plant.step(&state, &torque, 1e-3, integrator).unwrap(), loaded, "{}", integrator.name());
     }
 }

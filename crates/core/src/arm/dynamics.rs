@@ -13,7 +13,7 @@
 //! allocates. [`crate::arm::lagrange`] holds the independent Jacobian/Christoffel formulation the
 //! tests compare against.
 
-use super::kinematics::FrameChain;
+use super::kinematics::{FrameChain, JointTrig};
 use super::mass_factor::MassMatrixFactor;
 use super::model::{ArmModel, JointVector};
 use nalgebra::{Matrix3, SMatrix, Vector3};
@@ -103,7 +103,6 @@ impl<const N: usize> BodyFrames<N> {
         Self::from_chain(model, &FrameChain::new(model, q))
     }
 
-    #[inline(always)]
     pub fn from_chain(model: &ArmModel<N>, chain: &FrameChain<N>) -> Self {
         let mut frames = Self {
             axis: [Vector3::zeros(); N],
@@ -111,15 +110,21 @@ impl<const N: usize> BodyFrames<N> {
             com: [Vector3::zeros(); N],
             inertia: [SymmetricMatrix3::default(); N],
         };
+        frames.set_from_chain(model, chain);
+        frames
+    }
+
+    /// [`BodyFrames::from_chain`] in place, for scratch reused every integration step.
+    #[inline(always)]
+    pub fn set_from_chain(&mut self, model: &ArmModel<N>, chain: &FrameChain<N>) {
         for j in 0..N {
             let (axis, point) = chain.joint_axis(j);
             let body = model.body(j);
-            frames.axis[j] = axis;
-            frames.joint_point[j] = point;
-            frames.com[j] = chain.point_on_body(j, &body.com);
-            frames.inertia[j] = SymmetricMatrix3::rotated(chain.body_pose(j).rotation.matrix(), &body.inertia);
+            self.axis[j] = axis;
+            self.joint_point[j] = point;
+            self.com[j] = chain.point_on_body(j, &body.com);
+            self.inertia[j] = SymmetricMatrix3::rotated(chain.body_pose(j).rotation.matrix(), &body.inertia);
         }
-        frames
     }
 
     /// Where joint `j + 1` sits (origin of DH frame j + 1), or the tool tip for the last body.
@@ -137,6 +142,36 @@ pub fn rnea_with_frames<const N: usize>(
     qdd: &JointVector<N>,
     gravity: &Vector3<f64>,
 ) -> JointVector<N> {
+    recursive_newton_euler(model, frames, qd, Some(qdd), gravity)
+}
+
+/// The bias torques `C(q, q̇) q̇ + g(q)` on precomputed frames: RNEA with `q̈ = 0`, N·m.
+#[inline(always)]
+pub fn bias_with_frames<const N: usize>(
+    model: &ArmModel<N>,
+    frames: &BodyFrames<N>,
+    qd: &JointVector<N>,
+) -> JointVector<N> {
+    recursive_newton_euler(model, frames, qd, None, &model.gravity())
+}
+
+/// RNEA in the base frame. `qdd = None` means `q̈ = 0`: the terms in `q̈` are left out rather
+/// than multiplied by zero (a compiler may not drop `0 · x` for floats), the integrator's case.
+///
+/// Forward, for each body j: `ω_j = ω_{j−1} + z_j q̇_j`,
+/// `ω̇_j = ω̇_{j−1} + z_j q̈_j + q̇_j ω_{j−1} × z_j`, acceleration of joint point `p_j` from the
+/// previous body's rigid motion, and of the COM `c_j`: `a_c = a_p + ω̇ × (c − p) + ω × (ω × (c − p))`.
+/// Backward: force `f_j = Σ_{k ≥ j} m_k a_ck`, moment about `p_j`
+/// `n_j = n_{j+1} + (p_{j+1} − p_j) × f_{j+1} + (c_j − p_j) × m_j a_cj + I_j ω̇_j + ω_j × I_j ω_j`,
+/// and `τ_j = z_j · n_j + I_rotor,j q̈_j`.
+#[inline(always)]
+fn recursive_newton_euler<const N: usize>(
+    model: &ArmModel<N>,
+    frames: &BodyFrames<N>,
+    qd: &JointVector<N>,
+    qdd: Option<&JointVector<N>>,
+    gravity: &Vector3<f64>,
+) -> JointVector<N> {
     let mut omega = [Vector3::zeros(); N];
     let mut alpha = [Vector3::zeros(); N];
     let mut com_acceleration = [Vector3::zeros(); N];
@@ -150,7 +185,10 @@ pub fn rnea_with_frames<const N: usize>(
             point_acceleration += previous_alpha.cross(&lever) + previous_omega.cross(&previous_omega.cross(&lever));
         }
         omega[j] = previous_omega + axis * qd[j];
-        alpha[j] = previous_alpha + axis * qdd[j] + previous_omega.cross(&axis) * qd[j];
+        alpha[j] = previous_alpha + previous_omega.cross(&axis) * qd[j];
+        if let Some(qdd) = qdd {
+            alpha[j] += axis * qdd[j];
+        }
         let lever = frames.com[j] - frames.joint_point[j];
         com_acceleration[j] = point_acceleration + alpha[j].cross(&lever) + omega[j].cross(&omega[j].cross(&lever));
         previous_omega = omega[j];
@@ -173,7 +211,10 @@ pub fn rnea_with_frames<const N: usize>(
             + inertia.mul_vector(&alpha[j])
             + omega[j].cross(&inertia.mul_vector(&omega[j]));
         force += inertial_force;
-        torque[j] = frames.axis[j].dot(&moment) + model.link(j).rotor_inertia * qdd[j];
+        torque[j] = frames.axis[j].dot(&moment);
+        if let Some(qdd) = qdd {
+            torque[j] += model.link(j).rotor_inertia * qdd[j];
+        }
     }
     torque
 }
@@ -241,7 +282,7 @@ pub fn coriolis_torques<const N: usize>(
 
 /// Bias torques `C(q, q̇) q̇ + g(q)`, N·m (the report's `N`).
 pub fn bias_torques<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> JointVector<N> {
-    inverse_dynamics(model, q, qd, &JointVector::zeros())
+    bias_with_frames(model, &BodyFrames::new(model, q), qd)
 }
 
 /// Joint friction torques acting on the joints (opposing motion), N·m:
@@ -261,7 +302,7 @@ pub enum DynamicsError {
     NotPositiveDefinite(Vec<f64>),
 }
 
-/// Mass matrix and bias torques at one state, computed from one forward-kinematics pass.
+/// Mass matrix and bias torques at one state: what a computed-torque controller needs.
 #[derive(Debug, Clone, Copy)]
 pub struct DynamicsTerms<const N: usize> {
     pub mass_matrix: MassMatrix<N>,
@@ -270,17 +311,10 @@ pub struct DynamicsTerms<const N: usize> {
 }
 
 impl<const N: usize> DynamicsTerms<N> {
+    /// From one forward-kinematics pass at `q`.
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> Self {
-        Self::from_chain(model, &FrameChain::new(model, q), qd)
-    }
-
-    /// The terms with forward kinematics at `q` already done.
-    pub fn from_chain(model: &ArmModel<N>, chain: &FrameChain<N>, qd: &JointVector<N>) -> Self {
-        let frames = BodyFrames::from_chain(model, chain);
-        Self {
-            mass_matrix: mass_matrix_with_frames(model, &frames),
-            bias: rnea_with_frames(model, &frames, qd, &JointVector::zeros(), &model.gravity()),
-        }
+        let frames = BodyFrames::new(model, q);
+        Self { mass_matrix: mass_matrix_with_frames(model, &frames), bias: bias_with_frames(model, &frames, qd) }
     }
 }
 
@@ -295,63 +329,78 @@ pub fn forward_dynamics<const N: usize>(
     Ok(ConfigurationDynamics::new(model, q)?.acceleration(model, qd, torque))
 }
 
-impl<const N: usize> DynamicsTerms<N> {
-    /// Forward dynamics with these terms (of `model` at `(q, q̇)`) at hand:
-    /// `q̈ = M⁻¹ (τ + τ_friction(q̇) − C q̇ − g)`, rad/s², by `L D Lᵀ`.
-    pub fn acceleration(
-        &self,
-        model: &ArmModel<N>,
-        q: &JointVector<N>,
-        qd: &JointVector<N>,
-        torque: &JointVector<N>,
-    ) -> Result<JointVector<N>, DynamicsError> {
-        let factor = factorise_mass_matrix(self.mass_matrix, q)?;
-        Ok(solve_for_acceleration(&factor, model, qd, torque, &self.bias))
-    }
-}
-
-/// Forward dynamics at one configuration `q` for any number of joint rates: the body frames
-/// and the `L D Lᵀ` factor of `M(q)` are computed once; each rate then costs one RNEA and two
-/// triangular solves. For integrators whose stages share a configuration.
+/// Everything about one configuration `q` that forward dynamics needs, whatever the joint
+/// rates: the frame chain (forward kinematics), the body frames, `M(q)` and its `L D Lᵀ`
+/// factor. Each joint rate then costs one RNEA and two triangular solves. Scratch in the
+/// sense of Pinocchio's `Data`: an integrator keeps one per stage configuration and refills
+/// it in place every step ([`ConfigurationDynamics::set_configuration`]), so nothing of
+/// several hundred bytes is moved around per step.
 #[derive(Debug, Clone)]
 pub struct ConfigurationDynamics<const N: usize> {
+    chain: FrameChain<N>,
     frames: BodyFrames<N>,
+    mass_matrix: MassMatrix<N>,
     mass_factor: MassMatrixFactor<N>,
 }
 
 impl<const N: usize> ConfigurationDynamics<N> {
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Result<Self, DynamicsError> {
-        Self::from_chain(model, &FrameChain::new(model, q), q)
+        let mut dynamics = Self::placeholder(model);
+        dynamics.set_configuration(model, JointTrig::new(model, q))?;
+        Ok(dynamics)
     }
 
-    /// With forward kinematics at `q` already done.
+    /// Frames at `q = 0` with `M` and its factor the identity: scratch to be filled by
+    /// [`ConfigurationDynamics::set_configuration`] before use.
+    pub(crate) fn placeholder(model: &ArmModel<N>) -> Self {
+        let chain = FrameChain::new(model, &JointVector::zeros());
+        let frames = BodyFrames::from_chain(model, &chain);
+        Self { chain, frames, mass_matrix: MassMatrix::identity(), mass_factor: MassMatrixFactor::identity() }
+    }
+
+    /// Moves to the configuration whose joint sines and cosines are `trig`, in place.
     #[inline(always)]
-    pub fn from_chain(model: &ArmModel<N>, chain: &FrameChain<N>, q: &JointVector<N>) -> Result<Self, DynamicsError> {
-        let frames = BodyFrames::from_chain(model, chain);
-        let mass_factor = factorise_mass_matrix(mass_matrix_with_frames(model, &frames), q)?;
-        Ok(Self { frames, mass_factor })
+    pub fn set_configuration(&mut self, model: &ArmModel<N>, trig: JointTrig<N>) -> Result<(), DynamicsError> {
+        self.chain.set_from_trig(model, trig);
+        self.frames.set_from_chain(model, &self.chain);
+        self.mass_matrix = mass_matrix_with_frames(model, &self.frames);
+        self.mass_factor = MassMatrixFactor::new(&self.mass_matrix).ok_or_else(|| {
+            DynamicsError::NotPositiveDefinite(self.chain.trig().joint_angles(model).iter().copied().collect())
+        })?;
+        Ok(())
+    }
+
+    /// Forward kinematics at this configuration.
+    pub fn chain(&self) -> &FrameChain<N> {
+        &self.chain
+    }
+
+    /// `M(q)`, kg·m².
+    pub fn mass_matrix(&self) -> &MassMatrix<N> {
+        &self.mass_matrix
+    }
+
+    /// `C(q, q̇) q̇ + g(q)` at this configuration and rates `qd`, N·m.
+    #[inline(always)]
+    pub fn bias(&self, model: &ArmModel<N>, qd: &JointVector<N>) -> JointVector<N> {
+        bias_with_frames(model, &self.frames, qd)
     }
 
     /// `q̈ = M⁻¹ (τ + τ_friction(q̇) − C q̇ − g)` at this configuration and rates `qd`, rad/s².
+    #[inline(always)]
     pub fn acceleration(&self, model: &ArmModel<N>, qd: &JointVector<N>, torque: &JointVector<N>) -> JointVector<N> {
-        let bias = rnea_with_frames(model, &self.frames, qd, &JointVector::zeros(), &model.gravity());
-        solve_for_acceleration(&self.mass_factor, model, qd, torque, &bias)
+        self.acceleration_with_bias(model, qd, torque, &self.bias(model, qd))
     }
-}
 
-fn factorise_mass_matrix<const N: usize>(
-    mass_matrix: MassMatrix<N>,
-    q: &JointVector<N>,
-) -> Result<MassMatrixFactor<N>, DynamicsError> {
-    MassMatrixFactor::new(&mass_matrix).ok_or_else(|| DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))
-}
-
-fn solve_for_acceleration<const N: usize>(
-    mass_factor: &MassMatrixFactor<N>,
-    model: &ArmModel<N>,
-    qd: &JointVector<N>,
-    torque: &JointVector<N>,
-    bias: &JointVector<N>,
-) -> JointVector<N> {
-    mass_factor.solve(&(torque + friction_torques(model, qd) - bias))
+    /// [`ConfigurationDynamics::acceleration`] with the bias torques at `qd` already known.
+    #[inline(always)]
+    pub fn acceleration_with_bias(
+        &self,
+        model: &ArmModel<N>,
+        qd: &JointVector<N>,
+        torque: &JointVector<N>,
+        bias: &JointVector<N>,
+    ) -> JointVector<N> {
+        self.mass_factor.solve(&(torque + friction_torques(model, qd) - bias))
+    }
 }

@@ -66,6 +66,11 @@ impl<const N: usize> JointTrig<N> {
     pub fn get(&self, i: usize) -> (f64, f64) {
         self.sin_cos[i]
     }
+
+    /// The joint angles `q` these are the sines and cosines of, rad (`θ_i − theta_offset_i`).
+    pub fn joint_angles(&self, model: &ArmModel<N>) -> JointVector<N> {
+        JointVector::from_fn(|i, _| self.angle[i] - model.link(i).dh.theta_offset)
+    }
 }
 
 /// World poses of all DH frames for one joint configuration `q` (rad).
@@ -82,15 +87,22 @@ impl<const N: usize> FrameChain<N> {
     }
 
     /// Forward kinematics at the configuration whose joint sines and cosines are `trig`.
+    pub fn from_trig(model: &ArmModel<N>, trig: JointTrig<N>) -> Self {
+        let mut chain = Self { poses: [Pose::identity(); N], trig };
+        chain.set_from_trig(model, trig);
+        chain
+    }
+
+    /// [`FrameChain::from_trig`] in place, for scratch reused every integration step.
     ///
     /// Composed column by column rather than by 3×3 products: with `R' = R · Rz(θ)`, two
     /// columns mix by (cos θ, sin θ); the translation gains `a·x' + d·z'`; then `Rx(α)` mixes
     /// the y and z columns (skipped when α = 0). Same result as multiplying [`dh_transform`]s.
-    pub fn from_trig(model: &ArmModel<N>, trig: JointTrig<N>) -> Self {
-        let mut poses = [Pose::identity(); N];
+    #[inline(always)]
+    pub fn set_from_trig(&mut self, model: &ArmModel<N>, trig: JointTrig<N>) {
         let (mut x, mut y, mut z) = (Vector3::<f64>::x(), Vector3::<f64>::y(), Vector3::<f64>::z());
         let mut translation = Vector3::<f64>::zeros();
-        for (i, pose) in poses.iter_mut().enumerate() {
+        for (i, pose) in self.poses.iter_mut().enumerate() {
             let dh = &model.link(i).dh;
             let (st, ct) = trig.get(i);
             let turned_x = x * ct + y * st;
@@ -104,7 +116,7 @@ impl<const N: usize> FrameChain<N> {
                 Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])),
             );
         }
-        Self { poses, trig }
+        self.trig = trig;
     }
 
     /// The joint sines and cosines this chain was built from.

@@ -57,6 +57,16 @@ impl<const N: usize> MassMatrixFactor<N> {
         Some(Self { lower, inverse_pivot })
     }
 
+    /// The factor of the identity matrix (`L = D = E`), a placeholder before the first
+    /// factorisation.
+    pub fn identity() -> Self {
+        let mut lower = [[0.0; N]; N];
+        for (i, row) in lower.iter_mut().enumerate() {
+            row[i] = 1.0;
+        }
+        Self { lower, inverse_pivot: [1.0; N] }
+    }
+
     /// `x = M⁻¹ b`.
     #[inline]
     pub fn solve(&self, b: &JointVector<N>) -> JointVector<N> {

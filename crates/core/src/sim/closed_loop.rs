@@ -237,10 +237,11 @@ where
             controller_shares_terms = shares_terms(plant, controller);
         }
         let desired = reference.reference(t);
-        let at_state = plant.evaluate(&state);
+        let at_state = plant.evaluate(&state).map_err(|source| SimError::Dynamics { time: t, source })?;
+        let tip = at_state.chain().tip();
         if step.is_multiple_of(steps_per_sample) {
             let command = if controller_shares_terms {
-                controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms)
+                controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms())
             } else {
                 controller.torque(&state, &desired, config.control_period)
             };
@@ -267,7 +268,6 @@ where
         squared_joint_error += error.component_mul(&error);
         max_joint_error = max_joint_error.sup(&error.abs());
         peak_torque = peak_torque.sup(&torque.abs());
-        let tip = at_state.chain.tip();
         let tip_desired = reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
         let tip_error = (tip - tip_desired).norm();
         squared_tip_error += tip_error * tip_error;
@@ -283,7 +283,7 @@ where
             break;
         }
         state = plant
-            .step(&state, &at_state, &torque, dt, config.integrator)
+            .step(&state, &torque, dt, config.integrator)
             .map_err(|source| SimError::Dynamics { time: t, source })?;
         check_state(&state, t + dt, config.runaway_speed)?;
     }

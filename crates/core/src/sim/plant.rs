@@ -2,20 +2,37 @@
 //! fixed-step integrators of `ẋ = (q̇, q̈(q, q̇, τ))` (Nyström's fourth-order Runge–Kutta by
 //! default).
 
-use crate::arm::dynamics::{ConfigurationDynamics, DynamicsError, DynamicsTerms};
-use crate::arm::kinematics::FrameChain;
+use crate::arm::dynamics::{ConfigurationDynamics, DynamicsError, DynamicsTerms, MassMatrix};
+use crate::arm::kinematics::{FrameChain, JointTrig};
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::JointState;
 
-/// The physical arm being simulated.
+/// The physical arm being simulated: its model (with the gripped payload) and the scratch its
+/// integrators fill in place every step (frames, mass matrices and factors at the step's
+/// start and at its stage configurations), so a step allocates and moves nothing large.
 #[derive(Debug, Clone)]
 pub struct Plant<const N: usize> {
     model: ArmModel<N>,
+    /// The dynamics at the start of the step; valid for `evaluated_at`.
+    start: StateDynamics<N>,
+    /// The state `start` holds, `None` when stale (never evaluated, or the payload changed).
+    evaluated_at: Option<JointState<N>>,
+    /// Stage configurations inside the step (the middle one of Nyström's method, the end).
+    middle: ConfigurationDynamics<N>,
+    end: ConfigurationDynamics<N>,
 }
 
 impl<const N: usize> Plant<N> {
     pub fn new(model: ArmModel<N>) -> Self {
-        Self { model }
+        // Placeholders until the first evaluation; `evaluated_at = None` marks them stale.
+        let configuration = ConfigurationDynamics::placeholder(&model);
+        Self {
+            model,
+            start: StateDynamics { configuration: configuration.clone(), bias: JointVector::zeros() },
+            evaluated_at: None,
+            middle: configuration.clone(),
+            end: configuration,
+        }
     }
 
     pub fn model(&self) -> &ArmModel<N> {
@@ -25,56 +42,54 @@ impl<const N: usize> Plant<N> {
     /// Grips (`Some`) or releases (`None`) a payload at the tool.
     pub fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError> {
         self.model = self.model.with_payload(payload)?;
+        self.evaluated_at = None;
         Ok(())
     }
 
-    /// The plant's kinematics, mass matrix and bias torques at `state`: the first stage of
-    /// every integrator, and what a controller with the same model needs.
-    pub fn evaluate(&self, state: &JointState<N>) -> StateDynamics<N> {
-        let chain = FrameChain::new(&self.model, &state.q);
-        let terms = DynamicsTerms::from_chain(&self.model, &chain, &state.qd);
-        StateDynamics { chain, terms }
+    /// The plant's kinematics, mass matrix (factorised) and bias torques at `state`: the first
+    /// stage of every integrator, and what a controller with the same model needs. Kept for
+    /// the [`Plant::step`] from `state` that follows.
+    pub fn evaluate(&mut self, state: &JointState<N>) -> Result<&StateDynamics<N>, DynamicsError> {
+        if self.evaluated_at != Some(*state) {
+            self.evaluated_at = None;
+            self.start.configuration.set_configuration(&self.model, JointTrig::new(&self.model, &state.q))?;
+            self.start.bias = self.start.configuration.bias(&self.model, &state.qd);
+            self.evaluated_at = Some(*state);
+        }
+        Ok(&self.start)
     }
 
     /// One classical RK4 step of `dt` seconds with `torque` held constant (zero-order hold).
     pub fn rk4_step(
-        &self,
+        &mut self,
         state: &JointState<N>,
         torque: &JointVector<N>,
         dt: f64,
     ) -> Result<JointState<N>, DynamicsError> {
-        self.step(state, &self.evaluate(state), torque, dt, Integrator::RungeKutta4)
+        self.step(state, torque, dt, Integrator::RungeKutta4)
     }
 
-    /// The dynamics at configuration `q` near the step's start, whose sines and cosines come
-    /// from the start's by angle addition ([`JointTrig::shifted`]).
-    #[inline(always)]
-    fn configuration_near(
-        &self,
-        start: &JointState<N>,
-        at_start: &StateDynamics<N>,
-        q: &JointVector<N>,
-    ) -> Result<ConfigurationDynamics<N>, DynamicsError> {
-        let trig = at_start.chain.trig().shifted(&(q - start.q));
-        ConfigurationDynamics::from_chain(&self.model, &FrameChain::from_trig(&self.model, trig), q)
-    }
-
-    /// One step of `dt` seconds with `torque` held constant, by `integrator`. `at_state` is
-    /// [`Plant::evaluate`] at `state`, passed in so a caller that needs it anyway (the closed
-    /// loop: the tool tip, the controller's terms) computes it once.
+    /// One step of `dt` seconds from `state` with `torque` held constant, by `integrator`.
+    /// The first stage is [`Plant::evaluate`] at `state`, reused when the caller has just
+    /// evaluated it (the closed loop needs the tool tip and the controller's terms anyway).
+    /// Later stages reuse the start's sines and cosines by angle addition
+    /// ([`JointTrig::shifted`]).
     pub fn step(
-        &self,
+        &mut self,
         state: &JointState<N>,
-        at_state: &StateDynamics<N>,
         torque: &JointVector<N>,
         dt: f64,
         integrator: Integrator,
     ) -> Result<JointState<N>, DynamicsError> {
-        let model = &self.model;
+        self.evaluate(state)?;
+        let Self { model, start, middle, end, .. } = self;
+        let model = &*model;
         let (q, qd) = (&state.q, &state.qd);
-        let q1dd = at_state.terms.acceleration(model, q, qd, torque)?;
-        let acceleration_at = |s: &JointState<N>| -> Result<JointVector<N>, DynamicsError> {
-            Ok(self.configuration_near(state, at_state, &s.q)?.acceleration(model, &s.qd, torque))
+        let start_trig = *start.configuration.chain().trig();
+        let q1dd = start.configuration.acceleration_with_bias(model, qd, torque, &start.bias);
+        // The dynamics at configuration `at` (rad) inside the step, filled into `scratch`.
+        let move_to = |scratch: &mut ConfigurationDynamics<N>, at: &JointVector<N>| {
+            scratch.set_configuration(model, start_trig.shifted(&(at - q)))
         };
         Ok(match integrator {
             Integrator::RungeKutta4 => {
@@ -83,11 +98,14 @@ impl<const N: usize> Plant<N> {
                     qd: qd + qdd_k * h,
                 };
                 let s2 = stage(qd, &q1dd, dt / 2.0);
-                let q2dd = acceleration_at(&s2)?;
+                move_to(middle, &s2.q)?;
+                let q2dd = middle.acceleration(model, &s2.qd, torque);
                 let s3 = stage(&s2.qd, &q2dd, dt / 2.0);
-                let q3dd = acceleration_at(&s3)?;
+                move_to(middle, &s3.q)?;
+                let q3dd = middle.acceleration(model, &s3.qd, torque);
                 let s4 = stage(&s3.qd, &q3dd, dt);
-                let q4dd = acceleration_at(&s4)?;
+                move_to(end, &s4.q)?;
+                let q4dd = end.acceleration(model, &s4.qd, torque);
                 JointState {
                     q: q + (qd + s2.qd * 2.0 + s3.qd * 2.0 + s4.qd) * (dt / 6.0),
                     qd: qd + (q1dd + q2dd * 2.0 + q3dd * 2.0 + q4dd) * (dt / 6.0),
@@ -95,11 +113,10 @@ impl<const N: usize> Plant<N> {
             }
             Integrator::RungeKuttaNystrom4 => {
                 // Stages 2 and 3 share the configuration q + dt/2 q̇ + dt²/8 q̈₁.
-                let middle =
-                    self.configuration_near(state, at_state, &(q + qd * (dt / 2.0) + q1dd * (dt * dt / 8.0)))?;
+                move_to(middle, &(q + qd * (dt / 2.0) + q1dd * (dt * dt / 8.0)))?;
                 let q2dd = middle.acceleration(model, &(qd + q1dd * (dt / 2.0)), torque);
                 let q3dd = middle.acceleration(model, &(qd + q2dd * (dt / 2.0)), torque);
-                let end = self.configuration_near(state, at_state, &(q + qd * dt + q3dd * (dt * dt / 2.0)))?;
+                move_to(end, &(q + qd * dt + q3dd * (dt * dt / 2.0)))?;
                 let q4dd = end.acceleration(model, &(qd + q3dd * dt), torque);
                 JointState {
                     q: q + qd * dt + (q1dd + q2dd + q3dd) * (dt * dt / 6.0),
@@ -107,9 +124,10 @@ impl<const N: usize> Plant<N> {
                 }
             }
             Integrator::Midpoint => {
-                let middle = JointState { q: q + qd * (dt / 2.0), qd: qd + q1dd * (dt / 2.0) };
-                let middle_qdd = acceleration_at(&middle)?;
-                JointState { q: q + middle.qd * dt, qd: qd + middle_qdd * dt }
+                let halfway = JointState { q: q + qd * (dt / 2.0), qd: qd + q1dd * (dt / 2.0) };
+                move_to(middle, &halfway.q)?;
+                let halfway_qdd = middle.acceleration(model, &halfway.qd, torque);
+                JointState { q: q + halfway.qd * dt, qd: qd + halfway_qdd * dt }
             }
             Integrator::SemiImplicitEuler => {
                 let qd = qd + q1dd * dt;
@@ -119,12 +137,34 @@ impl<const N: usize> Plant<N> {
     }
 }
 
-/// The plant's kinematics and dynamics terms at one state ([`Plant::evaluate`]).
-#[derive(Debug, Clone, Copy)]
+/// The plant's kinematics and dynamics at one state ([`Plant::evaluate`]).
+#[derive(Debug, Clone)]
 pub struct StateDynamics<const N: usize> {
-    pub chain: FrameChain<N>,
-    /// `M(q)` and `C(q, q̇) q̇ + g(q)` of the plant's model.
-    pub terms: DynamicsTerms<N>,
+    configuration: ConfigurationDynamics<N>,
+    /// `C(q, q̇) q̇ + g(q)`.
+    bias: JointVector<N>,
+}
+
+impl<const N: usize> StateDynamics<N> {
+    /// Forward kinematics at the state's configuration.
+    pub fn chain(&self) -> &FrameChain<N> {
+        self.configuration.chain()
+    }
+
+    /// `M(q)` of the plant's model, kg·m².
+    pub fn mass_matrix(&self) -> &MassMatrix<N> {
+        self.configuration.mass_matrix()
+    }
+
+    /// `C(q, q̇) q̇ + g(q)` of the plant's model, N·m.
+    pub fn bias(&self) -> &JointVector<N> {
+        &self.bias
+    }
+
+    /// `M(q)` and `C(q, q̇) q̇ + g(q)`, as a controller with the plant's model computes them.
+    pub fn terms(&self) -> DynamicsTerms<N> {
+        DynamicsTerms { mass_matrix: *self.mass_matrix(), bias: self.bias }
+    }
 }
 
 /// How the plant's state advances over one step of `dt` with the torque held (zero-order hold).
