@@ -240,3 +240,21 @@ fn mass_matrix_factor_rejects_matrices_that_are_not_positive_definite() {
         forward_dynamics(&report_arm(), &state([f64::NAN, 0.0, 0.0, 0.0]), &state([0.0; 4]), &state([0.0; 4])).is_err()
     );
 }
+
+#[test]
+fn rotated_inertia_equals_the_full_product_for_diagonal_and_general_tensors() {
+    use chessarm_core::arm::dynamics::SymmetricMatrix3;
+    use chessarm_core::nalgebra::Rotation3;
+    let rotation = *Rotation3::from_euler_angles(0.3, -1.1, 2.4).matrix();
+    let diagonal = Matrix3::from_diagonal(&Vector3::new(0.007, 0.0014, 0.0066));
+    let general = Matrix3::new(0.0007, 0.00005, -0.00003, 0.00005, 0.0006, 0.00002, -0.00003, 0.00002, 0.0008);
+    for inertia in [diagonal, general] {
+        let full = rotation * inertia * rotation.transpose();
+        let stored = SymmetricMatrix3::rotated(&rotation, &inertia);
+        let unpacked = Matrix3::new(
+            stored.xx, stored.xy, stored.xz, stored.xy, stored.yy, stored.yz, stored.xz, stored.yz, stored.zz,
+        );
+        // Entries ~1e-3 kg·m² after a dozen flops: 1e-18 is a few ulps.
+        assert!((unpacked - full).abs().max() < 1e-18, "{unpacked} vs {full}");
+    }
+}

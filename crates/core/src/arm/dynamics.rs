@@ -39,8 +39,27 @@ pub struct SymmetricMatrix3 {
 
 impl SymmetricMatrix3 {
     /// `R I Rᵀ`: a tensor given in a frame rotated by `rotation`, expressed in the outer axes.
+    /// When `I` is diagonal (the body frame is a principal frame, as for every body of the
+    /// report's arm and for an upright payload), `(R I Rᵀ)_ab = Σ_k I_kk R_ak R_bk`, less than
+    /// half the flops of the general product.
+    #[inline(always)]
     pub fn rotated(rotation: &Matrix3<f64>, inertia: &Matrix3<f64>) -> Self {
-        let turned = rotation * inertia;
+        let is_diagonal = inertia[(0, 1)] == 0.0
+            && inertia[(0, 2)] == 0.0
+            && inertia[(1, 2)] == 0.0
+            && inertia[(1, 0)] == 0.0
+            && inertia[(2, 0)] == 0.0
+            && inertia[(2, 1)] == 0.0;
+        // `turned = R I`; for diagonal I its columns are R's scaled by I_kk.
+        let turned = if is_diagonal {
+            Matrix3::from_columns(&[
+                rotation.column(0) * inertia[(0, 0)],
+                rotation.column(1) * inertia[(1, 1)],
+                rotation.column(2) * inertia[(2, 2)],
+            ])
+        } else {
+            rotation * inertia
+        };
         let entry = |a: usize, b: usize| {
             turned[(a, 0)] * rotation[(b, 0)] + turned[(a, 1)] * rotation[(b, 1)] + turned[(a, 2)] * rotation[(b, 2)]
         };
