@@ -259,7 +259,8 @@ pub fn mass_matrix_with_frames<const N: usize>(model: &ArmModel<N>, frames: &Bod
         let velocity = axis_moment[j];
         let force = velocity * mass - first_moment.cross(&omega);
         let moment = rotational.mul_vector(&omega) + first_moment.cross(&velocity);
-        for i in 0..=j {
+        // `0..j + 1`, not `0..=j`: an inclusive range keeps the loop from being unrolled.
+        for i in 0..j + 1 {
             let value = frames.axis[i].dot(&moment) + axis_moment[i].dot(&force);
             matrix[(i, j)] = value;
             matrix[(j, i)] = value;
