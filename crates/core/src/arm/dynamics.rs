@@ -13,7 +13,7 @@
 //! allocates. [`crate::arm::lagrange`] holds the independent Jacobian/Christoffel formulation the
 //! tests compare against.
 
-use super::kinematics::{FrameChain, JointTrig};
+use super::kinematics::{JointTrig, compose_frames};
 use super::mass_factor::MassMatrixFactor;
 use super::model::{ArmModel, JointVector};
 use nalgebra::{Matrix3, SMatrix, Vector3};
@@ -115,38 +115,50 @@ pub struct BodyFrames<const N: usize> {
     pub com: [Vector3<f64>; N],
     /// Inertia of body j about its COM in world axes, kg·m².
     pub inertia: [SymmetricMatrix3; N],
+    /// The tool tip, origin of the last DH frame, m.
+    pub tip: Vector3<f64>,
 }
 
 impl<const N: usize> BodyFrames<N> {
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
-        Self::from_chain(model, &FrameChain::new(model, q))
+        Self::from_trig(model, &JointTrig::new(model, q))
     }
 
-    pub fn from_chain(model: &ArmModel<N>, chain: &FrameChain<N>) -> Self {
+    /// At the configuration whose joint sines and cosines are `trig`.
+    pub fn from_trig(model: &ArmModel<N>, trig: &JointTrig<N>) -> Self {
         let mut frames = Self {
             axis: [Vector3::zeros(); N],
             joint_point: [Vector3::zeros(); N],
             com: [Vector3::zeros(); N],
             inertia: [SymmetricMatrix3::default(); N],
+            tip: Vector3::zeros(),
         };
-        frames.set_from_chain(model, chain);
+        frames.set_from_trig(model, trig);
         frames
     }
 
-    /// [`BodyFrames::from_chain`] in place, for scratch reused every integration step.
+    /// [`BodyFrames::from_trig`] in place, for scratch reused every integration step: straight
+    /// from the forward-kinematics composition, without storing the frames' poses.
     #[inline(always)]
-    pub fn set_from_chain(&mut self, model: &ArmModel<N>, chain: &FrameChain<N>) {
-        for j in 0..N {
-            let (axis, point) = chain.joint_axis(j);
-            let body = model.body(j);
-            self.axis[j] = axis;
-            self.joint_point[j] = point;
-            self.com[j] = chain.point_on_body(j, &body.com);
-            self.inertia[j] = SymmetricMatrix3::rotated(chain.body_pose(j).rotation.matrix(), &body.inertia);
-        }
+    pub fn set_from_trig(&mut self, model: &ArmModel<N>, trig: &JointTrig<N>) {
+        // Joint 0 turns about the base z axis through the base origin.
+        self.axis[0] = Vector3::z();
+        self.joint_point[0] = Vector3::zeros();
+        compose_frames(model, trig, |i, rotation, origin| {
+            let body = model.body(i);
+            self.com[i] = rotation * body.com + origin;
+            self.inertia[i] = SymmetricMatrix3::rotated(rotation, &body.inertia);
+            // Frame i + 1 carries joint i + 1's axis (its z) through its origin.
+            if i + 1 < N {
+                self.axis[i + 1] = rotation.column(2).into_owned();
+                self.joint_point[i + 1] = *origin;
+            } else {
+                self.tip = *origin;
+            }
+        });
     }
 
-    /// Where joint `j + 1` sits (origin of DH frame j + 1), or the tool tip for the last body.
+    /// Where joint `j + 1` sits (origin of DH frame j + 1), or `None` after the last joint.
     fn next_point(&self, j: usize) -> Option<Vector3<f64>> {
         (j + 1 < N).then(|| self.joint_point[j + 1])
     }
@@ -350,14 +362,14 @@ pub fn forward_dynamics<const N: usize>(
 }
 
 /// Everything about one configuration `q` that forward dynamics needs, whatever the joint
-/// rates: the frame chain (forward kinematics), the body frames, `M(q)` and its `L D Lᵀ`
-/// factor. Each joint rate then costs one RNEA and two triangular solves. Scratch in the
-/// sense of Pinocchio's `Data`: an integrator keeps one per stage configuration and refills
-/// it in place every step ([`ConfigurationDynamics::set_configuration`]), so nothing of
-/// several hundred bytes is moved around per step.
+/// rates: the joint sines and cosines, the body frames (forward kinematics), `M(q)` and its
+/// `L D Lᵀ` factor. Each joint rate then costs one RNEA and two triangular solves. Scratch in
+/// the sense of Pinocchio's `Data`: an integrator keeps one per stage configuration and
+/// refills it in place every step ([`ConfigurationDynamics::set_configuration`]), so nothing
+/// of several hundred bytes is moved around per step.
 #[derive(Debug, Clone)]
 pub struct ConfigurationDynamics<const N: usize> {
-    chain: FrameChain<N>,
+    trig: JointTrig<N>,
     frames: BodyFrames<N>,
     mass_matrix: MassMatrix<N>,
     mass_factor: MassMatrixFactor<N>,
@@ -373,26 +385,35 @@ impl<const N: usize> ConfigurationDynamics<N> {
     /// Frames at `q = 0` with `M` and its factor the identity: scratch to be filled by
     /// [`ConfigurationDynamics::set_configuration`] before use.
     pub(crate) fn placeholder(model: &ArmModel<N>) -> Self {
-        let chain = FrameChain::new(model, &JointVector::zeros());
-        let frames = BodyFrames::from_chain(model, &chain);
-        Self { chain, frames, mass_matrix: MassMatrix::identity(), mass_factor: MassMatrixFactor::identity() }
+        let trig = JointTrig::new(model, &JointVector::zeros());
+        Self {
+            trig,
+            frames: BodyFrames::from_trig(model, &trig),
+            mass_matrix: MassMatrix::identity(),
+            mass_factor: MassMatrixFactor::identity(),
+        }
     }
 
     /// Moves to the configuration whose joint sines and cosines are `trig`, in place.
     #[inline(always)]
     pub fn set_configuration(&mut self, model: &ArmModel<N>, trig: JointTrig<N>) -> Result<(), DynamicsError> {
-        self.chain.set_from_trig(model, trig);
-        self.frames.set_from_chain(model, &self.chain);
+        self.trig = trig;
+        self.frames.set_from_trig(model, &self.trig);
         self.mass_matrix = mass_matrix_with_frames(model, &self.frames);
         self.mass_factor = MassMatrixFactor::new(&self.mass_matrix).ok_or_else(|| {
-            DynamicsError::NotPositiveDefinite(self.chain.trig().joint_angles(model).iter().copied().collect())
+            DynamicsError::NotPositiveDefinite(self.trig.joint_angles(model).iter().copied().collect())
         })?;
         Ok(())
     }
 
-    /// Forward kinematics at this configuration.
-    pub fn chain(&self) -> &FrameChain<N> {
-        &self.chain
+    /// The joint sines and cosines of this configuration.
+    pub fn trig(&self) -> &JointTrig<N> {
+        &self.trig
+    }
+
+    /// The tool tip at this configuration, m (base frame).
+    pub fn tip(&self) -> Vector3<f64> {
+        self.frames.tip
     }
 
     /// `M(q)`, kg·m².

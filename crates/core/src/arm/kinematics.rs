@@ -73,6 +73,36 @@ impl<const N: usize> JointTrig<N> {
     }
 }
 
+/// Forward kinematics, frame by frame: composes `T_0i = A_1 ⋯ A_i` for the configuration whose
+/// joint sines and cosines are `trig` and hands `visit(i, R, p)` the world rotation `R` and
+/// origin `p` (m) of DH frame `i + 1` (the frame carried by body `i`), in order. The one place
+/// the DH chain is composed; [`FrameChain`] stores the poses, the dynamics take only what
+/// they need from them.
+///
+/// Composed column by column rather than by 3×3 products: with `R' = R · Rz(θ)`, two
+/// columns mix by (cos θ, sin θ); the translation gains `a·x' + d·z'`; then `Rx(α)` mixes
+/// the y and z columns (skipped when α = 0). Same result as multiplying [`dh_transform`]s.
+#[inline(always)]
+pub fn compose_frames<const N: usize>(
+    model: &ArmModel<N>,
+    trig: &JointTrig<N>,
+    mut visit: impl FnMut(usize, &Matrix3<f64>, &Vector3<f64>),
+) {
+    let (mut x, mut y, mut z) = (Vector3::<f64>::x(), Vector3::<f64>::y(), Vector3::<f64>::z());
+    let mut origin = Vector3::<f64>::zeros();
+    for i in 0..N {
+        let dh = &model.link(i).dh;
+        let (st, ct) = trig.get(i);
+        let turned_x = x * ct + y * st;
+        let turned_y = y * ct - x * st;
+        origin += turned_x * dh.a + z * dh.d;
+        let (sa, ca) = model.twist_trig(i);
+        x = turned_x;
+        (y, z) = if dh.alpha == 0.0 { (turned_y, z) } else { (turned_y * ca + z * sa, z * ca - turned_y * sa) };
+        visit(i, &Matrix3::from_columns(&[x, y, z]), &origin);
+    }
+}
+
 /// World poses of all DH frames for one joint configuration `q` (rad).
 #[derive(Debug, Clone, Copy)]
 pub struct FrameChain<const N: usize> {
@@ -86,7 +116,8 @@ impl<const N: usize> FrameChain<N> {
         Self::from_trig(model, JointTrig::new(model, q))
     }
 
-    /// Forward kinematics at the configuration whose joint sines and cosines are `trig`.
+    /// Forward kinematics at the configuration whose joint sines and cosines are `trig`
+    /// ([`compose_frames`]).
     pub fn from_trig(model: &ArmModel<N>, trig: JointTrig<N>) -> Self {
         let mut chain = Self { poses: [Pose::identity(); N], trig };
         chain.set_from_trig(model, trig);
@@ -94,28 +125,11 @@ impl<const N: usize> FrameChain<N> {
     }
 
     /// [`FrameChain::from_trig`] in place, for scratch reused every integration step.
-    ///
-    /// Composed column by column rather than by 3×3 products: with `R' = R · Rz(θ)`, two
-    /// columns mix by (cos θ, sin θ); the translation gains `a·x' + d·z'`; then `Rx(α)` mixes
-    /// the y and z columns (skipped when α = 0). Same result as multiplying [`dh_transform`]s.
     #[inline(always)]
     pub fn set_from_trig(&mut self, model: &ArmModel<N>, trig: JointTrig<N>) {
-        let (mut x, mut y, mut z) = (Vector3::<f64>::x(), Vector3::<f64>::y(), Vector3::<f64>::z());
-        let mut translation = Vector3::<f64>::zeros();
-        for (i, pose) in self.poses.iter_mut().enumerate() {
-            let dh = &model.link(i).dh;
-            let (st, ct) = trig.get(i);
-            let turned_x = x * ct + y * st;
-            let turned_y = y * ct - x * st;
-            translation += turned_x * dh.a + z * dh.d;
-            let (sa, ca) = model.twist_trig(i);
-            x = turned_x;
-            (y, z) = if dh.alpha == 0.0 { (turned_y, z) } else { (turned_y * ca + z * sa, z * ca - turned_y * sa) };
-            *pose = Pose::from_parts(
-                Translation3::from(translation),
-                Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])),
-            );
-        }
+        compose_frames(model, &trig, |i, rotation, origin| {
+            self.poses[i] = Pose::from_parts(Translation3::from(*origin), Rotation3::from_matrix_unchecked(*rotation));
+        });
         self.trig = trig;
     }
 

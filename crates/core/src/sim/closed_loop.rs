@@ -238,7 +238,7 @@ where
         }
         let desired = reference.reference(t);
         let at_state = plant.evaluate(&state).map_err(|source| SimError::Dynamics { time: t, source })?;
-        let tip = at_state.chain().tip();
+        let tip = at_state.tip();
         if step.is_multiple_of(steps_per_sample) {
             let command = if controller_shares_terms {
                 controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms())

@@ -3,9 +3,10 @@
 //! default).
 
 use crate::arm::dynamics::{ConfigurationDynamics, DynamicsError, DynamicsTerms, MassMatrix};
-use crate::arm::kinematics::{FrameChain, JointTrig};
+use crate::arm::kinematics::JointTrig;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::JointState;
+use nalgebra::Vector3;
 
 /// The physical arm being simulated: its model (with the gripped payload) and the scratch its
 /// integrators fill in place every step (frames, mass matrices and factors at the step's
@@ -85,7 +86,7 @@ impl<const N: usize> Plant<N> {
         let Self { model, start, middle, end, .. } = self;
         let model = &*model;
         let (q, qd) = (&state.q, &state.qd);
-        let start_trig = *start.configuration.chain().trig();
+        let start_trig = *start.configuration.trig();
         let q1dd = start.configuration.acceleration_with_bias(model, qd, torque, &start.bias);
         // The dynamics at configuration `at` (rad) inside the step, filled into `scratch`.
         let move_to = |scratch: &mut ConfigurationDynamics<N>, at: &JointVector<N>| {
@@ -146,9 +147,9 @@ pub struct StateDynamics<const N: usize> {
 }
 
 impl<const N: usize> StateDynamics<N> {
-    /// Forward kinematics at the state's configuration.
-    pub fn chain(&self) -> &FrameChain<N> {
-        self.configuration.chain()
+    /// The tool tip at the state's configuration, m (base frame).
+    pub fn tip(&self) -> Vector3<f64> {
+        self.configuration.tip()
     }
 
     /// `M(q)` of the plant's model, kg·m².
