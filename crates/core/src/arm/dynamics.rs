@@ -111,6 +111,9 @@ pub struct BodyFrames<const N: usize> {
     pub axis: [Vector3<f64>; N],
     /// A point on joint j's axis: the origin of DH frame j, m.
     pub joint_point: [Vector3<f64>; N],
+    /// `p_j × z_j`, m: the linear part of joint j's unit motion `S_j = (z_j, p_j × z_j)` about
+    /// the base origin.
+    pub axis_moment: [Vector3<f64>; N],
     /// Centre of mass of body j, m.
     pub com: [Vector3<f64>; N],
     /// Inertia of body j about its COM in world axes, kg·m².
@@ -129,6 +132,7 @@ impl<const N: usize> BodyFrames<N> {
         let mut frames = Self {
             axis: [Vector3::zeros(); N],
             joint_point: [Vector3::zeros(); N],
+            axis_moment: [Vector3::zeros(); N],
             com: [Vector3::zeros(); N],
             inertia: [SymmetricMatrix3::default(); N],
             tip: Vector3::zeros(),
@@ -144,23 +148,21 @@ impl<const N: usize> BodyFrames<N> {
         // Joint 0 turns about the base z axis through the base origin.
         self.axis[0] = Vector3::z();
         self.joint_point[0] = Vector3::zeros();
+        self.axis_moment[0] = Vector3::zeros();
         compose_frames(model, trig, |i, rotation, origin| {
             let body = model.body(i);
             self.com[i] = rotation * body.com + origin;
             self.inertia[i] = SymmetricMatrix3::rotated(rotation, &body.inertia);
             // Frame i + 1 carries joint i + 1's axis (its z) through its origin.
             if i + 1 < N {
-                self.axis[i + 1] = rotation.column(2).into_owned();
+                let axis = rotation.column(2).into_owned();
+                self.axis[i + 1] = axis;
                 self.joint_point[i + 1] = *origin;
+                self.axis_moment[i + 1] = origin.cross(&axis);
             } else {
                 self.tip = *origin;
             }
         });
-    }
-
-    /// Where joint `j + 1` sits (origin of DH frame j + 1), or `None` after the last joint.
-    fn next_point(&self, j: usize) -> Option<Vector3<f64>> {
-        (j + 1 < N).then(|| self.joint_point[j + 1])
     }
 }
 
@@ -190,11 +192,13 @@ pub fn bias_with_frames<const N: usize>(
 /// than multiplied by zero (a compiler may not drop `0 · x` for floats), the integrator's case.
 ///
 /// Forward, for each body j: `ω_j = ω_{j−1} + z_j q̇_j`,
-/// `ω̇_j = ω̇_{j−1} + z_j q̈_j + q̇_j ω_{j−1} × z_j`, acceleration of joint point `p_j` from the
-/// previous body's rigid motion, and of the COM `c_j`: `a_c = a_p + ω̇ × (c − p) + ω × (ω × (c − p))`.
-/// Backward: force `f_j = Σ_{k ≥ j} m_k a_ck`, moment about `p_j`
-/// `n_j = n_{j+1} + (p_{j+1} − p_j) × f_{j+1} + (c_j − p_j) × m_j a_cj + I_j ω̇_j + ω_j × I_j ω_j`,
-/// and `τ_j = z_j · n_j + I_rotor,j q̈_j`.
+/// `ω̇_j = ω̇_{j−1} + z_j q̈_j + q̇_j ω_{j−1} × z_j`, the acceleration of joint point `p_j` from
+/// the previous body's rigid motion, and of the COM: `a_c = a_p + ω̇ × (c − p) + ω × (ω × (c − p))`.
+/// Each body's inertial force `F_j = m_j a_c` and moment about the base origin
+/// `N_j = c_j × F_j + I_j ω̇_j + ω_j × I_j ω_j` follow at once. Backward, the sums over the
+/// bodies a joint carries give `τ_j = z_j · Σ_{k≥j} N_k + (p_j × z_j) · Σ_{k≥j} F_k` (the moment
+/// about `p_j` projected on `z_j`, with the joint's unit motion `S_j = (z_j, p_j × z_j)`), plus
+/// the armature term `I_rotor,j q̈_j`.
 #[inline(always)]
 fn recursive_newton_euler<const N: usize>(
     model: &ArmModel<N>,
@@ -203,46 +207,36 @@ fn recursive_newton_euler<const N: usize>(
     qdd: Option<&JointVector<N>>,
     gravity: &Vector3<f64>,
 ) -> JointVector<N> {
-    let mut omega = [Vector3::zeros(); N];
-    let mut alpha = [Vector3::zeros(); N];
-    let mut com_acceleration = [Vector3::zeros(); N];
-    let (mut previous_omega, mut previous_alpha) = (Vector3::zeros(), Vector3::zeros());
+    let mut body_force = [Vector3::zeros(); N];
+    let mut body_moment = [Vector3::zeros(); N];
+    let (mut omega, mut alpha) = (Vector3::<f64>::zeros(), Vector3::<f64>::zeros());
     // Acceleration of the current joint point, as a point of the previous body.
     let mut point_acceleration = -gravity;
     for j in 0..N {
         let axis = frames.axis[j];
         if j > 0 {
             let lever = frames.joint_point[j] - frames.joint_point[j - 1];
-            point_acceleration += previous_alpha.cross(&lever) + previous_omega.cross(&previous_omega.cross(&lever));
+            point_acceleration += alpha.cross(&lever) + omega.cross(&omega.cross(&lever));
         }
-        omega[j] = previous_omega + axis * qd[j];
-        alpha[j] = previous_alpha + previous_omega.cross(&axis) * qd[j];
+        alpha += omega.cross(&axis) * qd[j];
         if let Some(qdd) = qdd {
-            alpha[j] += axis * qdd[j];
+            alpha += axis * qdd[j];
         }
+        omega += axis * qd[j];
+        let body = model.body(j);
         let lever = frames.com[j] - frames.joint_point[j];
-        com_acceleration[j] = point_acceleration + alpha[j].cross(&lever) + omega[j].cross(&omega[j].cross(&lever));
-        previous_omega = omega[j];
-        previous_alpha = alpha[j];
+        let com_acceleration = point_acceleration + alpha.cross(&lever) + omega.cross(&omega.cross(&lever));
+        let inertia = &frames.inertia[j];
+        body_force[j] = com_acceleration * body.mass;
+        body_moment[j] =
+            frames.com[j].cross(&body_force[j]) + inertia.mul_vector(&alpha) + omega.cross(&inertia.mul_vector(&omega));
     }
     let mut torque = JointVector::<N>::zeros();
     let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
     for j in (0..N).rev() {
-        let body = model.body(j);
-        let inertial_force = com_acceleration[j] * body.mass;
-        let point = frames.joint_point[j];
-        // Moment about this joint's point of what the next body pulls on this one.
-        let transmitted = match frames.next_point(j) {
-            Some(next) => moment + (next - point).cross(&force),
-            None => moment,
-        };
-        let inertia = &frames.inertia[j];
-        moment = transmitted
-            + (frames.com[j] - point).cross(&inertial_force)
-            + inertia.mul_vector(&alpha[j])
-            + omega[j].cross(&inertia.mul_vector(&omega[j]));
-        force += inertial_force;
-        torque[j] = frames.axis[j].dot(&moment);
+        force += body_force[j];
+        moment += body_moment[j];
+        torque[j] = frames.axis[j].dot(&moment) + frames.axis_moment[j].dot(&force);
         if let Some(qdd) = qdd {
             torque[j] += model.link(j).rotor_inertia * qdd[j];
         }
@@ -252,8 +246,7 @@ fn recursive_newton_euler<const N: usize>(
 
 /// CRBA on precomputed frames: the joint-space mass matrix, armature included.
 pub fn mass_matrix_with_frames<const N: usize>(model: &ArmModel<N>, frames: &BodyFrames<N>) -> MassMatrix<N> {
-    // Linear part of every joint's unit motion S_j = (z_j, p_j × z_j).
-    let axis_moment: [Vector3<f64>; N] = std::array::from_fn(|j| frames.joint_point[j].cross(&frames.axis[j]));
+    let axis_moment = &frames.axis_moment;
     // Composite inertia of bodies j..N about the base origin: mass, first moment h = Σ m c and
     // rotational inertia Ī = Σ (I_c + m(|c|² E − c cᵀ)).
     let mut mass = 0.0;
