@@ -370,9 +370,12 @@ pub struct ConfigurationDynamics<const N: usize> {
 
 impl<const N: usize> ConfigurationDynamics<N> {
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Result<Self, DynamicsError> {
-        let mut dynamics = Self::placeholder(model);
-        dynamics.set_configuration(model, JointTrig::new(model, q))?;
-        Ok(dynamics)
+        let trig = JointTrig::new(model, q);
+        let frames = BodyFrames::from_trig(model, &trig);
+        let mass_matrix = mass_matrix_with_frames(model, &frames);
+        let mass_factor = MassMatrixFactor::new(&mass_matrix)
+            .ok_or_else(|| DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))?;
+        Ok(Self { trig, frames, mass_matrix, mass_factor })
     }
 
     /// Frames at `q = 0` with `M` and its factor the identity: scratch to be filled by
