@@ -29,17 +29,33 @@ pub struct JointTrig<const N: usize> {
 /// Largest angle step (rad) [`JointTrig::shifted`] takes by series; beyond it calls `sin_cos`.
 const SERIES_STEP: f64 = 0.05;
 
+/// `(sin δ, cos δ)` for a small angle δ (rad) by their Taylor series up to δ⁹ and δ⁸, in
+/// Horner form in δ² (multiplications only). For |δ| ≤ 0.05 rad the first omitted terms,
+/// δ¹¹/11! and δ¹⁰/10!, are below 3·10⁻²⁰: exact to rounding.
+#[inline(always)]
+fn small_angle_sin_cos(d: f64) -> (f64, f64) {
+    let d2 = d * d;
+    let sin_d = d + d * d2 * (-1.0 / 6.0 + d2 * (1.0 / 120.0 + d2 * (-1.0 / 5040.0 + d2 * (1.0 / 362_880.0))));
+    let cos_d = 1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 + d2 * (-1.0 / 720.0 + d2 * (1.0 / 40_320.0))));
+    (sin_d, cos_d)
+}
+
+/// `(sin(θ + δ), cos(θ + δ))` from `(sin θ, cos θ)` and `(sin δ, cos δ)` by angle addition:
+/// `sin(θ+δ) = sin θ cos δ + cos θ sin δ`, `cos(θ+δ) = cos θ cos δ − sin θ sin δ`.
+#[inline(always)]
+fn add_angles((s, c): (f64, f64), (sin_d, cos_d): (f64, f64)) -> (f64, f64) {
+    (s * cos_d + c * sin_d, c * cos_d - s * sin_d)
+}
+
 impl<const N: usize> JointTrig<N> {
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
         let angle = std::array::from_fn(|i| q[i] + model.link(i).dh.theta_offset);
         Self { angle, sin_cos: angle.map(f64::sin_cos) }
     }
 
-    /// The same for the angles moved by `delta` (rad), by the angle-addition formulas
-    /// `sin(θ+δ) = sin θ cos δ + cos θ sin δ`, `cos(θ+δ) = cos θ cos δ − sin θ sin δ`, with
-    /// `sin δ`, `cos δ` from their Taylor series up to δ⁹ and δ⁸. For |δ| ≤ 0.05 rad the first
-    /// omitted terms, δ¹¹/11! and δ¹⁰/10!, are below 3·10⁻²⁰: the results are exact to rounding,
-    /// at a fraction of the cost of `sin_cos`. Larger steps call `sin_cos`.
+    /// The same for the angles moved by `delta` (rad), by angle addition with
+    /// `small_angle_sin_cos` of each step: exact to rounding, at a fraction of the cost of
+    /// `sin_cos`. Steps beyond 0.05 rad call `sin_cos`.
     ///
     /// An integrator's stages move the joints by `dt·q̇`, micro-radians to milliradians.
     pub fn shifted(&self, delta: &JointVector<N>) -> Self {
@@ -48,13 +64,7 @@ impl<const N: usize> JointTrig<N> {
             let d = delta[i];
             shifted.angle[i] = self.angle[i] + d;
             shifted.sin_cos[i] = if d.abs() <= SERIES_STEP {
-                // Horner form in d², coefficients ±1/k! (multiplications only).
-                let d2 = d * d;
-                let sin_d =
-                    d + d * d2 * (-1.0 / 6.0 + d2 * (1.0 / 120.0 + d2 * (-1.0 / 5040.0 + d2 * (1.0 / 362_880.0))));
-                let cos_d = 1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 + d2 * (-1.0 / 720.0 + d2 * (1.0 / 40_320.0))));
-                let (s, c) = self.sin_cos[i];
-                (s * cos_d + c * sin_d, c * cos_d - s * sin_d)
+                add_angles(self.sin_cos[i], small_angle_sin_cos(d))
             } else {
                 shifted.angle[i].sin_cos()
             };
