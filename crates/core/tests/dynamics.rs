@@ -258,3 +258,29 @@ fn rotated_inertia_equals_the_full_product_for_diagonal_and_general_tensors() {
         assert!((unpacked - full).abs().max() < 1e-18, "{unpacked} vs {full}");
     }
 }
+
+#[test]
+fn friction_enters_forward_dynamics_and_opposes_motion() {
+    use chessarm_core::arm::dynamics::friction_torques;
+    use chessarm_core::arm::model::Friction;
+    let mut links = *report_arm().links();
+    for link in &mut links {
+        link.friction = Friction { viscous: 0.05, coulomb: 0.02 };
+    }
+    let model = ArmModel::new(links, report_arm().gravity()).unwrap();
+    assert!(model.has_friction() && !report_arm().has_friction());
+    let q = state([0.4, 1.0, -1.3, 0.2]);
+    let qd = state([0.8, -0.5, 1.1, -0.3]);
+    let torque = state([0.2, 3.0, 1.0, 0.1]);
+    let qdd = forward_dynamics(&model, &q, &qd, &torque).unwrap();
+    // M q̈ + C q̇ + g = τ + τ_friction, checked through RNEA (another path than the factor).
+    let residual = inverse_dynamics(&model, &q, &qd, &qdd) - (torque + friction_torques(&model, &qd));
+    assert!(residual.amax() < EXACT, "residual {residual}");
+    // Friction takes power out of the arm at every joint: q̇_j τ_f,j < 0.
+    let friction = friction_torques(&model, &qd);
+    assert!(qd.iter().zip(friction.iter()).all(|(v, f)| v * f < 0.0), "{friction}");
+    // And it changes the motion: the same state without friction accelerates differently by
+    // M⁻¹ τ_f, tens of mrad/s² here.
+    let frictionless = forward_dynamics(&report_arm(), &q, &qd, &torque).unwrap();
+    assert!((qdd - frictionless).amax() > 1e-3, "{qdd} vs {frictionless}");
+}

@@ -438,6 +438,7 @@ impl<const N: usize> ConfigurationDynamics<N> {
         torque: &JointVector<N>,
         bias: &JointVector<N>,
     ) -> JointVector<N> {
-        self.mass_factor.solve(&(torque + friction_torques(model, qd) - bias))
+        let net = if model.has_friction() { torque + friction_torques(model, qd) - bias } else { torque - bias };
+        self.mass_factor.solve(&net)
     }
 }

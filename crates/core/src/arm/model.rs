@@ -158,6 +158,8 @@ pub struct ArmModel<const N: usize = 4> {
     bodies: [Inertial; N],
     /// `(sin α_i, cos α_i)` of every link, cached for the kinematics.
     twist_trig: [(f64, f64); N],
+    /// Whether any joint has friction, cached so frictionless forward dynamics skips it.
+    has_friction: bool,
 }
 
 impl<const N: usize> ArmModel<N> {
@@ -176,7 +178,8 @@ impl<const N: usize> ArmModel<N> {
             }
         }
         let twist_trig = std::array::from_fn(|i| links[i].dh.alpha.sin_cos());
-        let mut model = Self { links, gravity, payload: None, bodies: [Inertial::zero(); N], twist_trig };
+        let has_friction = links.iter().any(|link| link.friction != Friction::default());
+        let mut model = Self { links, gravity, payload: None, bodies: [Inertial::zero(); N], twist_trig, has_friction };
         model.bodies = model.combined_bodies();
         Ok(model)
     }
@@ -195,6 +198,11 @@ impl<const N: usize> ArmModel<N> {
     /// The same arm with other links (e.g. other limits), keeping gravity and payload.
     pub fn with_links(&self, links: [Link; N]) -> Result<Self, ModelError> {
         Self::new(links, self.gravity).and_then(|m| m.with_payload(self.payload))
+    }
+
+    /// Whether any joint has viscous or Coulomb friction.
+    pub fn has_friction(&self) -> bool {
+        self.has_friction
     }
 
     pub fn links(&self) -> &[Link; N] {
