@@ -34,7 +34,7 @@ fn breakdown(c: &mut Criterion) {
     });
     let factor = MassMatrixFactor::new(&m).expect("positive definite");
     c.bench_function("LDLt solve 4x4", |b| b.iter(|| black_box(&factor).solve(&qd)));
-    c.bench_function("configuration dynamics (FK, frames, CRBA, Cholesky)", |b| {
+    c.bench_function("configuration dynamics (FK, frames, CRBA, LDLt)", |b| {
         b.iter(|| ConfigurationDynamics::new(&model, black_box(&q)))
     });
     let configuration = ConfigurationDynamics::new(&model, &q).expect("positive definite");

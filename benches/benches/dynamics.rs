@@ -24,18 +24,23 @@ fn per_call(c: &mut Criterion) {
     c.bench_function("bias C(q,qd)qd + g(q) (RNEA)", |b| b.iter(|| bias_torques(&model, black_box(&q), &qd)));
     c.bench_function("gravity g(q)", |b| b.iter(|| gravity_torques(&model, black_box(&q))));
     c.bench_function("inverse dynamics (RNEA)", |b| b.iter(|| inverse_dynamics(&model, black_box(&q), &qd, &qdd)));
-    c.bench_function("forward dynamics (CRBA + RNEA + Cholesky)", |b| {
+    c.bench_function("forward dynamics (CRBA + RNEA + LDLt)", |b| {
         b.iter(|| forward_dynamics(&model, black_box(&q), &qd, &tau))
     });
     let mut plant = Plant::new(model);
     let mut controller =
         ComputedTorque::new("pd", model, Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid"));
-    let state = JointState { q, qd };
+    // Two states in turn: the plant keeps its evaluation of the last state it stepped from, so
+    // stepping from one state over and over would time a step without its first stage.
+    let states = [JointState { q, qd }, JointState { q: q * 0.9, qd: -qd }];
     let reference = chessarm_core::control::Reference { q, qd, qdd };
+    let mut turn = 0;
     c.bench_function("closed-loop step: controller + RK4", |b| {
         b.iter(|| {
-            let torque = controller.torque(black_box(&state), &reference, 1e-3);
-            plant.rk4_step(&state, &torque, 1e-3)
+            turn ^= 1;
+            let state = &states[turn];
+            let torque = controller.torque(black_box(state), &reference, 1e-3);
+            plant.rk4_step(state, &torque, 1e-3)
         })
     });
 }

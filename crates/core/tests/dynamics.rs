@@ -225,14 +225,20 @@ fn mass_matrix_factor_rejects_matrices_that_are_not_positive_definite() {
     let mut indefinite = definite;
     indefinite[(2, 2)] = -indefinite[(2, 2)];
     assert!(MassMatrixFactor::new(&indefinite).is_none());
-    // Singular: two equal rows and columns (a zero pivot appears at the repeated one).
+    // Singular: a joint that carries nothing (zero row and column), whose pivot is exactly 0.
+    // (A matrix only within rounding of singular may pass with a tiny pivot, as with nalgebra's
+    // Cholesky; mass matrices are far from that.)
     let mut singular = definite;
     for k in 0..4 {
-        singular[(3, k)] = singular[(2, k)];
-        singular[(k, 3)] = singular[(k, 2)];
+        singular[(3, k)] = 0.0;
+        singular[(k, 3)] = 0.0;
     }
-    singular[(3, 3)] = singular[(2, 2)];
     assert!(MassMatrixFactor::new(&singular).is_none());
+    assert!(singular.cholesky().is_none());
+    // A pivot so small that its reciprocal overflows is rejected rather than turned into NaN.
+    let tiny = Matrix4::from_diagonal(&chessarm_core::nalgebra::Vector4::new(1.0, 1e-310, 1.0, 1.0));
+    assert!(MassMatrixFactor::new(&tiny).is_none());
+    assert_eq!(MassMatrixFactor::new(&Matrix4::identity()), Some(MassMatrixFactor::identity()));
     let mut not_a_number = definite;
     not_a_number[(1, 1)] = f64::NAN;
     assert!(MassMatrixFactor::new(&not_a_number).is_none());
@@ -283,4 +289,27 @@ fn friction_enters_forward_dynamics_and_opposes_motion() {
     // M⁻¹ τ_f, tens of mrad/s² here.
     let frictionless = forward_dynamics(&report_arm(), &q, &qd, &torque).unwrap();
     assert!((qdd - frictionless).amax() > 1e-3, "{qdd} vs {frictionless}");
+}
+
+#[test]
+fn a_failed_factorisation_is_an_error_naming_q() {
+    use chessarm_core::arm::dynamics::{ConfigurationDynamics, DynamicsError};
+    use chessarm_core::arm::kinematics::JointTrig;
+    // Validated links have positive principal moments, so the report's arm has a positive-
+    // definite M everywhere; a NaN angle (a diverged run) is what makes factorisation fail.
+    let model = report_arm();
+    let good = state([0.3, 0.9, -1.1, 0.25]);
+    let broken = state([0.3, f64::NAN, -1.1, 0.25]);
+    let is_reported = |error: DynamicsError| match error {
+        DynamicsError::NotPositiveDefinite(q) => {
+            q.len() == 4 && q[1].is_nan() && q[0] == 0.3 && q[2] == -1.1 && q[3] == 0.25
+        }
+    };
+    assert!(is_reported(ConfigurationDynamics::new(&model, &broken).unwrap_err()));
+    // Scratch that held a good configuration, then asked for the broken one.
+    let mut scratch = ConfigurationDynamics::new(&model, &good).unwrap();
+    assert!(scratch.acceleration(&model, &good, &good).iter().all(|a| a.is_finite()));
+    assert!(is_reported(scratch.set_configuration(&model, &broken, JointTrig::new(&model, &broken)).unwrap_err()));
+    let acceleration = scratch.acceleration(&model, &state([0.0; 4]), &state([0.0; 4]));
+    assert!(acceleration.iter().all(|a| a.is_nan()), "{acceleration}");
 }

@@ -206,6 +206,22 @@ fn divergence_is_an_error_not_garbage() {
 }
 
 #[test]
+fn a_non_finite_initial_state_is_a_settings_error_naming_the_joint() {
+    let model = report_arm();
+    let target = q([0.8, 0.9, -2.1, -0.37]);
+    let config = SimConfig::new(&Plant::new(model));
+    for (start, expected) in [
+        (JointState::at_rest(q([0.8, f64::NAN, -2.1, -0.37])), "initial joint 2 angle = NaN"),
+        (JointState { q: target, qd: q([0.0, 0.0, f64::INFINITY, 0.0]) }, "initial joint 3 rate = inf"),
+    ] {
+        let error =
+            hold(&mut Plant::new(model), &mut pd_controller(model), target, 0.1, Some(start), &config).unwrap_err();
+        assert!(matches!(error, SimError::Config(_)), "{error:?}");
+        assert!(error.to_string().contains(expected), "{error}");
+    }
+}
+
+#[test]
 fn torque_limits_saturate_and_are_counted() {
     let model = report_arm();
     let target = q([0.8, 0.9, -2.1, -0.37]);
@@ -381,8 +397,12 @@ fn a_plant_step_does_not_depend_on_what_its_scratch_held_before() {
         // Evaluated at another state: re-evaluated at the step's own.
         plant.evaluate(&JointState::at_rest(q([0.0; 4]))).unwrap();
         assert_eq!(plant.step(&state, &torque, 1e-3, integrator).unwrap(), loaded, "{}", integrator.name());
-        // Evaluated at this state just before: the same bits.
+        // Evaluated at this state, then a step from another: that step is its own.
+        let other = JointState { q: state.q * 0.5, qd: -state.qd };
+        let mut fresh_plant = Plant::new(report_arm());
+        fresh_plant.set_payload(pawn).unwrap();
+        let from_other = fresh_plant.step(&other, &torque, 1e-3, integrator).unwrap();
         plant.evaluate(&state).unwrap();
-        assert_eq!(plant.step(&state, &torque, 1e-3, integrator).unwrap(), loaded, "{}", integrator.name());
+        assert_eq!(plant.step(&other, &torque, 1e-3, integrator).unwrap(), from_other, "{}", integrator.name());
     }
 }

@@ -10,8 +10,8 @@
 //!   ([`MassMatrixFactor`]).
 //!
 //! Rotor inertia (armature) adds `diag(I_rotor)` to `M`. Everything lives on the stack: no call
-//! allocates. [`crate::arm::lagrange`] holds the independent Jacobian/Christoffel formulation the
-//! tests compare against.
+//! allocates, but to report an error. [`crate::arm::lagrange`] holds the independent
+//! Jacobian/Christoffel formulation the tests compare against.
 
 use super::kinematics::{JointTrig, compose_frames};
 use super::mass_factor::MassMatrixFactor;
@@ -40,8 +40,8 @@ pub struct SymmetricMatrix3 {
 impl SymmetricMatrix3 {
     /// `R I Rᵀ`: a tensor given in a frame rotated by `rotation`, expressed in the outer axes.
     /// When `I` is diagonal (the body frame is a principal frame, as for every body of the
-    /// report's arm and for an upright payload), `(R I Rᵀ)_ab = Σ_k I_kk R_ak R_bk`, less than
-    /// half the flops of the general product.
+    /// report's arm and for an upright payload), `(R I Rᵀ)_ab = Σ_k I_kk R_ak R_bk`, about half
+    /// the flops of the general product.
     #[inline(always)]
     pub fn rotated(rotation: &Matrix3<f64>, inertia: &Matrix3<f64>) -> Self {
         let is_diagonal = inertia[(0, 1)] == 0.0
@@ -390,16 +390,28 @@ impl<const N: usize> ConfigurationDynamics<N> {
         }
     }
 
-    /// Moves to the configuration whose joint sines and cosines are `trig`, in place.
+    /// Moves to configuration `q`, whose joint sines and cosines are `trig`, in place. On an
+    /// error the factor is left unusable (every acceleration NaN), never stale.
     #[inline(always)]
-    pub fn set_configuration(&mut self, model: &ArmModel<N>, trig: JointTrig<N>) -> Result<(), DynamicsError> {
+    pub fn set_configuration(
+        &mut self,
+        model: &ArmModel<N>,
+        q: &JointVector<N>,
+        trig: JointTrig<N>,
+    ) -> Result<(), DynamicsError> {
         self.trig = trig;
         self.frames.set_from_trig(model, &self.trig);
         self.mass_matrix = mass_matrix_with_frames(model, &self.frames);
-        self.mass_factor = MassMatrixFactor::new(&self.mass_matrix).ok_or_else(|| {
-            DynamicsError::NotPositiveDefinite(self.trig.joint_angles(model).iter().copied().collect())
-        })?;
-        Ok(())
+        match MassMatrixFactor::new(&self.mass_matrix) {
+            Some(factor) => {
+                self.mass_factor = factor;
+                Ok(())
+            }
+            None => {
+                self.mass_factor = MassMatrixFactor::unusable();
+                Err(DynamicsError::NotPositiveDefinite(q.iter().copied().collect()))
+            }
+        }
     }
 
     /// The joint sines and cosines of this configuration.

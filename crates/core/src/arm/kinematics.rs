@@ -134,9 +134,9 @@ impl<const N: usize> FrameChain<N> {
         chain
     }
 
-    /// [`FrameChain::from_trig`] in place, for scratch reused every integration step.
+    /// [`FrameChain::from_trig`] in place.
     #[inline(always)]
-    pub fn set_from_trig(&mut self, model: &ArmModel<N>, trig: JointTrig<N>) {
+    fn set_from_trig(&mut self, model: &ArmModel<N>, trig: JointTrig<N>) {
         compose_frames(model, &trig, |i, rotation, origin| {
             self.poses[i] = Pose::from_parts(Translation3::from(*origin), Rotation3::from_matrix_unchecked(*rotation));
         });

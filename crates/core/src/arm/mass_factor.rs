@@ -9,8 +9,11 @@
 //!
 //! `L` has a unit diagonal and `D = diag(d_j)`, with (column by column)
 //! `d_j = M_jj − Σ_{k<j} L_jk² d_k` and `L_ij = (M_ij − Σ_{k<j} L_ik L_jk d_k) / d_j` for `i > j`.
-//! `M` is symmetric positive definite exactly when every `d_j > 0`; this is what
-//! [`MassMatrixFactor::new`] checks. Square-root free, so `L √D` is the Cholesky factor.
+//! In exact arithmetic `M` is symmetric positive definite exactly when every `d_j > 0`; this is
+//! what [`MassMatrixFactor::new`] checks. In floating point, a matrix within rounding of
+//! singular may come out with a tiny positive pivot (as with any Cholesky), and a pivot below
+//! ~5.6·10⁻³⁰⁹ (whose reciprocal overflows) is rejected; mass matrices are nowhere near either.
+//! Square-root free, so `L √D` is the Cholesky factor.
 
 use super::dynamics::MassMatrix;
 use super::model::JointVector;
@@ -20,6 +23,8 @@ use super::model::JointVector;
 pub struct MassMatrixFactor<const N: usize> {
     /// `L`, unit lower triangular; only the entries below the diagonal are read.
     lower: [[f64; N]; N],
+    /// `d_j`.
+    pivot: [f64; N],
     /// `1 / d_j`.
     inverse_pivot: [f64; N],
 }
@@ -40,12 +45,13 @@ impl<const N: usize> MassMatrixFactor<N> {
                 scaled_row[k] = lower[j][k] * pivot[k];
                 d -= lower[j][k] * scaled_row[k];
             }
-            // Rejects NaN as well as d ≤ 0.
-            if d.is_nan() || d <= 0.0 {
+            // Rejects NaN as well as d ≤ 0 (and d so small that 1/d overflows).
+            let inverse = 1.0 / d;
+            if d.is_nan() || d <= 0.0 || inverse.is_infinite() {
                 return None;
             }
             pivot[j] = d;
-            inverse_pivot[j] = 1.0 / d;
+            inverse_pivot[j] = inverse;
             for i in j + 1..N {
                 let mut entry = matrix[(i, j)];
                 for k in 0..j {
@@ -54,17 +60,19 @@ impl<const N: usize> MassMatrixFactor<N> {
                 lower[i][j] = entry * inverse_pivot[j];
             }
         }
-        Some(Self { lower, inverse_pivot })
+        Some(Self { lower, pivot, inverse_pivot })
     }
 
     /// The factor of the identity matrix (`L = D = E`), a placeholder before the first
-    /// factorisation.
+    /// factorisation; equal to `MassMatrixFactor::new(&MassMatrix::identity())`.
     pub fn identity() -> Self {
-        let mut lower = [[0.0; N]; N];
-        for (i, row) in lower.iter_mut().enumerate() {
-            row[i] = 1.0;
-        }
-        Self { lower, inverse_pivot: [1.0; N] }
+        Self { lower: [[0.0; N]; N], pivot: [1.0; N], inverse_pivot: [1.0; N] }
+    }
+
+    /// A factor whose every solve is NaN: what a scratch keeps after a failed factorisation,
+    /// so that using it anyway cannot pass for a result.
+    pub(crate) fn unusable() -> Self {
+        Self { lower: [[0.0; N]; N], pivot: [f64::NAN; N], inverse_pivot: [f64::NAN; N] }
     }
 
     /// `x = M⁻¹ b`.
@@ -89,7 +97,7 @@ impl<const N: usize> MassMatrixFactor<N> {
 
     /// The pivots `d_j` of `D`, all > 0; their product is `det M`.
     pub fn pivots(&self) -> JointVector<N> {
-        JointVector::from_fn(|j, _| 1.0 / self.inverse_pivot[j])
+        JointVector::from(self.pivot)
     }
 
     /// `M` rebuilt from the factor, `L D Lᵀ` (for checks).

@@ -205,6 +205,10 @@ where
     }
     let steps = steps as usize;
     let mut state = initial.unwrap_or_else(|| JointState::at_rest(reference.reference(0.0).q));
+    if let Some((j, value)) = state.q.iter().chain(state.qd.iter()).enumerate().find(|(_, v)| !v.is_finite()) {
+        let what = if j < N { "angle" } else { "rate" };
+        return Err(SimError::Config(format!("initial joint {} {what} = {value} must be finite", j % N + 1)));
+    }
     controller.reset();
 
     let mut squared_joint_error = JointVector::<N>::zeros();

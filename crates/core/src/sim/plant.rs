@@ -53,7 +53,7 @@ impl<const N: usize> Plant<N> {
     pub fn evaluate(&mut self, state: &JointState<N>) -> Result<&StateDynamics<N>, DynamicsError> {
         if self.evaluated_at != Some(*state) {
             self.evaluated_at = None;
-            self.start.configuration.set_configuration(&self.model, JointTrig::new(&self.model, &state.q))?;
+            self.start.configuration.set_configuration(&self.model, &state.q, JointTrig::new(&self.model, &state.q))?;
             self.start.bias = self.start.configuration.bias(&self.model, &state.qd);
             self.evaluated_at = Some(*state);
         }
@@ -90,7 +90,7 @@ impl<const N: usize> Plant<N> {
         let q1dd = start.configuration.acceleration_with_bias(model, qd, torque, &start.bias);
         // The dynamics at configuration `at` (rad) inside the step, filled into `scratch`.
         let move_to = |scratch: &mut ConfigurationDynamics<N>, at: &JointVector<N>| {
-            scratch.set_configuration(model, start_trig.shifted(&(at - q)))
+            scratch.set_configuration(model, at, start_trig.shifted(&(at - q)))
         };
         Ok(match integrator {
             Integrator::RungeKutta4 => {
