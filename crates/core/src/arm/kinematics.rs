@@ -76,11 +76,6 @@ impl<const N: usize> JointTrig<N> {
     pub fn get(&self, i: usize) -> (f64, f64) {
         self.sin_cos[i]
     }
-
-    /// The joint angles `q` these are the sines and cosines of, rad (`θ_i − theta_offset_i`).
-    pub fn joint_angles(&self, model: &ArmModel<N>) -> JointVector<N> {
-        JointVector::from_fn(|i, _| self.angle[i] - model.link(i).dh.theta_offset)
-    }
 }
 
 /// Forward kinematics, frame by frame: composes `T_0i = A_1 ⋯ A_i` for the configuration whose
@@ -129,18 +124,11 @@ impl<const N: usize> FrameChain<N> {
     /// Forward kinematics at the configuration whose joint sines and cosines are `trig`
     /// ([`compose_frames`]).
     pub fn from_trig(model: &ArmModel<N>, trig: JointTrig<N>) -> Self {
-        let mut chain = Self { poses: [Pose::identity(); N], trig };
-        chain.set_from_trig(model, trig);
-        chain
-    }
-
-    /// [`FrameChain::from_trig`] in place.
-    #[inline(always)]
-    fn set_from_trig(&mut self, model: &ArmModel<N>, trig: JointTrig<N>) {
+        let mut poses = [Pose::identity(); N];
         compose_frames(model, &trig, |i, rotation, origin| {
-            self.poses[i] = Pose::from_parts(Translation3::from(*origin), Rotation3::from_matrix_unchecked(*rotation));
+            poses[i] = Pose::from_parts(Translation3::from(*origin), Rotation3::from_matrix_unchecked(*rotation));
         });
-        self.trig = trig;
+        Self { poses, trig }
     }
 
     /// The joint sines and cosines this chain was built from.
