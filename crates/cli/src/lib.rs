@@ -8,6 +8,7 @@ pub mod config;
 pub mod output;
 pub mod plots;
 pub mod progress;
+pub mod resources;
 pub mod urdf;
 
 use anyhow::Result;
@@ -25,25 +26,44 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Gains(args)) => commands::gains::run(&setup, &args),
         Some(Command::Tune(args)) => commands::tune::run(&setup, &args),
         Some(Command::Play(args)) => commands::play::run(&setup, &args),
-        Some(Command::Arm) => {
-            print!("{}", setup.to_toml()?);
-            Ok(())
-        }
+        Some(Command::Arm) => print_text(&setup.to_toml()?),
         Some(Command::Fk(args)) => commands::kinematics::fk(&setup, &args),
         Some(Command::Ik(args)) => commands::kinematics::ik(&setup, &args),
-        Some(Command::Urdf) => {
-            print!("{}", urdf::to_urdf(&setup.arm, "chessarm"));
-            Ok(())
-        }
+        Some(Command::Urdf) => print_text(&urdf::to_urdf(&setup.arm, "chessarm")),
         Some(Command::Plan(args)) => commands::plan::run(&setup, &args),
     }
 }
 
-/// Prints a JSON value to standard output on one line. A closed pipe (`| head`) is not an
-/// error worth a panic: the output is simply dropped.
-pub fn print_json(value: &serde_json::Value) {
+/// Prints a JSON value to standard output on one line.
+///
+/// # Errors
+///
+/// A write or flush error (a full disk, `> /dev/full`); a closed pipe (`| head`) is one too,
+/// which `main` turns into a quiet exit (see [`is_closed_pipe`]).
+pub fn print_json(value: &serde_json::Value) -> Result<()> {
+    print_text(&format!("{value}\n"))
+}
+
+/// Writes `text` to standard output and flushes it, so that every write error is reported.
+///
+/// # Errors
+///
+/// As [`print_json`].
+pub fn print_text(text: &str) -> Result<()> {
     use std::io::Write;
-    let _ = writeln!(std::io::stdout(), "{value}");
+    let mut stdout = std::io::stdout().lock();
+    stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+        .map_err(|error| anyhow::Error::new(error).context("cannot write to standard output"))
+}
+
+/// Whether `error` is, at its root, a write to a pipe whose reader has gone (`chessarm urdf |
+/// head -1`): not a failure of chessarm, so the program ends quietly.
+pub fn is_closed_pipe(error: &anyhow::Error) -> bool {
+    error
+        .chain()
+        .any(|cause| cause.downcast_ref::<std::io::Error>().is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe))
 }
 
 /// Writes text for the person at the terminal to standard error (dropped if it is closed).
@@ -53,7 +73,9 @@ pub fn tell(text: &str) {
 }
 
 /// The error and its causes on one line, each cause only if the message does not already
-/// contain it (several errors quote their cause in their own message).
+/// contain it (several errors quote their cause in their own message). Line breaks become
+/// spaces and other control characters are escaped (see [`escape_controls`]), so that text an
+/// engine or a file sent cannot split or overwrite the line.
 pub fn one_line(error: &anyhow::Error) -> String {
     let mut message = error.to_string();
     for cause in error.chain().skip(1) {
@@ -63,5 +85,22 @@ pub fn one_line(error: &anyhow::Error) -> String {
             message.push_str(&text);
         }
     }
-    message.replace('\n', " ")
+    escape_controls(&message)
+}
+
+/// `text` on one line: `\n` becomes a space, every other control character (CR, VT, NUL, ESC,
+/// DEL, …) is shown escaped (`\r`, `\t`, `\0`, `\u{b}`), everything else as it is.
+pub fn escape_controls(text: &str) -> String {
+    let mut shown = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '\n' => shown.push(' '),
+            '\r' => shown.push_str("\\r"),
+            '\t' => shown.push_str("\\t"),
+            '\0' => shown.push_str("\\0"),
+            c if c.is_control() => shown.push_str(&format!("\\u{{{:x}}}", u32::from(c))),
+            c => shown.push(c),
+        }
+    }
+    shown
 }

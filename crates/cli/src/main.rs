@@ -22,7 +22,7 @@ fn main() -> ExitCode {
                         .map(str::trim)
                         .filter(|line| !line.is_empty())
                         .collect();
-                    chessarm::tell(&format!("{}\n", message.join(" ")));
+                    chessarm::tell(&format!("{}\n", chessarm::escape_controls(&message.join(" "))));
                     ExitCode::from(2)
                 }
             };
@@ -30,6 +30,8 @@ fn main() -> ExitCode {
     };
     match chessarm::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of our standard output has gone (`| head`): nothing more to say to anyone.
+        Err(error) if chessarm::is_closed_pipe(&error) => ExitCode::SUCCESS,
         Err(error) => {
             chessarm::tell(&format!("error: {}\n", chessarm::one_line(&error)));
             ExitCode::from(2)

@@ -28,7 +28,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     let steps = study_steps(setup, SCENARIO, &options)?;
     let bar = crate::progress::bar(steps * specs.len() as u64 + steps / 10, "demo");
     bar.set_message("planning");
-    let plan = plan_scenario(setup, SCENARIO, 0.005)?;
+    let plan = plan_scenario(setup, SCENARIO, 0.005, "the demo")?;
     let plan_files = write_plan(&plan, &args.out.join("plan"), cfg!(feature = "xlsx"))?;
     bar.inc(steps / 10);
     bar.set_message("simulating");
@@ -40,7 +40,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     crate::tell(&comparison_table(&runs));
     crate::tell(&format!("{}\n", conclusion(&runs)));
     crate::tell(&format!("Plots and CSVs: {}/plan and {}/simulate\n", args.out.display(), args.out.display()));
-    print_json(&json!({ "plan_files": plan_files, "simulate": study }));
+    print_json(&json!({ "plan_files": plan_files, "simulate": study }))?;
     Ok(())
 }
 

@@ -60,7 +60,7 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
             "measured": measured,
         }));
     }
-    print_json(&json!({ "designs": designs }));
+    print_json(&json!({ "designs": designs }))?;
     Ok(())
 }
 
@@ -70,7 +70,7 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
 /// start: that removes the small forced error of the 1 kHz hold, which is of the order of the
 /// 2 % band itself.
 fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Value> {
-    let plan = plan_scenario(setup, &args.scenario, 1e-3)?;
+    let plan = plan_scenario(setup, &args.scenario, 1e-3, "the verification run")?;
     let start = plan.joint.first().q;
     let q0: [f64; 4] = std::array::from_fn(|j| start[j] - args.initial_error);
     let options = RunOptions {

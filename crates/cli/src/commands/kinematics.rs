@@ -26,7 +26,7 @@ pub fn fk(setup: &Setup, args: &FkArgs) -> Result<()> {
             })
         })
         .collect();
-    print_json(&json!({ "tip": [task.x, task.y, task.z], "pitch": task.w, "frames": frames }));
+    print_json(&json!({ "tip": [task.x, task.y, task.z], "pitch": task.w, "frames": frames }))?;
     Ok(())
 }
 
@@ -37,6 +37,6 @@ pub fn ik(setup: &Setup, args: &IkArgs) -> Result<()> {
         _ => bail!("give either --xyz or --square"),
     };
     let q = inverse_kinematics(&setup.arm, &target, args.pitch)?;
-    print_json(&json!({ "q": q.as_slice() }));
+    print_json(&json!({ "q": q.as_slice() }))?;
     Ok(())
 }

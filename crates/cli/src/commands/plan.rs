@@ -22,11 +22,25 @@ pub struct Plan {
     pub joint: JointTrajectory,
 }
 
-/// Plans a built-in scenario sampled every `dt` s.
-pub fn plan_scenario(setup: &Setup, name: &str, dt: f64) -> Result<Plan> {
+/// Bytes one planned sample takes in memory: the Cartesian and joint samples and the points of
+/// the plots drawn from them (3 × 3 Cartesian and 3 × 4 joint series of (t, value) pairs).
+const BYTES_PER_PLAN_SAMPLE: usize = std::mem::size_of::<CartesianSample>()
+    + std::mem::size_of::<JointSample>()
+    + 21 * std::mem::size_of::<(f64, f64)>();
+
+/// Plans a built-in scenario sampled every `dt` s. `cause` names the flags that set `dt` (as
+/// typed), for the error when the samples would not fit in memory.
+pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<Plan> {
     let scenario = scenario(name, &setup.board)
         .ok_or_else(|| anyhow!("unknown scenario '{name}' (known: {})", SCENARIOS.join(", ")))?;
     let path = scenario.path(&setup.board)?;
+    let samples = (path.duration() / dt).ceil() + 1.0;
+    crate::resources::ensure_fits(
+        cause,
+        &format!("samples of the {:.0} s scenario", path.duration()),
+        samples,
+        BYTES_PER_PLAN_SAMPLE as f64,
+    )?;
     let cartesian = path.sample_uniform(dt)?;
     let joint = JointTrajectory::from_path(&setup.arm, &path, dt, TOOL_DOWN)
         .map_err(|e| anyhow!("scenario '{name}' cannot be followed: {e}"))?;
@@ -34,7 +48,8 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64) -> Result<Plan> {
 }
 
 pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
-    let plan = plan_scenario(setup, &args.scenario, args.dt)?;
+    let cause = format!("--dt {}", crate::resources::show(args.dt));
+    let plan = plan_scenario(setup, &args.scenario, args.dt, &cause)?;
     let files = write_plan(&plan, &args.out, args.xlsx)?;
     let samples = plan.joint.samples();
     let peak = |f: fn(&JointSample) -> [f64; 4]| -> Vec<f64> {
@@ -48,7 +63,7 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
         "peak_joint_rate_rad_s": peak(|s| s.qd.into()),
         "peak_joint_acceleration_rad_s2": peak(|s| s.qdd.into()),
         "files": files,
-    }));
+    }))?;
     Ok(())
 }
 

@@ -144,7 +144,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         "final_fen_physical": game.fen_physical(),
         "misplaced": game.misplaced().len(),
         "files": files,
-    }));
+    }))?;
     Ok(())
 }
 

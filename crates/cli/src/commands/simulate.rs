@@ -6,6 +6,7 @@ use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
+use crate::resources::show;
 use anyhow::{Context, Result, bail};
 use chessarm_chess::pieces::PieceDimensions;
 use chessarm_core::arm::dynamics::{DynamicsTerms, coriolis_torques, gravity_torques};
@@ -315,7 +316,16 @@ pub fn run_study(
     out: &Path,
     progress: Option<&ProgressBar>,
 ) -> Result<(Vec<ControllerRun>, Value)> {
-    let plan = plan_scenario(setup, scenario, options.control_period)?;
+    let cause = format!("--dt {} with --control-rate {}", show(options.dt), show(1.0 / options.control_period));
+    let plan = plan_scenario(setup, scenario, options.control_period, &cause)?;
+    // Every step of every controller is kept, with the points of its plots.
+    let steps = (plan.path.duration() / options.dt).ceil() + 1.0;
+    crate::resources::ensure_fits(
+        &cause,
+        "recorded steps",
+        steps * specs.len() as f64,
+        (std::mem::size_of::<StepRecord<4>>() + 17 * std::mem::size_of::<(f64, f64)>()) as f64,
+    )?;
     ensure_dir(out)?;
     remove_stale(&[out.join("summary.json")])?;
     let mut runs = Vec::new();
@@ -362,7 +372,27 @@ pub fn options_from(args: &SimulateArgs) -> RunOptions {
     }
 }
 
+/// Checks `--dt` against `--control-rate` before anything runs, naming both flags as typed.
+fn check_rates(args: &SimulateArgs) -> Result<()> {
+    let (dt, rate) = (show(args.dt), show(args.control_rate));
+    let period = 1.0 / args.control_rate;
+    if !period.is_finite() {
+        bail!("--control-rate {rate} Hz is too small: its sample period 1/{rate} s is not a finite number");
+    }
+    let ratio = period / args.dt;
+    if ratio.round() < 1.0 || (ratio - ratio.round()).abs() > 1e-9 * ratio {
+        bail!(
+            "--control-rate {rate} Hz (a sample every {} s) must be a whole multiple of the time step --dt {dt} s: \
+             the controller samples every k-th step (e.g. --control-rate {} for k = 1)",
+            show(period),
+            show(1.0 / args.dt)
+        );
+    }
+    Ok(())
+}
+
 pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
+    check_rates(args)?;
     let specs = controller_specs(args.controller, &args.gains)?;
     let options = options_from(args);
     let total = study_steps(setup, &args.scenario, &options)? * specs.len() as u64;
@@ -370,7 +400,7 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     let (runs, result) = run_study(setup, &args.scenario, &specs, &options, &args.out, Some(&bar))?;
     bar.finish_and_clear();
     crate::tell(&comparison_table(&runs));
-    print_json(&result);
+    print_json(&result)?;
     Ok(())
 }
 
@@ -389,6 +419,6 @@ pub fn dynamics(setup: &Setup, args: &DynamicsArgs) -> Result<()> {
         "M": rows,
         "c": coriolis_torques(&model, &q, &qd).as_slice(),
         "g": gravity_torques(&model, &q).as_slice(),
-    }));
+    }))?;
     Ok(())
 }

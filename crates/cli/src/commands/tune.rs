@@ -282,7 +282,7 @@ pub fn study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
 
 /// The scenario study for the tune command.
 fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
-    let plan = plan_scenario(setup, &args.scenario, 1e-3)?;
+    let plan = plan_scenario(setup, &args.scenario, 1e-3, "the sweep")?;
     let events = pawn_events(setup, &plan.path, args.payload_mass, args.controller_knows_payload);
     let marks = plan.path.events().iter().map(|e| e.time).collect();
     let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(q)));
@@ -308,14 +308,9 @@ pub fn sweep(
     threads: Option<usize>,
     progress: Option<&indicatif::ProgressBar>,
 ) -> Result<Vec<Candidate>> {
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(threads) = threads {
-        if threads == 0 {
-            bail!("--threads 0: need at least one thread");
-        }
-        builder = builder.num_threads(threads);
-    }
-    let pool = builder.build().context("cannot start the worker threads")?;
+    let threads = crate::resources::worker_threads(threads)?;
+    let pool =
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
     Ok(pool.install(|| {
         range
             .into_par_iter()
@@ -380,7 +375,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
             "rms_joint_error_rad": c.rms_joint_error_rad, "peak_torque_nm": c.peak_torque_nm,
         })).collect::<Vec<_>>(),
         "files": [csv_path.display().to_string(), heat_map_path.display().to_string()],
-    }));
+    }))?;
     Ok(())
 }
 
