@@ -28,6 +28,9 @@ fn main() -> ExitCode {
             };
         }
     };
+    if let Err(error) = chessarm::output::remove_temporaries_on_signal() {
+        chessarm::tell(&format!("warning: {}\n", chessarm::one_line(&error)));
+    }
     match chessarm::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         // The reader of our standard output has gone (`| head`): nothing more to say to anyone.

@@ -100,3 +100,91 @@ fn rates_errors_name_the_flags_as_typed() {
         &["--control-rate 1e-320"],
     );
 }
+
+#[test]
+fn play_removes_only_the_files_an_earlier_run_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("game");
+    let out_text = out.to_str().unwrap();
+    let moves = out.join("moves");
+    // A folder chessarm did not write: refused, and nothing in it is touched.
+    std::fs::create_dir_all(&moves).unwrap();
+    std::fs::write(moves.join("notes.txt"), "my notes").unwrap();
+    assert_one_line_error(
+        &chessarm(&["play", "--moves", "e4", "--out", out_text]),
+        &["did not write", "notes.txt", "nothing was deleted"],
+    );
+    assert_eq!(std::fs::read_to_string(moves.join("notes.txt")).unwrap(), "my notes");
+    std::fs::remove_file(moves.join("notes.txt")).unwrap();
+
+    let names = |dir: &std::path::Path| {
+        let mut names: Vec<String> =
+            std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        names.sort();
+        names
+    };
+    assert!(chessarm(&["play", "--moves", "e4 e5", "--out", out_text]).status.success());
+    assert_eq!(names(&moves), [".chessarm-written", "001-e2e4.csv", "002-e7e5.csv"]);
+    // A file the user adds afterwards survives the next run; the earlier run's CSVs do not.
+    std::fs::write(moves.join("notes.txt"), "later notes").unwrap();
+    assert!(chessarm(&["play", "--moves", "d4", "--out", out_text]).status.success());
+    assert_eq!(names(&moves), [".chessarm-written", "001-d2d4.csv", "notes.txt"]);
+    assert_eq!(std::fs::read_to_string(moves.join("notes.txt")).unwrap(), "later notes");
+}
+
+#[test]
+fn temporaries_of_dead_runs_are_swept_and_live_ones_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    // No process has pid 4000000000 (Linux caps pids at 2^22); this test's own process is alive.
+    let dead = dir.path().join(".chessarm-4000000000-abc.part");
+    let older = dir.path().join(".chessarm-Xy12zz.part.png");
+    let alive = dir.path().join(format!(".chessarm-{}-def.part", std::process::id()));
+    let user = dir.path().join("mine.part");
+    for file in [&dead, &older, &alive, &user] {
+        std::fs::write(file, "x").unwrap();
+    }
+    assert!(chessarm(&["plan", "--out", dir.path().to_str().unwrap()]).status.success());
+    assert!(!dead.exists() && !older.exists(), "stale temporaries left");
+    assert!(alive.exists() && user.exists(), "files of a live run or of the user removed");
+}
+
+/// Sends `signal` (e.g. "INT") to `pid`.
+fn kill(signal: &str, pid: u32) {
+    let status = Command::new("kill").arg(format!("-{signal}")).arg(pid.to_string()).status().unwrap();
+    assert!(status.success());
+}
+
+#[test]
+fn a_signal_during_a_write_leaves_no_temporary_and_no_partial_file() {
+    for signal in ["INT", "TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+            .args(["plan", "--out", dir.path().to_str().unwrap()])
+            .env("CHESSARM_TEST_SLOW_WRITES_MS", "3000")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        // Wait (bounded) until the first temporary file exists, then interrupt the write.
+        let temporaries = || {
+            std::fs::read_dir(dir.path())
+                .map(|entries| {
+                    entries.flatten().filter(|e| e.file_name().to_string_lossy().starts_with(".chessarm-")).count()
+                })
+                .unwrap_or(0)
+        };
+        let started = std::time::Instant::now();
+        while temporaries() == 0 {
+            assert!(started.elapsed().as_secs() < 60, "no temporary file appeared");
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        kill(signal, child.id());
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(130), "{signal}: {status:?}");
+        let left: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(left.is_empty(), "{signal}: left {left:?}");
+    }
+}

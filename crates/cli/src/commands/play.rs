@@ -12,7 +12,7 @@ use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
 use chessarm_chess::play::{Game, MoveReport, Mover, PlaySettings};
 use chessarm_chess::shakmaty::{Chess, Color, Position};
 use serde_json::{Value, json};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// Where the moves come from.
@@ -80,12 +80,10 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     };
     ensure_dir(&args.out)?;
     let moves_dir = args.out.join("moves");
-    // Results of an earlier game in the same folder must not pass for this one's.
+    // Results of an earlier game in the same folder must not pass for this one's; only files
+    // an earlier chessarm run wrote (and listed) are removed.
     remove_stale(&[args.out.join("game.json")])?;
-    if moves_dir.exists() {
-        std::fs::remove_dir_all(&moves_dir).with_context(|| format!("cannot clear {}", moves_dir.display()))?;
-    }
-    ensure_dir(&moves_dir)?;
+    let mut manifest = Manifest::open(&moves_dir)?;
     let started = Instant::now();
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
     let bar = crate::progress::bar(total as u64, "playing");
@@ -115,7 +113,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         }
         say(&bar, move_line(&report));
         if report.mover == Mover::Robot {
-            write_move_csv(&moves_dir, &report)?;
+            write_move_csv(&mut manifest, &report)?;
         }
         bar.inc(1);
         reports.push(report);
@@ -210,11 +208,69 @@ fn game_json(game: &Game, reports: &[MoveReport], wall_time_s: f64) -> Value {
     })
 }
 
-fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
+/// The list of files chessarm wrote into a `moves/` folder (`.chessarm-written`, one name a
+/// line), so that the next run removes those and only those. A name is listed before its file
+/// is written, so an interrupted run's files are listed too.
+struct Manifest {
+    dir: PathBuf,
+    file: std::fs::File,
+}
+
+impl Manifest {
+    const NAME: &'static str = ".chessarm-written";
+
+    /// Opens `dir` for a new game: removes the files an earlier run listed, then starts an
+    /// empty list. Refuses a folder holding files chessarm did not list (a user's), never
+    /// deleting them.
+    fn open(dir: &Path) -> Result<Self> {
+        ensure_dir(dir)?;
+        let list = dir.join(Self::NAME);
+        match std::fs::read_to_string(&list) {
+            Ok(text) => {
+                let ours: Vec<PathBuf> =
+                    text.lines().filter(|name| Self::is_plain_name(name)).map(|name| dir.join(name)).collect();
+                remove_stale(&ours)?;
+            }
+            Err(error) if error.kind() == std::io::ErrorKind::NotFound => {
+                let foreign = std::fs::read_dir(dir)
+                    .with_context(|| format!("cannot read {}", dir.display()))?
+                    .flatten()
+                    .map(|entry| entry.file_name().to_string_lossy().into_owned())
+                    .find(|name| !name.starts_with(".chessarm-"));
+                if let Some(name) = foreign {
+                    bail!(
+                        "{} already holds files chessarm did not write (e.g. {name}): move them away or \
+                         choose another --out; nothing was deleted",
+                        dir.display()
+                    );
+                }
+            }
+            Err(error) => return Err(error).with_context(|| format!("cannot read {}", list.display())),
+        }
+        let file = std::fs::File::create(&list).with_context(|| format!("cannot write {}", list.display()))?;
+        Ok(Self { dir: dir.to_path_buf(), file })
+    }
+
+    /// A file name without folders, so a damaged list cannot reach outside the folder.
+    fn is_plain_name(name: &str) -> bool {
+        !name.is_empty() && name != "." && name != ".." && !name.contains(['/', '\\', '\0'])
+    }
+
+    /// Lists `name` (flushed), then returns the path to write it at.
+    fn add(&mut self, name: &str) -> Result<PathBuf> {
+        use std::io::Write;
+        writeln!(self.file, "{name}")
+            .and_then(|()| self.file.flush())
+            .with_context(|| format!("cannot write {}", self.dir.join(Self::NAME).display()))?;
+        Ok(self.dir.join(name))
+    }
+}
+
+fn write_move_csv(manifest: &mut Manifest, report: &MoveReport) -> Result<()> {
     let mut header = vec!["t".to_string()];
     header.extend(numbered("q", 4).chain(numbered("qdes", 4)));
     header.extend(["x", "y", "z", "xdes", "ydes", "zdes", "tip_error_mm"].map(String::from));
-    let path = dir.join(format!("{:03}-{}.csv", report.ply, report.uci));
+    let path = manifest.add(&format!("{:03}-{}.csv", report.ply, report.uci))?;
     write_csv(
         &path,
         &header,
