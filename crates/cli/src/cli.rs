@@ -71,9 +71,15 @@ pub struct PlayArgs {
     /// Half-moves to play against the engine (the game may end sooner).
     #[arg(long, default_value_t = 120)]
     pub plies: usize,
-    /// Engine thinking time per move, ms.
+    /// Thinking time per move of a UCI engine (--engine PATH), ms: its moves then depend on
+    /// the machine's speed, and game.json says so.
     #[arg(long, default_value_t = 100)]
     pub movetime: u64,
+    /// Cap on the built-in engine's search time per move, ms. Without it the built-in engine
+    /// searches to --depth, so its moves are a function of the position alone; with it they
+    /// depend on the machine's speed (game.json says so).
+    #[arg(long, value_name = "MS")]
+    pub builtin_movetime: Option<u64>,
     /// How long to wait for a UCI engine beyond its thinking time, ms.
     #[arg(long, default_value_t = 5000)]
     pub engine_timeout: u64,

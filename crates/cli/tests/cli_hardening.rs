@@ -188,3 +188,45 @@ fn a_signal_during_a_write_leaves_no_temporary_and_no_partial_file() {
         assert!(left.is_empty(), "{signal}: left {left:?}");
     }
 }
+
+#[test]
+fn the_builtin_engine_plays_the_same_game_whatever_the_time_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let game = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        // A middlegame, where a depth-3 search takes milliseconds (a 1 ms cap used to cut it).
+        let fen = "r1bq1rk1/pp2bppp/2n1pn2/2pp4/3P4/2PBPN2/PP1N1PPP/R1BQ1RK1 w - - 0 9";
+        let args = ["play", "--fen", fen, "--plies", "4", "--out", out.to_str().unwrap()];
+        let output = chessarm(&[&args[..], extra].concat());
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        let game: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
+        let sans: Vec<String> =
+            game["moves"].as_array().unwrap().iter().map(|m| m["san"].as_str().unwrap().to_owned()).collect();
+        (sans, game["deterministic"].as_bool().unwrap(), game["machine_dependent_because"].clone())
+    };
+    // --movetime is a UCI engine's thinking time: 1 ms and 500 ms give the built-in engine's
+    // depth-3 game, which is a function of the position alone.
+    let (fast, fast_deterministic, _) = game("fast", &["--movetime", "1"]);
+    let (slow, slow_deterministic, _) = game("slow", &["--movetime", "500"]);
+    assert_eq!(fast.len(), 4);
+    assert_eq!(fast, slow);
+    assert!(fast_deterministic && slow_deterministic);
+    // A wall-time cap is allowed, and named as making the game machine-dependent.
+    let (_, capped_deterministic, because) = game("capped", &["--builtin-movetime", "50"]);
+    assert!(!capped_deterministic);
+    assert!(because[0].as_str().unwrap().contains("--builtin-movetime 50"), "{because}");
+}
+
+#[test]
+fn the_spreadsheet_is_the_same_bytes_on_every_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str| {
+        let out = dir.path().join(name);
+        assert!(chessarm(&["plan", "--xlsx", "--out", out.to_str().unwrap()]).status.success());
+        std::fs::read(out.join("joint.xlsx")).unwrap()
+    };
+    let first = run("a");
+    // The creation time had one-second resolution: a run in another second wrote other bytes.
+    std::thread::sleep(std::time::Duration::from_millis(1100));
+    assert!(first == run("b"), "joint.xlsx differs between runs");
+}

@@ -166,8 +166,11 @@ fn plot_joint(path: &Path, plan: &Plan) -> Result<()> {
 
 #[cfg(feature = "xlsx")]
 fn write_xlsx(path: &Path, plan: &Plan) -> Result<()> {
-    use rust_xlsxwriter::Workbook;
+    use rust_xlsxwriter::{DocProperties, ExcelDateTime, Workbook};
     let mut workbook = Workbook::new();
+    // A fixed creation time (the Unix epoch) instead of the clock's: the same plan gives the
+    // same bytes on every run.
+    workbook.set_properties(&DocProperties::new().set_creation_datetime(&ExcelDateTime::from_timestamp(0)?));
     let sheet = workbook.add_worksheet();
     sheet.set_name("joint trajectory")?;
     for (column, name) in joint_header().iter().enumerate() {

@@ -28,9 +28,34 @@ fn start_position(args: &PlayArgs) -> Result<Chess> {
     })
 }
 
+/// The built-in engine: to `--depth`, capped in time only with `--builtin-movetime`.
+fn builtin(args: &PlayArgs) -> BuiltinEngine {
+    BuiltinEngine::new(args.depth, args.builtin_movetime.map(Duration::from_millis))
+}
+
+/// Why this game's moves may differ between machines or runs (empty: they cannot).
+fn machine_dependence(args: &PlayArgs) -> Vec<String> {
+    let mut reasons = Vec::new();
+    let engine_game = args.game_file.is_none() && args.moves.is_none();
+    if !engine_game {
+        return reasons;
+    }
+    let builtin_plays = args.engine == "builtin" || args.robot != RobotSide::Both;
+    if builtin_plays && let Some(ms) = args.builtin_movetime {
+        reasons.push(format!("--builtin-movetime {ms} stops the built-in engine's search on wall time"));
+    }
+    if args.engine != "builtin" {
+        reasons.push(format!(
+            "the UCI engine {} searches for --movetime {} ms of wall time",
+            args.engine, args.movetime
+        ));
+    }
+    reasons
+}
+
 fn opponent(args: &PlayArgs) -> Result<Box<dyn Opponent>> {
     if args.engine == "builtin" {
-        return Ok(Box::new(BuiltinEngine::new(args.depth, Some(Duration::from_millis(args.movetime)))));
+        return Ok(Box::new(builtin(args)));
     }
     let engine = UciEngine::spawn(Path::new(&args.engine), args.movetime, Duration::from_millis(args.engine_timeout))?;
     Ok(Box::new(engine))
@@ -51,7 +76,7 @@ fn source(args: &PlayArgs) -> Result<Source> {
     let start = start_position(args)?;
     let opponent = opponent(args)?;
     // With --robot both every move comes from --engine; the robot's own engine is not asked.
-    let robot: Box<dyn Opponent> = Box::new(BuiltinEngine::new(args.depth, Some(Duration::from_millis(args.movetime))));
+    let robot: Box<dyn Opponent> = Box::new(builtin(args));
     Ok(Source::Engines { start, robot, opponent })
 }
 
@@ -123,7 +148,11 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let plot = args.out.join("tip_error.png");
     let placement_plot = args.out.join("placement.png");
     plot_game(&plot, &placement_plot, &reports)?;
-    let summary = game_json(&game, &reports, wall_time_s);
+    let dependence = machine_dependence(args);
+    if !dependence.is_empty() {
+        crate::tell(&format!("note: this game may differ on another machine: {}\n", dependence.join("; ")));
+    }
+    let summary = game_json(&game, &reports, wall_time_s, &dependence);
     let game_json_path = args.out.join("game.json");
     write_json(&game_json_path, &summary)?;
     crate::tell(&format!(
@@ -171,7 +200,7 @@ fn move_line(report: &MoveReport) -> String {
     line
 }
 
-fn game_json(game: &Game, reports: &[MoveReport], wall_time_s: f64) -> Value {
+fn game_json(game: &Game, reports: &[MoveReport], wall_time_s: f64, machine_dependence: &[String]) -> Value {
     let moves: Vec<Value> = reports
         .iter()
         .map(|r| {
@@ -205,6 +234,9 @@ fn game_json(game: &Game, reports: &[MoveReport], wall_time_s: f64) -> Value {
         "misplaced": misplaced,
         "total_robot_time_s": game.robot_time(),
         "wall_time_s": wall_time_s,
+        // Whether the same command plays the same moves on any machine, and if not why.
+        "deterministic": machine_dependence.is_empty(),
+        "machine_dependent_because": machine_dependence,
     })
 }
 
