@@ -3,7 +3,7 @@
 //! Every section and field is optional and defaults to the report's setup, so a file may say
 //! only what differs. Units are SI: m, rad, kg, kg·m², N·m, s.
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::pieces::{PieceDimensions, PieceSet};
 use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointLimits, Link};
@@ -12,99 +12,128 @@ use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// One link of the arm in the file.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+/// One link of the arm in the file; every field left out keeps the report's value for that
+/// link.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct LinkFile {
     /// DH link length a, m.
-    pub a: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub a: Option<f64>,
     /// DH twist alpha, rad.
-    pub alpha: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f64>,
     /// DH offset d, m.
-    pub d: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub d: Option<f64>,
     /// Constant added to the joint angle, rad.
-    #[serde(default)]
-    pub theta_offset: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub theta_offset: Option<f64>,
     /// Link mass, kg.
-    pub mass: f64,
-    /// Centre of mass in DH frame i, m.
-    pub com: [f64; 3],
-    /// Inertia tensor about the COM, kg·m², in the frame given by `inertia_rpy`.
-    pub inertia: [[f64; 3]; 3],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
+    /// Centre of mass in DH frame i, m (3 numbers).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub com: Option<Vec<f64>>,
+    /// Inertia tensor about the COM, kg·m², in the frame given by `inertia_rpy` (3 rows of 3).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inertia: Option<Vec<Vec<f64>>>,
     /// Roll, pitch, yaw (rad) of the tensor's frame relative to DH frame i. The report's CAD
     /// tensors for links 2 and 3 look exported with the link along y; state that here.
-    #[serde(default)]
-    pub inertia_rpy: [f64; 3],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inertia_rpy: Option<Vec<f64>>,
     /// Motor mass at this joint, kg (a point mass on link i−1 at the joint axis).
-    #[serde(default)]
-    pub motor_mass: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motor_mass: Option<f64>,
     /// Reflected rotor inertia, kg·m².
-    #[serde(default)]
-    pub rotor_inertia: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rotor_inertia: Option<f64>,
     /// Lowest joint angle, rad.
-    pub lower: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lower: Option<f64>,
     /// Highest joint angle, rad.
-    pub upper: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub upper: Option<f64>,
     /// Largest joint speed, rad/s.
-    pub velocity_limit: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub velocity_limit: Option<f64>,
     /// Largest motor torque, N·m.
-    pub torque_limit: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub torque_limit: Option<f64>,
     /// Viscous friction, N·m·s/rad (plant only).
-    #[serde(default)]
-    pub viscous: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub viscous: Option<f64>,
     /// Coulomb friction, N·m (plant only).
-    #[serde(default)]
-    pub coulomb: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coulomb: Option<f64>,
 }
 
-/// The board in the file.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+/// The board in the file; fields left out keep the default board's.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct BoardFile {
     /// Distance between square centres, m.
-    pub square_size: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub square_size: Option<f64>,
     /// Centre of the board in the base frame (x, y), m.
-    pub center: [f64; 2],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub center: Option<Vec<f64>>,
     /// Height of the board surface, m.
-    pub surface_height: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface_height: Option<f64>,
 }
 
-/// One kind of chess piece in the file.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+/// One kind of chess piece in the file; fields left out keep that kind's default.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct PieceFile {
     /// Height, m.
-    pub height: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub height: Option<f64>,
     /// Base diameter, m.
-    pub base_diameter: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub base_diameter: Option<f64>,
     /// Mass, kg.
-    pub mass: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
     /// Height above the piece's base where the tool tip grips it, m.
-    pub grip_height: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grip_height: Option<f64>,
 }
 
 /// The piece set in the file (each kind optional).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct PiecesFile {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub pawn: Option<PieceFile>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub knight: Option<PieceFile>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub bishop: Option<PieceFile>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub rook: Option<PieceFile>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub queen: Option<PieceFile>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub king: Option<PieceFile>,
 }
 
-/// The whole setup file. Fields left out take the report's values.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
+/// The whole setup file. Every table and field may be left out: what is missing keeps the
+/// report's value (per link, per piece kind, per board field).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
 pub struct SetupFile {
-    /// Gravitational acceleration in the base frame, m/s².
-    pub gravity: [f64; 3],
+    /// Gravitational acceleration in the base frame, m/s² (3 numbers).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<Vec<f64>>,
+    #[serde(default)]
     pub board: BoardFile,
     /// The chess pieces as physical objects.
+    #[serde(default)]
     pub pieces: PiecesFile,
-    /// Links from the base to the tool, in order.
+    /// Links from the base to the tool, in order (none: the report's four).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub links: Vec<LinkFile>,
 }
 
@@ -169,36 +198,86 @@ fn one_line_toml_error(text: &str, error: &toml::de::Error) -> String {
     }
 }
 
+/// A finite number from the file, or an error naming its field.
+fn finite(field: &str, value: f64) -> Result<f64> {
+    if value.is_finite() { Ok(value) } else { bail!("{field} = {value} is not a finite number") }
+}
+
+/// `field` if given (checked finite), else `default`.
+fn number_or(field: &str, given: Option<f64>, default: f64) -> Result<f64> {
+    given.map_or(Ok(default), |value| finite(field, value))
+}
+
+/// Exactly `N` finite numbers, or an error naming the field and what is wrong.
+fn numbers<const N: usize>(field: &str, given: &[f64], meaning: &str) -> Result<[f64; N]> {
+    if given.len() != N {
+        bail!("{field} has {} numbers; it needs exactly {N} ({meaning})", given.len());
+    }
+    let mut values = [0.0; N];
+    for (i, (value, given)) in values.iter_mut().zip(given).enumerate() {
+        *value = finite(&format!("{field}[{i}]"), *given)?;
+    }
+    Ok(values)
+}
+
+/// `field` if given (exactly `N` finite numbers), else `default`.
+fn numbers_or<const N: usize>(
+    field: &str,
+    given: Option<&Vec<f64>>,
+    meaning: &str,
+    default: [f64; N],
+) -> Result<[f64; N]> {
+    given.map_or(Ok(default), |given| numbers(field, given, meaning))
+}
+
 impl SetupFile {
     fn to_setup(&self) -> Result<Setup> {
-        let links: [LinkFile; 4] = self.links.clone().try_into().map_err(|links: Vec<LinkFile>| {
-            anyhow!("links: the chess arm has 4 joints, the file lists {}", links.len())
-        })?;
-        let links = links.map(|link| link.to_link());
-        let gravity = Vector3::from(self.gravity);
-        let arm = ArmModel::new(links, gravity)?;
+        let defaults = Setup::default();
+        let links: [Link; 4] = if self.links.is_empty() {
+            *defaults.arm.links()
+        } else {
+            if self.links.len() != 4 {
+                bail!("links: the chess arm has 4 joints, the file lists {}", self.links.len());
+            }
+            let mut links = *defaults.arm.links();
+            for (i, (link, given)) in links.iter_mut().zip(&self.links).enumerate() {
+                *link = given.to_link(i + 1, link)?;
+            }
+            links
+        };
+        let gravity = numbers_or("gravity", self.gravity.as_ref(), "x, y, z in m/s²", defaults.arm.gravity().into())?;
+        let arm = ArmModel::new(links, Vector3::from(gravity))?;
+        let board = &self.board;
+        let default_board = defaults.board;
         let board = BoardGeometry {
-            square_size: self.board.square_size,
-            center: Vector2::from(self.board.center),
-            surface_height: self.board.surface_height,
+            square_size: number_or("board.square_size", board.square_size, default_board.square_size)?,
+            center: Vector2::from(numbers_or(
+                "board.center",
+                board.center.as_ref(),
+                "x, y of the board's centre in m",
+                default_board.center.into(),
+            )?),
+            surface_height: number_or("board.surface_height", board.surface_height, default_board.surface_height)?,
         }
         .validated()?;
-        let defaults = PieceSet::default();
-        let pick = |given: Option<PieceFile>, default: PieceDimensions| {
-            given.map_or(default, |p| PieceDimensions {
-                height: p.height,
-                base_diameter: p.base_diameter,
-                mass: p.mass,
-                grip_height: p.grip_height,
+        let pick = |kind: &str, given: Option<PieceFile>, default: PieceDimensions| -> Result<PieceDimensions> {
+            let Some(given) = given else { return Ok(default) };
+            let field = |name: &str| format!("pieces.{kind}.{name}");
+            Ok(PieceDimensions {
+                height: number_or(&field("height"), given.height, default.height)?,
+                base_diameter: number_or(&field("base_diameter"), given.base_diameter, default.base_diameter)?,
+                mass: number_or(&field("mass"), given.mass, default.mass)?,
+                grip_height: number_or(&field("grip_height"), given.grip_height, default.grip_height)?,
             })
         };
+        let (given, default) = (&self.pieces, defaults.pieces);
         let pieces = PieceSet {
-            pawn: pick(self.pieces.pawn, defaults.pawn),
-            knight: pick(self.pieces.knight, defaults.knight),
-            bishop: pick(self.pieces.bishop, defaults.bishop),
-            rook: pick(self.pieces.rook, defaults.rook),
-            queen: pick(self.pieces.queen, defaults.queen),
-            king: pick(self.pieces.king, defaults.king),
+            pawn: pick("pawn", given.pawn, default.pawn)?,
+            knight: pick("knight", given.knight, default.knight)?,
+            bishop: pick("bishop", given.bishop, default.bishop)?,
+            rook: pick("rook", given.rook, default.rook)?,
+            queen: pick("queen", given.queen, default.queen)?,
+            king: pick("king", given.king, default.king)?,
         }
         .validated()?;
         Ok(Setup { arm, board, pieces })
@@ -206,33 +285,62 @@ impl SetupFile {
 }
 
 impl LinkFile {
-    fn to_link(&self) -> Link {
-        let [roll, pitch, yaw] = self.inertia_rpy;
-        let rotation = Rotation3::from_euler_angles(roll, pitch, yaw);
-        let tensor = Matrix3::from_fn(|r, c| self.inertia[r][c]);
-        Link {
-            dh: DhParameters { a: self.a, alpha: self.alpha, d: self.d, theta_offset: self.theta_offset },
+    /// Link `number` (1-based) of the file over `default`, each given number checked finite.
+    fn to_link(&self, number: usize, default: &Link) -> Result<Link> {
+        let field = |name: &str| format!("link {number} {name}");
+        let inertial = &default.inertial;
+        let com = numbers_or(&field("com"), self.com.as_ref(), "x, y, z in m", inertial.com.into())?;
+        // The tensor as given (or the default link's), then turned by `inertia_rpy` if given:
+        // alone, it rotates the default tensor (e.g. the report's, exported with the link along y).
+        let tensor = match &self.inertia {
+            None => inertial.inertia,
+            Some(rows) => {
+                if rows.len() != 3 {
+                    bail!("{} has {} rows; it needs 3 rows of 3 numbers", field("inertia"), rows.len());
+                }
+                let mut tensor = Matrix3::zeros();
+                for (r, row) in rows.iter().enumerate() {
+                    let row = numbers::<3>(&format!("{}[{r}]", field("inertia")), row, "a row of the tensor")?;
+                    for (c, value) in row.iter().enumerate() {
+                        tensor[(r, c)] = *value;
+                    }
+                }
+                tensor
+            }
+        };
+        let inertia = match &self.inertia_rpy {
+            None => tensor,
+            Some(rpy) => {
+                let [roll, pitch, yaw] = numbers::<3>(&field("inertia_rpy"), rpy, "roll, pitch, yaw in rad")?;
+                let rotation = Rotation3::from_euler_angles(roll, pitch, yaw);
+                rotation.matrix() * tensor * rotation.matrix().transpose()
+            }
+        };
+        Ok(Link {
+            dh: DhParameters {
+                a: number_or(&field("a"), self.a, default.dh.a)?,
+                alpha: number_or(&field("alpha"), self.alpha, default.dh.alpha)?,
+                d: number_or(&field("d"), self.d, default.dh.d)?,
+                theta_offset: number_or(&field("theta_offset"), self.theta_offset, default.dh.theta_offset)?,
+            },
             inertial: Inertial {
-                mass: self.mass,
-                com: Vector3::from(self.com),
-                inertia: rotation.matrix() * tensor * rotation.matrix().transpose(),
+                mass: number_or(&field("mass"), self.mass, inertial.mass)?,
+                com: Vector3::from(com),
+                inertia,
             },
-            motor_mass: self.motor_mass,
-            rotor_inertia: self.rotor_inertia,
+            motor_mass: number_or(&field("motor_mass"), self.motor_mass, default.motor_mass)?,
+            rotor_inertia: number_or(&field("rotor_inertia"), self.rotor_inertia, default.rotor_inertia)?,
             limits: JointLimits {
-                lower: self.lower,
-                upper: self.upper,
-                velocity: self.velocity_limit,
-                torque: self.torque_limit,
+                lower: number_or(&field("lower"), self.lower, default.limits.lower)?,
+                upper: number_or(&field("upper"), self.upper, default.limits.upper)?,
+                velocity: number_or(&field("velocity_limit"), self.velocity_limit, default.limits.velocity)?,
+                torque: number_or(&field("torque_limit"), self.torque_limit, default.limits.torque)?,
             },
-            friction: Friction { viscous: self.viscous, coulomb: self.coulomb },
-        }
-    }
-}
-
-impl Default for SetupFile {
-    fn default() -> Self {
-        Self::from(&Setup::default())
+            friction: Friction {
+                viscous: number_or(&field("viscous"), self.viscous, default.friction.viscous)?,
+                coulomb: number_or(&field("coulomb"), self.coulomb, default.friction.coulomb)?,
+            },
+        })
     }
 }
 
@@ -243,49 +351,47 @@ impl From<&Setup> for SetupFile {
             .links()
             .iter()
             .map(|link| LinkFile {
-                a: link.dh.a,
-                alpha: link.dh.alpha,
-                d: link.dh.d,
-                theta_offset: link.dh.theta_offset,
-                mass: link.inertial.mass,
-                com: link.inertial.com.into(),
-                inertia: std::array::from_fn(|r| std::array::from_fn(|c| link.inertial.inertia[(r, c)])),
-                inertia_rpy: [0.0; 3],
-                motor_mass: link.motor_mass,
-                rotor_inertia: link.rotor_inertia,
-                lower: link.limits.lower,
-                upper: link.limits.upper,
-                velocity_limit: link.limits.velocity,
-                torque_limit: link.limits.torque,
-                viscous: link.friction.viscous,
-                coulomb: link.friction.coulomb,
+                a: Some(link.dh.a),
+                alpha: Some(link.dh.alpha),
+                d: Some(link.dh.d),
+                theta_offset: Some(link.dh.theta_offset),
+                mass: Some(link.inertial.mass),
+                com: Some(link.inertial.com.iter().copied().collect()),
+                inertia: Some((0..3).map(|r| (0..3).map(|c| link.inertial.inertia[(r, c)]).collect()).collect()),
+                inertia_rpy: Some(vec![0.0; 3]),
+                motor_mass: Some(link.motor_mass),
+                rotor_inertia: Some(link.rotor_inertia),
+                lower: Some(link.limits.lower),
+                upper: Some(link.limits.upper),
+                velocity_limit: Some(link.limits.velocity),
+                torque_limit: Some(link.limits.torque),
+                viscous: Some(link.friction.viscous),
+                coulomb: Some(link.friction.coulomb),
             })
             .collect();
+        let piece = |d: &PieceDimensions| {
+            Some(PieceFile {
+                height: Some(d.height),
+                base_diameter: Some(d.base_diameter),
+                mass: Some(d.mass),
+                grip_height: Some(d.grip_height),
+            })
+        };
+        let p = &setup.pieces;
         SetupFile {
-            gravity: setup.arm.gravity().into(),
+            gravity: Some(setup.arm.gravity().iter().copied().collect()),
             board: BoardFile {
-                square_size: setup.board.square_size,
-                center: setup.board.center.into(),
-                surface_height: setup.board.surface_height,
+                square_size: Some(setup.board.square_size),
+                center: Some(setup.board.center.iter().copied().collect()),
+                surface_height: Some(setup.board.surface_height),
             },
-            pieces: {
-                let file = |d: &PieceDimensions| {
-                    Some(PieceFile {
-                        height: d.height,
-                        base_diameter: d.base_diameter,
-                        mass: d.mass,
-                        grip_height: d.grip_height,
-                    })
-                };
-                let p = &setup.pieces;
-                PiecesFile {
-                    pawn: file(&p.pawn),
-                    knight: file(&p.knight),
-                    bishop: file(&p.bishop),
-                    rook: file(&p.rook),
-                    queen: file(&p.queen),
-                    king: file(&p.king),
-                }
+            pieces: PiecesFile {
+                pawn: piece(&p.pawn),
+                knight: piece(&p.knight),
+                bishop: piece(&p.bishop),
+                rook: piece(&p.rook),
+                queen: piece(&p.queen),
+                king: piece(&p.king),
             },
             links,
         }

@@ -230,3 +230,59 @@ fn the_spreadsheet_is_the_same_bytes_on_every_run() {
     std::thread::sleep(std::time::Duration::from_millis(1100));
     assert!(first == run("b"), "joint.xlsx differs between runs");
 }
+
+/// Loads `text` as a setup file and prints it back (the full setup, defaults filled in).
+fn printed_setup(text: &str) -> std::process::Output {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("arm.toml");
+    std::fs::write(&path, text).unwrap();
+    chessarm(&["--arm", path.to_str().unwrap(), "arm"])
+}
+
+/// The default setup as printed, with `old` replaced by `new` once (which must be there).
+fn default_with(old: &str, new: &str) -> String {
+    let text = String::from_utf8(chessarm(&["arm"]).stdout).unwrap();
+    assert!(text.contains(old), "{old} not in the default setup");
+    text.replacen(old, new, 1)
+}
+
+#[test]
+fn every_field_of_every_table_may_be_left_out() {
+    let cases = [
+        ("gravity = [0, 0, -9.81]\n", ("-9.8,\n]", "-9.81,\n]")),
+        ("[board]\ncenter = [0.0, 0.33]\n", ("center = [\n    0.0,\n    0.33,", "center = [\n    0.0,\n    0.33,")),
+        ("[board]\nsquare_size = 0.05\n", ("square_size = 0.06", "square_size = 0.05")),
+        ("[pieces.pawn]\nmass = 0.2\n", ("mass = 0.03\n", "mass = 0.2\n")),
+        ("[pieces.king]\ngrip_height = 0.07\n", ("grip_height = 0.07600000000000001", "grip_height = 0.07")),
+        // Four [[links]] tables, only the second says something: its mass.
+        ("[[links]]\n[[links]]\nmass = 0.6\n[[links]]\n[[links]]\n", ("mass = 0.5261671", "mass = 0.6")),
+    ];
+    for (file, (old, new)) in cases {
+        let output = printed_setup(file);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{file:?}: {stderr}");
+        assert_eq!(String::from_utf8(output.stdout).unwrap(), default_with(old, new), "{file:?}");
+    }
+}
+
+#[test]
+fn arrays_of_the_wrong_length_are_refused_naming_the_field() {
+    for (file, needles) in [
+        ("gravity = [0, 0, -9.8, 1]\n", &["gravity has 4 numbers", "exactly 3"][..]),
+        ("gravity = [0, 0, -9.8, \"junk\"]\n", &["line 1", "junk"]),
+        ("[board]\ncenter = [0, 0.33, 0]\n", &["board.center has 3 numbers", "exactly 2"]),
+        ("[[links]]\n[[links]]\ncom = [0, 0]\n[[links]]\n[[links]]\n", &["link 2 com has 2 numbers"]),
+        (
+            "[[links]]\ninertia = [[1, 0, 0], [0, 1, 0]]\n[[links]]\n[[links]]\n[[links]]\n",
+            &["link 1 inertia has 2 rows"],
+        ),
+        (
+            "[[links]]\ninertia = [[1, 0, 0], [0, 1, 0], [0, 0, 1, 5]]\n[[links]]\n[[links]]\n[[links]]\n",
+            &["link 1 inertia[2] has 4 numbers"],
+        ),
+        ("[[links]]\n[[links]]\n[[links]]\ninertia_rpy = [nan, 0, 0]\n[[links]]\n", &["link 3 inertia_rpy[0] = NaN"]),
+        ("[pieces.rook]\nheight = inf\n", &["pieces.rook.height = inf"]),
+    ] {
+        assert_one_line_error(&printed_setup(file), needles);
+    }
+}

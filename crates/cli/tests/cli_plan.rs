@@ -86,7 +86,7 @@ fn setup_file_round_trips_and_bad_files_name_the_field() {
     assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["colour"]);
 
     let file = write_setup(dir.path(), "nan.toml", "gravity = [0, 0, nan]\n");
-    assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["gravity.z = NaN"]);
+    assert_one_line_error(&chessarm(&["--arm", &file, "arm"]), &["gravity[2] = NaN"]);
 
     let three_links = &text[..text.rfind("\n[[links]]").unwrap()];
     let file = write_setup(dir.path(), "three.toml", three_links);

@@ -45,10 +45,8 @@ fn machine_dependence(args: &PlayArgs) -> Vec<String> {
         reasons.push(format!("--builtin-movetime {ms} stops the built-in engine's search on wall time"));
     }
     if args.engine != "builtin" {
-        reasons.push(format!(
-            "the UCI engine {} searches for --movetime {} ms of wall time",
-            args.engine, args.movetime
-        ));
+        reasons
+            .push(format!("the UCI engine {} searches for --movetime {} ms of wall time", args.engine, args.movetime));
     }
     reasons
 }
