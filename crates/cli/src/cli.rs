@@ -91,8 +91,8 @@ pub struct PlayArgs {
     #[arg(long, value_enum, default_value_t = RobotSide::Both)]
     pub robot: RobotSide,
     /// Outer loop of the computed-torque controller.
-    #[arg(long, value_enum, default_value_t = ControllerChoice::Pd)]
-    pub controller: ControllerChoice,
+    #[arg(long, value_enum, default_value_t = OneController::Pd)]
+    pub controller: OneController,
     #[command(flatten)]
     pub gains: GainArgs,
     /// The controller's model includes each gripped piece.
@@ -116,13 +116,13 @@ pub struct GainsArgs {
     #[arg(long, value_parser = args::positive)]
     pub settling_time: Option<f64>,
     /// Wanted overshoot of the error response, % (with --settling-time; 0 = critically damped).
-    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative)]
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, conflicts_with = "wn")]
     pub overshoot: f64,
     /// Natural frequency, rad/s (instead of --settling-time).
     #[arg(long, value_parser = args::positive, requires = "zeta")]
     pub wn: Option<f64>,
     /// Damping ratio (with --wn).
-    #[arg(long, value_parser = args::positive)]
+    #[arg(long, value_parser = args::positive, conflicts_with = "settling_time")]
     pub zeta: Option<f64>,
     /// Controller: pd, or pid by pole placement (third pole at −ratio·ωn).
     #[arg(long, value_enum, default_value_t = ControllerChoice::Pd)]
@@ -166,8 +166,8 @@ pub struct TuneArgs {
     #[arg(long, default_value = "queens-gambit")]
     pub scenario: String,
     /// Outer loop to tune.
-    #[arg(long, value_enum, default_value_t = ControllerChoice::Pd)]
-    pub controller: ControllerChoice,
+    #[arg(long, value_enum, default_value_t = OneController::Pd)]
+    pub controller: OneController,
     /// kp range A..B:N (N values from A to B), 1/s².
     #[arg(long, value_parser = args::range)]
     pub kp: args::GainRange,
@@ -242,6 +242,24 @@ impl IntegratorChoice {
             IntegratorChoice::Rk4 => Integrator::RungeKutta4,
             IntegratorChoice::Midpoint => Integrator::Midpoint,
             IntegratorChoice::Euler => Integrator::SemiImplicitEuler,
+        }
+    }
+}
+
+/// One outer loop (commands that run a single controller: `play`, `tune`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OneController {
+    /// Computed torque with a PD outer loop (report: kp = 400, kd = 20).
+    Pd,
+    /// Computed torque with a PID outer loop (report: kp = 600, kd = 25, ki = 75).
+    Pid,
+}
+
+impl From<OneController> for ControllerChoice {
+    fn from(choice: OneController) -> Self {
+        match choice {
+            OneController::Pd => ControllerChoice::Pd,
+            OneController::Pid => ControllerChoice::Pid,
         }
     }
 }

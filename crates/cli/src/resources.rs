@@ -67,6 +67,11 @@ pub fn show(value: f64) -> String {
     if value == 0.0 || (1e-4..1e9).contains(&magnitude) { format!("{value}") } else { format!("{value:e}") }
 }
 
+/// Numbers as typed, comma-separated, each in [`show`]'s form (`1e308,0,0,0`).
+pub fn show_list(values: &[f64]) -> String {
+    values.iter().map(|v| show(*v)).collect::<Vec<_>>().join(",")
+}
+
 /// The worker-thread count for `--threads`: all cores by default, at most
 /// [`THREADS_PER_CORE`] per core.
 ///

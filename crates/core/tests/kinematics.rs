@@ -115,6 +115,26 @@ fn tool_pointing_down_puts_the_wrist_l4_above_the_tip() {
     assert!((wrist - (target + Vector3::new(0.0, 0.0, REPORT_L4))).norm() < 1e-12);
 }
 
+/// The arm fully stretched (wrist exactly at the longest reach) is reachable: rounding in the
+/// law of cosines must not turn the boundary into "out of reach … reaches 0.0000 m to 0.6096 m".
+#[test]
+fn the_fully_stretched_arm_is_reachable_and_a_near_miss_says_by_how_much() {
+    let model = report_arm();
+    let reach = 0.6096; // l2 + l3 of the report's arm
+    for elevation in [0.3f64, 0.5, 0.7, 1.0] {
+        // Wrist at full stretch from the shoulder, tool pointing down: the tip is l4 below it.
+        let wrist = Vector3::new(0.0, reach * elevation.cos(), REPORT_L1 + reach * elevation.sin());
+        let target = wrist - Vector3::new(0.0, 0.0, REPORT_L4);
+        let q = inverse_kinematics(&model, &target, TOOL_DOWN).unwrap();
+        assert!((FrameChain::new(&model, &q).tip() - target).norm() < 1e-9, "elevation {elevation}");
+        // 10 nm further is out of reach, and the message gives the miss in scientific form.
+        let beyond = wrist * (1.0 + 1e-8 / wrist.norm()) - Vector3::new(0.0, 0.0, REPORT_L4);
+        let beyond = Vector3::new(0.0, beyond.y, beyond.z);
+        let text = inverse_kinematics(&model, &beyond, TOOL_DOWN).map(|_| String::new()).unwrap_or_else(|e| e.to_string());
+        assert!(text.contains("beyond the arm's full stretch of 0.6096 m") && text.contains("e-"), "{text}");
+    }
+}
+
 #[test]
 fn ik_errors_name_target_reason_and_reach() {
     let model = report_arm();
@@ -127,6 +147,7 @@ fn ik_errors_name_target_reason_and_reach() {
     }
     let text = far.to_string();
     assert!(text.contains("(0.0000, 0.9000, 0.0500) m") && text.contains("out of reach") && text.contains("0.6096"));
+    assert!(text.contains("beyond the arm's full stretch"), "{text}");
 
     let axis = inverse_kinematics(&model, &Vector3::new(0.0, 0.0, 0.1), TOOL_DOWN).unwrap_err();
     assert!(matches!(axis, IkError::OnBaseAxis { .. }), "{axis:?}");

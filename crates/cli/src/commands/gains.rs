@@ -5,6 +5,8 @@ use crate::commands::plan::plan_scenario;
 use crate::commands::simulate::{ControllerSpec, RunOptions, run_controller};
 use crate::config::Setup;
 use crate::print_json;
+use crate::resources::show;
+use crate::one_line;
 use anyhow::{Result, bail};
 use chessarm_core::control::gains::{Gains, ResponseShape, design_from_specs};
 use chessarm_core::sim::Integrator;
@@ -14,8 +16,23 @@ use serde_json::{Value, json};
 /// Integral pole ratio α for `--wn/--zeta` PID designs when none is given.
 const DEFAULT_INTEGRAL_POLE_RATIO: f64 = 0.2;
 
-/// The gains of one controller from the arguments, with ωn (rad/s) and ζ.
+/// The gains of one controller from the arguments, with ωn (rad/s) and ζ. A design that fails
+/// is reported with the flags as typed (the derived value that failed follows).
 fn design(args: &GainsArgs, pid: bool) -> Result<(Gains<4>, f64, f64, f64)> {
+    design_unnamed(args, pid).map_err(|error| {
+        let flags = match (args.settling_time, args.wn, args.zeta) {
+            (Some(settling_time), ..) => {
+                format!("--settling-time {} --overshoot {}", show(settling_time), show(args.overshoot))
+            }
+            (None, Some(wn), Some(zeta)) => format!("--wn {} --zeta {}", show(wn), show(zeta)),
+            _ => String::new(),
+        };
+        let ratio = args.integral_pole_ratio.map(|r| format!(" --integral-pole-ratio {}", show(r))).unwrap_or_default();
+        anyhow::anyhow!("{flags}{ratio}: no usable {} design ({})", if pid { "PID" } else { "PD" }, one_line(&error))
+    })
+}
+
+fn design_unnamed(args: &GainsArgs, pid: bool) -> Result<(Gains<4>, f64, f64, f64)> {
     match (args.settling_time, args.wn, args.zeta) {
         (Some(settling_time), None, _) => {
             Ok(design_from_specs(settling_time, args.overshoot, pid.then_some(args.integral_pole_ratio))?)

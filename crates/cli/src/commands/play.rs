@@ -1,6 +1,6 @@
 //! `play`: a game of chess with the simulated arm, every piece checked on its square.
 
-use crate::cli::{ControllerChoice, PlayArgs, RobotSide};
+use crate::cli::{PlayArgs, RobotSide};
 use crate::commands::simulate::controller_specs;
 use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
@@ -83,10 +83,7 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 }
 
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
-    if args.controller == ControllerChoice::Both {
-        bail!("play with one controller: --controller pd or pid");
-    }
-    let spec = controller_specs(args.controller, &args.gains)?.remove(0);
+    let spec = controller_specs(args.controller.into(), &args.gains)?.remove(0);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     settings.pieces = setup.pieces;
     settings.controller_knows_payload = args.controller_knows_payload;

@@ -6,7 +6,7 @@ use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
-use crate::resources::show;
+use crate::resources::{show, show_list};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::pieces::PieceDimensions;
 use chessarm_core::arm::dynamics::{DynamicsTerms, coriolis_torques, gravity_torques};
@@ -393,6 +393,9 @@ fn check_rates(args: &SimulateArgs) -> Result<()> {
 
 pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     check_rates(args)?;
+    if let Some(q0) = &args.q0 {
+        crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
+    }
     let specs = controller_specs(args.controller, &args.gains)?;
     let options = options_from(args);
     let total = study_steps(setup, &args.scenario, &options)? * specs.len() as u64;
@@ -413,12 +416,25 @@ pub fn dynamics(setup: &Setup, args: &DynamicsArgs) -> Result<()> {
     };
     let q = JointVector::<4>::from(args.q);
     let qd = JointVector::<4>::from(args.qd);
+    crate::commands::kinematics::warn_outside_limits(setup, "--q", &args.q);
     let terms = DynamicsTerms::new(&model, &q, &qd);
+    let coriolis = coriolis_torques(&model, &q, &qd);
+    let gravity = gravity_torques(&model, &q);
+    // JSON has no infinity: an overflowed term would print as null with success.
+    for (name, finite) in [
+        ("M(q)", terms.mass_matrix.iter().all(|v| v.is_finite())),
+        ("C(q, q̇)·q̇", coriolis.iter().all(|v| v.is_finite())),
+        ("g(q)", gravity.iter().all(|v| v.is_finite())),
+    ] {
+        if !finite {
+            bail!(
+                "{name} overflows at --q {} --qd {}: the result is not a finite number; give smaller values",
+                show_list(&args.q),
+                show_list(&args.qd)
+            );
+        }
+    }
     let rows: Vec<Vec<f64>> = (0..4).map(|r| (0..4).map(|c| terms.mass_matrix[(r, c)]).collect()).collect();
-    print_json(&json!({
-        "M": rows,
-        "c": coriolis_torques(&model, &q, &qd).as_slice(),
-        "g": gravity_torques(&model, &q).as_slice(),
-    }))?;
+    print_json(&json!({ "M": rows, "c": coriolis.as_slice(), "g": gravity.as_slice() }))?;
     Ok(())
 }

@@ -4,7 +4,7 @@
 //! come out in candidate order whatever the number of threads, so a sweep is reproducible and
 //! `--shard K/N` slices concatenate (`cat`) to the full sweep: only slice 1 carries the header.
 
-use crate::cli::{ControllerChoice, Metric, TuneArgs};
+use crate::cli::{Metric, OneController, TuneArgs};
 use crate::commands::plan::plan_scenario;
 use crate::commands::simulate::pawn_events;
 use crate::config::Setup;
@@ -237,9 +237,8 @@ pub const MAX_CANDIDATES: usize = 10_000_000;
 /// The gains of every candidate, in sweep order: kp outermost, then kd, then ki.
 pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
     let pid = match args.controller {
-        ControllerChoice::Pd => false,
-        ControllerChoice::Pid => true,
-        ControllerChoice::Both => bail!("tune one controller at a time: --controller pd or pid"),
+        OneController::Pd => false,
+        OneController::Pid => true,
     };
     if args.ki.is_some() && !pid {
         bail!("--ki given with --controller pd: the PD controller has no integral term");
@@ -285,6 +284,9 @@ fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
     let plan = plan_scenario(setup, &args.scenario, 1e-3, "the sweep")?;
     let events = pawn_events(setup, &plan.path, args.payload_mass, args.controller_knows_payload);
     let marks = plan.path.events().iter().map(|e| e.time).collect();
+    if let Some(q0) = &args.q0 {
+        crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
+    }
     let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(q)));
     Ok(ScenarioStudy { trajectory: plan.joint, events, marks, initial })
 }

@@ -39,10 +39,7 @@ pub enum IkError {
     NotFinite { target: [f64; 3] },
     #[error("target {} lies on the base axis (x = y = 0), where the base angle is undefined", show(.target))]
     OnBaseAxis { target: [f64; 3] },
-    #[error(
-        "target {} is out of reach: the wrist would be {needed:.4} m from the shoulder, but the arm reaches {min:.4} m to {max:.4} m",
-        show(.target)
-    )]
+    #[error("target {} is out of reach: {}", show(.target), reach_problem(*.needed, *.min, *.max))]
     OutOfReach { target: [f64; 3], needed: f64, min: f64, max: f64 },
     #[error(
         "target {} needs joint {joint} at {value:.4} rad ({:.1}°), outside its limits [{lower:.4}, {upper:.4}] rad",
@@ -51,6 +48,24 @@ pub enum IkError {
     JointLimit { target: [f64; 3], joint: usize, value: f64, lower: f64, upper: f64 },
     #[error("closed-form IK needs a yaw + three-pitch arm: {0}")]
     UnsupportedModel(String),
+}
+
+/// What is wrong with a wrist `needed` m from the shoulder when the arm reaches `min`…`max` m:
+/// too far or too close, and by how much (in scientific form when tiny, so a miss of a few
+/// nanometres does not read as "0.6096 m beyond 0.6096 m").
+fn reach_problem(needed: f64, min: f64, max: f64) -> String {
+    let by = |gap: f64| if gap >= 1e-4 { format!("{gap:.4} m") } else { format!("{gap:.2e} m") };
+    if needed > max {
+        format!(
+            "the wrist would be {needed:.4} m from the shoulder, {} beyond the arm's full stretch of {max:.4} m",
+            by(needed - max)
+        )
+    } else {
+        format!(
+            "the wrist would be {needed:.4} m from the shoulder, {} closer than the folded arm's least reach of {min:.4} m",
+            by(min - needed)
+        )
+    }
 }
 
 fn show(target: &[f64; 3]) -> String {
@@ -129,6 +144,9 @@ fn stack_task_rows(linear: &nalgebra::SMatrix<f64, 3, 4>, pitch_row: RowVector4<
     jacobian
 }
 
+/// Relative slack on the reach limits for rounding (64 ulps of 1).
+const REACH_ROUNDING: f64 = 64.0 * f64::EPSILON;
+
 /// Closed-form inverse kinematics, elbow up, for the tool tip at `target` (m, base frame) with
 /// the given tool `pitch` (rad; [`TOOL_DOWN`] to grip pieces).
 ///
@@ -153,8 +171,13 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
     let wrist_height = target.z - l4 * sin_pitch - l1;
     let distance = wrist_radial.hypot(wrist_height);
     let (min, max) = geometry.wrist_reach();
-    let cos_elbow = (l2 * l2 + distance * distance - l3 * l3) / (2.0 * l2 * distance);
-    if !(distance >= min && distance <= max && (-1.0..=1.0).contains(&cos_elbow)) {
+    // Within [min, max] the law of cosines gives |cos| ≤ 1 exactly; rounding can put the
+    // distance and the cosine a few ulps outside at the boundary (the arm fully stretched or
+    // folded), which is still reachable: a slack of REACH_ROUNDING·max (≈ 1e-13 m here) covers
+    // the rounding of the wrist distance from a target and is far below any physical tolerance.
+    let slack = REACH_ROUNDING * max;
+    let cos_elbow = ((l2 * l2 + distance * distance - l3 * l3) / (2.0 * l2 * distance)).clamp(-1.0, 1.0);
+    if !(distance >= min - slack && distance <= max + slack && cos_elbow.is_finite()) {
         return Err(IkError::OutOfReach { target: shown, needed: distance, min, max });
     }
     let base = target.y.atan2(target.x);
