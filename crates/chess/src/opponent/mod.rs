@@ -6,11 +6,13 @@
 
 mod builtin;
 mod uci;
+mod uci_line;
 
 use std::path::PathBuf;
 
 pub use builtin::{BuiltinEngine, SearchSummary};
 pub use uci::UciEngine;
+pub use uci_line::{UciLine, parse_uci_line};
 
 /// Something that picks a move for the side to move.
 pub trait Opponent: std::fmt::Debug {
