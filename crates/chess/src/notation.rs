@@ -158,6 +158,16 @@ pub enum NotationError {
         /// The limit, in bytes.
         max_bytes: usize,
     },
+    /// A tag pair, from its `[` to its closing quote, is longer than [`MAX_PGN_TAG_BYTES`].
+    #[error("game {game}: tag [{tag}] is longer than {max_bytes} bytes")]
+    TagTooLong {
+        /// 1-based game number.
+        game: usize,
+        /// The tag name as typed (whitespace trimmed; cut after 40 characters, marked with `…`).
+        tag: String,
+        /// The limit, [`MAX_PGN_TAG_BYTES`].
+        max_bytes: usize,
+    },
     /// Reading the PGN failed.
     #[error("cannot read the PGN: {reason}")]
     Io {
@@ -302,6 +312,13 @@ fn list_token_to_move(token: &str, pos: &Chess) -> Result<Move, MoveProblem> {
     let san = SanPlus::from_ascii(san_text.as_bytes()).map_err(|_| MoveProblem::NotSanOrUci)?;
     san.san.to_move(pos).map_err(MoveProblem::from)
 }
+
+/// Largest accepted tag pair, in bytes from its `[` to its closing quote (or the end of its line).
+/// The PGN standard limits lines to 255 bytes; real files exceed that now and then (long `Annotator`
+/// or `Event` values). `pgn-reader` is configured to support tags this long everywhere (its buffer
+/// stays at its default 16 KiB for this value), and longer ones are reported as
+/// [`NotationError::TagTooLong`] instead of a confusing "unterminated tag".
+pub const MAX_PGN_TAG_BYTES: usize = 8 * 1024;
 
 /// Largest game [`read_game`] accepts, in bytes (its text from the end of the previous game). The
 /// longest real games are a few tens of kilobytes with heavy annotation; this bounds the memory used
@@ -450,7 +467,10 @@ fn parse_chunk(
     games: &mut usize,
     mut take: impl FnMut(usize, GameRecord) -> ControlFlow<()>,
 ) -> Result<(), NotationError> {
-    let mut reader = Reader::new(chunk.text);
+    if let Some(tag) = &chunk.long_tag {
+        return Err(NotationError::TagTooLong { game: *games + 1, tag: tag.clone(), max_bytes: MAX_PGN_TAG_BYTES });
+    }
+    let mut reader = Reader::build(chunk.text).set_supported_tag_line_length(MAX_PGN_TAG_BYTES).finish();
     let mut visitor = GameVisitor;
     let mut first_of_chunk = true;
     loop {
@@ -621,6 +641,8 @@ struct GameChunk<'a> {
     has_content: bool,
     /// The first main-line token that is not SAN.
     bad_token: Option<BadToken>,
+    /// The name of the first tag longer than [`MAX_PGN_TAG_BYTES`].
+    long_tag: Option<String>,
 }
 
 /// Bytes that end a movetext token, as in `pgn-reader`.
@@ -630,7 +652,8 @@ fn is_token_end(byte: u8) -> bool {
 
 /// Cuts the game starting at `start` out of `bytes`, following `pgn-reader`'s rules (a game's
 /// movetext ends at a blank line or a line starting with `[`) and additionally ending a game after
-/// its result token. Also records the first main-line token of the game that is not SAN. Chunks without tags, moves or result (e.g. trailing whitespace or a
+/// its result token. Also records the first main-line token of the game that is not SAN, and the
+/// first tag that is too long. Chunks without tags, moves or result (e.g. trailing whitespace or a
 /// lone comment) have `has_content == false`.
 ///
 /// Every decision that looks at the end of `bytes` (an unclosed comment, a token or line running to
@@ -640,6 +663,7 @@ fn is_token_end(byte: u8) -> bool {
 fn scan_chunk(bytes: &[u8], start: usize) -> GameChunk<'_> {
     let mut i = start;
     let mut has_content = false;
+    let mut long_tag = None;
 
     // Tag section (and whitespace / escape lines before it).
     let mut line_start = true;
@@ -653,7 +677,11 @@ fn scan_chunk(bytes: &[u8], start: usize) -> GameChunk<'_> {
             b'%' if line_start => i = line_end(bytes, i),
             b'[' => {
                 has_content = true;
-                i = skip_tag(bytes, i);
+                let (next, too_long) = skip_tag(bytes, i);
+                i = next;
+                if long_tag.is_none() {
+                    long_tag = too_long;
+                }
                 line_start = false;
             }
             _ => break,
@@ -721,7 +749,7 @@ fn scan_chunk(bytes: &[u8], start: usize) -> GameChunk<'_> {
             }
         }
     }
-    GameChunk { text: &bytes[start..i], end: i, has_content, bad_token }
+    GameChunk { text: &bytes[start..i], end: i, has_content, bad_token, long_tag }
 }
 
 /// Index of the `\n` ending the line containing `i` (or the end of the text).
@@ -734,29 +762,52 @@ fn token_end(bytes: &[u8], i: usize) -> usize {
     bytes[i..].iter().position(|&b| is_token_end(b)).map_or(bytes.len(), |p| i + p)
 }
 
-/// Index after the tag pair starting with `[` at `i`: after its closing quote and `]`.
-fn skip_tag(bytes: &[u8], i: usize) -> usize {
+/// Index after the tag pair starting with `[` at `i`: after its closing quote and `]`. Also the tag's
+/// name if the tag is longer than [`MAX_PGN_TAG_BYTES`] up to its closing quote (or the end of its
+/// line, or of the text), the part `pgn-reader` must see at once.
+fn skip_tag(bytes: &[u8], i: usize) -> (usize, Option<String>) {
+    let too_long = |terminator: usize, name_end: usize| {
+        (terminator.saturating_add(1).min(bytes.len()) - i > MAX_PGN_TAG_BYTES)
+            .then(|| tag_name(bytes, i + 1, name_end))
+    };
     let mut j = i + 1;
     // Up to the opening quote; a line without one is skipped like pgn-reader does.
     while j < bytes.len() && !matches!(bytes[j], b'"' | b'\n' | b']') {
         j += 1;
     }
+    let name_end = j;
     if j >= bytes.len() || bytes[j] != b'"' {
-        return (j + 1).min(bytes.len());
+        return ((j + 1).min(bytes.len()), too_long(j, name_end));
     }
     j += 1;
-    while j < bytes.len() {
-        match bytes[j] {
-            b'\\' => j += 2,
-            b'"' => {
+    let terminator = loop {
+        match bytes.get(j) {
+            None => break bytes.len(),
+            Some(b'\\') => j += 2,
+            Some(b'"') => {
                 j += 1;
-                break;
+                break j - 1;
             }
-            b'\n' => break,
-            _ => j += 1,
+            Some(b'\n') => break j,
+            Some(_) => j += 1,
         }
-    }
+    };
+    let long = too_long(terminator, name_end);
     let j = j.min(bytes.len());
     let after_spaces = j + bytes[j..].iter().take_while(|&&b| b == b' ' || b == b'\t').count();
-    if bytes.get(after_spaces) == Some(&b']') { after_spaces + 1 } else { j }
+    (if bytes.get(after_spaces) == Some(&b']') { after_spaces + 1 } else { j }, long)
+}
+
+/// The tag name between `start` and `end`, whitespace trimmed, cut after 40 characters.
+fn tag_name(bytes: &[u8], start: usize, end: usize) -> String {
+    const MAX_CHARS: usize = 40;
+    // Enough bytes for 40 characters of up to 4 bytes, and more, so that the cut cannot split one.
+    let shown = &bytes[start..end.min(start + 8 * MAX_CHARS)];
+    let name = String::from_utf8_lossy(shown);
+    let name = name.trim();
+    if name.chars().count() > MAX_CHARS || end > start + 8 * MAX_CHARS {
+        name.chars().take(MAX_CHARS).collect::<String>() + "…"
+    } else {
+        name.to_owned()
+    }
 }

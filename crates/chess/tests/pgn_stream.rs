@@ -6,7 +6,8 @@ use std::io::{self, Read};
 use std::time::{Duration, Instant};
 
 use chessarm_chess::notation::{
-    GameRecord, MAX_PGN_GAME_BYTES, NotationError, parse_pgn, read_game, read_game_with_limit, select_game,
+    GameRecord, MAX_PGN_GAME_BYTES, MAX_PGN_TAG_BYTES, NotationError, parse_pgn, read_game, read_game_with_limit,
+    select_game,
 };
 use proptest::prelude::*;
 use shakmaty::EnPassantMode;
@@ -34,7 +35,8 @@ fn error_game(error: &NotationError) -> Option<usize> {
         | NotationError::InvalidFenTag { game, .. }
         | NotationError::UnsupportedVariant { game, .. }
         | NotationError::PgnMove { game, .. }
-        | NotationError::GameTooLong { game, .. } => Some(*game),
+        | NotationError::GameTooLong { game, .. }
+        | NotationError::TagTooLong { game, .. } => Some(*game),
         _ => None,
     }
 }
@@ -248,6 +250,49 @@ fn read_errors_are_reported() {
     // failure comes with the read that would fill the buffer, so one byte per read is what shows this.
     let game = read_game(OneByte(FailingAfter(b"1. e4 e5 1-0 1. d4")), 1).unwrap();
     assert_eq!(game.san_moves(), ["e4", "e5"]);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Tags too long for pgn-reader
+// ---------------------------------------------------------------------------------------------------
+
+#[test]
+fn a_huge_tag_value_is_named_not_unterminated() {
+    let text = format!("[Event \"{}\"]\n[White \"A\"]\n\n1. e4 *\n", "v".repeat(1_000_000));
+    let expected = NotationError::TagTooLong { game: 1, tag: "Event".to_owned(), max_bytes: MAX_PGN_TAG_BYTES };
+    assert_eq!(parse_pgn(&text).unwrap_err(), expected);
+    assert_eq!(read_game(text.as_bytes(), 1).unwrap_err(), expected);
+    assert_eq!(expected.to_string(), "game 1: tag [Event] is longer than 8192 bytes");
+
+    // In the second game, and without a closing quote (the line ends the value).
+    let text = format!("{OPERA}\n[Annotator \"{}\n[White \"A\"]\n\n1. e4 *\n", "v".repeat(20_000));
+    let err = parse_pgn(&text).unwrap_err();
+    assert_eq!(err.to_string(), "game 2: tag [Annotator] is longer than 8192 bytes");
+    assert_eq!(read_game(text.as_bytes(), 1).unwrap().moves.len(), 33);
+    assert_eq!(read_game(text.as_bytes(), 2).unwrap_err(), err);
+
+    // A huge name is cut.
+    let text = format!("[{} \"x\"]\n\n1. e4 *\n", "N".repeat(1_000_000));
+    let err = parse_pgn(&text).unwrap_err();
+    assert_eq!(err.to_string(), format!("game 1: tag [{}…] is longer than 8192 bytes", "N".repeat(40)));
+}
+
+#[test]
+fn tags_up_to_the_limit_parse_wherever_they_are() {
+    // `[Event "` is 8 bytes and the closing quote 1: a value of limit - 9 bytes makes a tag of exactly
+    // the limit.
+    let value = |bytes: usize| "v".repeat(bytes);
+    // ~10 KB of tags first, so that the long one starts deep into pgn-reader's 16 KiB buffer and
+    // runs past its end: pgn-reader refills only when fewer than its guaranteed tag length is left
+    // (255 bytes by default, which made this tag "unterminated").
+    let filler: String = (0..90).map(|i| format!("[Tag{i} \"{}\"]\n", value(100))).collect();
+    assert!((9_000..12_000).contains(&filler.len()), "{}", filler.len());
+    let exact = format!("{filler}[Event \"{}\"]\n\n1. e4 *\n", value(MAX_PGN_TAG_BYTES - 9));
+    let game = parse_pgn(&exact).unwrap().remove(0);
+    assert_eq!(game.header("Event").map(str::len), Some(MAX_PGN_TAG_BYTES - 9));
+    assert_eq!(read_game(exact.as_bytes(), 1).unwrap().headers.len(), 91);
+    let over = format!("{filler}[Event \"{}\"]\n\n1. e4 *\n", value(MAX_PGN_TAG_BYTES - 8));
+    assert!(matches!(parse_pgn(&over).unwrap_err(), NotationError::TagTooLong { ref tag, .. } if tag == "Event"));
 }
 
 // ---------------------------------------------------------------------------------------------------
