@@ -97,6 +97,44 @@ fn builtin_is_deterministic() {
 }
 
 #[test]
+fn builtin_without_a_time_budget_is_a_pure_function_of_position_and_depth() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    let positions = [
+        Chess::default(),
+        position("r1bq1rk1/pp2bppp/2n1pn2/2pp4/3P4/2PBPN2/PP1N1PPP/R2QK2R w KQ - 0 8"),
+        position("8/5pk1/6p1/3R4/8/6P1/5PKP/2r5 b - - 3 40"),
+    ];
+    let search = |pos: &Chess| BuiltinEngine::new(3, None).search(pos).expect("a move");
+    for pos in &positions {
+        let reference = search(pos);
+        assert_eq!(reference.depth, 3, "{reference:?}");
+        for _ in 0..2 {
+            assert_eq!(search(pos), reference, "repeated call in {}", fen_of(pos));
+        }
+        // Two searches at once while a third thread keeps a core busy: neither load nor concurrency
+        // may change the result.
+        // The burner is stopped before anything is asserted, so that a failure cannot hang the scope.
+        let stop = AtomicBool::new(false);
+        let results = std::thread::scope(|scope| {
+            scope.spawn(|| {
+                let mut x = 0u64;
+                while !stop.load(Ordering::Relaxed) {
+                    x = std::hint::black_box(x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1));
+                }
+            });
+            let searches: Vec<_> = (0..2).map(|_| scope.spawn(|| search(pos))).collect();
+            let results: Vec<_> = searches.into_iter().map(|handle| handle.join()).collect();
+            stop.store(true, Ordering::Relaxed);
+            results
+        });
+        for result in results {
+            assert_eq!(result.expect("search thread"), reference, "threaded search in {}", fen_of(pos));
+        }
+    }
+}
+
+#[test]
 fn builtin_reports_no_legal_moves_when_mated_or_stalemated() {
     let fools_mate = position("rnb1kbnr/pppp1ppp/8/4p3/6Pq/5P2/PPPPP2P/RNBQKBNR w KQkq - 1 3");
     let stalemate = position("7k/5Q2/6K1/8/8/8/8/8 b - - 0 1");
