@@ -4,6 +4,9 @@
 //! Parse problems are reported as [`NotationError`]s whose one-line messages name the offending
 //! value and, for moves, the game, the move number and the position (as FEN) in which it failed.
 //!
+//! [`parse_pgn`] parses a whole PGN text; [`read_game`] reads one game of a PGN from any reader,
+//! stopping after it and bounding the memory used (for large databases or input that is not PGN).
+//!
 //! PGN parsing is done with `pgn-reader`: tags are kept, comments, NAGs and variations are ignored
 //! (only the main line is played), `[FEN "..."]` tags give the start position, and a result token
 //! (`1-0`, `0-1`, `1/2-1/2`, `*`) ends a game. Because `pgn-reader` silently skips tokens that are
