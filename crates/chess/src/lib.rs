@@ -4,6 +4,7 @@
 pub mod board;
 pub mod notation;
 pub mod opponent;
+pub mod outcome;
 pub mod pieces;
 pub mod play;
 pub mod scenario;

@@ -4,13 +4,16 @@
 //! Parse problems are reported as [`NotationError`]s whose one-line messages name the offending
 //! value and, for moves, the game, the move number and the position (as FEN) in which it failed.
 //!
+//! [`parse_pgn`] parses a whole PGN text; [`read_game`] reads one game of a PGN from any reader,
+//! stopping after it and bounding the memory used (for large databases or input that is not PGN).
+//!
 //! PGN parsing is done with `pgn-reader`: tags are kept, comments, NAGs and variations are ignored
 //! (only the main line is played), `[FEN "..."]` tags give the start position, and a result token
 //! (`1-0`, `0-1`, `1/2-1/2`, `*`) ends a game. Because `pgn-reader` silently skips tokens that are
 //! not SAN, the movetext is also scanned here so that such tokens are reported instead of dropped.
 
 use std::fmt;
-use std::io;
+use std::io::{self, Read};
 use std::ops::ControlFlow;
 
 use pgn_reader::{Outcome, RawTag, Reader, SanPlus, Skip, Visitor};
@@ -149,6 +152,33 @@ pub enum NotationError {
         /// The position before the move.
         fen: String,
     },
+    /// The text of one game (from the end of the previous one) is longer than the limit of
+    /// [`read_game_with_limit`] ([`MAX_PGN_GAME_BYTES`] for [`read_game`]).
+    #[error("game {game} is longer than {} (is this a PGN file?)", byte_size(.max_bytes))]
+    GameTooLong {
+        /// 1-based number the game would have.
+        game: usize,
+        /// The limit, in bytes.
+        max_bytes: usize,
+    },
+    /// A tag pair, from its `[` to its closing quote, is longer than [`MAX_PGN_TAG_BYTES`].
+    #[error("game {game}: tag [{tag}] is longer than {max_bytes} bytes")]
+    TagTooLong {
+        /// 1-based game number.
+        game: usize,
+        /// The tag name as typed (whitespace trimmed; cut after 40 characters, marked with `…`).
+        tag: String,
+        /// The limit, [`MAX_PGN_TAG_BYTES`].
+        max_bytes: usize,
+    },
+    /// Reading the PGN failed.
+    #[error("cannot read the PGN: {reason}")]
+    Io {
+        /// The kind of the I/O error.
+        kind: io::ErrorKind,
+        /// The I/O error's message.
+        reason: String,
+    },
     /// An entry of a move list is not valid SAN/UCI, illegal or ambiguous.
     #[error("move {index} '{token}' (game move {}) {problem} in {fen}", move_short(.number, .color))]
     ListMove {
@@ -177,6 +207,18 @@ fn move_label(number: &u32, color: &Color) -> String {
 fn move_short(number: &u32, color: &Color) -> String {
     let dots = if color.is_white() { "." } else { "..." };
     format!("{number}{dots} {color}")
+}
+
+/// `"4 MiB"`, `"64 KiB"` or `"1000 bytes"`.
+fn byte_size(bytes: &usize) -> String {
+    const KIB: usize = 1024;
+    const MIB: usize = 1024 * 1024;
+    match *bytes {
+        0 => "0 bytes".to_owned(),
+        b if b.is_multiple_of(MIB) => format!("{} MiB", b / MIB),
+        b if b.is_multiple_of(KIB) => format!("{} KiB", b / KIB),
+        b => format!("{b} byte{}", plural_s(&b)),
+    }
 }
 
 fn plural_s(count: &usize) -> &'static str {
@@ -274,31 +316,181 @@ fn list_token_to_move(token: &str, pos: &Chess) -> Result<Move, MoveProblem> {
     san.san.to_move(pos).map_err(MoveProblem::from)
 }
 
+/// Largest accepted tag pair, in bytes from its `[` to its closing quote (or the end of its line).
+/// The PGN standard limits lines to 255 bytes; real files exceed that now and then (long `Annotator`
+/// or `Event` values). `pgn-reader` is configured to support tags this long everywhere (its buffer
+/// stays at its default 16 KiB for this value), and longer ones are reported as
+/// [`NotationError::TagTooLong`] instead of a confusing "unterminated tag".
+pub const MAX_PGN_TAG_BYTES: usize = 8 * 1024;
+
+/// Largest game [`read_game`] accepts, in bytes (its text from the end of the previous game). The
+/// longest real games are a few tens of kilobytes with heavy annotation; this bounds the memory used
+/// for a file that is not PGN at all (e.g. `/dev/zero`) while leaving ample room.
+pub const MAX_PGN_GAME_BYTES: usize = 4 * 1024 * 1024;
+
+/// Smallest read from the underlying reader; reads grow with the pending text.
+const MIN_READ: usize = 64 * 1024;
+
 /// Parses all games of a PGN file.
 ///
 /// Headers are kept; comments, NAGs and variations are ignored (only the main line is played).
 /// A `[FEN]` tag gives the start position (a `[Variant]` tag other than standard chess is
 /// rejected). A result token ends a game. Fails on the first problem, naming the game, or with
-/// [`NotationError::NoGames`] if the text holds no game.
+/// [`NotationError::NoGames`] if the text holds no game. See [`read_game`] to read one game of a
+/// large file without holding the file.
 pub fn parse_pgn(text: &str) -> Result<Vec<GameRecord>, NotationError> {
+    let bytes = text.as_bytes();
     let mut records = Vec::new();
-    for chunk in split_games(text) {
-        let mut reader = Reader::new(chunk.text);
-        let mut visitor = GameVisitor;
-        let mut first_of_chunk = true;
-        loop {
-            let game = records.len() + 1;
-            let parsed = match reader.read_game(&mut visitor) {
-                Ok(Some(parsed)) => parsed,
-                Ok(None) => break,
-                Err(err) => return Err(malformed(game, &err)),
-            };
-            let bad_token = if first_of_chunk { chunk.bad_token.as_ref() } else { None };
-            first_of_chunk = false;
-            records.push(finish_game(game, parsed, bad_token)?);
+    let mut games = 0;
+    let mut at = bom_len(bytes);
+    while at < bytes.len() {
+        let chunk = scan_chunk(bytes, at);
+        at = chunk.end;
+        if chunk.has_content {
+            parse_chunk(&chunk, &mut games, |_, record| {
+                records.push(record);
+                ControlFlow::Continue(())
+            })?;
         }
     }
     if records.is_empty() { Err(NotationError::NoGames) } else { Ok(records) }
+}
+
+/// Reads game `number` (1-based) of a PGN from `reader`, without holding more than that game.
+///
+/// The same as [`parse_pgn`] followed by [`select_game`] on the same text (same numbering, records
+/// and errors; [`NotationError::NoSuchGame`] with the true count when the file ends early,
+/// [`NotationError::NoGames`] when it has none), except that:
+/// - reading stops as soon as game `number` is complete, so problems in later games are not
+///   reported (they are never read); for `number == 0` the whole input is read, as the count needs it;
+/// - a game longer than [`MAX_PGN_GAME_BYTES`] is [`NotationError::GameTooLong`], so that
+///   non-PGN input (`/dev/zero`) fails fast with bounded memory;
+/// - the input is bytes: text that is not UTF-8 is decoded lossily (tags) or rejected as moves;
+/// - read errors are [`NotationError::Io`] (unless the game was complete in what came before).
+///
+/// The input is read in blocks of at least 64 KiB (growing with a long game), each until it is full
+/// or the input ends: on a pipe, reading waits for a block or the end of the input.
+///
+/// # Errors
+///
+/// Any [`NotationError`] of [`parse_pgn`] and [`select_game`], [`NotationError::GameTooLong`] and
+/// [`NotationError::Io`].
+pub fn read_game<R: io::Read>(reader: R, number: usize) -> Result<GameRecord, NotationError> {
+    read_game_with_limit(reader, number, MAX_PGN_GAME_BYTES)
+}
+
+/// [`read_game`] with a limit of `max_game_bytes` per game instead of [`MAX_PGN_GAME_BYTES`].
+///
+/// The limit applies to the text of a game from the end of the previous one (leading whitespace
+/// and comments included); the result does not depend on how the reader splits its data.
+///
+/// # Errors
+///
+/// As [`read_game`], with [`NotationError::GameTooLong`] naming `max_game_bytes`.
+pub fn read_game_with_limit<R: io::Read>(
+    mut reader: R,
+    number: usize,
+    max_game_bytes: usize,
+) -> Result<GameRecord, NotationError> {
+    // Text not yet consumed: it starts at a game boundary (or at the start of the file).
+    let mut pending: Vec<u8> = Vec::new();
+    let mut at_file_start = true;
+    let mut eof = false;
+    // A read error, reported once the text read before it has been used.
+    let mut failure = None;
+    let mut games = 0;
+    loop {
+        // A BOM is only looked for at the start of the file, once its first 3 bytes are there.
+        let mut at = 0;
+        let ready = !at_file_start || eof || pending.len() >= 3;
+        if ready && at_file_start {
+            at = bom_len(&pending);
+            at_file_start = false;
+        }
+        while ready && at < pending.len() {
+            let chunk = scan_chunk(&pending, at);
+            let complete = eof || chunk.end < pending.len();
+            // An incomplete chunk is at least as long as what is there of it.
+            if chunk.end - at > max_game_bytes {
+                return Err(NotationError::GameTooLong { game: games + 1, max_bytes: max_game_bytes });
+            }
+            if !complete {
+                break;
+            }
+            at = chunk.end;
+            if chunk.has_content {
+                let mut found = None;
+                parse_chunk(&chunk, &mut games, |game, record| {
+                    if game == number {
+                        found = Some(record);
+                        ControlFlow::Break(())
+                    } else {
+                        ControlFlow::Continue(())
+                    }
+                })?;
+                if let Some(record) = found {
+                    return Ok(record);
+                }
+            }
+        }
+        pending.drain(..at);
+        if eof {
+            return Err(if games == 0 {
+                NotationError::NoGames
+            } else {
+                NotationError::NoSuchGame { requested: number, count: games }
+            });
+        }
+        if let Some(failure) = failure {
+            return Err(failure);
+        }
+        // Reads grow with the pending text, so that rescanning an incomplete game stays amortised
+        // (each rescan follows a doubling), and stop one byte past the limit.
+        let room = (max_game_bytes + 1).saturating_sub(pending.len()).max(1);
+        let want = pending.len().max(MIN_READ).min(room);
+        let before = pending.len();
+        let limit = u64::try_from(want).unwrap_or(u64::MAX);
+        // On an error, what was read before it is in `pending` and is scanned first.
+        match (&mut reader).take(limit).read_to_end(&mut pending) {
+            Ok(_) => eof = pending.len() - before < want,
+            Err(error) => failure = Some(NotationError::Io { kind: error.kind(), reason: error.to_string() }),
+        }
+    }
+}
+
+/// Length of a UTF-8 byte-order mark at the start of `bytes` (0 or 3).
+fn bom_len(bytes: &[u8]) -> usize {
+    if bytes.starts_with(b"\xef\xbb\xbf") { 3 } else { 0 }
+}
+
+/// Parses the games of one chunk, numbering them on from `games` (which counts them), and hands each
+/// record with its number to `take` until it breaks. Fails on the chunk's first problem.
+fn parse_chunk(
+    chunk: &GameChunk<'_>,
+    games: &mut usize,
+    mut take: impl FnMut(usize, GameRecord) -> ControlFlow<()>,
+) -> Result<(), NotationError> {
+    if let Some(tag) = &chunk.long_tag {
+        return Err(NotationError::TagTooLong { game: *games + 1, tag: tag.clone(), max_bytes: MAX_PGN_TAG_BYTES });
+    }
+    let mut reader = Reader::build(chunk.text).set_supported_tag_line_length(MAX_PGN_TAG_BYTES).finish();
+    let mut visitor = GameVisitor;
+    let mut first_of_chunk = true;
+    loop {
+        let game = *games + 1;
+        let parsed = match reader.read_game(&mut visitor) {
+            Ok(Some(parsed)) => parsed,
+            Ok(None) => return Ok(()),
+            Err(err) => return Err(malformed(game, &err)),
+        };
+        let bad_token = if first_of_chunk { chunk.bad_token.as_ref() } else { None };
+        first_of_chunk = false;
+        let record = finish_game(game, parsed, bad_token)?;
+        *games = game;
+        if take(game, record).is_break() {
+            return Ok(());
+        }
+    }
 }
 
 fn malformed(game: usize, err: &io::Error) -> NotationError {
@@ -441,11 +633,19 @@ struct BadToken {
     token: String,
 }
 
-/// The text of one game and the first non-SAN main-line token in it.
+/// One game's text as cut by [`scan_chunk`], with what the scan noticed in it.
 #[derive(Debug)]
 struct GameChunk<'a> {
     text: &'a [u8],
+    /// Index just after the chunk in the scanned bytes. If it is the end of the bytes, the chunk may
+    /// go on in text not scanned yet (a boundary lies strictly inside the bytes).
+    end: usize,
+    /// Whether the chunk has tags, moves or a result (otherwise it is skipped).
+    has_content: bool,
+    /// The first main-line token that is not SAN.
     bad_token: Option<BadToken>,
+    /// The name of the first tag longer than [`MAX_PGN_TAG_BYTES`].
+    long_tag: Option<String>,
 }
 
 /// Bytes that end a movetext token, as in `pgn-reader`.
@@ -453,103 +653,106 @@ fn is_token_end(byte: u8) -> bool {
     matches!(byte, b' ' | b'\t' | b'\n' | b'\r' | b'{' | b'}' | b'(' | b')' | b'!' | b'?' | b'$' | b';' | b'.' | b'*')
 }
 
-/// Splits PGN text into games, following `pgn-reader`'s rules (a game's movetext ends at a blank
-/// line or a line starting with `[`) and additionally ending a game after its result token.
-/// Also records the first main-line token of each game that is not SAN. Chunks without tags,
-/// moves or result (e.g. trailing whitespace or a lone comment) are dropped.
-fn split_games(text: &str) -> Vec<GameChunk<'_>> {
-    let bytes = text.as_bytes();
-    let mut i = if bytes.starts_with(b"\xef\xbb\xbf") { 3 } else { 0 };
-    let mut chunks = Vec::new();
+/// Cuts the game starting at `start` out of `bytes`, following `pgn-reader`'s rules (a game's
+/// movetext ends at a blank line or a line starting with `[`) and additionally ending a game after
+/// its result token. Also records the first main-line token of the game that is not SAN, and the
+/// first tag that is too long. Chunks without tags, moves or result (e.g. trailing whitespace or a
+/// lone comment) have `has_content == false`.
+///
+/// Every decision that looks at the end of `bytes` (an unclosed comment, a token or line running to
+/// the end, a newline as the last byte) leads to `end == bytes.len()`, and each chunk ends either
+/// there or at a boundary strictly inside `bytes`. So a chunk with `end < bytes.len()` is the same
+/// whatever follows, which is what lets [`read_game`] scan a growing buffer.
+fn scan_chunk(bytes: &[u8], start: usize) -> GameChunk<'_> {
+    let mut i = start;
+    let mut has_content = false;
+    let mut long_tag = None;
+
+    // Tag section (and whitespace / escape lines before it).
+    let mut line_start = true;
     while i < bytes.len() {
-        let start = i;
-        let mut has_content = false;
-
-        // Tag section (and whitespace / escape lines before it).
-        let mut line_start = true;
-        while i < bytes.len() {
-            match bytes[i] {
-                b'\n' => {
-                    line_start = true;
-                    i += 1;
-                }
-                b' ' | b'\t' | b'\r' => i += 1,
-                b'%' if line_start => i = line_end(bytes, i),
-                b'[' => {
-                    has_content = true;
-                    i = skip_tag(bytes, i);
-                    line_start = false;
-                }
-                _ => break,
+        match bytes[i] {
+            b'\n' => {
+                line_start = true;
+                i += 1;
             }
-        }
-
-        // Movetext.
-        let mut depth = 0usize;
-        let mut ply = 0usize;
-        let mut bad_token = None;
-        while i < bytes.len() {
-            match bytes[i] {
-                b'{' => i = bytes[i..].iter().position(|&b| b == b'}').map_or(bytes.len(), |p| i + p + 1),
-                b';' => i = line_end(bytes, i),
-                b'\n' => {
-                    i += 1;
-                    match bytes.get(i) {
-                        Some(b'%') => i = line_end(bytes, i),
-                        Some(b'[' | b'\n') => break,
-                        Some(b'\r') if bytes.get(i + 1) == Some(&b'\n') => break,
-                        _ => {}
-                    }
+            b' ' | b'\t' | b'\r' => i += 1,
+            b'%' if line_start => i = line_end(bytes, i),
+            b'[' => {
+                has_content = true;
+                let (next, too_long) = skip_tag(bytes, i);
+                i = next;
+                if long_tag.is_none() {
+                    long_tag = too_long;
                 }
-                b'(' => {
-                    depth += 1;
-                    i += 1;
-                }
-                b')' => {
-                    depth = depth.saturating_sub(1);
-                    i += 1;
-                }
-                b' ' | b'\t' | b'\r' | b'.' | b'!' | b'?' => i += 1,
-                _ if depth > 0 => i += 1,
-                b'$' => i = token_end(bytes, i + 1),
-                _ => {
-                    // At least one byte, like pgn-reader (which skips a stray `}` as a bad token too).
-                    let end = token_end(bytes, i + 1);
-                    let token = String::from_utf8_lossy(&bytes[i..end]);
-                    i = end;
-                    if token == "*" || is_result(&token) {
-                        has_content = true;
-                        break;
-                    }
-                    // `pgn-reader` reads a leading move number (digits; the dots are separate tokens).
-                    let rest = if token.starts_with(|c: char| c.is_ascii_digit() && c != '0') {
-                        token.trim_start_matches(|c: char| c.is_ascii_digit())
-                    } else {
-                        &token
-                    };
-                    if rest.is_empty() {
-                        continue;
-                    }
-                    has_content = true;
-                    let is_san = if rest.starts_with('0') {
-                        // Castling written with zeros, read by pgn-reader itself.
-                        matches!(rest, "0-0" | "0-0+" | "0-0#" | "0-0-0" | "0-0-0+" | "0-0-0#")
-                    } else {
-                        matches!(SanPlus::from_ascii_prefix(rest.as_bytes()), Ok((_, len)) if len == rest.len())
-                    };
-                    if is_san {
-                        ply += 1;
-                    } else if bad_token.is_none() {
-                        bad_token = Some(BadToken { ply, token: token.into_owned() });
-                    }
-                }
+                line_start = false;
             }
-        }
-        if has_content {
-            chunks.push(GameChunk { text: &bytes[start..i], bad_token });
+            _ => break,
         }
     }
-    chunks
+
+    // Movetext.
+    let mut depth = 0usize;
+    let mut ply = 0usize;
+    let mut bad_token = None;
+    while i < bytes.len() {
+        match bytes[i] {
+            b'{' => i = bytes[i..].iter().position(|&b| b == b'}').map_or(bytes.len(), |p| i + p + 1),
+            b';' => i = line_end(bytes, i),
+            b'\n' => {
+                i += 1;
+                match bytes.get(i) {
+                    Some(b'%') => i = line_end(bytes, i),
+                    Some(b'[' | b'\n') => break,
+                    Some(b'\r') if bytes.get(i + 1) == Some(&b'\n') => break,
+                    _ => {}
+                }
+            }
+            b'(' => {
+                depth += 1;
+                i += 1;
+            }
+            b')' => {
+                depth = depth.saturating_sub(1);
+                i += 1;
+            }
+            b' ' | b'\t' | b'\r' | b'.' | b'!' | b'?' => i += 1,
+            _ if depth > 0 => i += 1,
+            b'$' => i = token_end(bytes, i + 1),
+            _ => {
+                // At least one byte, like pgn-reader (which skips a stray `}` as a bad token too).
+                let end = token_end(bytes, i + 1);
+                let token = String::from_utf8_lossy(&bytes[i..end]);
+                i = end;
+                if token == "*" || is_result(&token) {
+                    has_content = true;
+                    break;
+                }
+                // `pgn-reader` reads a leading move number (digits; the dots are separate tokens).
+                let rest = if token.starts_with(|c: char| c.is_ascii_digit() && c != '0') {
+                    token.trim_start_matches(|c: char| c.is_ascii_digit())
+                } else {
+                    &token
+                };
+                if rest.is_empty() {
+                    continue;
+                }
+                has_content = true;
+                let is_san = if rest.starts_with('0') {
+                    // Castling written with zeros, read by pgn-reader itself.
+                    matches!(rest, "0-0" | "0-0+" | "0-0#" | "0-0-0" | "0-0-0+" | "0-0-0#")
+                } else {
+                    matches!(SanPlus::from_ascii_prefix(rest.as_bytes()), Ok((_, len)) if len == rest.len())
+                };
+                if is_san {
+                    ply += 1;
+                } else if bad_token.is_none() {
+                    bad_token = Some(BadToken { ply, token: token.into_owned() });
+                }
+            }
+        }
+    }
+    GameChunk { text: &bytes[start..i], end: i, has_content, bad_token, long_tag }
 }
 
 /// Index of the `\n` ending the line containing `i` (or the end of the text).
@@ -562,29 +765,52 @@ fn token_end(bytes: &[u8], i: usize) -> usize {
     bytes[i..].iter().position(|&b| is_token_end(b)).map_or(bytes.len(), |p| i + p)
 }
 
-/// Index after the tag pair starting with `[` at `i`: after its closing quote and `]`.
-fn skip_tag(bytes: &[u8], i: usize) -> usize {
+/// Index after the tag pair starting with `[` at `i`: after its closing quote and `]`. Also the tag's
+/// name if the tag is longer than [`MAX_PGN_TAG_BYTES`] up to its closing quote (or the end of its
+/// line, or of the text), the part `pgn-reader` must see at once.
+fn skip_tag(bytes: &[u8], i: usize) -> (usize, Option<String>) {
+    let too_long = |terminator: usize, name_end: usize| {
+        (terminator.saturating_add(1).min(bytes.len()) - i > MAX_PGN_TAG_BYTES)
+            .then(|| tag_name(bytes, i + 1, name_end))
+    };
     let mut j = i + 1;
     // Up to the opening quote; a line without one is skipped like pgn-reader does.
     while j < bytes.len() && !matches!(bytes[j], b'"' | b'\n' | b']') {
         j += 1;
     }
+    let name_end = j;
     if j >= bytes.len() || bytes[j] != b'"' {
-        return (j + 1).min(bytes.len());
+        return ((j + 1).min(bytes.len()), too_long(j, name_end));
     }
     j += 1;
-    while j < bytes.len() {
-        match bytes[j] {
-            b'\\' => j += 2,
-            b'"' => {
+    let terminator = loop {
+        match bytes.get(j) {
+            None => break bytes.len(),
+            Some(b'\\') => j += 2,
+            Some(b'"') => {
                 j += 1;
-                break;
+                break j - 1;
             }
-            b'\n' => break,
-            _ => j += 1,
+            Some(b'\n') => break j,
+            Some(_) => j += 1,
         }
-    }
+    };
+    let long = too_long(terminator, name_end);
     let j = j.min(bytes.len());
     let after_spaces = j + bytes[j..].iter().take_while(|&&b| b == b' ' || b == b'\t').count();
-    if bytes.get(after_spaces) == Some(&b']') { after_spaces + 1 } else { j }
+    (if bytes.get(after_spaces) == Some(&b']') { after_spaces + 1 } else { j }, long)
+}
+
+/// The tag name between `start` and `end`, whitespace trimmed, cut after 40 characters.
+fn tag_name(bytes: &[u8], start: usize, end: usize) -> String {
+    const MAX_CHARS: usize = 40;
+    // Enough bytes for 40 characters of up to 4 bytes, and more, so that the cut cannot split one.
+    let shown = &bytes[start..end.min(start + 8 * MAX_CHARS)];
+    let name = String::from_utf8_lossy(shown);
+    let name = name.trim();
+    if name.chars().count() > MAX_CHARS || end > start + 8 * MAX_CHARS {
+        name.chars().take(MAX_CHARS).collect::<String>() + "…"
+    } else {
+        name.to_owned()
+    }
 }

@@ -7,6 +7,7 @@
 //! exactly to their squares.
 
 use crate::board::BoardGeometry;
+use crate::outcome::{GameOutcome, outcome, position_key};
 use crate::pieces::PieceSet;
 use crate::table::{Location, Misplaced, Table, TableError};
 use crate::tasks::{MotionLimits, MoveKind, TaskError, append_move_path, classify, move_tasks};
@@ -164,6 +165,8 @@ pub struct Game {
     ply: usize,
     robot_time: f64,
     misplaced: Vec<(usize, String, Misplaced)>,
+    /// [`position_key`] of every position so far, the start first and the current one last.
+    history: Vec<u64>,
 }
 
 impl Game {
@@ -187,6 +190,7 @@ impl Game {
         let q = inverse_kinematics(&arm, &tool, TOOL_DOWN).map_err(PlayError::Home)?;
         let misplaced =
             table.verify(start.board(), settings.tolerance).into_iter().map(|m| (0, "start".to_string(), m)).collect();
+        let history = vec![position_key(&start)];
         Ok(Self {
             arm,
             settings,
@@ -197,6 +201,7 @@ impl Game {
             ply: 0,
             robot_time: 0.0,
             misplaced,
+            history,
         })
     }
 
@@ -206,6 +211,14 @@ impl Game {
 
     pub fn table(&self) -> &Table {
         &self.table
+    }
+
+    /// How the game has ended after the moves played so far (checkmate, stalemate, insufficient
+    /// material, threefold repetition or the fifty-move rule), or `None` if it goes on. The start
+    /// position counts for repetitions, and a FEN start's halfmove clock for the fifty-move rule.
+    /// See [`crate::outcome::outcome`].
+    pub fn outcome(&self) -> Option<GameOutcome> {
+        outcome(&self.position, &self.history)
     }
 
     /// Total robot time so far, s.
@@ -264,6 +277,7 @@ impl Game {
             Mover::Robot => self.execute(mv, &name, &mut report)?,
         }
         self.position.play_unchecked(*mv);
+        self.history.push(position_key(&self.position));
         self.ply += 1;
         let before: Vec<String> = self.misplaced.iter().map(|(_, _, m)| m.reason.clone()).collect();
         let now = self.table.verify(self.position.board(), self.settings.tolerance);

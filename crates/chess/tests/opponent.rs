@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use chessarm_chess::opponent::{BuiltinEngine, Opponent, OpponentError, UciEngine};
+use chessarm_chess::opponent::{BuiltinEngine, MAX_UCI_LINE_BYTES, Opponent, OpponentError, UciEngine};
 use shakmaty::fen::Fen;
 use shakmaty::{CastlingMode, Chess, EnPassantMode, Move, Position, Role, Square};
 
@@ -97,6 +97,44 @@ fn builtin_is_deterministic() {
 }
 
 #[test]
+fn builtin_without_a_time_budget_is_a_pure_function_of_position_and_depth() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    let positions = [
+        Chess::default(),
+        position("r1bq1rk1/pp2bppp/2n1pn2/2pp4/3P4/2PBPN2/PP1N1PPP/R2QK2R w KQ - 0 8"),
+        position("8/5pk1/6p1/3R4/8/6P1/5PKP/2r5 b - - 3 40"),
+    ];
+    let search = |pos: &Chess| BuiltinEngine::new(3, None).search(pos).expect("a move");
+    for pos in &positions {
+        let reference = search(pos);
+        assert_eq!(reference.depth, 3, "{reference:?}");
+        for _ in 0..2 {
+            assert_eq!(search(pos), reference, "repeated call in {}", fen_of(pos));
+        }
+        // Two searches at once while a third thread keeps a core busy: neither load nor concurrency
+        // may change the result.
+        // The burner is stopped before anything is asserted, so that a failure cannot hang the scope.
+        let stop = AtomicBool::new(false);
+        let results = std::thread::scope(|scope| {
+            scope.spawn(|| {
+                let mut x = 0u64;
+                while !stop.load(Ordering::Relaxed) {
+                    x = std::hint::black_box(x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1));
+                }
+            });
+            let searches: Vec<_> = (0..2).map(|_| scope.spawn(|| search(pos))).collect();
+            let results: Vec<_> = searches.into_iter().map(|handle| handle.join()).collect();
+            stop.store(true, Ordering::Relaxed);
+            results
+        });
+        for result in results {
+            assert_eq!(result.expect("search thread"), reference, "threaded search in {}", fen_of(pos));
+        }
+    }
+}
+
+#[test]
 fn builtin_reports_no_legal_moves_when_mated_or_stalemated() {
     let fools_mate = position("rnb1kbnr/pppp1ppp/8/4p3/6Pq/5P2/PPPPP2P/RNBQKBNR w KQkq - 1 3");
     let stalemate = position("7k/5Q2/6K1/8/8/8/8/8 b - - 0 1");
@@ -163,8 +201,21 @@ mod fake_engines {
 
     /// Writes an executable `#!/bin/sh` fake engine whose reaction to `go` is `on_go` (shell code).
     fn write_fake_engine(dir: &TempDir, on_go: &str, on_quit: &str, after_loop: &str) -> PathBuf {
+        write_fake_engine_with_prelude(dir, "", on_go, on_quit, after_loop)
+    }
+
+    /// Like [`write_fake_engine`], running `prelude` (shell code) first. `$DIR` is the temp dir.
+    fn write_fake_engine_with_prelude(
+        dir: &TempDir,
+        prelude: &str,
+        on_go: &str,
+        on_quit: &str,
+        after_loop: &str,
+    ) -> PathBuf {
         let script = format!(
             r#"#!/bin/sh
+    DIR='{dir}'
+    {prelude}
     while read -r line; do
       case "$line" in
         uci) echo "Fake engine for tests"; echo "id name FakeEngine 1.0"; echo "id author nobody"; echo "uciok" ;;
@@ -174,7 +225,8 @@ mod fake_engines {
       esac
     done
     {after_loop}
-    "#
+    "#,
+            dir = dir.0.display()
         );
         let path = dir.0.join("engine.sh");
         std::fs::write(&path, script).expect("write fake engine");
@@ -328,6 +380,167 @@ mod fake_engines {
         let start = Instant::now();
         drop(engine);
         assert!(start.elapsed() < Duration::from_secs(2), "drop took {:?}", start.elapsed());
+    }
+
+    #[test]
+    fn fake_engine_sending_an_endless_line_is_cut_off() {
+        let dir = TempDir::new("endless");
+        // 10 MB without a newline: the client must stop reading after 64 KiB + 1 bytes.
+        let path = write_fake_engine(&dir, r#"head -c 10000000 /dev/zero | tr '\0' a"#, "exit 0", "");
+        let mut engine = spawn(&path, 10, Duration::from_secs(10)).expect("engine starts");
+        let start = Instant::now();
+        let err = engine.choose_move(&Chess::default()).expect_err("line too long");
+        // Reading 64 KiB and killing the engine takes milliseconds; 5 s (half the engine timeout, so a
+        // timeout cannot pass for this error) leaves room for a loaded machine.
+        assert!(start.elapsed() < Duration::from_secs(5), "took {:?}", start.elapsed());
+        match &err {
+            OpponentError::LineTooLong { engine: name, max_bytes } => {
+                assert_eq!(*max_bytes, MAX_UCI_LINE_BYTES);
+                assert!(name.contains("FakeEngine 1.0"), "{name}");
+            }
+            other => panic!("expected LineTooLong, got {other:?}"),
+        }
+        let message = err.to_string();
+        assert!(message.contains("sent a line longer than 65536 bytes") && !message.contains('\n'), "{message}");
+        // The engine was killed.
+        let err = engine.choose_move(&Chess::default()).expect_err("engine is dead");
+        assert!(matches!(err, OpponentError::EngineDied { .. }), "{err:?}");
+        let start = Instant::now();
+        drop(engine);
+        assert!(start.elapsed() < Duration::from_secs(2), "drop took {:?}", start.elapsed());
+    }
+
+    #[test]
+    fn fake_engine_line_of_exactly_the_limit_is_accepted() {
+        let dir = TempDir::new("longline");
+        let line = |bytes: usize| format!(r#"head -c {bytes} /dev/zero | tr '\0' a; echo"#);
+        let on_go = format!(r#"{}; echo "bestmove e2e4""#, line(MAX_UCI_LINE_BYTES));
+        let path = write_fake_engine(&dir, &on_go, "exit 0", "");
+        let mut engine = spawn(&path, 10, Duration::from_secs(10)).expect("engine starts");
+        let m = engine.choose_move(&Chess::default()).expect("a 65536-byte line is fine");
+        assert_eq!(m.to_uci(CastlingMode::Standard).to_string(), "e2e4");
+
+        let dir = TempDir::new("longerline");
+        let on_go = format!(r#"{}; echo "bestmove e2e4""#, line(MAX_UCI_LINE_BYTES + 1));
+        let path = write_fake_engine(&dir, &on_go, "exit 0", "");
+        let mut engine = spawn(&path, 10, Duration::from_secs(10)).expect("engine starts");
+        let err = engine.choose_move(&Chess::default()).expect_err("one byte too many");
+        assert!(matches!(err, OpponentError::LineTooLong { .. }), "{err:?}");
+    }
+
+    /// The process id written by a fake engine to `file`.
+    fn read_pid(file: &Path) -> u32 {
+        let text = std::fs::read_to_string(file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+        text.trim().parse().unwrap_or_else(|e| panic!("pid {text:?}: {e}"))
+    }
+
+    /// State letter and start time (clock ticks since boot) from `/proc/<pid>/stat`, `None` if there
+    /// is no such process. The command name (field 2) may contain spaces and parentheses, so fields
+    /// are counted after its closing parenthesis: state is field 3, start time field 22.
+    #[cfg(target_os = "linux")]
+    fn proc_state(pid: u32) -> Option<(char, u64)> {
+        let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+        let after_name = &stat[stat.rfind(')')? + 1..];
+        let fields: Vec<&str> = after_name.split_whitespace().collect();
+        Some((fields.first()?.chars().next()?, fields.get(19)?.parse().ok()?))
+    }
+
+    /// Waits up to 2 s for process `pid` (alive now) to be gone. A zombie (`Z`) counts as gone: it has
+    /// been killed, and as an orphan it is reaped by init (or whichever process adopts it), which
+    /// this test does not control. If the pid is reused meanwhile (a different start time), the
+    /// original process is gone too. 2 s: a killed process disappears within milliseconds; this
+    /// leaves room for a loaded machine without making the test slow.
+    #[cfg(target_os = "linux")]
+    fn assert_gone_soon(pid: u32, what: &str) {
+        let Some((_, started)) = proc_state(pid) else { return };
+        let deadline = Instant::now() + Duration::from_secs(2);
+        loop {
+            match proc_state(pid) {
+                None => return,
+                Some(('Z', _)) => return,
+                Some((_, start)) if start != started => return,
+                Some((state, _)) if Instant::now() >= deadline => {
+                    panic!("{what} (pid {pid}) still there in state {state} after 2 s")
+                }
+                Some(_) => std::thread::sleep(Duration::from_millis(10)),
+            }
+        }
+    }
+
+    /// A grandchild that is still running now.
+    #[cfg(target_os = "linux")]
+    fn running_grandchild(dir: &TempDir) -> u32 {
+        let pid = read_pid(&dir.0.join("grandchild.pid"));
+        let state = proc_state(pid).map(|(state, _)| state);
+        assert!(matches!(state, Some('S' | 'R')), "grandchild {pid} not running: {state:?}");
+        pid
+    }
+
+    /// Starts `sleep 1000` in the background (output away from the engine's pipe, so only the process
+    /// group ties it to the engine) and records its pid.
+    const START_GRANDCHILD: &str = r#"sleep 1000 >/dev/null 2>&1 &
+    echo $! > "$DIR/grandchild.pid""#;
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn grandchild_is_killed_with_a_timed_out_engine() {
+        let dir = TempDir::new("grandchild-timeout");
+        let path = write_fake_engine_with_prelude(&dir, START_GRANDCHILD, "sleep 30", "exit 0", "");
+        let mut engine = spawn(&path, 10, Duration::from_millis(300)).expect("engine starts");
+        let grandchild = running_grandchild(&dir);
+        let err = engine.choose_move(&Chess::default()).expect_err("engine hangs");
+        assert!(matches!(err, OpponentError::EngineTimeout { .. }), "{err:?}");
+        assert_gone_soon(grandchild, "grandchild after the timeout");
+        drop(engine);
+        assert_gone_soon(grandchild, "grandchild after drop");
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn grandchild_is_killed_when_the_engine_is_dropped() {
+        let dir = TempDir::new("grandchild-drop");
+        let path = write_fake_engine_with_prelude(&dir, START_GRANDCHILD, r#"echo "bestmove e2e4""#, "exit 0", "");
+        let mut engine = spawn(&path, 10, Duration::from_secs(5)).expect("engine starts");
+        let grandchild = running_grandchild(&dir);
+        engine.choose_move(&Chess::default()).expect("a move");
+        // The engine exits on `quit`; its helper must not outlive it.
+        drop(engine);
+        assert_gone_soon(grandchild, "grandchild after drop");
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn engine_exiting_while_its_child_holds_the_output_is_reported_dead_at_once() {
+        let dir = TempDir::new("exit-held");
+        // The background `sleep` inherits the engine's stdout, so the pipe stays open after `exit 3`.
+        let on_go = r#"sleep 30 & echo $! > "$DIR/grandchild.pid"; exit 3"#;
+        let path = write_fake_engine(&dir, on_go, "exit 0", "");
+        let mut engine = spawn(&path, 10, Duration::from_secs(10)).expect("engine starts");
+        let start = Instant::now();
+        let err = engine.choose_move(&Chess::default()).expect_err("engine exits");
+        let elapsed = start.elapsed();
+        // Noticed within one 25 ms polling slice plus 100 ms for late lines; 2 s leaves room for a
+        // loaded machine and is far below the 10 s timeout this used to end in.
+        assert!(elapsed < Duration::from_secs(2), "took {elapsed:?}");
+        match &err {
+            OpponentError::EngineDied { detail, .. } => {
+                assert_eq!(detail, "the process exited (exit status: 3) while we waited for `bestmove`");
+            }
+            other => panic!("expected EngineDied, got {other:?}"),
+        }
+        assert_gone_soon(read_pid(&dir.0.join("grandchild.pid")), "the child holding the output");
+    }
+
+    #[test]
+    fn engine_answering_and_then_exiting_still_delivers_its_move() {
+        let dir = TempDir::new("answer-exit");
+        let on_go = r#"sleep 30 & echo "bestmove e2e4"; exit 0"#;
+        let path = write_fake_engine(&dir, on_go, "exit 0", "");
+        let mut engine = spawn(&path, 10, Duration::from_secs(10)).expect("engine starts");
+        let m = engine.choose_move(&Chess::default()).expect("the move sent before exiting");
+        assert_eq!(m.to_uci(CastlingMode::Standard).to_string(), "e2e4");
+        let err = engine.choose_move(&Chess::default()).expect_err("engine is gone");
+        assert!(matches!(err, OpponentError::EngineDied { .. }), "{err:?}");
     }
 }
 

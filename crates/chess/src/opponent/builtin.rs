@@ -37,6 +37,12 @@ const CLOCK_CHECK_INTERVAL: u64 = 1024;
 ///
 /// The search stops at `max_depth` plies (default 3) or when the optional time budget is used up,
 /// whichever comes first. Depth 1 is always completed, so a move is returned even with a tiny budget.
+///
+/// Without a time budget (`movetime: None`), [`BuiltinEngine::search`] is a pure function of the
+/// position and the depth: the same [`SearchSummary`] (move, score, depth, nodes) on every call, in
+/// any thread and on any machine (each search has its own tables; nothing is shared, random or
+/// timed). A `movetime` cap makes the result machine-dependent: where the search is cut off, and so
+/// the depth reached and possibly the move, depends on the machine's speed and load.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BuiltinEngine {
     max_depth: u32,

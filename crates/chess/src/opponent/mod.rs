@@ -6,11 +6,13 @@
 
 mod builtin;
 mod uci;
+mod uci_line;
 
 use std::path::PathBuf;
 
 pub use builtin::{BuiltinEngine, SearchSummary};
-pub use uci::UciEngine;
+pub use uci::{MAX_UCI_LINE_BYTES, UciEngine};
+pub use uci_line::{UciLine, parse_uci_line};
 
 /// Something that picks a move for the side to move.
 pub trait Opponent: std::fmt::Debug {
@@ -71,6 +73,16 @@ pub enum OpponentError {
         uci: String,
         /// The position (FEN) the engine was asked to play in.
         fen: String,
+    },
+
+    /// The engine sent a line longer than [`MAX_UCI_LINE_BYTES`] (e.g. endless output without a
+    /// newline); it has been killed.
+    #[error("UCI engine {engine} sent a line longer than {max_bytes} bytes; the engine was killed")]
+    LineTooLong {
+        /// Engine name and path.
+        engine: String,
+        /// The limit, [`MAX_UCI_LINE_BYTES`].
+        max_bytes: usize,
     },
 
     /// The engine sent a line that violates the UCI protocol.
