@@ -16,16 +16,16 @@ pub fn parse_numbers<const N: usize>(text: &str) -> Result<[f64; N], String> {
     Ok(values)
 }
 
-pub fn four(text: &str) -> Result<[f64; 4], String> {
+fn four_unescaped(text: &str) -> Result<[f64; 4], String> {
     parse_numbers::<4>(text)
 }
 
-pub fn three(text: &str) -> Result<[f64; 3], String> {
+fn three_unescaped(text: &str) -> Result<[f64; 3], String> {
     parse_numbers::<3>(text)
 }
 
 /// A finite number ≥ 0.
-pub fn non_negative(text: &str) -> Result<f64, String> {
+fn non_negative_unescaped(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         Ok(v) => Err(format!("{v} must be finite and >= 0")),
@@ -34,7 +34,7 @@ pub fn non_negative(text: &str) -> Result<f64, String> {
 }
 
 /// A finite number > 0.
-pub fn positive(text: &str) -> Result<f64, String> {
+fn positive_unescaped(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
         Ok(v) => Err(format!("{v} must be finite and > 0")),
@@ -43,7 +43,7 @@ pub fn positive(text: &str) -> Result<f64, String> {
 }
 
 /// A finite number.
-pub fn finite(text: &str) -> Result<f64, String> {
+fn finite_unescaped(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(v) => Err(format!("{v} is not finite")),
@@ -52,8 +52,8 @@ pub fn finite(text: &str) -> Result<f64, String> {
 }
 
 /// One number for every joint, or exactly four comma-separated numbers; each finite and ≥ 0.
-pub fn gain(text: &str) -> Result<[f64; 4], String> {
-    let values = if text.contains(',') { four(text)? } else { [finite(text)?; 4] };
+fn gain_unescaped(text: &str) -> Result<[f64; 4], String> {
+    let values = if text.contains(',') { four_unescaped(text)? } else { [finite_unescaped(text)?; 4] };
     match values.iter().find(|v| **v < 0.0) {
         Some(v) => Err(format!("gain {v} in '{text}' must be >= 0")),
         None => Ok(values),
@@ -80,7 +80,7 @@ impl GainRange {
 }
 
 /// Parses `A..B:N`: finite `0 ≤ A ≤ B`, whole `N ≥ 1`.
-pub fn range(text: &str) -> Result<GainRange, String> {
+fn range_unescaped(text: &str) -> Result<GainRange, String> {
     let shape = || format!("'{text}' is not a range A..B:N (e.g. 100..900:40)");
     let (bounds, count) = text.split_once(':').ok_or_else(shape)?;
     let (from, to) = bounds.split_once("..").ok_or_else(shape)?;
@@ -110,7 +110,7 @@ pub fn range(text: &str) -> Result<GainRange, String> {
 }
 
 /// Parses `K/N` with `1 ≤ K ≤ N`.
-pub fn shard(text: &str) -> Result<(usize, usize), String> {
+fn shard_unescaped(text: &str) -> Result<(usize, usize), String> {
     let (k, n) = text.split_once('/').ok_or_else(|| format!("'{text}' is not a shard K/N (e.g. 2/8)"))?;
     let parse =
         |part: &str| part.trim().parse::<usize>().map_err(|_| format!("'{part}' in '{text}' is not a whole number"));
@@ -119,4 +119,47 @@ pub fn shard(text: &str) -> Result<(usize, usize), String> {
         return Err(format!("shard {k}/{n} needs 1 <= K <= N"));
     }
     Ok((k, n))
+}
+
+// The value parsers clap calls: their messages quote the value as typed, with control
+// characters escaped (clap's renderer would drop them, hiding what was typed).
+
+/// See `four_unescaped`; the message's control characters escaped.
+pub fn four(text: &str) -> Result<[f64; 4], String> {
+    four_unescaped(text).map_err(|message| crate::escape_controls(&message))
+}
+
+/// See `three_unescaped`; the message's control characters escaped.
+pub fn three(text: &str) -> Result<[f64; 3], String> {
+    three_unescaped(text).map_err(|message| crate::escape_controls(&message))
+}
+
+/// See `non_negative_unescaped`; the message's control characters escaped.
+pub fn non_negative(text: &str) -> Result<f64, String> {
+    non_negative_unescaped(text).map_err(|message| crate::escape_controls(&message))
+}
+
+/// See `positive_unescaped`; the message's control characters escaped.
+pub fn positive(text: &str) -> Result<f64, String> {
+    positive_unescaped(text).map_err(|message| crate::escape_controls(&message))
+}
+
+/// See `finite_unescaped`; the message's control characters escaped.
+pub fn finite(text: &str) -> Result<f64, String> {
+    finite_unescaped(text).map_err(|message| crate::escape_controls(&message))
+}
+
+/// See `gain_unescaped`; the message's control characters escaped.
+pub fn gain(text: &str) -> Result<[f64; 4], String> {
+    gain_unescaped(text).map_err(|message| crate::escape_controls(&message))
+}
+
+/// See `range_unescaped`; the message's control characters escaped.
+pub fn range(text: &str) -> Result<GainRange, String> {
+    range_unescaped(text).map_err(|message| crate::escape_controls(&message))
+}
+
+/// See `shard_unescaped`; the message's control characters escaped.
+pub fn shard(text: &str) -> Result<(usize, usize), String> {
+    shard_unescaped(text).map_err(|message| crate::escape_controls(&message))
 }

@@ -286,3 +286,104 @@ fn arrays_of_the_wrong_length_are_refused_naming_the_field() {
         assert_one_line_error(&printed_setup(file), needles);
     }
 }
+
+/// `play` into a fresh folder; returns game.json and the terminal's text.
+fn play_game(extra: &[&str]) -> (serde_json::Value, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("game");
+    let output = chessarm(&[&["play", "--out", out.to_str().unwrap()][..], extra].concat());
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{stderr}");
+    (serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap(), stderr)
+}
+
+#[test]
+fn games_stop_at_their_result_and_record_it() {
+    // A back-rank mate in one for the engine: the game ends after one ply, not at --plies.
+    let (game, terminal) = play_game(&["--fen", "6k1/5ppp/8/8/8/8/8/R5K1 w - - 0 1", "--plies", "10"]);
+    assert_eq!(game["moves"].as_array().unwrap().len(), 1);
+    assert_eq!((game["result"].as_str(), game["result_reason"].as_str()), (Some("1-0"), Some("checkmate")));
+    assert!(terminal.contains("result 1-0 (checkmate)"), "{terminal}");
+    // Fifty moves without a capture or a pawn move: a draw after the next quiet move.
+    let (game, _) = play_game(&["--fen", "8/8/8/4k3/8/8/8/R3K3 w - - 99 80", "--plies", "10"]);
+    assert_eq!(game["moves"].as_array().unwrap().len(), 1);
+    assert_eq!((game["result"].as_str(), game["result_reason"].as_str()), (Some("1/2-1/2"), Some("fifty-move rule")));
+    // Bare kings: nothing to play.
+    let (game, _) = play_game(&["--fen", "8/8/8/4k3/8/8/8/4K3 w - - 0 1"]);
+    assert_eq!(game["moves"].as_array().unwrap().len(), 0);
+    assert_eq!(game["result_reason"].as_str(), Some("insufficient material"));
+    // A replayed game: the rules' result of its final position.
+    let (game, _) = play_game(&["--moves", "f3 e5 g4 Qh4#"]);
+    assert_eq!((game["result"].as_str(), game["result_reason"].as_str()), (Some("0-1"), Some("checkmate")));
+    let (game, _) = play_game(&["--moves", "Nf3 Nf6 Ng1 Ng8 Nf3 Nf6 Ng1 Ng8"]);
+    assert_eq!(game["result_reason"].as_str(), Some("threefold repetition"));
+    // An engine game cut by --plies says so.
+    let (game, _) = play_game(&["--plies", "2"]);
+    assert_eq!(game["result"].as_str(), Some("*"));
+    assert!(game["result_reason"].as_str().unwrap().contains("--plies 2"), "{}", game["result_reason"]);
+}
+
+#[test]
+fn a_pgn_that_never_ends_is_refused_after_one_game_s_worth() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let started = std::time::Instant::now();
+    assert_one_line_error(&chessarm(&["play", "/dev/zero", "--out", out]), &["/dev/zero", "longer than 4 MiB"]);
+    assert_one_line_error(
+        &chessarm(&["tune", "/dev/zero", "--kp", "100..200:2", "--kd", "10..20:2", "--out", out]),
+        &["/dev/zero", "longer than 4 MiB"],
+    );
+    assert!(started.elapsed().as_secs_f64() < 30.0);
+}
+
+#[test]
+fn control_characters_from_the_input_are_escaped_in_the_one_line_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let pgn = dir.path().join("control.pgn");
+    std::fs::write(&pgn, b"[Event \"x\"]\n\n1. e4 e5 2. Nf3\x0b\x00\r Nc6 *\n").unwrap();
+    let output = chessarm(&["play", pgn.to_str().unwrap(), "--out", dir.path().join("o").to_str().unwrap()]);
+    assert_one_line_error(&output, &["Nf3\\u{b}\\0"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let raw: Vec<char> = stderr.trim_end().chars().filter(|c| c.is_control()).collect();
+    assert!(raw.is_empty(), "raw control characters {raw:?} in {stderr:?}");
+    // The same for a value clap rejects.
+    let output = chessarm(&["fk", "--q", "1,2,3,\r4\u{1}"]);
+    assert_one_line_error(&output, &["4\\u{1}"]);
+}
+
+#[test]
+fn flags_that_would_be_ignored_or_cannot_work_are_refused() {
+    assert_one_line_error(&chessarm(&["gains", "--settling-time", "0.3", "--zeta", "0.7"]), &["--zeta"]);
+    assert_one_line_error(&chessarm(&["gains", "--wn", "10", "--zeta", "0.7", "--overshoot", "5"]), &["--overshoot"]);
+    for command in ["play", "tune"] {
+        let help = String::from_utf8(chessarm(&[command, "--help"]).stdout).unwrap();
+        let at = help.find("--controller <CONTROLLER>").unwrap();
+        let entry: String = help[at..].lines().take_while(|l| !l.trim_start().starts_with("--kp")).collect();
+        assert!(entry.contains("pid") && !entry.contains("both"), "{command} --help: {entry}");
+        assert_one_line_error(&chessarm(&[command, "--controller", "both"]), &["'both'", "pd, pid"]);
+    }
+    assert_one_line_error(
+        &chessarm(&["dynamics", "--q", "0,0,0,0", "--qd", "1e308,1e308,0,0"]),
+        &["overflows", "--qd 1e308,1e308,0,0"],
+    );
+}
+
+#[test]
+fn errors_name_the_flag_as_typed_not_a_derived_value() {
+    assert_one_line_error(&chessarm(&["gains", "--settling-time", "1e308"]), &["--settling-time 1e308"]);
+    assert_one_line_error(&chessarm(&["gains", "--settling-time", "1e-300"]), &["--settling-time 1e-300"]);
+    assert_one_line_error(&chessarm(&["ik", "--xyz", "0,0.9,0.05"]), &["beyond the arm's full stretch of 0.6096 m"]);
+}
+
+#[test]
+fn angles_outside_the_joint_limits_are_warned_about() {
+    let output = chessarm(&["fk", "--q", "90,0,0,0"]);
+    assert!(output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("warning: --q joint 1 = 90 rad is outside its limits") && stderr.contains("1.5708 rad"),
+        "{stderr}"
+    );
+    let quiet = chessarm(&["fk", "--q", "1.5,0.5,0,0"]);
+    assert!(quiet.status.success() && quiet.stderr.is_empty());
+}

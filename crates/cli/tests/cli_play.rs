@@ -121,8 +121,8 @@ fn bad_games_and_engines_are_one_line_errors() {
     let out = dir.path().join("out");
     let out = out.to_str().unwrap();
     assert_one_line_error(
-        &chessarm(&["play", &fixture("illegal_move.pgn"), "--out", out]),
-        &["game", "move", "illegal"],
+        &chessarm(&["play", &fixture("illegal_move.pgn"), "--game", "2", "--out", out]),
+        &["game 2", "move", "illegal"],
     );
     assert_one_line_error(
         &chessarm(&["play", &fixture("several_games.pgn"), "--game", "9", "--out", out]),

@@ -130,7 +130,8 @@ fn the_fully_stretched_arm_is_reachable_and_a_near_miss_says_by_how_much() {
         // 10 nm further is out of reach, and the message gives the miss in scientific form.
         let beyond = wrist * (1.0 + 1e-8 / wrist.norm()) - Vector3::new(0.0, 0.0, REPORT_L4);
         let beyond = Vector3::new(0.0, beyond.y, beyond.z);
-        let text = inverse_kinematics(&model, &beyond, TOOL_DOWN).map(|_| String::new()).unwrap_or_else(|e| e.to_string());
+        let text =
+            inverse_kinematics(&model, &beyond, TOOL_DOWN).map(|_| String::new()).unwrap_or_else(|e| e.to_string());
         assert!(text.contains("beyond the arm's full stretch of 0.6096 m") && text.contains("e-"), "{text}");
     }
 }

@@ -7,7 +7,7 @@ use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
 use anyhow::{Context, Result, bail};
-use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list, parse_pgn, select_game};
+use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list, read_game};
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
 use chessarm_chess::play::{Game, MoveReport, Mover, PlaySettings};
 use chessarm_chess::shakmaty::{Chess, Color, Position};
@@ -64,9 +64,7 @@ fn source(args: &PlayArgs) -> Result<Source> {
         if args.fen.is_some() {
             bail!("--fen goes with --moves or an engine game; a PGN file sets its own start ([FEN] tag)");
         }
-        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read PGN file {}", path.display()))?;
-        let games = parse_pgn(&text).with_context(|| format!("PGN file {}", path.display()))?;
-        return Ok(Source::Record(select_game(games, args.game)?));
+        return Ok(Source::Record(read_pgn_game(path, args.game)?));
     }
     if let Some(moves) = &args.moves {
         return Ok(Source::Record(parse_move_list(moves, start_position(args)?)?));
@@ -76,6 +74,14 @@ fn source(args: &PlayArgs) -> Result<Source> {
     // With --robot both every move comes from --engine; the robot's own engine is not asked.
     let robot: Box<dyn Opponent> = Box::new(builtin(args));
     Ok(Source::Engines { start, robot, opponent })
+}
+
+/// Game `number` (1-based) of the PGN file at `path`, read as a stream: the file is read only
+/// up to the end of that game, and one game may hold at most
+/// [`chessarm_chess::notation::MAX_PGN_GAME_BYTES`].
+pub fn read_pgn_game(path: &Path, number: usize) -> Result<GameRecord> {
+    let file = std::fs::File::open(path).with_context(|| format!("cannot read PGN file {}", path.display()))?;
+    read_game(file, number).with_context(|| format!("PGN file {}", path.display()))
 }
 
 fn robot_moves(side: RobotSide, turn: Color) -> bool {
@@ -113,8 +119,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     );
     let mut reports = Vec::new();
     for ply in 0..total {
-        // A given game is replayed whole; an engine game stops when it is over.
-        if matches!(source, Source::Engines { .. }) && game.position().is_game_over() {
+        // A given game is replayed whole; an engine game stops at its result.
+        if matches!(source, Source::Engines { .. }) && game.outcome().is_some() {
             break;
         }
         let turn = game.position().turn();
@@ -147,11 +153,14 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     if !dependence.is_empty() {
         crate::tell(&format!("note: this game may differ on another machine: {}\n", dependence.join("; ")));
     }
-    let summary = game_json(&game, &reports, wall_time_s, &dependence);
+    let result = game_result(&game, &source, args, reports.len());
+    let summary = game_json(&game, &reports, wall_time_s, &dependence, &result);
     let game_json_path = args.out.join("game.json");
     write_json(&game_json_path, &summary)?;
     crate::tell(&format!(
-        "{} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
+        "result {} ({}); {} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
+        result.result,
+        result.reason,
         reports.len(),
         game.robot_time(),
         wall_time_s,
@@ -161,6 +170,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let files: Vec<String> =
         [game_json_path, plot, placement_plot, moves_dir].iter().map(|p| p.display().to_string()).collect();
     print_json(&json!({
+        "result": result.result,
+        "result_reason": result.reason,
         "plies": reports.len(),
         "final_fen_rules": game.fen_rules(),
         "final_fen_physical": game.fen_physical(),
@@ -195,7 +206,40 @@ fn move_line(report: &MoveReport) -> String {
     line
 }
 
-fn game_json(game: &Game, reports: &[MoveReport], wall_time_s: f64, machine_dependence: &[String]) -> Value {
+/// The game's result as PGN writes it (`1-0`, `0-1`, `1/2-1/2`, `*`) and why.
+struct GameResult {
+    result: String,
+    reason: String,
+}
+
+/// What the rules say of the final position; a replayed game that is not over there keeps the
+/// result its PGN records; otherwise `*` and why the game stopped.
+fn game_result(game: &Game, source: &Source, args: &PlayArgs, plies: usize) -> GameResult {
+    if let Some(outcome) = game.outcome() {
+        return GameResult { result: outcome.result.to_string(), reason: outcome.reason.to_string() };
+    }
+    match source {
+        Source::Record(record) => match record.header("Result").filter(|r| ["1-0", "0-1", "1/2-1/2"].contains(r)) {
+            Some(recorded) => GameResult {
+                result: recorded.to_string(),
+                reason: "as the PGN records it (the final position is not over by the rules)".into(),
+            },
+            None => GameResult { result: "*".into(), reason: "the given moves end; the game is not over".into() },
+        },
+        Source::Engines { .. } => GameResult {
+            result: "*".into(),
+            reason: format!("stopped after --plies {} ({plies} played); the game is not over", args.plies),
+        },
+    }
+}
+
+fn game_json(
+    game: &Game,
+    reports: &[MoveReport],
+    wall_time_s: f64,
+    machine_dependence: &[String],
+    result: &GameResult,
+) -> Value {
     let moves: Vec<Value> = reports
         .iter()
         .map(|r| {
@@ -223,6 +267,8 @@ fn game_json(game: &Game, reports: &[MoveReport], wall_time_s: f64, machine_depe
         })
         .collect();
     json!({
+        "result": result.result,
+        "result_reason": result.reason,
         "moves": moves,
         "final_fen_rules": game.fen_rules(),
         "final_fen_physical": game.fen_physical(),

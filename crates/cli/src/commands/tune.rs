@@ -12,7 +12,7 @@ use crate::output::{ensure_dir, write_atomic};
 use crate::plots::{HeatMap, plot_heat_map};
 use crate::print_json;
 use anyhow::{Context, Result, bail};
-use chessarm_chess::notation::{GameRecord, parse_pgn, select_game};
+use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::control::JointState;
@@ -272,9 +272,7 @@ pub fn study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
         if args.payload_mass > 0.0 || args.q0.is_some() {
             bail!("--payload-mass and --q0 go with a scenario; a game grips real pieces from its home position");
         }
-        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read PGN file {}", path.display()))?;
-        let games = parse_pgn(&text).with_context(|| format!("PGN file {}", path.display()))?;
-        return Ok(Study::Game(select_game(games, args.game)?));
+        return Ok(Study::Game(crate::commands::play::read_pgn_game(path, args.game)?));
     }
     scenario_study(setup, args).map(Study::Scenario)
 }
