@@ -165,3 +165,23 @@ fn bad_games_and_engines_are_one_line_errors() {
     assert_one_line_error(&chessarm(&["play", "--engine", &dying, "--robot", "black", "--out", out]), &["died"]);
     assert_one_line_error(&chessarm(&["play", "--moves", "e4", "--tolerance-mm", "0", "--out", out]), &["0"]);
 }
+
+#[test]
+fn engines_sending_endless_lines_or_control_characters_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    // 10 MB without a newline: cut off at 64 KiB instead of growing without bound.
+    let endless = fake_engine(dir.path(), "endless.sh", "head -c 10000000 /dev/zero | tr '\\0' a");
+    let started = std::time::Instant::now();
+    assert_one_line_error(
+        &chessarm(&["play", "--engine", &endless, "--robot", "black", "--plies", "2", "--out", out]),
+        &["sent a line longer than 65536 bytes"],
+    );
+    assert!(started.elapsed().as_secs_f64() < 20.0);
+    // SOH and ESC (a screen clear) in the engine's move: escaped, so the error stays one line
+    // and cannot overwrite the terminal.
+    let control = fake_engine(dir.path(), "control.sh", "printf 'bestmove e2\\001\\033[2Je4\\n'");
+    let output = chessarm(&["play", "--engine", &control, "--robot", "black", "--plies", "2", "--out", out]);
+    assert_one_line_error(&output, &["illegal move", "e2\\u{1}\\u{1b}[2Je4"]);
+}
