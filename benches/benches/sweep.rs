@@ -4,7 +4,7 @@
 //! a few minutes.
 
 use chessarm::cli::{Cli, Command};
-use chessarm::commands::tune::{CandidateOptions, candidate_gains, shard_range, study, sweep};
+use chessarm::commands::tune::{CandidateOptions, candidate_gains, shard_range, study, sweep, tracking_from};
 use chessarm::config::Setup;
 use clap::Parser;
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -19,6 +19,7 @@ fn sweeps(c: &mut Criterion) {
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
         integrator: args.integrator.integrator(),
+        tracking_from: tracking_from(&args),
     };
     let mut group = c.benchmark_group("tune 40x40 PD sweep, 13 s scenario at 1 kHz");
     group.sample_size(10);

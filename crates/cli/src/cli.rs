@@ -189,6 +189,11 @@ pub struct TuneArgs {
     /// Metric to rank candidates by and to draw.
     #[arg(long, value_enum, default_value_t = Metric::MaxTipError)]
     pub metric: Metric,
+    /// Start of the tracking metrics (max/RMS tip and joint errors), s. Default: 1 s with
+    /// --q0 (the start from rest off the trajectory is a deliberate transient that would
+    /// otherwise dominate them), 0 without.
+    #[arg(long, value_name = "S", value_parser = args::non_negative)]
+    pub tracking_from: Option<f64>,
     /// Run only slice K of N (1-based), e.g. 2/8; the slices' CSVs concatenate to the full sweep.
     #[arg(long, value_parser = args::shard)]
     pub shard: Option<(usize, usize)>,
@@ -316,6 +321,9 @@ pub struct SimulateArgs {
     /// The controller's model includes the gripped piece.
     #[arg(long)]
     pub controller_knows_payload: bool,
+    /// Start of the tracking metrics in summary.json (RMS/max tip and joint errors), s.
+    #[arg(long, value_name = "S", default_value_t = 0.0, value_parser = args::non_negative)]
+    pub tracking_from: f64,
     /// Output folder.
     #[arg(long, default_value = "out/simulate")]
     pub out: PathBuf,

@@ -63,7 +63,7 @@ fn simulate_writes_series_summary_and_plots() {
         let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
         assert_eq!(header.len(), 31);
         assert_eq!(&header[..2], ["t", "q1"]);
-        assert_eq!(&header[25..], ["x", "y", "z", "xdes", "ydes", "zdes"]);
+        assert_eq!(&header[25..], ["x", "y", "z", "x_des", "y_des", "z_des"]);
         assert_eq!(reader.records().count(), 13001);
         for png in [format!("{name}_joints.png"), format!("{name}_torques.png")] {
             assert!(std::fs::metadata(out.join(png)).unwrap().len() > 20_000);

@@ -86,6 +86,9 @@ fn a_sweep_has_one_row_per_candidate_and_its_best_row_re_simulates() {
         &format!("{kd:?}"),
         "--q0",
         "0,0.8,-2.4,0",
+        // The sweep's metrics start at 1 s after a start at --q0 (the deliberate transient).
+        "--tracking-from",
+        "1",
         "--out",
         single.to_str().unwrap(),
     ]));

@@ -406,3 +406,51 @@ fn a_plant_step_does_not_depend_on_what_its_scratch_held_before() {
         assert_eq!(plant.step(&other, &torque, 1e-3, integrator).unwrap(), from_other, "{}", integrator.name());
     }
 }
+
+/// The tracking metrics from `tracking_from` on are the RMS and largest errors of exactly the
+/// recorded steps from that instant: checked against the records of the same run.
+#[test]
+fn tracking_metrics_start_where_the_config_says() {
+    let model = report_arm();
+    let target = q([0.3, 0.8, -1.2, 0.4]);
+    // Start 0.2 rad off on every joint, so the early steps hold the largest errors.
+    let start = JointState::at_rest(target - JointVector::repeat(0.2));
+    for tracking_from in [0.0, 0.25, 0.5004, 1.0] {
+        let mut plant = Plant::new(model);
+        let mut controller = pd_controller(model);
+        let config = SimConfig { tracking_from, ..SimConfig::new(&plant) };
+        let mut records: Vec<StepRecord<4>> = Vec::new();
+        let summary = simulate(
+            &mut plant,
+            &mut controller,
+            &Hold { q: target, duration: 1.0 },
+            Some(start),
+            &[],
+            &[],
+            &config,
+            &mut records,
+        )
+        .unwrap();
+        // Steps are at k·dt; the first tracked one is the nearest to tracking_from.
+        let first = (tracking_from / config.dt).round() as usize;
+        let tracked = &records[first..];
+        assert_eq!(summary.tracked_steps, tracked.len());
+        let tip_errors: Vec<f64> = tracked.iter().map(|r| (r.tip - r.tip_desired).norm()).collect();
+        let max_tip = tip_errors.iter().copied().fold(0.0, f64::max);
+        let rms_tip = (tip_errors.iter().map(|e| e * e).sum::<f64>() / tip_errors.len() as f64).sqrt();
+        assert_eq!(summary.max_tip_error, max_tip);
+        assert!((summary.rms_tip_error - rms_tip).abs() <= 1e-15 * rms_tip.max(1e-300), "{tracking_from}");
+        let max_joint_1 = tracked.iter().map(|r| (r.reference.q[0] - r.state.q[0]).abs()).fold(0.0, f64::max);
+        assert_eq!(summary.max_joint_error[0], max_joint_1);
+        if tracking_from == 0.0 {
+            assert!((summary.max_joint_error[0] - 0.2).abs() < 1e-12, "the start is counted");
+        } else {
+            assert!(summary.max_joint_error[0] < 0.2, "the start is left out");
+        }
+    }
+    let plant = Plant::new(model);
+    let bad = SimConfig { tracking_from: f64::NAN, ..SimConfig::new(&plant) };
+    let mut controller = pd_controller(model);
+    let error = hold(&mut Plant::new(model), &mut controller, target, 0.1, None, &bad).unwrap_err();
+    assert!(error.to_string().contains("tracking metrics"), "{error}");
+}

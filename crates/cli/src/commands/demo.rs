@@ -23,6 +23,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
         q0: Some([0.0; 4]),
         payload_mass: 0.0,
         controller_knows_payload: false,
+        tracking_from: 0.0,
     };
     let specs = controller_specs(ControllerChoice::Both, &GainArgs::default())?;
     let steps = study_steps(setup, SCENARIO, &options)?;
@@ -37,7 +38,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     crate::tell(&format!(
         "The report's study: {SCENARIO} (d2→d4), computed torque, plant = model, 1 kHz, start at rest at q = 0.\n"
     ));
-    crate::tell(&comparison_table(&runs));
+    crate::tell(&comparison_table(&runs, true));
     crate::tell(&format!("{}\n", conclusion(&runs)));
     crate::tell(&format!("Plots and CSVs: {}/plan and {}/simulate\n", args.out.display(), args.out.display()));
     print_json(&json!({ "plan_files": plan_files, "simulate": study }))?;
@@ -52,18 +53,20 @@ fn conclusion(runs: &[ControllerRun]) -> String {
             .find(|run| run.spec.name == name)
             .map(|run| run.summary.tip_error_at_marks.iter().fold(0.0f64, |a, b| a.max(*b)) * 1e3)
     };
+    // The study grips nothing (payload 0 kg): what it measures is where the tool is at the
+    // grip and release instants, the report's measure of placement precision.
     match (at_events("pd"), at_events("pid")) {
         (Some(pd), Some(pid)) if pd < pid => format!(
-            "PD places the pawn within {pd:.4} mm, PID within {pid:.4} mm: the report's conclusion holds. The PID's \
-             integral pole sits at {:.3} 1/s, so the wind-up of the start-up transient decays over ~{:.0} s.",
+            "At the grip and release instants PD puts the tool within {pd:.4} mm of its target, PID within {pid:.4} mm \
+             (no piece is carried: --payload-mass 0): the report's conclusion holds. The PID's integral pole sits at \
+             {:.3} 1/s, so the wind-up of the start-up transient decays over ~{:.0} s.",
             slowest_pole(runs, "pid"),
             -1.0 / slowest_pole(runs, "pid")
         ),
-        (Some(pd), Some(pid)) => {
-            format!(
-                "PD places the pawn within {pd:.4} mm, PID within {pid:.4} mm: the report's conclusion does not hold here."
-            )
-        }
+        (Some(pd), Some(pid)) => format!(
+            "At the grip and release instants PD puts the tool within {pd:.4} mm of its target, PID within {pid:.4} mm \
+             (no piece is carried): the report's conclusion does not hold here."
+        ),
         _ => String::new(),
     }
 }

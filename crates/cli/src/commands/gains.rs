@@ -97,6 +97,7 @@ fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Valu
         q0: Some(q0),
         payload_mass: 0.0,
         controller_knows_payload: false,
+        tracking_from: 0.0,
     };
     let run = run_controller(setup, &plan, spec, &options, None)?;
     let forced = run_controller(setup, &plan, spec, &RunOptions { q0: None, ..options }, None)?;

@@ -341,8 +341,8 @@ impl Manifest {
 
 fn write_move_csv(manifest: &mut Manifest, report: &MoveReport) -> Result<()> {
     let mut header = vec!["t".to_string()];
-    header.extend(numbered("q", 4).chain(numbered("qdes", 4)));
-    header.extend(["x", "y", "z", "xdes", "ydes", "zdes", "tip_error_mm"].map(String::from));
+    header.extend(numbered("q", 4).chain(numbered("q_des", 4)));
+    header.extend(["x", "y", "z", "x_des", "y_des", "z_des", "tip_error_mm"].map(String::from));
     let path = manifest.add(&format!("{:03}-{}.csv", report.ply, report.uci))?;
     write_csv(
         &path,

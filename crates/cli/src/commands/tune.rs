@@ -136,7 +136,7 @@ struct Totals {
 
 impl Totals {
     fn add(&mut self, summary: &SimSummary<4>, limits: &JointVector<4>) {
-        let samples = (summary.steps + 1) as f64;
+        let samples = summary.tracked_steps as f64;
         self.samples += samples;
         self.squared_tip += summary.rms_tip_error.powi(2) * samples;
         self.squared_joint += summary.rms_joint_error.norm_squared() / 4.0 * samples;
@@ -175,7 +175,11 @@ pub fn simulate_candidate(
         Study::Scenario(scenario) => {
             let mut plant = Plant::new(setup.arm);
             let mut controller = ComputedTorque::new("candidate", setup.arm, *gains);
-            let config = SimConfig { integrator: options.integrator, ..SimConfig::new(&plant) };
+            let config = SimConfig {
+                integrator: options.integrator,
+                tracking_from: options.tracking_from,
+                ..SimConfig::new(&plant)
+            };
             let result = simulate(
                 &mut plant,
                 &mut controller,
@@ -229,6 +233,18 @@ pub fn simulate_candidate(
 pub struct CandidateOptions {
     pub controller_knows_payload: bool,
     pub integrator: Integrator,
+    /// Start of the tracking metrics, s (see [`SimConfig::tracking_from`]).
+    pub tracking_from: f64,
+}
+
+/// Where the tracking metrics start with `--q0` unless `--tracking-from` is given, s: the arm
+/// starts at rest off the trajectory, and the start-up jump (530 mm at t = 0 from q = 0) would
+/// be every candidate's largest error.
+pub const TRANSIENT_WITH_Q0: f64 = 1.0;
+
+/// The start of the tracking metrics for `args`, s.
+pub fn tracking_from(args: &TuneArgs) -> f64 {
+    args.tracking_from.unwrap_or(if args.q0.is_some() { TRANSIENT_WITH_Q0 } else { 0.0 })
 }
 
 /// Most candidates one sweep may describe.
@@ -332,7 +348,11 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
         integrator: args.integrator.integrator(),
+        tracking_from: tracking_from(args),
     };
+    if args.game_file.is_some() && args.tracking_from.is_some() {
+        bail!("--tracking-from goes with a scenario; a game starts every move on its trajectory");
+    }
     ensure_dir(&args.out)?;
     let bar = crate::progress::bar(range.len() as u64, "tuning");
     let started = Instant::now();
@@ -357,6 +377,12 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let mut best: Vec<&Candidate> = candidates.iter().filter(|c| c.respects_limits()).collect();
     best.sort_by(|a, b| a.metric(args.metric).total_cmp(&b.metric(args.metric)).then(a.index.cmp(&b.index)));
     best.truncate(args.top);
+    if options.tracking_from > 0.0 && matches!(args.metric, Metric::MaxTipError | Metric::RmsJointError) {
+        crate::tell(&format!(
+            "tracking metrics from t = {} s on (--tracking-from): the start from rest off the trajectory is left out\n",
+            crate::resources::show(options.tracking_from)
+        ));
+    }
     crate::tell(&best_table(&best, args.metric));
     let failed = candidates.iter().filter(|c| c.status != "ok").count();
     let saturated = candidates.iter().filter(|c| c.status == "ok" && c.saturated_samples > 0).count();
@@ -369,6 +395,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         "wall_time_s": wall_time_s,
         "candidates_per_second": candidates.len() as f64 / wall_time_s,
         "metric": format!("{:?}", args.metric),
+        "tracking_metrics_from_s": options.tracking_from,
         "best": best.iter().map(|c| json!({
             "index": c.index, "kp": c.kp, "kd": c.kd, "ki": c.ki, "metric": c.metric(args.metric),
             "max_tip_error_mm": c.max_tip_error_mm, "place_error_mm": c.place_error_mm,

@@ -28,6 +28,11 @@ pub struct SimConfig<const N: usize> {
     pub runaway_speed: f64,
     /// How the plant is integrated over each `dt` (default: Nyström's fourth-order method).
     pub integrator: Integrator,
+    /// Start of the tracking metrics, s (default 0): the RMS and largest joint and tip errors
+    /// count the steps from this instant on, so that a deliberate start-up transient (a run
+    /// started off the trajectory) does not dominate them. Torques, saturation and the errors
+    /// at the marks count over the whole run.
+    pub tracking_from: f64,
 }
 
 impl<const N: usize> SimConfig<N> {
@@ -39,6 +44,7 @@ impl<const N: usize> SimConfig<N> {
             torque_limits: plant.model().torque_limits(),
             runaway_speed: 100.0,
             integrator: Integrator::default(),
+            tracking_from: 0.0,
         }
     }
 
@@ -56,6 +62,12 @@ impl<const N: usize> SimConfig<N> {
             return Err(SimError::Config(format!(
                 "control period {} s must be a whole multiple of the time step {} s",
                 self.control_period, self.dt
+            )));
+        }
+        if !(self.tracking_from.is_finite() && self.tracking_from >= 0.0) {
+            return Err(SimError::Config(format!(
+                "tracking metrics from t = {} s: must be finite and >= 0",
+                self.tracking_from
             )));
         }
         if let Some((j, limit)) = self.torque_limits.iter().enumerate().find(|(_, l)| !(l.is_finite() && **l > 0.0)) {
@@ -155,10 +167,14 @@ pub enum SimError {
 pub struct SimSummary<const N: usize> {
     pub duration: f64,
     pub steps: usize,
+    /// RMS and largest joint error over the tracked steps, rad.
     pub rms_joint_error: JointVector<N>,
     pub max_joint_error: JointVector<N>,
+    /// RMS and largest tool-tip error over the tracked steps, m.
     pub rms_tip_error: f64,
     pub max_tip_error: f64,
+    /// Steps the RMS and largest errors count (those from [`SimConfig::tracking_from`] on).
+    pub tracked_steps: usize,
     /// Peak |τ| applied per joint.
     pub peak_torque: JointVector<N>,
     /// Controller samples at which at least one joint's torque was clipped.
@@ -211,6 +227,8 @@ where
     }
     controller.reset();
 
+    // The first step at or after `tracking_from` (to the nearest step, like the marks).
+    let first_tracked_step = ((config.tracking_from / dt).round() as usize).min(steps);
     let mut squared_joint_error = JointVector::<N>::zeros();
     let mut max_joint_error = JointVector::<N>::zeros();
     let (mut squared_tip_error, mut max_tip_error) = (0.0, 0.0f64);
@@ -269,13 +287,15 @@ where
             saturated_samples += usize::from(clipped);
         }
         let error = desired.q - state.q;
-        squared_joint_error += error.component_mul(&error);
-        max_joint_error = max_joint_error.sup(&error.abs());
         peak_torque = peak_torque.sup(&torque.abs());
         let tip_desired = reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
         let tip_error = (tip - tip_desired).norm();
-        squared_tip_error += tip_error * tip_error;
-        max_tip_error = max_tip_error.max(tip_error);
+        if step >= first_tracked_step {
+            squared_joint_error += error.component_mul(&error);
+            max_joint_error = max_joint_error.sup(&error.abs());
+            squared_tip_error += tip_error * tip_error;
+            max_tip_error = max_tip_error.max(tip_error);
+        }
         for (k, &mark_step) in mark_steps.iter().enumerate() {
             if mark_step == step {
                 tip_at_marks[k] = tip;
@@ -291,7 +311,8 @@ where
             .map_err(|source| SimError::Dynamics { time: t, source })?;
         check_state(&state, t + dt, config.runaway_speed)?;
     }
-    let samples = (steps + 1) as f64;
+    let tracked_steps = steps + 1 - first_tracked_step;
+    let samples = tracked_steps as f64;
     Ok(SimSummary {
         duration: steps as f64 * dt,
         steps,
@@ -299,6 +320,7 @@ where
         max_joint_error,
         rms_tip_error: (squared_tip_error / samples).sqrt(),
         max_tip_error,
+        tracked_steps,
         peak_torque,
         saturated_samples,
         saturated_per_joint,
