@@ -1,0 +1,115 @@
+//! Every example command of the README, run as written (`cargo run --release -- ARGS` is the
+//! binary with ARGS), in a fresh folder with a small `game.pgn`; each must succeed, and the
+//! promises the README makes about some of them are checked.
+//!
+//! Not run here: `cargo test` (this is it) and `cargo bench` (minutes of measurement; CI's
+//! `clippy --all-targets` builds the benchmarks).
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+use serde_json::Value;
+use std::path::Path;
+use std::process::Command;
+
+/// The README's `cargo run --release …` lines of its `sh` blocks, comments removed.
+fn readme_commands() -> Vec<String> {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+    let mut commands = Vec::new();
+    let mut in_sh = false;
+    for line in readme.lines() {
+        let trimmed = line.trim();
+        if trimmed.starts_with("```") {
+            in_sh = trimmed == "```sh";
+            continue;
+        }
+        if in_sh && trimmed.starts_with("cargo run --release") {
+            let command = trimmed.split(" #").next().unwrap().trim();
+            commands.push(command.to_owned());
+        }
+    }
+    commands
+}
+
+/// Splits a command line as the shell would for these examples (double quotes group words).
+fn words(command: &str) -> Vec<String> {
+    let mut words = Vec::new();
+    let mut current = String::new();
+    let mut quoted = false;
+    for c in command.chars() {
+        match c {
+            '"' => quoted = !quoted,
+            ' ' if !quoted => {
+                if !current.is_empty() {
+                    words.push(std::mem::take(&mut current));
+                }
+            }
+            c => current.push(c),
+        }
+    }
+    if !current.is_empty() {
+        words.push(current);
+    }
+    words
+}
+
+/// A small PGN of two short games for the examples that read `game.pgn`.
+const GAME_PGN: &str = "[Event \"Scholar's mate\"]\n[Result \"1-0\"]\n\n1. e4 e5 2. Bc4 Nc6 3. Qh5 Nf6 4. Qxf7# 1-0\n\n\
+[Event \"Fool's mate\"]\n[Result \"0-1\"]\n\n1. f3 e5 2. g4 Qh4# 0-1\n";
+
+#[test]
+fn every_readme_example_runs_and_keeps_its_promises() {
+    let commands = readme_commands();
+    assert!(commands.len() >= 9, "README examples not found: {commands:?}");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("game.pgn"), GAME_PGN).unwrap();
+    for command in &commands {
+        let args: Vec<String> = words(command).into_iter().skip(3).skip_while(|w| w == "--").collect();
+        if let Some(engine) = args.iter().skip_while(|a| *a != "--engine").nth(1)
+            && engine.starts_with('/')
+            && !Path::new(engine).exists()
+        {
+            assert!(std::env::var("CI").as_deref() != Ok("true"), "CI must install {engine} for: {command}");
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "README example SKIPPED ({engine} is not installed): {command}");
+            continue;
+        }
+        let output = Command::new(env!("CARGO_BIN_EXE_chessarm")).args(&args).current_dir(dir.path()).output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{command}: {stderr}");
+        let json: Value = serde_json::from_slice(&output.stdout).unwrap_or_else(|e| panic!("{command}: stdout {e}"));
+        check_promises(&args, &json, &stderr, dir.path());
+    }
+}
+
+/// What the README says of particular examples.
+fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
+    let first = args.first().map(String::as_str);
+    match first {
+        // `cargo run --release`: the demo into out/.
+        None => {
+            assert!(terminal.contains("the report's conclusion holds"), "{terminal}");
+            assert!(terminal.contains("deliberate start"), "{terminal}");
+            assert!(dir.join("out/simulate/summary.json").exists() && dir.join("out/plan/joint.csv").exists());
+        }
+        Some("plan") => assert!(dir.join("out/plan/joint.xlsx").exists()),
+        Some("tune") if args.iter().any(|a| a == "--q0") => {
+            // The start-up jump no longer makes every candidate score the same.
+            let csv = std::fs::read_to_string(dir.join("out/tune/tune.csv")).unwrap();
+            let mut values: Vec<f64> = csv
+                .lines()
+                .skip(1)
+                .filter(|line| line.split(',').nth(4) == Some("ok"))
+                .map(|line| line.split(',').nth(5).unwrap().parse().unwrap())
+                .collect();
+            values.sort_by(f64::total_cmp);
+            values.dedup();
+            assert!(values.len() > 100, "only {} distinct max tip errors", values.len());
+            assert!(values[0] < 0.1 && json["tracking_metrics_from_s"].as_f64() == Some(1.0), "{json}");
+            assert!(json["best"][0]["metric"].as_f64().unwrap() < 0.1, "{json}");
+        }
+        Some("play") if args.iter().any(|a| a == "--game") => {
+            assert_eq!(json["result"].as_str(), Some("0-1"), "game 2 is the fool's mate: {json}");
+        }
+        _ => {}
+    }
+}
