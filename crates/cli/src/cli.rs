@@ -83,8 +83,9 @@ pub struct PlayArgs {
     /// How long to wait for a UCI engine beyond its thinking time, ms.
     #[arg(long, default_value_t = 5000)]
     pub engine_timeout: u64,
-    /// Search depth of the robot's own (built-in) engine.
-    #[arg(long, default_value_t = 3)]
+    /// Search depth of the built-in engine, plies (1–10: each ply more multiplies the search
+    /// time by ~4; depth 7 takes ~1 s a middlegame move here).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=10))]
     pub depth: u32,
     /// The side the arm plays; the other side's pieces are moved by the opponent's hand.
     /// Against an engine the robot's moves come from its built-in engine (with both: all moves from --engine).

@@ -85,6 +85,8 @@ fn threads_are_bounded_and_the_flag_is_named() {
     let sweep = ["tune", "--kp", "100..200:2", "--kd", "20..30:2", "--out", out, "--threads"];
     assert_one_line_error(&chessarm(&[&sweep[..], &["4294967295"]].concat()), &["--threads 4294967295", "per core"]);
     assert_one_line_error(&chessarm(&[&sweep[..], &["0"]].concat()), &["--threads 0"]);
+    // A search depth that would not finish in a lifetime.
+    assert_one_line_error(&chessarm(&["play", "--depth", "64"]), &["'64'", "--depth", "1..=10"]);
 }
 
 #[test]

@@ -271,6 +271,19 @@ pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
     if count > MAX_CANDIDATES as f64 {
         bail!("the sweep has {count:e} candidates, more than {MAX_CANDIDATES}; split it with fewer values or --shard");
     }
+    // Every candidate's gains, its row of results and its CSV line are held at once.
+    let ranges =
+        |flag: &str, range: &crate::args::GainRange| format!("{flag} {}..{}:{}", range.from, range.to, range.count);
+    let mut cause = format!("{} {}", ranges("--kp", &args.kp), ranges("--kd", &args.kd));
+    if let Some(ki) = &args.ki {
+        cause.push_str(&format!(" {}", ranges("--ki", ki)));
+    }
+    crate::resources::ensure_fits(
+        &cause,
+        "candidates",
+        count,
+        (std::mem::size_of::<Gains<4>>() + std::mem::size_of::<Candidate>() + 160) as f64,
+    )?;
     let mut all = Vec::new();
     for kp in args.kp.values() {
         for kd in args.kd.values() {
