@@ -8,28 +8,22 @@ use common::{assert_one_line_error, chessarm};
 
 use std::process::{Command, Stdio};
 
-/// Runs chessarm with its standard output on a pipe whose reader is already closed, so the
-/// first write fails with EPIPE whatever the timing.
+/// Runs chessarm with its standard output on `stdout`.
+fn with_stdout(args: &[&str], stdout: Stdio) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).stdout(stdout).stderr(Stdio::piped()).output().unwrap()
+}
+
+/// Standard output on a pipe whose reader is already closed, so the first write fails with
+/// EPIPE whatever the timing.
 fn with_closed_stdout(args: &[&str]) -> std::process::Output {
     let (reader, writer) = std::io::pipe().unwrap();
     drop(reader);
-    Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(args)
-        .stdout(Stdio::from(writer))
-        .stderr(Stdio::piped())
-        .output()
-        .unwrap()
+    with_stdout(args, Stdio::from(writer))
 }
 
-/// Runs chessarm with its standard output on `/dev/full` (every write fails with ENOSPC).
+/// Standard output on `/dev/full` (every write fails with ENOSPC).
 fn with_full_stdout(args: &[&str]) -> std::process::Output {
-    let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
-    Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(args)
-        .stdout(Stdio::from(full))
-        .stderr(Stdio::piped())
-        .output()
-        .unwrap()
+    with_stdout(args, Stdio::from(std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap()))
 }
 
 #[test]
