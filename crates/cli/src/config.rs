@@ -310,11 +310,15 @@ impl LinkFile {
         };
         let inertia = match &self.inertia_rpy {
             None => tensor,
-            Some(rpy) => {
-                let [roll, pitch, yaw] = numbers::<3>(&field("inertia_rpy"), rpy, "roll, pitch, yaw in rad")?;
-                let rotation = Rotation3::from_euler_angles(roll, pitch, yaw);
-                rotation.matrix() * tensor * rotation.matrix().transpose()
-            }
+            Some(rpy) => match numbers::<3>(&field("inertia_rpy"), rpy, "roll, pitch, yaw in rad")? {
+                // No rotation: the tensor exactly as written (R I Rᵀ with R = E would turn a
+                // -0.0 into 0.0, so `chessarm arm` would not print back what it read).
+                [0.0, 0.0, 0.0] => tensor,
+                [roll, pitch, yaw] => {
+                    let rotation = Rotation3::from_euler_angles(roll, pitch, yaw);
+                    rotation.matrix() * tensor * rotation.matrix().transpose()
+                }
+            },
         };
         Ok(Link {
             dh: DhParameters {

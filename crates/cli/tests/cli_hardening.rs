@@ -383,3 +383,15 @@ fn angles_outside_the_joint_limits_are_warned_about() {
     let quiet = chessarm(&["fk", "--q", "1.5,0.5,0,0"]);
     assert!(quiet.status.success() && quiet.stderr.is_empty());
 }
+
+/// A setup printed by `chessarm arm` loads back to the same print, also when a rotated tensor
+/// has -0.0 entries (found by the setup-TOML fuzz target).
+#[test]
+fn the_printed_setup_is_a_fixed_point_with_rotated_tensors() {
+    let rotated = printed_setup("[[links]]\n[[links]]\ninertia_rpy = [0.3, 0.2, 0.1]\n[[links]]\n[[links]]\n");
+    assert!(rotated.status.success());
+    let first = String::from_utf8(rotated.stdout).unwrap();
+    assert!(first.contains("-0.0"), "the case needs a negative zero");
+    let second = String::from_utf8(printed_setup(&first).stdout).unwrap();
+    assert_eq!(first, second);
+}
