@@ -33,6 +33,8 @@ pub const SIGNAL_EXIT_CODE: i32 = 130;
 /// When the handler cannot be installed.
 pub fn remove_temporaries_on_signal() -> Result<()> {
     ctrlc::set_handler(|| {
+        // Engines run in process groups of their own, which the terminal's Ctrl-C misses.
+        chessarm_chess::opponent::kill_all_engines();
         // Holding the lock until exit: no rename can start after the files are gone.
         let files = pending();
         for file in files.iter() {

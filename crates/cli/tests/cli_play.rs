@@ -192,3 +192,50 @@ fn skipped(test: &str, reason: &str) {
     use std::io::Write;
     let _ = writeln!(std::io::stderr(), "test {test} ... SKIPPED ({reason}; CI installs it and runs it)");
 }
+
+/// Whether process `pid` is gone (no /proc entry, or a zombie left for init to reap).
+fn gone(pid: &str) -> bool {
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        Err(_) => true,
+        Ok(stat) => stat.rsplit(')').next().is_some_and(|rest| rest.trim_start().starts_with('Z')),
+    }
+}
+
+#[test]
+fn ctrl_c_during_an_engine_game_takes_the_engine_s_helpers_with_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let pid_file = dir.path().join("helper.pid");
+    // On `go` the engine starts a helper (like an engine's worker process) and thinks for long.
+    let engine = fake_engine(
+        dir.path(),
+        "helper.sh",
+        &format!("sleep 1000 > /dev/null 2>&1 & echo $! > {}; sleep 30", pid_file.display()),
+    );
+    let out = dir.path().join("out");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(["play", "--engine", &engine, "--robot", "white", "--plies", "4", "--out", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    let helper = loop {
+        if let Ok(pid) = std::fs::read_to_string(&pid_file)
+            && !pid.trim().is_empty()
+        {
+            break pid.trim().to_owned();
+        }
+        assert!(started.elapsed().as_secs() < 60, "the engine's helper never started");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    assert!(!gone(&helper));
+    let status = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    // SIGKILL of the group is immediate; allow the kernel a moment to tear the process down.
+    let killed = std::time::Instant::now();
+    while !gone(&helper) {
+        assert!(killed.elapsed().as_secs() < 5, "the engine's helper {helper} outlived chessarm");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}

@@ -11,7 +11,7 @@ mod uci_line;
 use std::path::PathBuf;
 
 pub use builtin::{BuiltinEngine, SearchSummary};
-pub use uci::{MAX_UCI_LINE_BYTES, UciEngine};
+pub use uci::{MAX_UCI_LINE_BYTES, UciEngine, kill_all_engines};
 pub use uci_line::{UciLine, parse_uci_line};
 
 /// Something that picks a move for the side to move.

@@ -17,6 +17,7 @@
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, ExitStatus, Stdio};
+use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TryRecvError};
 use std::thread;
 use std::time::{Duration, Instant};
@@ -88,6 +89,7 @@ impl UciEngine {
         process::own_group(&mut command);
         let mut child =
             command.spawn().map_err(|cause| OpponentError::EngineSpawn { path: path.to_path_buf(), cause })?;
+        live_groups().push(child.id());
         let stdin = child.stdin.take();
         let stdout = child.stdout.take();
         // Bounded: an engine that floods its output blocks on its own pipe instead of filling memory.
@@ -258,6 +260,9 @@ impl UciEngine {
             // Not reaped yet, so the engine's process id still names its group, even if it has exited.
             process::kill_group(&self.child);
             let _ = self.child.kill();
+            // Forgotten only after the kill and before the reaping, so `kill_all_engines` never
+            // signals a reused id and never misses a live group.
+            live_groups().retain(|&id| id != self.child.id());
             self.status = self.child.wait().ok();
         }
         self.status
@@ -409,6 +414,31 @@ mod process {
         // ESRCH (nobody left in the group) is the normal case after a clean exit.
         let _ = kill_process_group(Pid::from_child(child), Signal::KILL);
     }
+
+    /// Sends SIGKILL to process group `id` (an engine not yet reaped, see `kill_group`).
+    pub(super) fn kill_group_id(id: u32) {
+        if let Some(pid) = i32::try_from(id).ok().and_then(Pid::from_raw) {
+            let _ = kill_process_group(pid, Signal::KILL);
+        }
+    }
+}
+
+/// Process ids (= process-group ids) of the engines this process has started and not reaped.
+static LIVE_GROUPS: Mutex<Vec<u32>> = Mutex::new(Vec::new());
+
+fn live_groups() -> MutexGuard<'static, Vec<u32>> {
+    LIVE_GROUPS.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Kills the process group of every engine still running, for a program that is about to exit
+/// without dropping its [`UciEngine`]s (e.g. from a SIGINT/SIGTERM handler that calls
+/// `std::process::exit`): an engine runs in its own process group, so a terminal's Ctrl-C does
+/// not reach it, and its helpers would otherwise outlive the program. The engines are not
+/// reaped; the exiting program's end does that.
+pub fn kill_all_engines() {
+    for &id in live_groups().iter() {
+        process::kill_group_id(id);
+    }
 }
 
 /// Process control elsewhere: only the engine process itself is watched and killed.
@@ -424,4 +454,6 @@ mod process {
     }
 
     pub(super) fn kill_group(_child: &Child) {}
+
+    pub(super) fn kill_group_id(_id: u32) {}
 }
