@@ -25,6 +25,9 @@ pub fn available_memory() -> f64 {
 /// `bytes` in short human form: `512 B`, `3.4 MB`, `55 GB`.
 pub fn show_bytes(bytes: f64) -> String {
     const UNITS: [&str; 6] = ["B", "kB", "MB", "GB", "TB", "PB"];
+    if !(bytes < 1e18) {
+        return format!("{bytes:.1e} B");
+    }
     let mut value = bytes;
     let mut unit = 0;
     while value >= 1000.0 && unit + 1 < UNITS.len() {

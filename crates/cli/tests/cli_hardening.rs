@@ -67,6 +67,17 @@ fn work_that_cannot_fit_in_memory_is_refused_before_it_starts() {
         &chessarm(&["simulate", "--dt", "1e-7", "--control-rate", "1e7", "--out", out]),
         &["--dt 1e-7", "--control-rate 10000000", "GB"],
     );
+    // Absurd steps: an error naming the flags, not an overflow panic.
+    assert_one_line_error(
+        &chessarm(&["simulate", "--dt", "1e-30", "--control-rate", "1e30", "--out", out]),
+        &["--dt 1e-30 with --control-rate 1e30"],
+    );
+    assert_one_line_error(&chessarm(&["plan", "--dt", "1e308", "--out", out]), &["--dt 1e308", "longer than the 13 s"]);
+    assert_one_line_error(&chessarm(&["simulate", "--tracking-from", "1e6", "--out", out]), &["--tracking-from 1000000"]);
+    assert_one_line_error(
+        &chessarm(&["tune", "--kp", "100..200:2", "--kd", "10..20:2", "--tracking-from", "13", "--out", out]),
+        &["--tracking-from 13", "past the end"],
+    );
     // Refused from the estimate, not after trying: far below the time to fill gigabytes.
     assert!(started.elapsed().as_secs_f64() < 20.0);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "nothing written");

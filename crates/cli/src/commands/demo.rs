@@ -24,6 +24,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
         payload_mass: 0.0,
         controller_knows_payload: false,
         tracking_from: 0.0,
+        rate_flags: "the demo".into(),
     };
     let specs = controller_specs(ControllerChoice::Both, &GainArgs::default())?;
     let steps = study_steps(setup, SCENARIO, &options)?;

@@ -98,6 +98,7 @@ fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Valu
         payload_mass: 0.0,
         controller_knows_payload: false,
         tracking_from: 0.0,
+        rate_flags: "the verification run".into(),
     };
     let run = run_controller(setup, &plan, spec, &options, None)?;
     let forced = run_controller(setup, &plan, spec, &RunOptions { q0: None, ..options }, None)?;

@@ -5,7 +5,7 @@ use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, write_csv};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
-use anyhow::{Result, anyhow};
+use anyhow::{Result, anyhow, bail};
 use chessarm_chess::scenario::{SCENARIOS, scenario};
 use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::plan::path::{CartesianPath, CartesianSample};
@@ -34,6 +34,9 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<
     let scenario = scenario(name, &setup.board)
         .ok_or_else(|| anyhow!("unknown scenario '{name}' (known: {})", SCENARIOS.join(", ")))?;
     let path = scenario.path(&setup.board)?;
+    if dt > path.duration() {
+        bail!("{cause}: a sample every {} s is longer than the {:.0} s scenario", crate::resources::show(dt), path.duration());
+    }
     let samples = (path.duration() / dt).ceil() + 1.0;
     crate::resources::ensure_fits(
         cause,

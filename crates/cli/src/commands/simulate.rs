@@ -60,6 +60,8 @@ pub struct RunOptions {
     pub controller_knows_payload: bool,
     /// Start of the tracking metrics, s.
     pub tracking_from: f64,
+    /// The flags that set the time step and rate, as typed, for error messages.
+    pub rate_flags: String,
 }
 
 /// One controller's run: metrics and the time series.
@@ -341,12 +343,19 @@ pub fn run_study(
     out: &Path,
     progress: Option<&ProgressBar>,
 ) -> Result<(Vec<ControllerRun>, Value)> {
-    let cause = format!("--dt {} with --control-rate {}", show(options.dt), show(1.0 / options.control_period));
-    let plan = plan_scenario(setup, scenario, options.control_period, &cause)?;
+    let cause = options.rate_flags.as_str();
+    let plan = plan_scenario(setup, scenario, options.control_period, cause)?;
+    if options.tracking_from >= plan.path.duration() {
+        bail!(
+            "--tracking-from {} s is at or past the end of the {:.0} s scenario: no step would be measured",
+            show(options.tracking_from),
+            plan.path.duration()
+        );
+    }
     // Every step of every controller is kept, with the points of its plots.
     let steps = (plan.path.duration() / options.dt).ceil() + 1.0;
     crate::resources::ensure_fits(
-        &cause,
+        cause,
         "recorded steps",
         steps * specs.len() as f64,
         (std::mem::size_of::<StepRecord<4>>() + 17 * std::mem::size_of::<(f64, f64)>()) as f64,
@@ -384,7 +393,9 @@ pub fn study_steps(setup: &Setup, scenario: &str, options: &RunOptions) -> Resul
         .map(|s| s.path(&setup.board))
         .transpose()?
         .map_or(0.0, |p| p.duration());
-    Ok((path / options.dt).round() as u64 + 1)
+    // In floating point and capped (at the core's largest run), so absurd --dt values cannot
+    // overflow the count before the memory estimate refuses them.
+    Ok(((path / options.dt).round().min(chessarm_core::plan::path::MAX_SAMPLES as f64) as u64).saturating_add(1))
 }
 
 pub fn options_from(args: &SimulateArgs) -> RunOptions {
@@ -396,6 +407,7 @@ pub fn options_from(args: &SimulateArgs) -> RunOptions {
         payload_mass: args.payload_mass,
         controller_knows_payload: args.controller_knows_payload,
         tracking_from: args.tracking_from,
+        rate_flags: format!("--dt {} with --control-rate {}", show(args.dt), show(args.control_rate)),
     }
 }
 
@@ -425,7 +437,7 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     }
     let specs = controller_specs(args.controller, &args.gains)?;
     let options = options_from(args);
-    let total = study_steps(setup, &args.scenario, &options)? * specs.len() as u64;
+    let total = study_steps(setup, &args.scenario, &options)?.saturating_mul(specs.len() as u64);
     let bar = crate::progress::bar(total, "simulating");
     let (runs, result) = run_study(setup, &args.scenario, &specs, &options, &args.out, Some(&bar))?;
     bar.finish_and_clear();

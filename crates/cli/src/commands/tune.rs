@@ -309,6 +309,13 @@ pub fn study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
 /// The scenario study for the tune command.
 fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
     let plan = plan_scenario(setup, &args.scenario, 1e-3, "the sweep")?;
+    if tracking_from(args) >= plan.path.duration() {
+        bail!(
+            "--tracking-from {} s is at or past the end of the {:.0} s scenario: no step would be measured",
+            crate::resources::show(tracking_from(args)),
+            plan.path.duration()
+        );
+    }
     let events = pawn_events(setup, &plan.path, args.payload_mass, args.controller_knows_payload);
     let marks = plan.path.events().iter().map(|e| e.time).collect();
     if let Some(q0) = &args.q0 {
