@@ -324,6 +324,13 @@ fn games_stop_at_their_result_and_record_it() {
     assert_eq!((game["result"].as_str(), game["result_reason"].as_str()), (Some("0-1"), Some("checkmate")));
     let (game, _) = play_game(&["--moves", "Nf3 Nf6 Ng1 Ng8 Nf3 Nf6 Ng1 Ng8"]);
     assert_eq!(game["result_reason"].as_str(), Some("threefold repetition"));
+    // A claimable draw does not override the result the PGN records: the game went on.
+    let dir = tempfile::tempdir().unwrap();
+    let pgn = dir.path().join("claimable.pgn");
+    std::fs::write(&pgn, "[Result \"0-1\"]\n\n1. Nf3 Nf6 2. Ng1 Ng8 3. Nf3 Nf6 4. Ng1 Ng8 0-1\n").unwrap();
+    let (game, _) = play_game(&[pgn.to_str().unwrap()]);
+    assert_eq!(game["result"].as_str(), Some("0-1"));
+    assert!(game["result_reason"].as_str().unwrap().contains("threefold repetition could have been claimed"));
     // An engine game cut by --plies says so.
     let (game, _) = play_game(&["--plies", "2"]);
     assert_eq!(game["result"].as_str(), Some("*"));

@@ -9,6 +9,7 @@ use crate::print_json;
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list, read_game};
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
+use chessarm_chess::outcome::OutcomeReason;
 use chessarm_chess::play::{Game, MoveReport, Mover, PlaySettings};
 use chessarm_chess::shakmaty::{Chess, Color, Position};
 use serde_json::{Value, json};
@@ -215,16 +216,31 @@ struct GameResult {
 /// What the rules say of the final position; a replayed game that is not over there keeps the
 /// result its PGN records; otherwise `*` and why the game stopped.
 fn game_result(game: &Game, source: &Source, args: &PlayArgs, plies: usize) -> GameResult {
-    if let Some(outcome) = game.outcome() {
+    let outcome = game.outcome();
+    // Threefold repetition and the fifty-move rule are draws a player may claim: a replayed
+    // game whose PGN records another result was played on, so its record stands.
+    let claimable =
+        outcome.is_some_and(|o| matches!(o.reason, OutcomeReason::ThreefoldRepetition | OutcomeReason::FiftyMoveRule));
+    let recorded = match source {
+        Source::Record(record) => record.header("Result").filter(|r| ["1-0", "0-1", "1/2-1/2"].contains(r)),
+        Source::Engines { .. } => None,
+    };
+    if let Some(outcome) = outcome
+        && !(claimable && recorded.is_some())
+    {
         return GameResult { result: outcome.result.to_string(), reason: outcome.reason.to_string() };
     }
     match source {
-        Source::Record(record) => match record.header("Result").filter(|r| ["1-0", "0-1", "1/2-1/2"].contains(r)) {
-            Some(recorded) => GameResult {
+        Source::Record(_) => match (recorded, outcome) {
+            (Some(recorded), Some(outcome)) => GameResult {
+                result: recorded.to_string(),
+                reason: format!("as the PGN records it ({} could have been claimed)", outcome.reason),
+            },
+            (Some(recorded), None) => GameResult {
                 result: recorded.to_string(),
                 reason: "as the PGN records it (the final position is not over by the rules)".into(),
             },
-            None => GameResult { result: "*".into(), reason: "the given moves end; the game is not over".into() },
+            (None, _) => GameResult { result: "*".into(), reason: "the given moves end; the game is not over".into() },
         },
         Source::Engines { .. } => GameResult {
             result: "*".into(),
