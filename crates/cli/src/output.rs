@@ -7,8 +7,8 @@
 //! is never truncated), and the first write into a folder deletes the temporary files that
 //! earlier runs, no longer alive, left there (a `kill -9` cannot be caught).
 
-use anyhow::{Context, Result};
-use std::collections::HashSet;
+use anyhow::{Context, Result, anyhow, bail};
+use std::collections::{HashMap, HashSet};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, PoisonError};
@@ -51,14 +51,10 @@ fn temporary_prefix() -> String {
     format!("{TEMPORARY_PREFIX}{}-", std::process::id())
 }
 
-/// Whether process `pid` is alive (Linux: it has a `/proc` entry).
-fn process_alive(pid: u32) -> bool {
-    Path::new("/proc").join(pid.to_string()).exists()
-}
-
-/// Deletes, once per folder and process, the temporary files in `dir` that a run no longer
-/// alive left behind (interrupted by a signal that cannot be caught). Files of live runs and
-/// every other file stay.
+/// Deletes, once per folder and process, the temporary files in `dir` that no live run holds:
+/// every run holds an exclusive lock on its temporary files while it writes them (released by
+/// the kernel when the run dies, however it dies), so a file whose lock can be taken was left
+/// by a run that is gone. Works across process namespaces and machines sharing the folder.
 fn sweep_stale_temporaries(dir: &Path) {
     {
         let mut swept = SWEPT.lock().unwrap_or_else(PoisonError::into_inner);
@@ -70,14 +66,14 @@ fn sweep_stale_temporaries(dir: &Path) {
     for entry in entries.flatten() {
         let name = entry.file_name();
         let Some(name) = name.to_str() else { continue };
-        let Some(rest) = name.strip_prefix(TEMPORARY_PREFIX) else { continue };
-        if !rest.contains(".part") {
+        if !(name.starts_with(TEMPORARY_PREFIX) && name.contains(".part")) || name == WRITTEN_LIST {
             continue;
         }
-        // `<pid>-<random>.part…`; names without a pid come from older chessarm versions.
-        let owner = rest.split_once('-').and_then(|(pid, _)| pid.parse::<u32>().ok());
-        let stale = owner.is_none_or(|pid| pid != std::process::id() && !process_alive(pid));
-        if stale && entry.file_type().is_ok_and(|t| t.is_file()) {
+        if !entry.file_type().is_ok_and(|t| t.is_file()) {
+            continue;
+        }
+        let Ok(file) = std::fs::File::open(entry.path()) else { continue };
+        if file.try_lock().is_ok() {
             let _ = std::fs::remove_file(entry.path());
         }
     }
@@ -102,6 +98,8 @@ fn temporary_in(parent: &Path, suffix: &str) -> Result<tempfile::NamedTempFile> 
         .permissions(readable_by_all())
         .tempfile_in(parent)
         .with_context(|| format!("cannot create a temporary file in {}", parent.display()))?;
+    // Held until the file is renamed or deleted: tells other runs' sweeps that it is alive.
+    temporary.as_file().lock().with_context(|| format!("cannot lock {}", temporary.path().display()))?;
     files.push(temporary.path().to_path_buf());
     Ok(temporary)
 }
@@ -109,6 +107,9 @@ fn temporary_in(parent: &Path, suffix: &str) -> Result<tempfile::NamedTempFile> 
 /// Renames a finished temporary file into place and forgets it (under the lock, so a signal
 /// either deletes the temporary file or finds the final file whole).
 fn finish(temporary: tempfile::NamedTempFile, path: &Path) -> Result<()> {
+    // On disk before it gets its final name: a late write error (quota, NFS) is reported here,
+    // and a crash cannot leave an empty file under the final name.
+    temporary.as_file().sync_all().with_context(|| format!("while writing {}", path.display()))?;
     let mut files = pending();
     let temporary_path = temporary.path().to_path_buf();
     let persisted = temporary.persist(path);
@@ -143,8 +144,95 @@ fn readable_by_all() -> std::fs::Permissions {
     std::fs::Permissions::from_mode(0o644)
 }
 
+/// The list, in every folder chessarm writes results into, of the files it wrote there (one
+/// name a line). A file is only ever replaced or removed when this list names it.
+pub const WRITTEN_LIST: &str = ".chessarm-written";
+
+/// The names listed in each folder, as read or written by this process.
+static LISTED: Mutex<Option<HashMap<PathBuf, HashSet<String>>>> = Mutex::new(None);
+
+fn refuse_symlink(path: &Path) -> Result<()> {
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        bail!("{} is a symbolic link; chessarm writes its list there only as a plain file", path.display());
+    }
+    Ok(())
+}
+
+/// The names of `dir`'s list (empty when there is none).
+fn read_list(dir: &Path) -> Result<HashSet<String>> {
+    let list = dir.join(WRITTEN_LIST);
+    refuse_symlink(&list)?;
+    match std::fs::read_to_string(&list) {
+        Ok(text) => Ok(text.lines().filter(|name| is_plain_name(name)).map(str::to_owned).collect()),
+        Err(error) if error.kind() == std::io::ErrorKind::NotFound => Ok(HashSet::new()),
+        Err(error) => Err(error).with_context(|| format!("cannot read {}", list.display())),
+    }
+}
+
+/// A file name without folders, so a damaged list cannot reach outside its folder.
+fn is_plain_name(name: &str) -> bool {
+    !name.is_empty() && name != "." && name != ".." && name != WRITTEN_LIST && !name.contains(['/', '\\', '\0'])
+}
+
+fn listed() -> MutexGuard<'static, Option<HashMap<PathBuf, HashSet<String>>>> {
+    LISTED.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// `path`'s folder and file name.
+fn split(path: &Path) -> Result<(PathBuf, String)> {
+    let name = path
+        .file_name()
+        .and_then(|name| name.to_str())
+        .filter(|name| is_plain_name(name))
+        .ok_or_else(|| anyhow!("{} is not a file name chessarm writes", path.display()))?;
+    Ok((parent_of(path).to_path_buf(), name.to_owned()))
+}
+
+fn not_ours(path: &Path) -> anyhow::Error {
+    anyhow!(
+        "{} exists and was not written by chessarm (its folder's {WRITTEN_LIST} does not list it): move it away \
+         or choose another --out; nothing was changed",
+        path.display()
+    )
+}
+
+/// Claims `path` for a result file: allowed when nothing is there yet (the name is then listed,
+/// before anything is written) or when the folder's list names it; refused when something else
+/// is there, which is then never touched.
+///
+/// # Errors
+///
+/// A file there that chessarm did not write, or a list that cannot be read or written.
+pub fn claim(path: &Path) -> Result<()> {
+    let (dir, name) = split(path)?;
+    ensure_dir(&dir)?;
+    let mut guard = listed();
+    let lists = guard.get_or_insert_with(HashMap::new);
+    if !lists.contains_key(&dir) {
+        lists.insert(dir.clone(), read_list(&dir)?);
+    }
+    let names = lists.entry(dir.clone()).or_default();
+    if names.contains(&name) {
+        return Ok(());
+    }
+    if std::fs::symlink_metadata(path).is_ok() {
+        return Err(not_ours(path));
+    }
+    let list = dir.join(WRITTEN_LIST);
+    refuse_symlink(&list)?;
+    let mut file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&list)
+        .with_context(|| format!("cannot write {}", list.display()))?;
+    writeln!(file, "{name}").and_then(|()| file.flush()).with_context(|| format!("cannot write {}", list.display()))?;
+    names.insert(name);
+    Ok(())
+}
+
 /// Writes `path` through `write` into a temporary sibling, then renames it into place.
 pub fn write_atomic(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    claim(path)?;
     let temporary = temporary_in(parent_of(path), ".part")?;
     test_pause();
     let written = (|| {
@@ -164,6 +252,7 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<()
 /// Renders a file whose writer needs a path with the right extension (e.g. a PNG from
 /// plotters): `render` writes to a temporary sibling path, which is then renamed into place.
 pub fn render_atomic(path: &Path, render: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    claim(path)?;
     let extension = path.extension().map(|e| format!(".part.{}", e.to_string_lossy())).unwrap_or(".part".into());
     let temporary = temporary_in(parent_of(path), &extension)?;
     test_pause();
@@ -213,13 +302,60 @@ pub fn numbered(prefix: &str, count: usize) -> impl Iterator<Item = String> + '_
 }
 
 /// Deletes result files left by an earlier run, so a failed run cannot leave them looking
-/// like its own.
+/// like its own: only files their folder's list names.
+///
+/// # Errors
+///
+/// A file there that chessarm did not write (nothing is deleted then), or one that cannot be
+/// removed.
 pub fn remove_stale(paths: &[PathBuf]) -> Result<()> {
+    for path in paths {
+        if std::fs::symlink_metadata(path).is_err() {
+            continue;
+        }
+        let (dir, name) = split(path)?;
+        if !read_list(&dir)?.contains(&name) {
+            return Err(not_ours(path));
+        }
+    }
     for path in paths {
         match std::fs::remove_file(path) {
             Ok(()) => {}
             Err(error) if error.kind() == std::io::ErrorKind::NotFound => {}
             Err(error) => return Err(error).with_context(|| format!("cannot remove the old {}", path.display())),
+        }
+    }
+    Ok(())
+}
+
+/// Deletes every file `dir`'s list names (an earlier run's results; nothing else in the
+/// folder is touched).
+///
+/// # Errors
+///
+/// A list or a file that cannot be read or removed.
+pub fn remove_listed_in(dir: &Path) -> Result<()> {
+    let names = read_list(dir)?;
+    let mut names: Vec<&String> = names.iter().collect();
+    names.sort();
+    let paths: Vec<PathBuf> = names.iter().map(|name| dir.join(name)).collect();
+    remove_stale(&paths)
+}
+
+/// Refuses, before any work, a folder holding a file that chessarm might write (`might_write`
+/// of its name) but did not (its list does not name it): otherwise the run would stop there
+/// later, half done.
+///
+/// # Errors
+///
+/// The first such file, or a folder or list that cannot be read.
+pub fn refuse_unlisted(dir: &Path, might_write: impl Fn(&str) -> bool) -> Result<()> {
+    let names = read_list(dir)?;
+    let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if might_write(&name) && !names.contains(&name) {
+            return Err(not_ours(&dir.join(name)));
         }
     }
     Ok(())

@@ -73,7 +73,10 @@ fn work_that_cannot_fit_in_memory_is_refused_before_it_starts() {
         &["--dt 1e-30 with --control-rate 1e30"],
     );
     assert_one_line_error(&chessarm(&["plan", "--dt", "1e308", "--out", out]), &["--dt 1e308", "longer than the 13 s"]);
-    assert_one_line_error(&chessarm(&["simulate", "--tracking-from", "1e6", "--out", out]), &["--tracking-from 1000000"]);
+    assert_one_line_error(
+        &chessarm(&["simulate", "--tracking-from", "1e6", "--out", out]),
+        &["--tracking-from 1000000"],
+    );
     assert_one_line_error(
         &chessarm(&["tune", "--kp", "100..200:2", "--kd", "10..20:2", "--tracking-from", "13", "--out", out]),
         &["--tracking-from 13", "past the end"],
@@ -114,45 +117,76 @@ fn play_removes_only_the_files_an_earlier_run_wrote() {
     let out = dir.path().join("game");
     let out_text = out.to_str().unwrap();
     let moves = out.join("moves");
-    // A folder chessarm did not write: refused, and nothing in it is touched.
-    std::fs::create_dir_all(&moves).unwrap();
-    std::fs::write(moves.join("notes.txt"), "my notes").unwrap();
-    assert_one_line_error(
-        &chessarm(&["play", "--moves", "e4", "--out", out_text]),
-        &["did not write", "notes.txt", "nothing was deleted"],
-    );
-    assert_eq!(std::fs::read_to_string(moves.join("notes.txt")).unwrap(), "my notes");
-    std::fs::remove_file(moves.join("notes.txt")).unwrap();
-
     let names = |dir: &std::path::Path| {
         let mut names: Vec<String> =
             std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
         names.sort();
         names
     };
+    // A user's file in moves/ is left alone; one where chessarm would write is refused, untouched.
+    std::fs::create_dir_all(&moves).unwrap();
+    std::fs::write(moves.join("notes.txt"), "my notes").unwrap();
+    std::fs::write(moves.join("001-e2e4.csv"), "my own analysis").unwrap();
+    assert_one_line_error(
+        &chessarm(&["play", "--moves", "e4", "--out", out_text]),
+        &["001-e2e4.csv exists and was not written by chessarm", "nothing was changed"],
+    );
+    assert_eq!(std::fs::read_to_string(moves.join("001-e2e4.csv")).unwrap(), "my own analysis");
+    std::fs::remove_file(moves.join("001-e2e4.csv")).unwrap();
+
     assert!(chessarm(&["play", "--moves", "e4 e5", "--out", out_text]).status.success());
-    assert_eq!(names(&moves), [".chessarm-written", "001-e2e4.csv", "002-e7e5.csv"]);
-    // A file the user adds afterwards survives the next run; the earlier run's CSVs do not.
-    std::fs::write(moves.join("notes.txt"), "later notes").unwrap();
+    assert_eq!(names(&moves), [".chessarm-written", "001-e2e4.csv", "002-e7e5.csv", "notes.txt"]);
+    // The next game removes the earlier game's CSVs, and only those.
     assert!(chessarm(&["play", "--moves", "d4", "--out", out_text]).status.success());
     assert_eq!(names(&moves), [".chessarm-written", "001-d2d4.csv", "notes.txt"]);
-    assert_eq!(std::fs::read_to_string(moves.join("notes.txt")).unwrap(), "later notes");
+    assert_eq!(std::fs::read_to_string(moves.join("notes.txt")).unwrap(), "my notes");
+}
+
+#[test]
+fn result_files_of_the_user_are_never_replaced_or_removed() {
+    let dir = tempfile::tempdir().unwrap();
+    // game.json, summary.json, pd.csv, tune.png that the user put in the output folder.
+    for (command, file) in [
+        (&["play", "--moves", "e4"][..], "game.json"),
+        (&["simulate", "--controller", "pd"], "summary.json"),
+        (&["simulate", "--controller", "pd"], "pd.csv"),
+        (&["tune", "--kp", "100..200:2", "--kd", "10..20:2"], "tune.png"),
+        (&["plan"], "joint.xlsx"),
+    ] {
+        let out = dir.path().join(file.replace('.', "-"));
+        std::fs::create_dir_all(&out).unwrap();
+        std::fs::write(out.join(file), "the user's").unwrap();
+        let output = chessarm(&[command, &["--out", out.to_str().unwrap()]].concat());
+        assert_one_line_error(&output, &[file, "not written by chessarm"]);
+        assert_eq!(std::fs::read_to_string(out.join(file)).unwrap(), "the user's", "{command:?}");
+    }
+    // A list that is a symbolic link is not written through.
+    let out = dir.path().join("linked");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(dir.path().join("precious.txt"), "precious").unwrap();
+    std::os::unix::fs::symlink(dir.path().join("precious.txt"), out.join(".chessarm-written")).unwrap();
+    assert_one_line_error(&chessarm(&["plan", "--out", out.to_str().unwrap()]), &["symbolic link"]);
+    assert_eq!(std::fs::read_to_string(dir.path().join("precious.txt")).unwrap(), "precious");
 }
 
 #[test]
 fn temporaries_of_dead_runs_are_swept_and_live_ones_kept() {
     let dir = tempfile::tempdir().unwrap();
-    // No process has pid 4000000000 (Linux caps pids at 2^22); this test's own process is alive.
+    // Left by runs that are gone: nobody holds their lock.
     let dead = dir.path().join(".chessarm-4000000000-abc.part");
     let older = dir.path().join(".chessarm-Xy12zz.part.png");
-    let alive = dir.path().join(format!(".chessarm-{}-def.part", std::process::id()));
+    // Held by a live run (this test holds its lock), and a file of the user's.
+    let alive = dir.path().join(".chessarm-1-def.part");
     let user = dir.path().join("mine.part");
     for file in [&dead, &older, &alive, &user] {
         std::fs::write(file, "x").unwrap();
     }
+    let held = std::fs::File::open(&alive).unwrap();
+    held.lock().unwrap();
     assert!(chessarm(&["plan", "--out", dir.path().to_str().unwrap()]).status.success());
     assert!(!dead.exists() && !older.exists(), "stale temporaries left");
     assert!(alive.exists() && user.exists(), "files of a live run or of the user removed");
+    drop(held);
 }
 
 /// Sends `signal` (e.g. "INT") to `pid`.
@@ -192,7 +226,8 @@ fn a_signal_during_a_write_leaves_no_temporary_and_no_partial_file() {
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
-        assert!(left.is_empty(), "{signal}: left {left:?}");
+        // Only the list of what chessarm writes there: no temporary, no partial result.
+        assert_eq!(left, [".chessarm-written"], "{signal}");
     }
 }
 

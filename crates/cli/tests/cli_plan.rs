@@ -185,7 +185,16 @@ fn plan_writes_the_report_files_whole() {
     let mut names: Vec<String> =
         std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     names.sort();
-    assert_eq!(names, ["cartesian.csv", "cartesian.png", "joint.csv", "joint.png", "joint.xlsx"], "stray files");
+    // The results and the list of what chessarm wrote there.
+    assert_eq!(
+        names,
+        [".chessarm-written", "cartesian.csv", "cartesian.png", "joint.csv", "joint.png", "joint.xlsx"],
+        "stray files"
+    );
+    let mut listed: Vec<String> =
+        std::fs::read_to_string(out.join(".chessarm-written")).unwrap().lines().map(String::from).collect();
+    listed.sort();
+    assert_eq!(listed, names[1..]);
 
     let mut cartesian = csv::Reader::from_path(out.join("cartesian.csv")).unwrap();
     assert_eq!(

@@ -35,7 +35,11 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<
         .ok_or_else(|| anyhow!("unknown scenario '{name}' (known: {})", SCENARIOS.join(", ")))?;
     let path = scenario.path(&setup.board)?;
     if dt > path.duration() {
-        bail!("{cause}: a sample every {} s is longer than the {:.0} s scenario", crate::resources::show(dt), path.duration());
+        bail!(
+            "{cause}: a sample every {} s is longer than the {:.0} s scenario",
+            crate::resources::show(dt),
+            path.duration()
+        );
     }
     let samples = (path.duration() / dt).ceil() + 1.0;
     crate::resources::ensure_fits(
@@ -95,10 +99,13 @@ pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool) -> Result<Vec<String>> {
     let joint_png = out.join("joint.png");
     plot_joint(&joint_png, plan)?;
     files.push(joint_png);
+    let joint_xlsx = out.join("joint.xlsx");
     if xlsx {
-        let joint_xlsx = out.join("joint.xlsx");
         write_xlsx(&joint_xlsx, plan)?;
         files.push(joint_xlsx);
+    } else {
+        // An earlier run's spreadsheet would no longer match joint.csv.
+        crate::output::remove_stale(&[joint_xlsx])?;
     }
     Ok(files.iter().map(|p| p.display().to_string()).collect())
 }

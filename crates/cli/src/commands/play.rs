@@ -3,7 +3,7 @@
 use crate::cli::{PlayArgs, RobotSide};
 use crate::commands::simulate::controller_specs;
 use crate::config::Setup;
-use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
+use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
 use anyhow::{Context, Result, bail};
@@ -13,7 +13,7 @@ use chessarm_chess::outcome::OutcomeReason;
 use chessarm_chess::play::{Game, MoveReport, Mover, PlaySettings};
 use chessarm_chess::shakmaty::{Chess, Color, Position};
 use serde_json::{Value, json};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// Where the moves come from.
@@ -110,7 +110,11 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     // Results of an earlier game in the same folder must not pass for this one's; only files
     // an earlier chessarm run wrote (and listed) are removed.
     remove_stale(&[args.out.join("game.json")])?;
-    let mut manifest = Manifest::open(&moves_dir)?;
+    remove_listed_in(&moves_dir)?;
+    // Move CSVs are named NNN-<uci>.csv: any such file that is not chessarm's is refused now.
+    refuse_unlisted(&moves_dir, |name| {
+        name.ends_with(".csv") && name.len() > 4 && name.as_bytes()[..3].iter().all(u8::is_ascii_digit)
+    })?;
     let started = Instant::now();
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
     let bar = crate::progress::bar(total as u64, "playing");
@@ -140,7 +144,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         }
         say(&bar, move_line(&report));
         if report.mover == Mover::Robot {
-            write_move_csv(&mut manifest, &report)?;
+            write_move_csv(&moves_dir, &report)?;
         }
         bar.inc(1);
         reports.push(report);
@@ -297,69 +301,11 @@ fn game_json(
     })
 }
 
-/// The list of files chessarm wrote into a `moves/` folder (`.chessarm-written`, one name a
-/// line), so that the next run removes those and only those. A name is listed before its file
-/// is written, so an interrupted run's files are listed too.
-struct Manifest {
-    dir: PathBuf,
-    file: std::fs::File,
-}
-
-impl Manifest {
-    const NAME: &'static str = ".chessarm-written";
-
-    /// Opens `dir` for a new game: removes the files an earlier run listed, then starts an
-    /// empty list. Refuses a folder holding files chessarm did not list (a user's), never
-    /// deleting them.
-    fn open(dir: &Path) -> Result<Self> {
-        ensure_dir(dir)?;
-        let list = dir.join(Self::NAME);
-        match std::fs::read_to_string(&list) {
-            Ok(text) => {
-                let ours: Vec<PathBuf> =
-                    text.lines().filter(|name| Self::is_plain_name(name)).map(|name| dir.join(name)).collect();
-                remove_stale(&ours)?;
-            }
-            Err(error) if error.kind() == std::io::ErrorKind::NotFound => {
-                let foreign = std::fs::read_dir(dir)
-                    .with_context(|| format!("cannot read {}", dir.display()))?
-                    .flatten()
-                    .map(|entry| entry.file_name().to_string_lossy().into_owned())
-                    .find(|name| !name.starts_with(".chessarm-"));
-                if let Some(name) = foreign {
-                    bail!(
-                        "{} already holds files chessarm did not write (e.g. {name}): move them away or \
-                         choose another --out; nothing was deleted",
-                        dir.display()
-                    );
-                }
-            }
-            Err(error) => return Err(error).with_context(|| format!("cannot read {}", list.display())),
-        }
-        let file = std::fs::File::create(&list).with_context(|| format!("cannot write {}", list.display()))?;
-        Ok(Self { dir: dir.to_path_buf(), file })
-    }
-
-    /// A file name without folders, so a damaged list cannot reach outside the folder.
-    fn is_plain_name(name: &str) -> bool {
-        !name.is_empty() && name != "." && name != ".." && !name.contains(['/', '\\', '\0'])
-    }
-
-    /// Lists `name` (flushed), then returns the path to write it at.
-    fn add(&mut self, name: &str) -> Result<PathBuf> {
-        use std::io::Write;
-        writeln!(self.file, "{name}")
-            .and_then(|()| self.file.flush())
-            .with_context(|| format!("cannot write {}", self.dir.join(Self::NAME).display()))?;
-        Ok(self.dir.join(name))
-    }
-}
-
-fn write_move_csv(manifest: &mut Manifest, report: &MoveReport) -> Result<()> {
+fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
     let mut header = vec!["t".to_string()];
     header.extend(numbered("q", 4).chain(numbered("q_des", 4)));
     header.extend(["x", "y", "z", "x_des", "y_des", "z_des", "tip_error_mm"].map(String::from));
-    let path = manifest.add(&format!("{:03}-{}.csv", report.ply, report.uci))?;
+    let path = dir.join(format!("{:03}-{}.csv", report.ply, report.uci));
     write_csv(
         &path,
         &header,

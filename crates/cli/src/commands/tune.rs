@@ -374,6 +374,8 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         bail!("--tracking-from goes with a scenario; a game starts every move on its trajectory");
     }
     ensure_dir(&args.out)?;
+    // An earlier sweep's files must not pass for this one's (a failed heat map, a changed range).
+    crate::output::remove_stale(&[args.out.join("tune.csv"), args.out.join("tune.png")])?;
     let bar = crate::progress::bar(range.len() as u64, "tuning");
     let started = Instant::now();
     let candidates = sweep(setup, &study, &options, &gains, range.clone(), args.threads, Some(&bar))?;
