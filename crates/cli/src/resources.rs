@@ -25,7 +25,7 @@ pub fn available_memory() -> f64 {
 /// `bytes` in short human form: `512 B`, `3.4 MB`, `55 GB`.
 pub fn show_bytes(bytes: f64) -> String {
     const UNITS: [&str; 6] = ["B", "kB", "MB", "GB", "TB", "PB"];
-    if !(bytes < 1e18) {
+    if bytes.is_nan() || bytes >= 1e18 {
         return format!("{bytes:.1e} B");
     }
     let mut value = bytes;
