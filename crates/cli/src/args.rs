@@ -121,6 +121,15 @@ fn shard_unescaped(text: &str) -> Result<(usize, usize), String> {
     Ok((k, n))
 }
 
+/// A game number of a PGN file: a whole number from 1.
+fn game_number_unescaped(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(0) => Err("games are counted from 1".to_owned()),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("'{text}' is not a whole number")),
+    }
+}
+
 // The value parsers clap calls: their messages quote the value as typed, with control
 // characters escaped (clap's renderer would drop them, hiding what was typed).
 
@@ -162,4 +171,9 @@ pub fn range(text: &str) -> Result<GainRange, String> {
 /// See `shard_unescaped`; the message's control characters escaped.
 pub fn shard(text: &str) -> Result<(usize, usize), String> {
     shard_unescaped(text).map_err(|message| crate::escape_controls(&message))
+}
+
+/// See `game_number_unescaped`; the message's control characters escaped.
+pub fn game_number(text: &str) -> Result<usize, String> {
+    game_number_unescaped(text).map_err(|message| crate::escape_controls(&message))
 }

@@ -57,7 +57,7 @@ pub struct PlayArgs {
     /// A PGN file to replay (comments and variations are ignored).
     pub game_file: Option<PathBuf>,
     /// Which game of the PGN file, 1-based.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = args::game_number)]
     pub game: usize,
     /// Moves in SAN or UCI, e.g. "e4 e5 Nf3" (instead of a PGN file).
     #[arg(long, conflicts_with = "game_file")]
@@ -103,7 +103,7 @@ pub struct PlayArgs {
     #[arg(long, value_enum, default_value_t)]
     pub integrator: IntegratorChoice,
     /// A piece further than this from its square centre is misplaced, mm.
-    #[arg(long, default_value_t = 5.0, value_parser = args::positive)]
+    #[arg(long, default_value_t = 5.0, value_parser = args::positive, allow_hyphen_values = true)]
     pub tolerance_mm: f64,
     /// Output folder.
     #[arg(long, default_value = "out/play")]
@@ -114,29 +114,29 @@ pub struct PlayArgs {
 #[command(group(clap::ArgGroup::new("spec").required(true).args(["settling_time", "wn"])))]
 pub struct GainsArgs {
     /// Wanted 2 % settling time of the error response, s.
-    #[arg(long, value_parser = args::positive)]
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub settling_time: Option<f64>,
     /// Wanted overshoot of the error response, % (with --settling-time; 0 = critically damped).
-    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, conflicts_with = "wn")]
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, conflicts_with = "wn", allow_hyphen_values = true)]
     pub overshoot: f64,
     /// Natural frequency, rad/s (instead of --settling-time).
-    #[arg(long, value_parser = args::positive, requires = "zeta")]
+    #[arg(long, value_parser = args::positive, requires = "zeta", allow_hyphen_values = true)]
     pub wn: Option<f64>,
     /// Damping ratio (with --wn).
-    #[arg(long, value_parser = args::positive, conflicts_with = "settling_time")]
+    #[arg(long, value_parser = args::positive, conflicts_with = "settling_time", allow_hyphen_values = true)]
     pub zeta: Option<f64>,
     /// Controller: pd, or pid by pole placement (third pole at −ratio·ωn).
     #[arg(long, value_enum, default_value_t = ControllerChoice::Pd)]
     pub controller: ControllerChoice,
     /// PID only: the integral pole sits at −ratio·ωn. Default: with specs, the ratio that
     /// settles fastest; with --wn/--zeta, 0.2.
-    #[arg(long, value_parser = args::positive)]
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub integral_pole_ratio: Option<f64>,
     /// Scenario simulated to verify the design.
     #[arg(long, default_value = "queens-gambit")]
     pub scenario: String,
     /// Initial error of every joint for the verification run, rad.
-    #[arg(long, default_value_t = 0.05, value_parser = args::positive)]
+    #[arg(long, default_value_t = 0.05, value_parser = args::positive, allow_hyphen_values = true)]
     pub initial_error: f64,
     /// Skip the verification run.
     #[arg(long)]
@@ -161,7 +161,7 @@ pub struct TuneArgs {
     /// A PGN game each candidate plays whole (instead of the scenario).
     pub game_file: Option<PathBuf>,
     /// Which game of the PGN file, 1-based.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = args::game_number)]
     pub game: usize,
     /// Scenario to simulate each candidate on.
     #[arg(long, default_value = "queens-gambit")]
@@ -179,7 +179,7 @@ pub struct TuneArgs {
     #[arg(long, value_parser = args::range)]
     pub ki: Option<args::GainRange>,
     /// Mass of the gripped piece, kg, carried from grip to release.
-    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative)]
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, allow_hyphen_values = true)]
     pub payload_mass: f64,
     /// The controller's model includes the gripped piece.
     #[arg(long)]
@@ -193,7 +193,7 @@ pub struct TuneArgs {
     /// Start of the tracking metrics (max/RMS tip and joint errors), s. Default: 1 s with
     /// --q0 (the start from rest off the trajectory is a deliberate transient that would
     /// otherwise dominate them), 0 without.
-    #[arg(long, value_name = "S", value_parser = args::non_negative)]
+    #[arg(long, value_name = "S", value_parser = args::non_negative, allow_hyphen_values = true)]
     pub tracking_from: Option<f64>,
     /// Run only slice K of N (1-based), e.g. 2/8; the slices' CSVs concatenate to the full sweep.
     #[arg(long, value_parser = args::shard)]
@@ -290,7 +290,7 @@ pub struct DynamicsArgs {
     #[arg(long, value_name = "QD1,QD2,QD3,QD4", value_parser = args::four, allow_hyphen_values = true, default_value = "0,0,0,0")]
     pub qd: [f64; 4],
     /// Mass of a gripped pawn-sized piece at the tool, kg.
-    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative)]
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, allow_hyphen_values = true)]
     pub payload_mass: f64,
 }
 
@@ -305,25 +305,25 @@ pub struct SimulateArgs {
     #[command(flatten)]
     pub gains: GainArgs,
     /// Integration time step, s.
-    #[arg(long, default_value_t = 0.001, value_parser = args::positive)]
+    #[arg(long, default_value_t = 0.001, value_parser = args::positive, allow_hyphen_values = true)]
     pub dt: f64,
     /// Integrator of the plant.
     #[arg(long, value_enum, default_value_t)]
     pub integrator: IntegratorChoice,
     /// Controller sample rate, Hz (its period must be a multiple of --dt).
-    #[arg(long, default_value_t = 1000.0, value_parser = args::positive)]
+    #[arg(long, default_value_t = 1000.0, value_parser = args::positive, allow_hyphen_values = true)]
     pub control_rate: f64,
     /// Initial joint angles (rad), at rest; default: on the trajectory's first point.
     #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
     pub q0: Option<[f64; 4]>,
     /// Mass of the gripped piece (pawn-sized), kg, carried from grip to release.
-    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative)]
+    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, allow_hyphen_values = true)]
     pub payload_mass: f64,
     /// The controller's model includes the gripped piece.
     #[arg(long)]
     pub controller_knows_payload: bool,
     /// Start of the tracking metrics in summary.json (RMS/max tip and joint errors), s.
-    #[arg(long, value_name = "S", default_value_t = 0.0, value_parser = args::non_negative)]
+    #[arg(long, value_name = "S", default_value_t = 0.0, value_parser = args::non_negative, allow_hyphen_values = true)]
     pub tracking_from: f64,
     /// Output folder.
     #[arg(long, default_value = "out/simulate")]
@@ -370,7 +370,7 @@ pub struct PlanArgs {
     #[arg(long, default_value = "out/plan")]
     pub out: PathBuf,
     /// Sample time of the written trajectory, s (the report: 5 ms).
-    #[arg(long, default_value_t = 0.005, value_parser = args::positive)]
+    #[arg(long, default_value_t = 0.005, value_parser = args::positive, allow_hyphen_values = true)]
     pub dt: f64,
     /// Also write joint.xlsx (the report exported a spreadsheet).
     #[arg(long)]

@@ -85,7 +85,32 @@ pub fn one_line(error: &anyhow::Error) -> String {
             message.push_str(&text);
         }
     }
-    escape_controls(&message)
+    shorten_long_words(&escape_controls(&message))
+}
+
+/// Longest run of non-blank characters an error line shows whole (a path, a FEN, a move).
+const LONGEST_WORD: usize = 200;
+
+/// `text` with each run of non-blank characters longer than [`LONGEST_WORD`] cut to its start
+/// and the count of what was left out, so that a megabyte token quoted by a parser does not
+/// become a megabyte error line.
+pub fn shorten_long_words(text: &str) -> String {
+    if text.len() <= LONGEST_WORD {
+        return text.to_owned();
+    }
+    let mut shown = String::with_capacity(text.len().min(4096));
+    for (i, word) in text.split(' ').enumerate() {
+        if i > 0 {
+            shown.push(' ');
+        }
+        if word.chars().count() <= LONGEST_WORD {
+            shown.push_str(word);
+        } else {
+            let kept: String = word.chars().take(LONGEST_WORD / 2).collect();
+            shown.push_str(&format!("{kept}…({} more bytes)", word.len() - kept.len()));
+        }
+    }
+    shown
 }
 
 /// `text` on one line: `\n` becomes a space, every other control character (CR, VT, NUL, ESC,

@@ -9,10 +9,14 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(error) => {
             return match error.kind() {
-                ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
-                    let _ = error.print();
-                    ExitCode::SUCCESS
-                }
+                ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => match error.print() {
+                    Ok(()) => ExitCode::SUCCESS,
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+                    Err(e) => {
+                        chessarm::tell(&format!("error: cannot write to standard output: {e}\n"));
+                        ExitCode::from(2)
+                    }
+                },
                 _ => {
                     // One line: clap's message without its usage and help hints.
                     let rendered = error.render().to_string();
@@ -22,7 +26,10 @@ fn main() -> ExitCode {
                         .map(str::trim)
                         .filter(|line| !line.is_empty())
                         .collect();
-                    chessarm::tell(&format!("{}\n", chessarm::escape_controls(&message.join(" "))));
+                    chessarm::tell(&format!(
+                        "{}\n",
+                        chessarm::shorten_long_words(&chessarm::escape_controls(&message.join(" ")))
+                    ));
                     ExitCode::from(2)
                 }
             };

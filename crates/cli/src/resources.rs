@@ -64,10 +64,9 @@ pub fn show_count(count: f64) -> String {
 }
 
 /// A number as typed, in short form: plain when moderate, scientific when huge or tiny
-/// (`1e308`, `1e-320`).
+/// (`1e308`, `1e-320`); see [`chessarm_core::short_number`].
 pub fn show(value: f64) -> String {
-    let magnitude = value.abs();
-    if value == 0.0 || (1e-4..1e9).contains(&magnitude) { format!("{value}") } else { format!("{value:e}") }
+    chessarm_core::short_number(value)
 }
 
 /// Numbers as typed, comma-separated, each in [`show`]'s form (`1e308,0,0,0`).

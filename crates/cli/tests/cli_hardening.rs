@@ -65,7 +65,7 @@ fn work_that_cannot_fit_in_memory_is_refused_before_it_starts() {
     assert_one_line_error(&chessarm(&["plan", "--dt", "1.3e-7", "--out", out]), &["--dt 1.3e-7", "GB"]);
     assert_one_line_error(
         &chessarm(&["simulate", "--dt", "1e-7", "--control-rate", "1e7", "--out", out]),
-        &["--dt 1e-7", "--control-rate 10000000", "GB"],
+        &["--dt 1e-7", "--control-rate 1e7", "GB"],
     );
     // Absurd steps: an error naming the flags, not an overflow panic.
     assert_one_line_error(
@@ -425,6 +425,34 @@ fn errors_name_the_flag_as_typed_not_a_derived_value() {
 }
 
 #[test]
+fn huge_inputs_make_short_error_lines() {
+    // A 100 kB token is quoted by its start and the count of what is left out.
+    let long = "x".repeat(100_000);
+    for args in [
+        vec!["fk".to_owned(), "--q".to_owned(), format!("1,2,3,{long}")],
+        vec![
+            "play".to_owned(),
+            "--moves".to_owned(),
+            format!("e4 {long}"),
+            "--out".to_owned(),
+            "/tmp/unused".to_owned(),
+        ],
+        vec!["play".to_owned(), "--fen".to_owned(), long.clone(), "--moves".to_owned(), "e4".to_owned()],
+    ] {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let output = chessarm(&args);
+        assert_one_line_error(&output, &["more bytes)"]);
+        assert!(output.stderr.len() < 2000, "{} bytes for {:?}", output.stderr.len(), &args[..2]);
+    }
+    // Huge numbers in short scientific form, not hundreds of digits.
+    assert_one_line_error(&chessarm(&["ik", "--square", "d4", "--height", "1e308"]), &["1e308 m beyond"]);
+    assert_one_line_error(
+        &chessarm(&["gains", "--settling-time", "0.3", "--overshoot", "1e308"]),
+        &["overshoot = 1e308"],
+    );
+}
+
+#[test]
 fn angles_outside_the_joint_limits_are_warned_about() {
     let output = chessarm(&["fk", "--q", "90,0,0,0"]);
     assert!(output.status.success());
@@ -447,4 +475,49 @@ fn the_printed_setup_is_a_fixed_point_with_rotated_tensors() {
     assert!(first.contains("-0.0"), "the case needs a negative zero");
     let second = String::from_utf8(printed_setup(&first).stdout).unwrap();
     assert_eq!(first, second);
+}
+
+/// The header of a CSV file.
+fn header(path: &std::path::Path) -> Vec<String> {
+    std::fs::read_to_string(path).unwrap().lines().next().unwrap().split(',').map(String::from).collect()
+}
+
+#[test]
+fn one_name_is_one_quantity_in_every_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name);
+    assert!(chessarm(&["plan", "--out", out("plan").to_str().unwrap()]).status.success());
+    assert!(chessarm(&["simulate", "--controller", "pd", "--out", out("sim").to_str().unwrap()]).status.success());
+    assert!(chessarm(&["play", "--moves", "e4", "--out", out("play").to_str().unwrap()]).status.success());
+    let mut columns: Vec<String> = Vec::new();
+    for file in [out("plan/joint.csv"), out("sim/pd.csv"), out("play/moves/001-e2e4.csv")] {
+        columns.extend(header(&file));
+    }
+    // Every column is t, a tip coordinate, or <quantity><joint>, and each quantity is one of
+    // these: actual q/qd, desired q_des/qd_des/qdd_des, e = q_des − q, tau.
+    let quantities = ["q", "qd", "q_des", "qd_des", "qdd_des", "e", "tau"];
+    let other = ["t", "x", "y", "z", "x_des", "y_des", "z_des", "tip_error_mm"];
+    for column in &columns {
+        let stem = column.trim_end_matches(|c: char| c.is_ascii_digit());
+        assert!(
+            other.contains(&column.as_str()) || (stem.len() < column.len() && quantities.contains(&stem)),
+            "column {column} is not one of the documented names"
+        );
+    }
+    assert!(columns.iter().any(|c| c == "qd_des1") && columns.iter().any(|c| c == "qdd_des1"));
+}
+
+#[test]
+fn values_that_look_like_flags_and_help_output_are_handled() {
+    // A negative value reaches the value parser, which names the flag and the value.
+    assert_one_line_error(&chessarm(&["simulate", "--tracking-from", "-1"]), &["--tracking-from", "'-1'", ">= 0"]);
+    assert_one_line_error(
+        &chessarm(&["gains", "--settling-time", "0.3", "--overshoot", "-1"]),
+        &["--overshoot", "'-1'"],
+    );
+    assert_one_line_error(&chessarm(&["play", "x.pgn", "--game", "0"]), &["--game", "counted from 1"]);
+    // --help into a full disk is an error too.
+    let output = with_full_stdout(&["--help"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert_eq!(with_closed_stdout(&["--help"]).status.code(), Some(0));
 }

@@ -212,7 +212,7 @@ fn plan_writes_the_report_files_whole() {
     let header: Vec<String> = joint.headers().unwrap().iter().map(String::from).collect();
     assert_eq!(header.len(), 13);
     assert_eq!(header[0], "t");
-    assert_eq!(header[12], "qdd4");
+    assert_eq!(header[12], "qdd_des4");
     // Every joint row maps back onto the Cartesian row by forward kinematics.
     for (record, cartesian_row) in joint.records().zip(&rows).step_by(50) {
         let values: Vec<f64> = record.unwrap().iter().map(|v| v.parse().unwrap()).collect();

@@ -14,3 +14,21 @@ pub mod plan;
 pub mod sim;
 
 pub use nalgebra;
+
+/// A number for a message, short: as Rust prints it when moderate, in scientific form with at
+/// most 4 significant digits when huge or tiny (`1e308`, not 309 digits).
+pub fn short_number(value: f64) -> String {
+    let magnitude = value.abs();
+    if value == 0.0 || !value.is_finite() || (1e-4..1e6).contains(&magnitude) {
+        format!("{value}")
+    } else {
+        let text = format!("{value:.3e}");
+        // 1.000e308 → 1e308, 1.250e-7 → 1.25e-7
+        match text.split_once('e') {
+            Some((mantissa, exponent)) if mantissa.contains('.') => {
+                format!("{}e{exponent}", mantissa.trim_end_matches('0').trim_end_matches('.'))
+            }
+            _ => text,
+        }
+    }
+}

@@ -59,7 +59,7 @@ fn conclusion(runs: &[ControllerRun]) -> String {
     match (at_events("pd"), at_events("pid")) {
         (Some(pd), Some(pid)) if pd < pid => format!(
             "At the grip and release instants PD puts the tool within {pd:.4} mm of its target, PID within {pid:.4} mm \
-             (no piece is carried: --payload-mass 0): the report's conclusion holds. The PID's integral pole sits at \
+             (no piece is carried: payload 0 kg): the report's conclusion holds. The PID's integral pole sits at \
              {:.3} 1/s, so the wind-up of the start-up transient decays over ~{:.0} s.",
             slowest_pole(runs, "pid"),
             -1.0 / slowest_pole(runs, "pid")

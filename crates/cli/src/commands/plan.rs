@@ -75,7 +75,17 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
 }
 
 /// Writes cartesian.csv, joint.csv, the two plots and (with `xlsx`) joint.xlsx into `out`.
+/// Rows of an Excel worksheet (the header takes one).
+const XLSX_ROWS: usize = 1_048_576;
+
 pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool) -> Result<Vec<String>> {
+    if xlsx && plan.joint.samples().len() >= XLSX_ROWS {
+        bail!(
+            "--xlsx with {} samples: a worksheet holds at most {} rows of samples; use a larger --dt or leave out --xlsx",
+            plan.joint.samples().len(),
+            XLSX_ROWS - 1
+        );
+    }
     ensure_dir(out)?;
     let mut files = Vec::new();
     let cartesian_csv = out.join("cartesian.csv");
@@ -112,7 +122,8 @@ pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool) -> Result<Vec<String>> {
 
 fn joint_header() -> Vec<String> {
     let mut header = vec!["t".to_string()];
-    header.extend(numbered("q", 4).chain(numbered("qd", 4)).chain(numbered("qdd", 4)));
+    // The planned trajectory is what the controller will be asked to follow: the desired values.
+    header.extend(numbered("q_des", 4).chain(numbered("qd_des", 4)).chain(numbered("qdd_des", 4)));
     header
 }
 

@@ -401,7 +401,8 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     best.truncate(args.top);
     if options.tracking_from > 0.0 && matches!(args.metric, Metric::MaxTipError | Metric::RmsJointError) {
         crate::tell(&format!(
-            "tracking metrics from t = {} s on (--tracking-from): the start from rest off the trajectory is left out\n",
+            "tracking metrics from t = {} s on (the default after --q0; --tracking-from S changes it): the start \
+             from rest off the trajectory is left out\n",
             crate::resources::show(options.tracking_from)
         ));
     }

@@ -54,22 +54,26 @@ pub enum IkError {
 /// too far or too close, and by how much (in scientific form when tiny, so a miss of a few
 /// nanometres does not read as "0.6096 m beyond 0.6096 m").
 fn reach_problem(needed: f64, min: f64, max: f64) -> String {
-    let by = |gap: f64| if gap >= 1e-4 { format!("{gap:.4} m") } else { format!("{gap:.2e} m") };
+    let metres = |v: f64| if v.abs() < 1e6 { format!("{v:.4}") } else { crate::short_number(v) };
+    let by = |gap: f64| if gap >= 1e-4 { format!("{} m", metres(gap)) } else { format!("{gap:.2e} m") };
     if needed > max {
         format!(
-            "the wrist would be {needed:.4} m from the shoulder, {} beyond the arm's full stretch of {max:.4} m",
+            "the wrist would be {} m from the shoulder, {} beyond the arm's full stretch of {max:.4} m",
+            metres(needed),
             by(needed - max)
         )
     } else {
         format!(
-            "the wrist would be {needed:.4} m from the shoulder, {} closer than the folded arm's least reach of {min:.4} m",
+            "the wrist would be {} m from the shoulder, {} closer than the folded arm's least reach of {min:.4} m",
+            metres(needed),
             by(min - needed)
         )
     }
 }
 
 fn show(target: &[f64; 3]) -> String {
-    format!("({:.4}, {:.4}, {:.4}) m", target[0], target[1], target[2])
+    let [x, y, z] = target.map(|v| if v.abs() < 1e6 { format!("{v:.4}") } else { crate::short_number(v) });
+    format!("({x}, {y}, {z}) m")
 }
 
 impl PlanarGeometry {

@@ -11,7 +11,7 @@ use std::f64::consts::PI;
 /// Why gains are not usable.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum GainError {
-    #[error("gain {name} = {value}: {reason}")]
+    #[error("gain {name} = {}: {reason}", crate::short_number(*.value))]
     Invalid { name: String, value: f64, reason: &'static str },
     #[error(
         "overshoot {requested}% is below what PID reaches from an initial error ({least:.2}% at best: its integral must unwind); allow more overshoot"
