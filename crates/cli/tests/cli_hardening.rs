@@ -75,7 +75,7 @@ fn work_that_cannot_fit_in_memory_is_refused_before_it_starts() {
     assert_one_line_error(&chessarm(&["plan", "--dt", "1e308", "--out", out]), &["--dt 1e308", "longer than the 13 s"]);
     assert_one_line_error(
         &chessarm(&["simulate", "--tracking-from", "1e6", "--out", out]),
-        &["--tracking-from 1000000"],
+        &["--tracking-from 1e6"],
     );
     assert_one_line_error(
         &chessarm(&["tune", "--kp", "100..200:2", "--kd", "10..20:2", "--tracking-from", "13", "--out", out]),
