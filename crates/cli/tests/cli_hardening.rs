@@ -73,10 +73,7 @@ fn work_that_cannot_fit_in_memory_is_refused_before_it_starts() {
         &["--dt 1e-30 with --control-rate 1e30"],
     );
     assert_one_line_error(&chessarm(&["plan", "--dt", "1e308", "--out", out]), &["--dt 1e308", "longer than the 13 s"]);
-    assert_one_line_error(
-        &chessarm(&["simulate", "--tracking-from", "1e6", "--out", out]),
-        &["--tracking-from 1e6"],
-    );
+    assert_one_line_error(&chessarm(&["simulate", "--tracking-from", "1e6", "--out", out]), &["--tracking-from 1e6"]);
     assert_one_line_error(
         &chessarm(&["tune", "--kp", "100..200:2", "--kd", "10..20:2", "--tracking-from", "13", "--out", out]),
         &["--tracking-from 13", "past the end"],
@@ -383,6 +380,14 @@ fn a_pgn_that_never_ends_is_refused_after_one_game_s_worth() {
         &["/dev/zero", "longer than 4 MiB"],
     );
     assert!(started.elapsed().as_secs_f64() < 30.0);
+    // A legal game of a million plies (knight shuffles, no claim): refused before it is played.
+    let shuffles = format!("[Event \"shuffle\"]\n\n{} *\n", ["Nf3 Nf6 Ng1 Ng8"; 250_000].join(" "));
+    let pgn = dir.path().join("shuffle.pgn");
+    std::fs::write(&pgn, shuffles).unwrap();
+    assert_one_line_error(
+        &chessarm(&["play", pgn.to_str().unwrap(), "--out", out]),
+        &["game 1 of", "1000000 plies", "GB of memory"],
+    );
 }
 
 #[test]

@@ -16,6 +16,13 @@ use serde_json::{Value, json};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+/// More plies than any game can have under the fifty-move rule (about 5 900).
+const LONGEST_GAME_PLIES: usize = 6_000;
+
+/// Memory one played ply keeps, bytes: its recorded steps (every 10 ms of up to ~15 s of
+/// motion, captures and promotions being the longest) with their plot points.
+const BYTES_PER_PLY: f64 = 1_500.0 * (std::mem::size_of::<chessarm_core::sim::StepRecord<4>>() + 16) as f64;
+
 /// Where the moves come from.
 enum Source {
     Record(GameRecord),
@@ -105,6 +112,19 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         Source::Record(record) => record.moves.len(),
         Source::Engines { .. } => args.plies,
     };
+    // Each ply's recorded steps are kept for the plots: a bound before anything runs. An engine
+    // game cannot last longer than the fifty-move rule allows (< 6000 plies).
+    let (cause, plies) = match &source {
+        Source::Record(_) => (
+            match &args.game_file {
+                Some(path) => format!("game {} of {}", args.game, path.display()),
+                None => "--moves".to_owned(),
+            },
+            total as f64,
+        ),
+        Source::Engines { .. } => (format!("--plies {}", args.plies), args.plies.min(LONGEST_GAME_PLIES) as f64),
+    };
+    crate::resources::ensure_fits(&cause, "plies", plies, BYTES_PER_PLY)?;
     ensure_dir(&args.out)?;
     let moves_dir = args.out.join("moves");
     // Results of an earlier game in the same folder must not pass for this one's; only files
