@@ -1,5 +1,6 @@
-//! The fuzz corpora as ordinary tests: every input in `fuzz/corpus/<target>/` goes through the
-//! same property check as the cargo-fuzz target (`fuzz/src/checks.rs`, included by path).
+//! The fuzz corpora as ordinary tests: every input in `fuzz/corpus/<target>/` (minimised by
+//! `fuzz/run.sh`) and in `fuzz/seeds/<target>/` (hand-made) goes through the same property check
+//! as the cargo-fuzz target (`fuzz/src/checks.rs`, included by path).
 
 use std::panic;
 use std::path::{Path, PathBuf};
@@ -13,14 +14,21 @@ mod checks;
 #[path = "../../../fuzz/src/uci_check.rs"]
 mod uci_check;
 
-/// Runs every file of the target's corpus through `check`; fails naming the inputs that fail,
-/// or if the corpus is missing or empty.
-fn run_corpus(target: &str, check: fn(&[u8])) {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus").join(target);
-    let entries = std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("cannot read corpus {}: {e}", dir.display()));
+/// The files of `fuzz/<folder>/<target>/`, sorted; fails if the folder is missing or empty.
+fn files_of(folder: &str, target: &str) -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz").join(folder).join(target);
+    let entries = std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("cannot read {}: {e}", dir.display()));
     let mut inputs: Vec<PathBuf> = entries.map(|entry| entry.expect("corpus entry").path()).collect();
     inputs.sort();
-    assert!(!inputs.is_empty(), "the corpus {} is empty", dir.display());
+    assert!(!inputs.is_empty(), "{} is empty", dir.display());
+    inputs
+}
+
+/// Runs every file of the target's corpus and seeds through `check`; fails naming the inputs
+/// that fail.
+fn run_corpus(target: &str, check: fn(&[u8])) {
+    let mut inputs = files_of("corpus", target);
+    inputs.extend(files_of("seeds", target));
     let failed: Vec<&PathBuf> = inputs
         .iter()
         .filter(|path| {
