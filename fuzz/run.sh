@@ -50,6 +50,12 @@ logs=target/run-logs
 mkdir -p "$logs"
 cargo fuzz build --sanitizer none "${features[@]}"
 
+# What is being fuzzed: the commit, marked when the sources (not the corpus) differ from it.
+revision=$revision
+if [[ -n $(git status --porcelain -- . ../crates ':!corpus' ':!last-run.txt' 2>/dev/null) ]]; then
+    revision+=" with uncommitted changes"
+fi
+
 summary=$(mktemp)
 trap 'rm -f "$summary"' EXIT
 failed=0
@@ -92,7 +98,7 @@ for target in "${targets[@]}"; do
 done
 
 {
-    echo "fuzz/run.sh $runs: $(date -u +%Y-%m-%dT%H:%MZ), $(git rev-parse --short HEAD 2>/dev/null || echo '?'), $(rustc --version)"
+    echo "fuzz/run.sh $runs: $(date -u +%Y-%m-%dT%H:%MZ), $revision, $(rustc --version)"
     echo "libFuzzer ${limits[*]}; cov/ft: the final coverage counters and features of the run;"
     echo "corpus: files and bytes after cmin; time: fuzzing only, in seconds (total $((SECONDS - total_start)) s with cmin)"
     echo
