@@ -51,7 +51,7 @@ mkdir -p "$logs"
 cargo fuzz build --sanitizer none "${features[@]}"
 
 # What is being fuzzed: the commit, marked when the sources (not the corpus) differ from it.
-revision=$revision
+revision=$(git rev-parse --short HEAD 2>/dev/null || echo '?')
 if [[ -n $(git status --porcelain -- . ../crates ':!corpus' ':!last-run.txt' 2>/dev/null) ]]; then
     revision+=" with uncommitted changes"
 fi
