@@ -50,9 +50,9 @@ logs=target/run-logs
 mkdir -p "$logs"
 cargo fuzz build --sanitizer none "${features[@]}"
 
-# What is being fuzzed: the commit, marked when the sources (not the corpus) differ from it.
+# What is being fuzzed: the commit, marked when the code (not the corpus) differs from it.
 revision=$(git rev-parse --short HEAD 2>/dev/null || echo '?')
-if [[ -n $(git status --porcelain -- . ../crates ':!corpus' ':!last-run.txt' 2>/dev/null) ]]; then
+if [[ -n $(git status --porcelain -- Cargo.toml Cargo.lock src fuzz_targets run.sh ../Cargo.toml ../Cargo.lock ../crates 2>/dev/null) ]]; then
     revision+=" with uncommitted changes"
 fi
 
