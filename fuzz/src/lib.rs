@@ -1,0 +1,14 @@
+//! Property checks for the cargo-fuzz targets in `fuzz_targets/` (see README.md).
+//!
+//! The checks live in `checks.rs` (and `uci_check.rs`), which `crates/cli/tests/fuzz_corpus.rs`
+//! includes by path to run the committed corpora under `cargo test`.
+
+#![forbid(unsafe_code)]
+
+mod checks;
+pub use checks::{check_fen, check_move_list, check_numbers, check_pgn, check_setup_toml};
+
+#[cfg(feature = "uci")]
+mod uci_check;
+#[cfg(feature = "uci")]
+pub use uci_check::check_uci_line;
