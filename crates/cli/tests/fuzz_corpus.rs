@@ -8,9 +8,6 @@ use std::path::{Path, PathBuf};
 #[path = "../../../fuzz/src/checks.rs"]
 mod checks;
 
-// The UCI line check needs `chessarm_chess::opponent::parse_uci_line`. Once it exists, turn
-// `any()` into `all()` here and on `uci_line_corpus` below.
-#[cfg(any())]
 #[path = "../../../fuzz/src/uci_check.rs"]
 mod uci_check;
 
@@ -64,7 +61,6 @@ fn numbers_corpus() {
     run_corpus("numbers", checks::check_numbers);
 }
 
-#[cfg(any())]
 #[test]
 fn uci_line_corpus() {
     run_corpus("uci_line", uci_check::check_uci_line);
