@@ -119,7 +119,7 @@ pub enum NotationError {
         reason: String,
     },
     /// The `[FEN]` tag of a game is malformed or describes an illegal position.
-    #[error("game {game}: invalid FEN tag '{fen}': {reason}")]
+    #[error("game {game}: invalid FEN tag '{}': {reason}", .fen.escape_debug())]
     InvalidFenTag {
         /// 1-based game number.
         game: usize,
@@ -129,7 +129,7 @@ pub enum NotationError {
         reason: String,
     },
     /// The `[Variant]` tag names something other than standard chess.
-    #[error("game {game}: variant '{variant}' is not supported (standard chess only)")]
+    #[error("game {game}: variant '{}' is not supported (standard chess only)", .variant.escape_debug())]
     UnsupportedVariant {
         /// 1-based game number.
         game: usize,

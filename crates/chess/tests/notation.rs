@@ -311,3 +311,13 @@ fn move_list_errors() {
     let err = parse_move_list("e4 xyz", Chess::default()).unwrap_err();
     assert!(err.to_string().starts_with("move 2 'xyz' (game move 1... black) is not valid SAN or UCI in "), "{err}");
 }
+
+/// A tag value may hold a line feed escaped by a backslash (found by the PGN fuzz target): the
+/// messages that quote tag values show it escaped, on one line.
+#[test]
+fn tag_values_with_line_breaks_are_quoted_on_one_line() {
+    for pgn in ["[FEN \"\\\n1\"]\n\n*\n", "[Variant \"x\\\ny\"]\n\n1. e4 *\n"] {
+        let error = chessarm_chess::notation::parse_pgn(pgn).unwrap_err().to_string();
+        assert!(!error.contains('\n') && error.contains("\\n"), "{error:?}");
+    }
+}
