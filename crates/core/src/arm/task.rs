@@ -177,7 +177,7 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
     let (min, max) = geometry.wrist_reach();
     // Within [min, max] the law of cosines gives |cos| ≤ 1 exactly; rounding can put the
     // distance and the cosine a few ulps outside at the boundary (the arm fully stretched or
-    // folded), which is still reachable: a slack of REACH_ROUNDING·max (≈ 1e-13 m here) covers
+    // folded), which is still reachable: a slack of REACH_ROUNDING·max (≈ 9e-15 m here) covers
     // the rounding of the wrist distance from a target and is far below any physical tolerance.
     let slack = REACH_ROUNDING * max;
     let cos_elbow = ((l2 * l2 + distance * distance - l3 * l3) / (2.0 * l2 * distance)).clamp(-1.0, 1.0);
