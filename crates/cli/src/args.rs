@@ -132,48 +132,23 @@ fn game_number_unescaped(text: &str) -> Result<usize, String> {
 
 // The value parsers clap calls: their messages quote the value as typed, with control
 // characters escaped (clap's renderer would drop them, hiding what was typed).
-
-/// See `four_unescaped`; the message's control characters escaped.
-pub fn four(text: &str) -> Result<[f64; 4], String> {
-    four_unescaped(text).map_err(|message| crate::escape_controls(&message))
+macro_rules! escaped {
+    ($($name:ident => $inner:ident -> $value:ty;)*) => {$(
+        #[doc = concat!("See `", stringify!($inner), "`; the message's control characters escaped.")]
+        pub fn $name(text: &str) -> Result<$value, String> {
+            $inner(text).map_err(|message| crate::escape_controls(&message))
+        }
+    )*};
 }
 
-/// See `three_unescaped`; the message's control characters escaped.
-pub fn three(text: &str) -> Result<[f64; 3], String> {
-    three_unescaped(text).map_err(|message| crate::escape_controls(&message))
-}
-
-/// See `non_negative_unescaped`; the message's control characters escaped.
-pub fn non_negative(text: &str) -> Result<f64, String> {
-    non_negative_unescaped(text).map_err(|message| crate::escape_controls(&message))
-}
-
-/// See `positive_unescaped`; the message's control characters escaped.
-pub fn positive(text: &str) -> Result<f64, String> {
-    positive_unescaped(text).map_err(|message| crate::escape_controls(&message))
-}
-
-/// See `finite_unescaped`; the message's control characters escaped.
-pub fn finite(text: &str) -> Result<f64, String> {
-    finite_unescaped(text).map_err(|message| crate::escape_controls(&message))
-}
-
-/// See `gain_unescaped`; the message's control characters escaped.
-pub fn gain(text: &str) -> Result<[f64; 4], String> {
-    gain_unescaped(text).map_err(|message| crate::escape_controls(&message))
-}
-
-/// See `range_unescaped`; the message's control characters escaped.
-pub fn range(text: &str) -> Result<GainRange, String> {
-    range_unescaped(text).map_err(|message| crate::escape_controls(&message))
-}
-
-/// See `shard_unescaped`; the message's control characters escaped.
-pub fn shard(text: &str) -> Result<(usize, usize), String> {
-    shard_unescaped(text).map_err(|message| crate::escape_controls(&message))
-}
-
-/// See `game_number_unescaped`; the message's control characters escaped.
-pub fn game_number(text: &str) -> Result<usize, String> {
-    game_number_unescaped(text).map_err(|message| crate::escape_controls(&message))
+escaped! {
+    four => four_unescaped -> [f64; 4];
+    three => three_unescaped -> [f64; 3];
+    non_negative => non_negative_unescaped -> f64;
+    positive => positive_unescaped -> f64;
+    finite => finite_unescaped -> f64;
+    gain => gain_unescaped -> [f64; 4];
+    range => range_unescaped -> GainRange;
+    shard => shard_unescaped -> (usize, usize);
+    game_number => game_number_unescaped -> usize;
 }

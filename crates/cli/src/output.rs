@@ -8,6 +8,7 @@
 //! earlier runs, no longer alive, left there (a `kill -9` cannot be caught).
 
 use anyhow::{Context, Result, anyhow, bail};
+use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -66,7 +67,7 @@ fn sweep_stale_temporaries(dir: &Path) {
     for entry in entries.flatten() {
         let name = entry.file_name();
         let Some(name) = name.to_str() else { continue };
-        if !(name.starts_with(TEMPORARY_PREFIX) && name.contains(".part")) || name == WRITTEN_LIST {
+        if !(name.starts_with(TEMPORARY_PREFIX) && name.contains(".part")) {
             continue;
         }
         if !entry.file_type().is_ok_and(|t| t.is_file()) {
@@ -104,26 +105,28 @@ fn temporary_in(parent: &Path, suffix: &str) -> Result<tempfile::NamedTempFile> 
     Ok(temporary)
 }
 
-/// Renames a finished temporary file into place and forgets it (under the lock, so a signal
-/// either deletes the temporary file or finds the final file whole).
-fn finish(temporary: tempfile::NamedTempFile, path: &Path) -> Result<()> {
+/// Ends a write: a finished temporary file is synced and renamed into place, a failed one
+/// deleted; either way it is forgotten (under the lock, so a signal either deletes the
+/// temporary file or finds the final file whole).
+fn finish(temporary: tempfile::NamedTempFile, path: &Path, written: Result<()>) -> Result<()> {
     // On disk before it gets its final name: a late write error (quota, NFS) is reported here,
     // and a crash cannot leave an empty file under the final name.
-    temporary.as_file().sync_all().with_context(|| format!("while writing {}", path.display()))?;
+    let written = written
+        .and_then(|()| temporary.as_file().sync_all().with_context(|| format!("while writing {}", path.display())));
     let mut files = pending();
     let temporary_path = temporary.path().to_path_buf();
-    let persisted = temporary.persist(path);
+    let done = match written {
+        Ok(()) => temporary
+            .persist(path)
+            .map(drop)
+            .with_context(|| format!("cannot move the finished file to {}", path.display())),
+        Err(error) => {
+            drop(temporary);
+            Err(error)
+        }
+    };
     files.retain(|file| *file != temporary_path);
-    persisted.with_context(|| format!("cannot move the finished file to {}", path.display()))?;
-    Ok(())
-}
-
-/// Forgets a temporary file that is being dropped (deleted) after a failed write.
-fn forget(temporary: tempfile::NamedTempFile) {
-    let mut files = pending();
-    let temporary_path = temporary.path().to_path_buf();
-    drop(temporary);
-    files.retain(|file| *file != temporary_path);
+    done
 }
 
 /// Creates `dir` (and parents) if needed.
@@ -207,11 +210,10 @@ pub fn claim(path: &Path) -> Result<()> {
     let (dir, name) = split(path)?;
     ensure_dir(&dir)?;
     let mut guard = listed();
-    let lists = guard.get_or_insert_with(HashMap::new);
-    if !lists.contains_key(&dir) {
-        lists.insert(dir.clone(), read_list(&dir)?);
-    }
-    let names = lists.entry(dir.clone()).or_default();
+    let names = match guard.get_or_insert_with(HashMap::new).entry(dir.clone()) {
+        Entry::Occupied(entry) => entry.into_mut(),
+        Entry::Vacant(entry) => entry.insert(read_list(&dir)?),
+    };
     if names.contains(&name) {
         return Ok(());
     }
@@ -240,13 +242,7 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<()
         write(&mut writer).with_context(|| format!("while writing {}", path.display()))?;
         writer.flush().with_context(|| format!("while writing {}", path.display()))
     })();
-    match written {
-        Ok(()) => finish(temporary, path),
-        Err(error) => {
-            forget(temporary);
-            Err(error)
-        }
-    }
+    finish(temporary, path, written)
 }
 
 /// Renders a file whose writer needs a path with the right extension (e.g. a PNG from
@@ -256,14 +252,8 @@ pub fn render_atomic(path: &Path, render: impl FnOnce(&Path) -> Result<()>) -> R
     let extension = path.extension().map(|e| format!(".part.{}", e.to_string_lossy())).unwrap_or(".part".into());
     let temporary = temporary_in(parent_of(path), &extension)?;
     test_pause();
-    let temporary_path: PathBuf = temporary.path().to_path_buf();
-    match render(&temporary_path).with_context(|| format!("while rendering {}", path.display())) {
-        Ok(()) => finish(temporary, path),
-        Err(error) => {
-            forget(temporary);
-            Err(error)
-        }
-    }
+    let rendered = render(temporary.path()).with_context(|| format!("while rendering {}", path.display()));
+    finish(temporary, path, rendered)
 }
 
 /// Writes a CSV file with a header and numeric rows.
@@ -318,14 +308,7 @@ pub fn remove_stale(paths: &[PathBuf]) -> Result<()> {
             return Err(not_ours(path));
         }
     }
-    for path in paths {
-        match std::fs::remove_file(path) {
-            Ok(()) => {}
-            Err(error) if error.kind() == std::io::ErrorKind::NotFound => {}
-            Err(error) => return Err(error).with_context(|| format!("cannot remove the old {}", path.display())),
-        }
-    }
-    Ok(())
+    paths.iter().try_for_each(|path| remove_file_if_there(path))
 }
 
 /// Deletes every file `dir`'s list names (an earlier run's results; nothing else in the
@@ -335,11 +318,18 @@ pub fn remove_stale(paths: &[PathBuf]) -> Result<()> {
 ///
 /// A list or a file that cannot be read or removed.
 pub fn remove_listed_in(dir: &Path) -> Result<()> {
-    let names = read_list(dir)?;
-    let mut names: Vec<&String> = names.iter().collect();
-    names.sort();
-    let paths: Vec<PathBuf> = names.iter().map(|name| dir.join(name)).collect();
-    remove_stale(&paths)
+    for name in read_list(dir)? {
+        remove_file_if_there(&dir.join(name))?;
+    }
+    Ok(())
+}
+
+fn remove_file_if_there(path: &Path) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Ok(()) => Ok(()),
+        Err(error) if error.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(error) => Err(error).with_context(|| format!("cannot remove the old {}", path.display())),
+    }
 }
 
 /// Refuses, before any work, a folder holding a file that chessarm might write (`might_write`

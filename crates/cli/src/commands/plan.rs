@@ -74,10 +74,10 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
     Ok(())
 }
 
-/// Writes cartesian.csv, joint.csv, the two plots and (with `xlsx`) joint.xlsx into `out`.
 /// Rows of an Excel worksheet (the header takes one).
 const XLSX_ROWS: usize = 1_048_576;
 
+/// Writes cartesian.csv, joint.csv, the two plots and (with `xlsx`) joint.xlsx into `out`.
 pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool) -> Result<Vec<String>> {
     if xlsx && plan.joint.samples().len() >= XLSX_ROWS {
         bail!(

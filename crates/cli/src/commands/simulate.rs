@@ -325,8 +325,21 @@ pub fn comparison_table(runs: &[ControllerRun], started_off: bool) -> String {
     table
 }
 
-/// The span shown separately after a start off the trajectory, s.
+/// The start-up span after a start at rest off the trajectory (`--q0`), s: the demo's table
+/// shows the tip error after it, and `tune` starts its tracking metrics there by default.
 pub const TRANSIENT_S: f64 = 1.0;
+
+/// Refuses a start of the tracking metrics at or past the end of the plan (`--tracking-from`).
+pub fn ensure_tracked(tracking_from: f64, plan: &Plan) -> Result<()> {
+    if tracking_from >= plan.path.duration() {
+        bail!(
+            "--tracking-from {} s is at or past the end of the {:.0} s scenario: no step would be measured",
+            show(tracking_from),
+            plan.path.duration()
+        );
+    }
+    Ok(())
+}
 
 /// Largest tool-tip error of a recorded run from `from` s on, m.
 pub fn max_tip_error_from(run: &ControllerRun, from: f64) -> f64 {
@@ -345,13 +358,7 @@ pub fn run_study(
 ) -> Result<(Vec<ControllerRun>, Value)> {
     let cause = options.rate_flags.as_str();
     let plan = plan_scenario(setup, scenario, options.control_period, cause)?;
-    if options.tracking_from >= plan.path.duration() {
-        bail!(
-            "--tracking-from {} s is at or past the end of the {:.0} s scenario: no step would be measured",
-            show(options.tracking_from),
-            plan.path.duration()
-        );
-    }
+    ensure_tracked(options.tracking_from, &plan)?;
     // Every step of every controller is kept, with the points of its plots.
     let steps = (plan.path.duration() / options.dt).ceil() + 1.0;
     crate::resources::ensure_fits(

@@ -6,7 +6,7 @@
 
 use crate::cli::{Metric, OneController, TuneArgs};
 use crate::commands::plan::plan_scenario;
-use crate::commands::simulate::pawn_events;
+use crate::commands::simulate::{TRANSIENT_S, pawn_events};
 use crate::config::Setup;
 use crate::output::{ensure_dir, write_atomic};
 use crate::plots::{HeatMap, plot_heat_map};
@@ -237,14 +237,11 @@ pub struct CandidateOptions {
     pub tracking_from: f64,
 }
 
-/// Where the tracking metrics start with `--q0` unless `--tracking-from` is given, s: the arm
-/// starts at rest off the trajectory, and the start-up jump (530 mm at t = 0 from q = 0) would
-/// be every candidate's largest error.
-pub const TRANSIENT_WITH_Q0: f64 = 1.0;
-
-/// The start of the tracking metrics for `args`, s.
+/// The start of the tracking metrics for `args`, s: with `--q0` unless `--tracking-from` is
+/// given, after the start-up transient ([`TRANSIENT_S`]), since the start-up jump (530 mm at
+/// t = 0 from q = 0) would be every candidate's largest error.
 pub fn tracking_from(args: &TuneArgs) -> f64 {
-    args.tracking_from.unwrap_or(if args.q0.is_some() { TRANSIENT_WITH_Q0 } else { 0.0 })
+    args.tracking_from.unwrap_or(if args.q0.is_some() { TRANSIENT_S } else { 0.0 })
 }
 
 /// Most candidates one sweep may describe.
@@ -309,13 +306,7 @@ pub fn study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
 /// The scenario study for the tune command.
 fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
     let plan = plan_scenario(setup, &args.scenario, 1e-3, "the sweep")?;
-    if tracking_from(args) >= plan.path.duration() {
-        bail!(
-            "--tracking-from {} s is at or past the end of the {:.0} s scenario: no step would be measured",
-            crate::resources::show(tracking_from(args)),
-            plan.path.duration()
-        );
-    }
+    crate::commands::simulate::ensure_tracked(tracking_from(args), &plan)?;
     let events = pawn_events(setup, &plan.path, args.payload_mass, args.controller_knows_payload);
     let marks = plan.path.events().iter().map(|e| e.time).collect();
     if let Some(q0) = &args.q0 {

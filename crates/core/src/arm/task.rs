@@ -54,7 +54,6 @@ pub enum IkError {
 /// too far or too close, and by how much (in scientific form when tiny, so a miss of a few
 /// nanometres does not read as "0.6096 m beyond 0.6096 m").
 fn reach_problem(needed: f64, min: f64, max: f64) -> String {
-    let metres = |v: f64| if v.abs() < 1e6 { format!("{v:.4}") } else { crate::short_number(v) };
     let by = |gap: f64| if gap >= 1e-4 { format!("{} m", metres(gap)) } else { format!("{gap:.2e} m") };
     if needed > max {
         format!(
@@ -72,8 +71,13 @@ fn reach_problem(needed: f64, min: f64, max: f64) -> String {
 }
 
 fn show(target: &[f64; 3]) -> String {
-    let [x, y, z] = target.map(|v| if v.abs() < 1e6 { format!("{v:.4}") } else { crate::short_number(v) });
+    let [x, y, z] = target.map(metres);
     format!("({x}, {y}, {z}) m")
+}
+
+/// A length for a message: to 0.1 mm when moderate, in short scientific form when huge.
+fn metres(value: f64) -> String {
+    if value.abs() < 1e6 { format!("{value:.4}") } else { crate::short_number(value) }
 }
 
 impl PlanarGeometry {
