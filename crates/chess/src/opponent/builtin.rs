@@ -17,6 +17,7 @@ use shakmaty::zobrist::Zobrist64;
 use shakmaty::{Chess, Color, EnPassantMode, Move, MoveList, Position, Role, Square};
 
 use super::{Opponent, OpponentError};
+use crate::outcome::position_key;
 
 /// Score of being checkmated at the root; a mate found `n` plies from the root scores `MATE - n`.
 const MATE: i32 = 30_000;
@@ -124,7 +125,7 @@ impl BuiltinEngine {
         }
 
         let mut searcher = Searcher::new(self.movetime.map(|budget| start + budget));
-        let root_hash = hash_of(position);
+        let root_hash = position_key(position);
         let mut best = SearchSummary { best_move: first, score: 0, depth: 0, nodes: 0 };
         for depth in 1..=self.max_depth {
             // The next iteration takes several times longer than this one: do not start it when it
@@ -421,16 +422,12 @@ fn score_from_tt(score: i32, ply: usize) -> i32 {
     }
 }
 
-fn hash_of(pos: &Chess) -> u64 {
-    pos.zobrist_hash::<Zobrist64>(EnPassantMode::Legal).0
-}
-
 /// Plays a legal move, returning the new position and its Zobrist hash.
 fn play(pos: &Chess, hash: u64, m: Move) -> (Chess, u64) {
     let incremental = pos.update_zobrist_hash(Zobrist64(hash), m, EnPassantMode::Legal);
     let mut child = pos.clone();
     child.play_unchecked(m);
-    let child_hash = incremental.map_or_else(|| hash_of(&child), |z| z.0);
+    let child_hash = incremental.map_or_else(|| position_key(&child), |z| z.0);
     (child, child_hash)
 }
 
