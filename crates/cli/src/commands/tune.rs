@@ -467,7 +467,11 @@ fn draw_heat_map(args: &TuneArgs, candidates: &[Candidate], path: &std::path::Pa
             }
         }
     }
-    let title = format!("{} sweep: {}", if per_cell > 1 { "PID" } else { "PD" }, metric_label(args.metric));
+    let mut title = format!("{} sweep: {}", if per_cell > 1 { "PID" } else { "PD" }, metric_label(args.metric));
+    let from = tracking_from(args);
+    if from > 0.0 && matches!(args.metric, Metric::MaxTipError | Metric::RmsJointError) {
+        title.push_str(&format!(" from t = {} s", crate::resources::show(from)));
+    }
     plot_heat_map(
         path,
         &HeatMap {
