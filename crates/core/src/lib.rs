@@ -11,6 +11,7 @@
 pub mod arm;
 pub mod control;
 pub mod plan;
+pub mod sense;
 pub mod sim;
 
 pub use nalgebra;

@@ -47,6 +47,16 @@ pub trait Controller<const N: usize>: std::fmt::Debug + Send {
     fn torque(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N>;
     /// Tells the controller's model about a gripped payload (or its release).
     fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError>;
+    /// The gripper has just closed (`true`) or opened (`false`). Called at every grip and
+    /// release, whether or not the controller is told the payload ([`Controller::set_payload`]):
+    /// the robot knows when it grips, not what the piece weighs.
+    fn gripper_changed(&mut self, _closed: bool) {}
+    /// The joint acceleration the last command asks for, rad/s², as the controller's model
+    /// predicts it (the outer loop's output `v` of computed torque): the input of a state
+    /// estimator's motion model. `None`: the controller cannot say.
+    fn commanded_acceleration(&self) -> Option<JointVector<N>> {
+        None
+    }
     /// The model the controller computes `M̂(q)` and `Ĉ q̇ + ĝ` with, if it uses one. When it
     /// equals the plant's model, the closed loop hands the plant's terms at the measured state
     /// to [`Controller::torque_with_terms`] rather than have them computed twice.

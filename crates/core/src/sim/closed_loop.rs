@@ -1,9 +1,11 @@
-//! The closed loop: controller ⇄ plant.
+//! The closed loop: controller ⇄ (sensors, estimator) ⇄ plant.
 //!
 //! The plant is integrated every `dt` by a fixed-step fourth-order method (or another the
 //! config names); the controller is sampled every
-//! `control_period` (an integer multiple of `dt`) and its torque, clipped to the joint torque
-//! limits, is held in between (zero-order hold). Payload events grip or release objects at
+//! `control_period` (an integer multiple of `dt`) and sees the state through the sensors and
+//! the estimator of a [`Feedback`] (the exact state with [`Feedback::ideal`]). Its torque,
+//! clipped to the joint torque limits, is held in between (zero-order hold) and reaches the
+//! joints through each motor's first-order lag, if it has one. Payload events grip or release objects at
 //! given instants. Metrics accumulate on the fly; time series go to an [`Observer`] only if the
 //! caller wants them, so a run allocates nothing per step.
 
@@ -12,6 +14,7 @@ use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{JointVector, ModelError, Payload};
 use crate::control::{Controller, JointState, Reference};
 use crate::plan::trajectory::JointTrajectory;
+use crate::sense::Feedback;
 use crate::sim::plant::{Integrator, Plant};
 use nalgebra::Vector3;
 
@@ -33,6 +36,11 @@ pub struct SimConfig<const N: usize> {
     /// started off the trajectory) does not dominate them. Torques, saturation and the errors
     /// at the marks count over the whole run.
     pub tracking_from: f64,
+    /// Per joint, the time constant of the motor's torque response, s (default 0: the
+    /// command is applied at once). The applied torque follows the clipped command `τ_c` by
+    /// `τ_{k+1} = τ_k + (1 − e^{−dt/T}) (τ_c − τ_k)` at every integration step and is held over
+    /// the step: the exact response of `T τ̇ + τ = τ_c` sampled at the steps.
+    pub torque_lag: JointVector<N>,
 }
 
 impl<const N: usize> SimConfig<N> {
@@ -45,6 +53,7 @@ impl<const N: usize> SimConfig<N> {
             runaway_speed: 100.0,
             integrator: Integrator::default(),
             tracking_from: 0.0,
+            torque_lag: JointVector::zeros(),
         }
     }
 
@@ -69,6 +78,9 @@ impl<const N: usize> SimConfig<N> {
                 "tracking metrics from t = {} s: must be finite and >= 0",
                 self.tracking_from
             )));
+        }
+        if let Some((j, lag)) = self.torque_lag.iter().enumerate().find(|(_, l)| !(l.is_finite() && **l >= 0.0)) {
+            return Err(SimError::Config(format!("torque lag of joint {} = {lag} s must be finite and >= 0", j + 1)));
         }
         if let Some((j, limit)) = self.torque_limits.iter().enumerate().find(|(_, l)| !(l.is_finite() && **l > 0.0)) {
             return Err(SimError::Config(format!(
@@ -120,6 +132,9 @@ impl ReferenceSource<4> for JointTrajectory {
 pub struct StepRecord<const N: usize> {
     pub t: f64,
     pub state: JointState<N>,
+    /// The state the controller saw at its latest sample (the estimate; the exact state with
+    /// ideal sensors).
+    pub estimate: JointState<N>,
     pub reference: Reference<N>,
     /// Applied (saturated) torque, N·m.
     pub torque: JointVector<N>,
@@ -186,16 +201,44 @@ pub struct SimSummary<const N: usize> {
     /// |actual − desired tip| at each mark, m.
     pub tip_error_at_marks: Vec<f64>,
     pub final_state: JointState<N>,
+    /// RMS over the controller samples of the estimate's error (estimate − true), per joint:
+    /// angles (rad) and rates (rad/s). Zero with ideal sensors.
+    pub rms_angle_estimate_error: JointVector<N>,
+    pub rms_rate_estimate_error: JointVector<N>,
 }
 
 /// Runs `controller` against `plant` along `reference` from `initial` (default: at rest on
-/// the reference's first point) for the reference's duration.
+/// the reference's first point) for the reference's duration, the controller seeing the exact
+/// state.
 ///
 /// `events` must be sorted by time; `marks` are instants (s) at which the tip position and
 /// error are reported (e.g. grip and release).
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<const N: usize, C, R, O>(
     plant: &mut Plant<N>,
+    controller: &mut C,
+    reference: &R,
+    initial: Option<JointState<N>>,
+    events: &[PayloadEvent],
+    marks: &[f64],
+    config: &SimConfig<N>,
+    observer: &mut O,
+) -> Result<SimSummary<N>, SimError>
+where
+    C: Controller<N> + ?Sized,
+    R: ReferenceSource<N> + ?Sized,
+    O: Observer<N> + ?Sized,
+{
+    simulate_sensed(plant, &mut Feedback::ideal(), controller, reference, initial, events, marks, config, observer)
+}
+
+/// [`simulate`] with the controller seeing the plant through `feedback`'s sensors and
+/// estimator, which are reset to the initial state first. The estimator's motion-model input
+/// is the controller's [`Controller::commanded_acceleration`] of the sample just ended.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_sensed<const N: usize, C, R, O>(
+    plant: &mut Plant<N>,
+    feedback: &mut Feedback<N>,
     controller: &mut C,
     reference: &R,
     initial: Option<JointState<N>>,
@@ -226,6 +269,16 @@ where
         return Err(SimError::Config(format!("initial joint {} {what} = {value} must be finite", j % N + 1)));
     }
     controller.reset();
+    feedback.reset(&state);
+    let exact = feedback.is_exact();
+    let mut estimate = state;
+    let mut applied_acceleration = JointVector::<N>::zeros();
+    let mut command = JointVector::<N>::zeros();
+    let lag_blend = config.torque_lag.map(|lag| if lag > 0.0 { 1.0 - (-dt / lag).exp() } else { 1.0 });
+    let has_lag = config.torque_lag.iter().any(|lag| *lag > 0.0);
+    let (mut squared_angle_estimate_error, mut squared_rate_estimate_error) =
+        (JointVector::<N>::zeros(), JointVector::<N>::zeros());
+    let mut samples_taken = 0usize;
 
     // The first step at or after `tracking_from` (to the nearest step, like the marks).
     let first_tracked_step = ((config.tracking_from / dt).round() as usize).min(steps);
@@ -255,6 +308,7 @@ where
             if event.controller_knows {
                 controller.set_payload(event.payload).map_err(|source| SimError::Payload { time: t, source })?;
             }
+            controller.gripper_changed(event.payload.is_some());
             next_event += 1;
             controller_shares_terms = shares_terms(plant, controller);
         }
@@ -262,29 +316,46 @@ where
         let at_state = plant.evaluate(&state).map_err(|source| SimError::Dynamics { time: t, source })?;
         let tip = at_state.tip();
         if step.is_multiple_of(steps_per_sample) {
-            let command = if controller_shares_terms {
-                controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms())
+            let raw = if exact {
+                estimate = state;
+                if controller_shares_terms {
+                    controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms())
+                } else {
+                    controller.torque(&state, &desired, config.control_period)
+                }
             } else {
-                controller.torque(&state, &desired, config.control_period)
+                estimate = feedback.observe(&state, &applied_acceleration);
+                let error_q = estimate.q - state.q;
+                let error_qd = estimate.qd - state.qd;
+                squared_angle_estimate_error += error_q.component_mul(&error_q);
+                squared_rate_estimate_error += error_qd.component_mul(&error_qd);
+                controller.torque(&estimate, &desired, config.control_period)
             };
+            samples_taken += 1;
+            applied_acceleration = controller.commanded_acceleration().unwrap_or_else(JointVector::zeros);
             let mut clipped = false;
             for j in 0..N {
-                if !command[j].is_finite() {
+                if !raw[j].is_finite() {
                     return Err(SimError::Diverged {
                         time: t,
                         joint: j + 1,
                         quantity: "torque command",
-                        value: command[j],
+                        value: raw[j],
                     });
                 }
                 let limit = config.torque_limits[j];
-                torque[j] = command[j].clamp(-limit, limit);
-                if torque[j] != command[j] {
+                command[j] = raw[j].clamp(-limit, limit);
+                if command[j] != raw[j] {
                     saturated_per_joint[j] += 1;
                     clipped = true;
                 }
             }
             saturated_samples += usize::from(clipped);
+        }
+        if has_lag {
+            torque += (command - torque).component_mul(&lag_blend);
+        } else {
+            torque = command;
         }
         let error = desired.q - state.q;
         peak_torque = peak_torque.sup(&torque.abs());
@@ -302,7 +373,7 @@ where
                 tip_error_at_marks[k] = tip_error;
             }
         }
-        observer.observe(&StepRecord { t, state, reference: desired, torque, tip, tip_desired });
+        observer.observe(&StepRecord { t, state, estimate, reference: desired, torque, tip, tip_desired });
         if step == steps {
             break;
         }
@@ -327,6 +398,8 @@ where
         tip_at_marks,
         tip_error_at_marks,
         final_state: state,
+        rms_angle_estimate_error: (squared_angle_estimate_error / samples_taken.max(1) as f64).map(f64::sqrt),
+        rms_rate_estimate_error: (squared_rate_estimate_error / samples_taken.max(1) as f64).map(f64::sqrt),
     })
 }
 

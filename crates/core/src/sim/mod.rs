@@ -7,5 +7,6 @@ pub mod plant;
 
 pub use closed_loop::{
     NoObserver, Observer, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary, StepRecord, simulate,
+    simulate_sensed,
 };
 pub use plant::{Integrator, Plant, StateDynamics};
