@@ -10,5 +10,6 @@ pub mod play;
 pub mod scenario;
 pub mod table;
 pub mod tasks;
+pub mod trial;
 
 pub use shakmaty;

@@ -107,6 +107,18 @@ impl PieceSet {
         }
     }
 
+    /// Dimensions of the pieces of kind `role`, to change.
+    pub fn dimensions_mut(&mut self, role: Role) -> &mut PieceDimensions {
+        match role {
+            Role::Pawn => &mut self.pawn,
+            Role::Knight => &mut self.knight,
+            Role::Bishop => &mut self.bishop,
+            Role::Rook => &mut self.rook,
+            Role::Queen => &mut self.queen,
+            Role::King => &mut self.king,
+        }
+    }
+
     /// Every kind with its dimensions (m, kg), pawn to king.
     pub fn all(&self) -> [(Role, &PieceDimensions); 6] {
         Role::ALL.map(|role| (role, self.dimensions(role)))

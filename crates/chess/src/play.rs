@@ -14,13 +14,14 @@ use crate::tasks::{MotionLimits, MoveKind, TaskError, append_move_path, classify
 use chessarm_core::arm::model::ArmModel;
 use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
 use chessarm_core::control::JointState;
-use chessarm_core::control::computed_torque::ComputedTorque;
+use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
 use chessarm_core::nalgebra::{Rotation2, Vector2, Vector3};
 use chessarm_core::plan::path::CartesianPath;
 use chessarm_core::plan::trajectory::{JointTrajectory, PlanError};
+use chessarm_core::sense::{Conditions, Feedback, SenseError};
 use chessarm_core::sim::{
-    Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, simulate,
+    Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, simulate_sensed,
 };
 use shakmaty::fen::Fen;
 use shakmaty::san::SanPlus;
@@ -32,11 +33,18 @@ use shakmaty::{CastlingMode, Chess, Color, EnPassantMode, Move, Position};
 pub struct PlaySettings {
     pub pieces: PieceSet,
     pub limits: MotionLimits,
-    /// Controller name for reports ("pd", "pid").
-    pub controller: String,
-    pub gains: Gains<4>,
-    /// Whether the controller's model is told about gripped pieces.
+    /// The controller (its model is the game's arm).
+    pub controller: ControllerSpec,
+    /// Whether the controller's model is told about gripped pieces (their true masses).
     pub controller_knows_payload: bool,
+    /// The true arm, when it differs from the controller's model (the game's arm).
+    pub plant: Option<ArmModel<4>>,
+    /// The pieces' true masses and shapes, when they differ from `pieces` (which the planner
+    /// and a controller told the payload use).
+    pub true_pieces: Option<PieceSet>,
+    /// Sensors, estimator and motor lag between the controller and the arm (default: ideal).
+    /// The sensors' noise runs on through the game, seeded once.
+    pub conditions: Conditions<4>,
     /// Largest accepted distance of a piece from its square centre, m (default 5 mm).
     pub tolerance: f64,
     /// Integration step and controller period, s.
@@ -54,9 +62,11 @@ impl PlaySettings {
         Self {
             pieces: PieceSet::default(),
             limits: MotionLimits::default(),
-            controller: controller.into(),
-            gains,
+            controller: ControllerSpec { name: controller.into(), kind: ControllerKind::ComputedTorque, gains },
             controller_knows_payload: false,
+            plant: None,
+            true_pieces: None,
+            conditions: Conditions::ideal(),
             tolerance: 0.005,
             dt: 1e-3,
             control_period: 1e-3,
@@ -83,6 +93,8 @@ pub enum PlayError {
     Reach(TableError),
     #[error("tolerance {0} m must be finite and > 0")]
     Tolerance(f64),
+    #[error(transparent)]
+    Sensing(#[from] SenseError),
 }
 
 /// Who moves the pieces of a move.
@@ -167,6 +179,8 @@ pub struct Game {
     misplaced: Vec<(usize, String, Misplaced)>,
     /// [`position_key`] of every position so far, the start first and the current one last.
     history: Vec<u64>,
+    /// The sensors and estimator, carried from move to move.
+    feedback: Feedback<4>,
 }
 
 impl Game {
@@ -191,6 +205,7 @@ impl Game {
         let misplaced =
             table.verify(start.board(), settings.tolerance).into_iter().map(|m| (0, "start".to_string(), m)).collect();
         let history = vec![position_key(&start)];
+        let feedback = settings.conditions.feedback(settings.control_period)?;
         Ok(Self {
             arm,
             settings,
@@ -202,6 +217,7 @@ impl Game {
             robot_time: 0.0,
             misplaced,
             history,
+            feedback,
         })
     }
 
@@ -327,24 +343,26 @@ impl Game {
         let mut marks = Vec::with_capacity(2 * planned.len());
         for step in &planned {
             let piece = self.table.piece_at(step.task.from).map(|p| p.piece.role).unwrap_or(step.task.piece.role);
-            let payload = settings.pieces.payload(piece);
+            let payload = settings.true_pieces.as_ref().unwrap_or(&settings.pieces).payload(piece);
             let knows = settings.controller_knows_payload;
             events.push(PayloadEvent { time: step.plan.grip_time, payload: Some(payload), controller_knows: knows });
             events.push(PayloadEvent { time: step.plan.release_time, payload: None, controller_knows: knows });
             marks.extend([step.plan.grip_time, step.plan.release_time]);
         }
-        let mut plant = Plant::new(self.arm);
-        let mut controller = ComputedTorque::new(settings.controller.clone(), self.arm, settings.gains);
+        let mut plant = Plant::new(settings.plant.unwrap_or(self.arm));
+        let mut controller = settings.controller.build(self.arm);
         let config = SimConfig {
             dt: settings.dt,
             control_period: settings.control_period,
             integrator: settings.integrator,
+            torque_lag: settings.conditions.torque_lag,
             ..SimConfig::new(&plant)
         };
         let mut sampler = Sampler { every: settings.record_every, seen: 0, records: Vec::new() };
-        let summary = simulate(
+        let summary = simulate_sensed(
             &mut plant,
-            &mut controller,
+            &mut self.feedback,
+            controller.as_mut(),
             &trajectory,
             Some(self.state),
             &events,
@@ -353,19 +371,14 @@ impl Game {
             &mut sampler,
         )
         .map_err(|source| PlayError::Simulation { mv: name.to_string(), source })?;
-        // Each piece moves rigidly with the gripper from grip to release: its offset from the
-        // tool tip turns with the tool's yaw, which for this arm is the tip's bearing about
-        // the base axis (joint 1).
         for (index, step) in planned.iter().enumerate() {
-            let grip_tip = summary.tip_at_marks[2 * index].xy();
-            let release_tip = summary.tip_at_marks[2 * index + 1].xy();
-            let turn = Rotation2::new(release_tip.y.atan2(release_tip.x) - grip_tip.y.atan2(grip_tip.x));
             let standing = self
                 .table
                 .piece_at(step.task.from)
                 .map(|p| p.position)
                 .unwrap_or_else(|| self.table.nominal_position(step.task.from));
-            let placed = release_tip + turn * (standing - grip_tip);
+            let placed =
+                placed_position(&summary.tip_at_marks[2 * index], &summary.tip_at_marks[2 * index + 1], &standing);
             let target = self.table.nominal_position(step.task.to);
             self.relocate(name, step.task.from, step.task.to, placed)?;
             report.tasks.push(step.task.to_string());
@@ -380,4 +393,14 @@ impl Game {
         self.state = summary.final_state;
         Ok(())
     }
+}
+
+/// Where a piece that stood at `standing` (board plane, m) is put down when gripped with the
+/// tool tip at `grip_tip` and released at `release_tip`. The piece moves rigidly with the
+/// gripper from grip to release: its offset from the tool tip turns with the tool's yaw, which
+/// for this arm is the tip's bearing about the base axis (joint 1).
+pub fn placed_position(grip_tip: &Vector3<f64>, release_tip: &Vector3<f64>, standing: &Vector2<f64>) -> Vector2<f64> {
+    let (grip, release) = (grip_tip.xy(), release_tip.xy());
+    let turn = Rotation2::new(release.y.atan2(release.x) - grip.y.atan2(grip.x));
+    release + turn * (standing - grip)
 }

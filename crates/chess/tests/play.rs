@@ -93,7 +93,7 @@ fn a_master_game_plays_through_with_every_piece_on_its_square() {
 fn a_sloppy_controller_misplaces_pieces_and_the_check_names_the_move() {
     // Gains far too soft for the speed: the arm lags by centimetres and drops pieces off-centre.
     let mut settings = settings();
-    settings.gains = Gains::uniform(4.0, 1.0, 0.0).unwrap();
+    settings.controller.gains = Gains::uniform(4.0, 1.0, 0.0).unwrap();
     let position = parse_fen("rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1").unwrap();
     let mut game = Game::new(report_arm(), BoardGeometry::default(), position, settings).unwrap();
     let mv = "g1f3".parse::<UciMove>().unwrap().to_move(game.position()).unwrap();

@@ -1,6 +1,7 @@
 //! The command line.
 
 use crate::args;
+use crate::conditions::ConditionArgs;
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -42,6 +43,80 @@ pub enum Command {
     Tune(TuneArgs),
     /// Play chess with the simulated arm: a PGN game, a move list, or against an engine.
     Play(PlayArgs),
+    /// Monte Carlo: randomised trials (sensor noise, model errors, piece masses) of each
+    /// controller; success rate and placement-error distribution.
+    Robustness(RobustnessArgs),
+}
+
+/// A controller of `simulate` and `robustness`, in a comma-separated list.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ControllerName {
+    /// Computed torque with a PD outer loop (report: kp = 400, kd = 20).
+    Pd,
+    /// Computed torque with a PID outer loop and anti-windup (report: kp = 600, kd = 25, ki = 75).
+    Pid,
+    /// Computed torque that estimates the gripped piece's mass online (PD gains).
+    Adaptive,
+    /// Computed torque with a disturbance observer (PD gains).
+    Dob,
+    /// pd and pid.
+    Both,
+}
+
+impl ControllerName {
+    pub fn name(self) -> &'static str {
+        match self {
+            ControllerName::Pd => "pd",
+            ControllerName::Pid => "pid",
+            ControllerName::Adaptive => "adaptive",
+            ControllerName::Dob => "dob",
+            ControllerName::Both => "both",
+        }
+    }
+}
+
+#[derive(Debug, Args, Clone)]
+pub struct RobustnessArgs {
+    /// A PGN game each trial plays whole (instead of the scenario).
+    pub game_file: Option<PathBuf>,
+    /// Which game of the PGN file, 1-based.
+    #[arg(long, default_value_t = 1, value_parser = args::game_number)]
+    pub game: usize,
+    /// Scenario each trial simulates (without a game).
+    #[arg(long, default_value = "queens-gambit")]
+    pub scenario: String,
+    /// Number of randomised trials.
+    #[arg(long, default_value_t = 100)]
+    pub trials: usize,
+    /// Controllers to compare, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "pd,pid,adaptive,dob")]
+    pub controller: Vec<ControllerName>,
+    #[command(flatten)]
+    pub gains: GainArgs,
+    #[command(flatten)]
+    pub conditions: ConditionArgs,
+    /// The scenario's pawn mass as the controller believes it, kg (default: the setup's pawn);
+    /// its true mass follows the [uncertainty] piece_mass draws.
+    #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub payload_mass: Option<f64>,
+    /// The controller's model includes each gripped piece (its true mass).
+    #[arg(long)]
+    pub controller_knows_payload: bool,
+    /// A piece further than this from its square centre is misplaced, mm.
+    #[arg(long, default_value_t = 5.0, value_parser = args::positive, allow_hyphen_values = true)]
+    pub tolerance_mm: f64,
+    /// Integrator of the plant.
+    #[arg(long, value_enum, default_value_t)]
+    pub integrator: IntegratorChoice,
+    /// Run only slice K of N (1-based) of the trials; the slices' CSVs concatenate to the whole.
+    #[arg(long, value_parser = args::shard)]
+    pub shard: Option<(usize, usize)>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output folder.
+    #[arg(long, default_value = "out/robustness")]
+    pub out: PathBuf,
 }
 
 /// Which side the arm plays.
@@ -99,6 +174,8 @@ pub struct PlayArgs {
     /// The controller's model includes each gripped piece.
     #[arg(long)]
     pub controller_knows_payload: bool,
+    #[command(flatten)]
+    pub conditions: ConditionArgs,
     /// Integrator of the plant.
     #[arg(long, value_enum, default_value_t)]
     pub integrator: IntegratorChoice,
@@ -141,6 +218,8 @@ pub struct GainsArgs {
     /// Skip the verification run.
     #[arg(long)]
     pub no_verify: bool,
+    #[command(flatten)]
+    pub conditions: ConditionArgs,
 }
 
 /// A metric to rank candidates by (smaller is better).
@@ -184,6 +263,8 @@ pub struct TuneArgs {
     /// The controller's model includes the gripped piece.
     #[arg(long)]
     pub controller_knows_payload: bool,
+    #[command(flatten)]
+    pub conditions: ConditionArgs,
     /// Initial joint angles (rad), at rest; default: on the trajectory's first point.
     #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
     pub q0: Option<[f64; 4]>,
@@ -252,20 +333,26 @@ impl IntegratorChoice {
     }
 }
 
-/// One outer loop (commands that run a single controller: `play`, `tune`).
+/// One controller (commands that run a single one: `play`, `tune`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum OneController {
     /// Computed torque with a PD outer loop (report: kp = 400, kd = 20).
     Pd,
-    /// Computed torque with a PID outer loop (report: kp = 600, kd = 25, ki = 75).
+    /// Computed torque with a PID outer loop and anti-windup (report: kp = 600, kd = 25, ki = 75).
     Pid,
+    /// Computed torque that estimates the gripped piece's mass online (PD gains).
+    Adaptive,
+    /// Computed torque with a disturbance observer (PD gains).
+    Dob,
 }
 
-impl From<OneController> for ControllerChoice {
+impl From<OneController> for ControllerName {
     fn from(choice: OneController) -> Self {
         match choice {
-            OneController::Pd => ControllerChoice::Pd,
-            OneController::Pid => ControllerChoice::Pid,
+            OneController::Pd => ControllerName::Pd,
+            OneController::Pid => ControllerName::Pid,
+            OneController::Adaptive => ControllerName::Adaptive,
+            OneController::Dob => ControllerName::Dob,
         }
     }
 }
@@ -299,9 +386,11 @@ pub struct SimulateArgs {
     /// Built-in scenario.
     #[arg(long, default_value = "queens-gambit")]
     pub scenario: String,
-    /// Controllers to simulate.
-    #[arg(long, value_enum, default_value_t = ControllerChoice::Both)]
-    pub controller: ControllerChoice,
+    /// Controllers to simulate, comma-separated (pd, pid, adaptive, dob; both = pd,pid).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "both")]
+    pub controller: Vec<ControllerName>,
+    #[command(flatten)]
+    pub conditions: ConditionArgs,
     #[command(flatten)]
     pub gains: GainArgs,
     /// Integration time step, s.

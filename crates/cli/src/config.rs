@@ -3,6 +3,7 @@
 //! Every section and field is optional and defaults to the report's setup, so a file may say
 //! only what differs. Units are SI: m, rad, kg, kg·m², N·m, s.
 
+use crate::conditions::{SensorFile, UncertaintyFile};
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::pieces::{PieceDimensions, PieceSet};
@@ -10,6 +11,7 @@ use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, Join
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// One link of the arm in the file; every field left out keeps the report's value for that
@@ -135,6 +137,12 @@ pub struct SetupFile {
     /// Links from the base to the tool, in order (none: the report's four).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub links: Vec<LinkFile>,
+    /// Named sensor profiles for `--sensors NAME`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub sensors: BTreeMap<String, SensorFile>,
+    /// Random model errors for `robustness` and the simulating commands.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<UncertaintyFile>,
 }
 
 /// What a setup file describes, validated.
@@ -143,11 +151,21 @@ pub struct Setup {
     pub arm: ArmModel<4>,
     pub board: BoardGeometry,
     pub pieces: PieceSet,
+    /// Named sensor profiles (each checked when the file is read).
+    pub sensor_profiles: BTreeMap<String, SensorFile>,
+    /// The `[uncertainty]` table (checked when the file is read).
+    pub uncertainty: Option<UncertaintyFile>,
 }
 
 impl Default for Setup {
     fn default() -> Self {
-        Self { arm: report_arm(), board: BoardGeometry::default(), pieces: PieceSet::default() }
+        Self {
+            arm: report_arm(),
+            board: BoardGeometry::default(),
+            pieces: PieceSet::default(),
+            sensor_profiles: BTreeMap::new(),
+            uncertainty: None,
+        }
     }
 }
 
@@ -166,7 +184,7 @@ impl Setup {
 
     /// Parses and validates a setup from TOML text.
     pub fn parse(text: &str) -> Result<Self> {
-        let file: SetupFile = toml::from_str(text).map_err(|e| anyhow!(one_line_toml_error(text, &e)))?;
+        let file: SetupFile = toml::from_str(text).map_err(|e| anyhow!(toml_error(text, &e)))?;
         file.to_setup()
     }
 
@@ -185,7 +203,7 @@ const HEADER: &str = "\
 ";
 
 /// `message (line L, column C)` from a TOML error, on one line.
-fn one_line_toml_error(text: &str, error: &toml::de::Error) -> String {
+pub(crate) fn toml_error(text: &str, error: &toml::de::Error) -> String {
     let message = error.message().trim().replace('\n', " ");
     match error.span() {
         Some(span) => {
@@ -280,7 +298,16 @@ impl SetupFile {
             king: pick("king", given.king, default.king)?,
         }
         .validated()?;
-        Ok(Setup { arm, board, pieces })
+        for (name, profile) in &self.sensors {
+            if chessarm_core::sense::SensorProfile::<4>::named(name).is_some() {
+                bail!("sensors.{name}: a built-in profile has this name; choose another");
+            }
+            profile.to_profile(name)?;
+        }
+        if let Some(uncertainty) = &self.uncertainty {
+            uncertainty.to_uncertainty()?;
+        }
+        Ok(Setup { arm, board, pieces, sensor_profiles: self.sensors.clone(), uncertainty: self.uncertainty.clone() })
     }
 }
 
@@ -398,6 +425,8 @@ impl From<&Setup> for SetupFile {
                 king: piece(&p.king),
             },
             links,
+            sensors: setup.sensor_profiles.clone(),
+            uncertainty: setup.uncertainty.clone(),
         }
     }
 }

@@ -4,6 +4,7 @@
 pub mod args;
 pub mod cli;
 pub mod commands;
+pub mod conditions;
 pub mod config;
 pub mod output;
 pub mod plots;
@@ -26,6 +27,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Gains(args)) => commands::gains::run(&setup, &args),
         Some(Command::Tune(args)) => commands::tune::run(&setup, &args),
         Some(Command::Play(args)) => commands::play::run(&setup, &args),
+        Some(Command::Robustness(args)) => commands::robustness::run(&setup, &args),
         Some(Command::Arm) => print_text(&setup.to_toml()?),
         Some(Command::Fk(args)) => commands::kinematics::fk(&setup, &args),
         Some(Command::Ik(args)) => commands::kinematics::ik(&setup, &args),

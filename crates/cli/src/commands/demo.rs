@@ -1,6 +1,6 @@
 //! `demo` (and `chessarm` with no command): the report's study end to end.
 
-use crate::cli::{ControllerChoice, DemoArgs, GainArgs};
+use crate::cli::{ControllerName, DemoArgs, GainArgs};
 use crate::commands::plan::{plan_scenario, write_plan};
 use crate::commands::simulate::{
     ControllerRun, RunOptions, comparison_table, controller_specs, run_study, study_steps,
@@ -25,8 +25,10 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
         controller_knows_payload: false,
         tracking_from: 0.0,
         rate_flags: "the demo".into(),
+        trial: None,
+        conditions: serde_json::Value::Null,
     };
-    let specs = controller_specs(ControllerChoice::Both, &GainArgs::default())?;
+    let specs = controller_specs(&[ControllerName::Both], &GainArgs::default())?;
     let steps = study_steps(setup, SCENARIO, &options)?;
     let bar = crate::progress::bar(steps * specs.len() as u64 + steps / 10, "demo");
     bar.set_message("planning");

@@ -2,12 +2,14 @@
 
 use crate::cli::{ControllerChoice, GainsArgs};
 use crate::commands::plan::plan_scenario;
-use crate::commands::simulate::{ControllerSpec, RunOptions, run_controller};
+use crate::commands::simulate::{RunOptions, run_controller};
+use crate::conditions::Study;
 use crate::config::Setup;
 use crate::one_line;
 use crate::print_json;
 use crate::resources::show;
 use anyhow::{Result, bail};
+use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::{Gains, ResponseShape, design_from_specs};
 use chessarm_core::sim::Integrator;
 use chessarm_core::sim::metrics::error_response;
@@ -57,7 +59,7 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
     let mut designs = Vec::new();
     for &(name, pid) in controllers {
         let (gains, wn, zeta, ratio) = design(args, pid)?;
-        let spec = ControllerSpec { name: name.into(), gains };
+        let spec = ControllerSpec { name: name.into(), kind: ControllerKind::ComputedTorque, gains };
         // What the design promises: the exact response of the error dynamics.
         let shape = ResponseShape::of(zeta, ratio);
         let poles: Vec<[f64; 2]> = gains.closed_loop_poles(0).iter().map(|p| [p.re, p.im]).collect();
@@ -90,6 +92,12 @@ fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Valu
     let plan = plan_scenario(setup, &args.scenario, 1e-3, "the verification run")?;
     let start = plan.joint.first().q;
     let q0: [f64; 4] = std::array::from_fn(|j| start[j] - args.initial_error);
+    let study = Study::new(setup, &args.conditions, 1e-3)?;
+    let (trial, conditions) = if study.is_ideal(setup) {
+        (None, Value::Null)
+    } else {
+        (Some(study.trial(args.conditions.run_seed())?), study.describe())
+    };
     let options = RunOptions {
         dt: 1e-3,
         integrator: Integrator::default(),
@@ -99,8 +107,11 @@ fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Valu
         controller_knows_payload: false,
         tracking_from: 0.0,
         rate_flags: "the verification run".into(),
+        trial,
+        conditions: conditions.clone(),
     };
     let run = run_controller(setup, &plan, spec, &options, None)?;
+    let trial_json = options.trial.as_ref().map(crate::conditions::Trial::describe);
     let forced = run_controller(setup, &plan, spec, &RunOptions { q0: None, ..options }, None)?;
     let mut settling = Vec::new();
     let mut overshoot = Vec::new();
@@ -121,5 +132,7 @@ fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Valu
         "worst_settling_time_s": worst(&settling),
         "worst_overshoot_percent": worst(&overshoot),
         "saturation_count": run.summary.saturated_samples,
+        "conditions": conditions,
+        "trial": trial_json,
     }))
 }

@@ -5,5 +5,6 @@ pub mod gains;
 pub mod kinematics;
 pub mod plan;
 pub mod play;
+pub mod robustness;
 pub mod simulate;
 pub mod tune;

@@ -8,6 +8,7 @@ use crate::print_json;
 use anyhow::{Result, anyhow, bail};
 use chessarm_chess::scenario::{SCENARIOS, scenario};
 use chessarm_core::arm::task::TOOL_DOWN;
+use chessarm_core::nalgebra::Vector2;
 use chessarm_core::plan::path::{CartesianPath, CartesianSample};
 use chessarm_core::plan::trajectory::{JointSample, JointTrajectory};
 use serde_json::json;
@@ -20,6 +21,8 @@ pub struct Plan {
     pub path: CartesianPath,
     pub cartesian: Vec<CartesianSample>,
     pub joint: JointTrajectory,
+    /// Where the scenario's piece stands and the centre of its target square (board plane, m).
+    pub placement: Option<(Vector2<f64>, Vector2<f64>)>,
 }
 
 /// Bytes one planned sample takes in memory: the Cartesian and joint samples and the points of
@@ -51,7 +54,8 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<
     let cartesian = path.sample_uniform(dt)?;
     let joint = JointTrajectory::from_path(&setup.arm, &path, dt, TOOL_DOWN)
         .map_err(|e| anyhow!("scenario '{name}' cannot be followed: {e}"))?;
-    Ok(Plan { name: name.to_string(), path, cartesian, joint })
+    let placement = Some((setup.board.square_center(scenario.from).xy(), setup.board.square_center(scenario.to).xy()));
+    Ok(Plan { name: name.to_string(), path, cartesian, joint, placement })
 }
 
 pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {

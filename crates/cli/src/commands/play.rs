@@ -2,6 +2,7 @@
 
 use crate::cli::{PlayArgs, RobotSide};
 use crate::commands::simulate::controller_specs;
+use crate::conditions::Study;
 use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
@@ -97,8 +98,17 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 }
 
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
-    let spec = controller_specs(args.controller.into(), &args.gains)?.remove(0);
+    let spec = controller_specs(&[args.controller.into()], &args.gains)?.remove(0);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
+    settings.controller = spec;
+    let study = Study::new(setup, &args.conditions, settings.control_period)?;
+    let trial = study.trial(args.conditions.run_seed())?;
+    let ideal = study.is_ideal(setup);
+    if !ideal {
+        settings.plant = Some(trial.plant);
+        settings.true_pieces = Some(trial.pieces);
+        settings.conditions = trial.conditions.clone();
+    }
     settings.pieces = setup.pieces;
     settings.controller_knows_payload = args.controller_knows_payload;
     settings.integrator = args.integrator.integrator();

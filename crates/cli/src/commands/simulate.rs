@@ -1,7 +1,8 @@
 //! `simulate` and `dynamics`: the report's closed-loop study and the dynamics terms.
 
-use crate::cli::{ControllerChoice, DynamicsArgs, GainArgs, SimulateArgs};
+use crate::cli::{ControllerName, DynamicsArgs, GainArgs, SimulateArgs};
 use crate::commands::plan::{Plan, plan_scenario};
+use crate::conditions::{Study, Trial};
 use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
@@ -12,10 +13,12 @@ use chessarm_chess::pieces::PieceDimensions;
 use chessarm_core::arm::dynamics::{DynamicsTerms, coriolis_torques, gravity_torques};
 use chessarm_core::arm::model::{JointVector, Payload};
 use chessarm_core::control::JointState;
-use chessarm_core::control::computed_torque::ComputedTorque;
+use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::{Gains, REPORT_PD, REPORT_PID};
 use chessarm_core::plan::path::{CartesianPath, GripperAction};
-use chessarm_core::sim::{Integrator, Observer, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate};
+use chessarm_core::sim::{
+    Integrator, Observer, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate_sensed,
+};
 use indicatif::ProgressBar;
 use serde_json::{Value, json};
 use std::path::Path;
@@ -26,27 +29,29 @@ pub fn gripped_pawn(setup: &Setup, mass: f64) -> Payload {
     PieceDimensions { mass, ..setup.pieces.pawn }.payload()
 }
 
-/// Payload events of a path: the setup's pawn, of `mass` kg, gripped at every grip mark and
-/// released at every release mark (none when the mass is 0).
-pub fn pawn_events(setup: &Setup, path: &CartesianPath, mass: f64, controller_knows: bool) -> Vec<PayloadEvent> {
+/// Payload events of a path: the trial's true pawn, gripped at every grip mark and released
+/// at every release mark (none when the mass is 0). `mass` is the pawn's nominal mass, kg (the
+/// controller's belief); the true one is scaled as the trial's pawn is to the setup's.
+pub fn pawn_events(
+    setup: &Setup,
+    trial: Option<&Trial>,
+    path: &CartesianPath,
+    mass: f64,
+    controller_knows: bool,
+) -> Vec<PayloadEvent> {
     if mass <= 0.0 {
         return Vec::new();
     }
+    let pawn = trial.map_or(setup.pieces.pawn, |t| t.pieces.pawn);
+    let payload = PieceDimensions { mass: mass * pawn.mass / setup.pieces.pawn.mass, ..pawn }.payload();
     path.events()
         .iter()
         .map(|event| PayloadEvent {
             time: event.time,
-            payload: (event.action == GripperAction::Grip).then(|| gripped_pawn(setup, mass)),
+            payload: (event.action == GripperAction::Grip).then_some(payload),
             controller_knows,
         })
         .collect()
-}
-
-/// A controller to simulate: its name and gains.
-#[derive(Debug, Clone)]
-pub struct ControllerSpec {
-    pub name: String,
-    pub gains: Gains<4>,
 }
 
 /// Simulation settings shared by the controllers of one study.
@@ -62,6 +67,10 @@ pub struct RunOptions {
     pub tracking_from: f64,
     /// The flags that set the time step and rate, as typed, for error messages.
     pub rate_flags: String,
+    /// Sensors, estimator, lag and the true arm (ideal: the setup's arm, exact state).
+    pub trial: Option<Trial>,
+    /// The study's conditions, for summary.json (null when ideal).
+    pub conditions: Value,
 }
 
 /// One controller's run: metrics and the time series.
@@ -73,25 +82,43 @@ pub struct ControllerRun {
     pub wall_time_s: f64,
 }
 
-/// The controllers `args` asks for, with the report's gains unless overridden.
-pub fn controller_specs(choice: ControllerChoice, given: &GainArgs) -> Result<Vec<ControllerSpec>> {
+/// The controllers `names` asks for (in order, each once; `both` is pd and pid), with the
+/// report's gains unless overridden: PID's for pid, PD's for the others.
+pub fn controller_specs(names: &[ControllerName], given: &GainArgs) -> Result<Vec<ControllerSpec>> {
     let GainArgs { kp, kd, ki } = *given;
-    let make = |name: &str, (default_kp, default_kd, default_ki): (f64, f64, f64)| -> Result<ControllerSpec> {
+    let make = |name: &str, kind: ControllerKind, (default_kp, default_kd, default_ki): (f64, f64, f64)| {
         let pick = |given: Option<[f64; 4]>, default: f64| JointVector::<4>::from(given.unwrap_or([default; 4]));
-        let ki = if name == "pd" { JointVector::zeros() } else { pick(ki, default_ki) };
+        let ki = if name == "pid" { pick(ki, default_ki) } else { JointVector::zeros() };
         let gains = Gains::per_joint(pick(kp, default_kp), pick(kd, default_kd), ki)?;
-        Ok(ControllerSpec { name: name.to_string(), gains })
+        Ok::<_, anyhow::Error>(ControllerSpec { name: name.to_string(), kind, gains })
     };
-    if ki.is_some() && choice == ControllerChoice::Pd {
-        bail!("--ki given with --controller pd: the PD controller has no integral term");
+    let mut wanted: Vec<ControllerName> = Vec::new();
+    for name in names {
+        let expanded: &[ControllerName] = if *name == ControllerName::Both {
+            &[ControllerName::Pd, ControllerName::Pid]
+        } else {
+            std::slice::from_ref(name)
+        };
+        for name in expanded {
+            if !wanted.contains(name) {
+                wanted.push(*name);
+            }
+        }
     }
-    let pd = || make("pd", (REPORT_PD.0, REPORT_PD.1, 0.0));
-    let pid = || make("pid", REPORT_PID);
-    Ok(match choice {
-        ControllerChoice::Pd => vec![pd()?],
-        ControllerChoice::Pid => vec![pid()?],
-        ControllerChoice::Both => vec![pd()?, pid()?],
-    })
+    if ki.is_some() && !wanted.contains(&ControllerName::Pid) {
+        let list: Vec<&str> = wanted.iter().map(|n| n.name()).collect();
+        bail!("--ki given with --controller {}: only pid has an integral term", list.join(","));
+    }
+    let pd = (REPORT_PD.0, REPORT_PD.1, 0.0);
+    wanted
+        .iter()
+        .map(|name| match name {
+            ControllerName::Pd | ControllerName::Both => make("pd", ControllerKind::ComputedTorque, pd),
+            ControllerName::Pid => make("pid", ControllerKind::ComputedTorque, REPORT_PID),
+            ControllerName::Adaptive => make("adaptive", ControllerKind::Adaptive, pd),
+            ControllerName::Dob => make("dob", ControllerKind::DisturbanceObserver, pd),
+        })
+        .collect()
 }
 
 /// Keeps every step and moves a progress bar.
@@ -120,22 +147,36 @@ pub fn run_controller(
     options: &RunOptions,
     progress: Option<&ProgressBar>,
 ) -> Result<ControllerRun> {
-    let mut plant = Plant::new(setup.arm);
-    let mut controller = ComputedTorque::new(spec.name.clone(), setup.arm, spec.gains);
+    let trial = options.trial.as_ref();
+    let mut plant = Plant::new(trial.map_or(setup.arm, |t| t.plant));
+    let mut controller = spec.build(setup.arm);
+    let conditions = trial.map_or_else(chessarm_core::sense::Conditions::ideal, |t| t.conditions.clone());
+    let mut feedback = conditions.feedback(options.control_period)?;
     let config = SimConfig {
         dt: options.dt,
         control_period: options.control_period,
         integrator: options.integrator,
         tracking_from: options.tracking_from,
+        torque_lag: conditions.torque_lag,
         ..SimConfig::new(&plant)
     };
-    let events = pawn_events(setup, &plan.path, options.payload_mass, options.controller_knows_payload);
+    let events = pawn_events(setup, trial, &plan.path, options.payload_mass, options.controller_knows_payload);
     let marks: Vec<f64> = plan.path.events().iter().map(|e| e.time).collect();
     let initial = options.q0.map(|q0| JointState::at_rest(JointVector::from(q0)));
     let mut recorder = Recorder { records: Vec::with_capacity(plan.joint.samples().len() + 1), progress };
     let started = Instant::now();
-    let summary = simulate(&mut plant, &mut controller, &plan.joint, initial, &events, &marks, &config, &mut recorder)
-        .with_context(|| format!("controller {}", spec.name))?;
+    let summary = simulate_sensed(
+        &mut plant,
+        &mut feedback,
+        controller.as_mut(),
+        &plan.joint,
+        initial,
+        &events,
+        &marks,
+        &config,
+        &mut recorder,
+    )
+    .with_context(|| format!("controller {}", spec.name))?;
     let wall_time_s = started.elapsed().as_secs_f64();
     Ok(ControllerRun { spec: spec.clone(), summary, records: recorder.records, wall_time_s })
 }
@@ -168,6 +209,9 @@ pub fn summary_json(run: &ControllerRun, plan: &Plan) -> Value {
         "rms_tip_error_mm": summary.rms_tip_error * 1e3,
         "max_tip_error_mm": summary.max_tip_error * 1e3,
         "tip_error_at_events": events,
+        "placement_error_mm": placement_error(plan, summary).map(|e| e * 1e3),
+        "rms_angle_estimate_error_rad": summary.rms_angle_estimate_error.as_slice(),
+        "rms_rate_estimate_error_rad_per_s": summary.rms_rate_estimate_error.as_slice(),
         "peak_torque_nm": summary.peak_torque.as_slice(),
         "saturation_count": summary.saturated_samples,
         "saturation_per_joint": summary.saturated_per_joint,
@@ -386,6 +430,8 @@ pub fn run_study(
         "controller_knows_payload": options.controller_knows_payload,
         "q0_rad": options.q0,
         "tracking_metrics_from_s": options.tracking_from,
+        "conditions": options.conditions,
+        "trial": options.trial.as_ref().map(Trial::describe),
         "controllers": runs.iter().map(|run| summary_json(run, &plan)).collect::<Vec<_>>(),
     });
     let summary_path = out.join("summary.json");
@@ -405,8 +451,15 @@ pub fn study_steps(setup: &Setup, scenario: &str, options: &RunOptions) -> Resul
     Ok(((path / options.dt).round().min(chessarm_core::plan::path::MAX_SAMPLES as f64) as u64).saturating_add(1))
 }
 
-pub fn options_from(args: &SimulateArgs) -> RunOptions {
-    RunOptions {
+pub fn options_from(setup: &Setup, args: &SimulateArgs) -> Result<RunOptions> {
+    let control_period = 1.0 / args.control_rate;
+    let study = Study::new(setup, &args.conditions, control_period)?;
+    let (trial, conditions) = if study.is_ideal(setup) {
+        (None, Value::Null)
+    } else {
+        (Some(study.trial(args.conditions.run_seed())?), study.describe())
+    };
+    Ok(RunOptions {
         dt: args.dt,
         integrator: args.integrator.integrator(),
         control_period: 1.0 / args.control_rate,
@@ -415,7 +468,17 @@ pub fn options_from(args: &SimulateArgs) -> RunOptions {
         controller_knows_payload: args.controller_knows_payload,
         tracking_from: args.tracking_from,
         rate_flags: format!("--dt {} with --control-rate {}", show(args.dt), show(args.control_rate)),
-    }
+        trial,
+        conditions,
+    })
+}
+
+/// Distance of the scenario's piece from its target square's centre where the simulated tool
+/// released it, m (`None` without a grip and a release).
+pub fn placement_error(plan: &Plan, summary: &SimSummary<4>) -> Option<f64> {
+    let (grip, release) = (summary.tip_at_marks.first()?, summary.tip_at_marks.get(1)?);
+    let (standing, target) = plan.placement?;
+    Some((chessarm_chess::play::placed_position(grip, release, &standing) - target).norm())
 }
 
 /// Checks `--dt` against `--control-rate` before anything runs, naming both flags as typed.
@@ -442,8 +505,8 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
     }
-    let specs = controller_specs(args.controller, &args.gains)?;
-    let options = options_from(args);
+    let specs = controller_specs(&args.controller, &args.gains)?;
+    let options = options_from(setup, args)?;
     let total = study_steps(setup, &args.scenario, &options)?.saturating_mul(specs.len() as u64);
     let bar = crate::progress::bar(total, "simulating");
     let (runs, result) = run_study(setup, &args.scenario, &specs, &options, &args.out, Some(&bar))?;

@@ -4,9 +4,11 @@
 //! come out in candidate order whatever the number of threads, so a sweep is reproducible and
 //! `--shard K/N` slices concatenate (`cat`) to the full sweep: only slice 1 carries the header.
 
-use crate::cli::{Metric, OneController, TuneArgs};
+use crate::cli::{ControllerName, GainArgs, Metric, OneController, TuneArgs};
 use crate::commands::plan::plan_scenario;
+use crate::commands::simulate::controller_specs;
 use crate::commands::simulate::{TRANSIENT_S, pawn_events};
+use crate::conditions::Trial;
 use crate::config::Setup;
 use crate::output::{ensure_dir, write_atomic};
 use crate::plots::{HeatMap, plot_heat_map};
@@ -16,10 +18,11 @@ use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::control::JointState;
-use chessarm_core::control::computed_torque::ComputedTorque;
+use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
 use chessarm_core::plan::trajectory::JointTrajectory;
-use chessarm_core::sim::{Integrator, NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, simulate};
+use chessarm_core::sense::Conditions;
+use chessarm_core::sim::{Integrator, NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, simulate_sensed};
 use rayon::prelude::*;
 use serde_json::json;
 use std::time::Instant;
@@ -173,16 +176,28 @@ pub fn simulate_candidate(
     let mut totals = Totals::default();
     match study {
         Study::Scenario(scenario) => {
-            let mut plant = Plant::new(setup.arm);
-            let mut controller = ComputedTorque::new("candidate", setup.arm, *gains);
+            let trial = options.trial.as_ref();
+            let mut plant = Plant::new(trial.map_or(setup.arm, |t| t.plant));
+            let spec = ControllerSpec { name: "candidate".into(), kind: options.kind, gains: *gains };
+            let mut controller = spec.build(setup.arm);
+            let conditions = trial.map_or_else(Conditions::ideal, |t| t.conditions.clone());
+            let mut feedback = match conditions.feedback(1e-3) {
+                Ok(feedback) => feedback,
+                Err(error) => {
+                    candidate.status = format!("failed: {error}");
+                    return candidate;
+                }
+            };
             let config = SimConfig {
                 integrator: options.integrator,
                 tracking_from: options.tracking_from,
+                torque_lag: conditions.torque_lag,
                 ..SimConfig::new(&plant)
             };
-            let result = simulate(
+            let result = simulate_sensed(
                 &mut plant,
-                &mut controller,
+                &mut feedback,
+                controller.as_mut(),
                 &scenario.trajectory,
                 scenario.initial,
                 &scenario.events,
@@ -201,7 +216,13 @@ pub fn simulate_candidate(
         }
         Study::Game(record) => {
             let mut settings = PlaySettings::new("candidate", *gains);
+            settings.controller.kind = options.kind;
             settings.pieces = setup.pieces;
+            if let Some(trial) = &options.trial {
+                settings.plant = Some(trial.plant);
+                settings.true_pieces = Some(trial.pieces);
+                settings.conditions = trial.conditions.clone();
+            }
             settings.record_every = 0;
             settings.controller_knows_payload = options.controller_knows_payload;
             settings.integrator = options.integrator;
@@ -229,9 +250,14 @@ pub fn simulate_candidate(
 }
 
 /// Settings every candidate shares.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct CandidateOptions {
     pub controller_knows_payload: bool,
+    /// Which controller the gains are for.
+    pub kind: ControllerKind,
+    /// Sensors, estimator, lag and the true arm (`None`: ideal, the setup's arm); every
+    /// candidate runs the same trial (the same draws and sensor noise).
+    pub trial: Option<Trial>,
     pub integrator: Integrator,
     /// Start of the tracking metrics, s (see [`SimConfig::tracking_from`]).
     pub tracking_from: f64,
@@ -249,12 +275,12 @@ pub const MAX_CANDIDATES: usize = 10_000_000;
 
 /// The gains of every candidate, in sweep order: kp outermost, then kd, then ki.
 pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
-    let pid = match args.controller {
-        OneController::Pd => false,
-        OneController::Pid => true,
-    };
+    let pid = args.controller == OneController::Pid;
     if args.ki.is_some() && !pid {
-        bail!("--ki given with --controller pd: the PD controller has no integral term");
+        bail!(
+            "--ki given with --controller {}: only pid has an integral term",
+            ControllerName::from(args.controller).name()
+        );
     }
     if args.kp.from <= 0.0 {
         bail!("kp range starts at {}: kp must be > 0", args.kp.from);
@@ -307,7 +333,9 @@ pub fn study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
 fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
     let plan = plan_scenario(setup, &args.scenario, 1e-3, "the sweep")?;
     crate::commands::simulate::ensure_tracked(tracking_from(args), &plan)?;
-    let events = pawn_events(setup, &plan.path, args.payload_mass, args.controller_knows_payload);
+    let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;
+    let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
+    let events = pawn_events(setup, trial.as_ref(), &plan.path, args.payload_mass, args.controller_knows_payload);
     let marks = plan.path.events().iter().map(|e| e.time).collect();
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
@@ -356,8 +384,13 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let gains = candidate_gains(args)?;
     let range = shard_range(gains.len(), args.shard);
     let study = study(setup, args)?;
+    let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;
+    let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
+    let kind = controller_specs(&[args.controller.into()], &GainArgs::default())?.remove(0).kind;
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
+        kind,
+        trial,
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(args),
     };

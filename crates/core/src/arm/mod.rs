@@ -7,3 +7,4 @@ pub mod mass_factor;
 pub mod model;
 pub mod preset;
 pub mod task;
+pub mod uncertainty;

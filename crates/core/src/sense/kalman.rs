@@ -17,6 +17,13 @@ pub struct KalmanSettings {
     pub disturbance_noise: Option<f64>,
 }
 
+impl KalmanSettings {
+    /// Default tuning (placeholder value).
+    pub const DEFAULT: KalmanSettings = KalmanSettings { acceleration_noise: 20.0, disturbance_noise: None };
+    /// Default σ of the disturbance state's increments per sample, rad/s² (placeholder).
+    pub const DEFAULT_DISTURBANCE_NOISE: f64 = 1.0;
+}
+
 /// Per-joint Kalman filters of `(q, q̇)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointKalman<const N: usize> {

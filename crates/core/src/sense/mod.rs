@@ -124,3 +124,79 @@ impl<const N: usize> Feedback<N> {
         }
     }
 }
+
+/// Which estimator to build for a run (the settings; [`Estimator`] is the running filter).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EstimatorSpec {
+    /// [`Estimator::Direct`].
+    Direct,
+    /// [`Estimator::LowPass`] with this time constant, s.
+    LowPass { time_constant: f64 },
+    /// [`Estimator::Kalman`] with these settings.
+    Kalman(KalmanSettings),
+}
+
+impl EstimatorSpec {
+    /// The Kalman filter with its default tuning ([`KalmanSettings::DEFAULT`]).
+    pub const KALMAN: EstimatorSpec = EstimatorSpec::Kalman(KalmanSettings::DEFAULT);
+    /// The low-pass baseline with its default time constant.
+    pub const LOW_PASS: EstimatorSpec =
+        EstimatorSpec::LowPass { time_constant: LowPassVelocity::<1>::DEFAULT_TIME_CONSTANT };
+
+    /// Short name, as the CLI spells it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            EstimatorSpec::Direct => "direct",
+            EstimatorSpec::LowPass { .. } => "lowpass",
+            EstimatorSpec::Kalman(_) => "kalman",
+        }
+    }
+
+    /// The estimator for `profile`'s measurements sampled every `period` s.
+    pub fn build<const N: usize>(&self, profile: &SensorProfile<N>, period: f64) -> Result<Estimator<N>, SenseError> {
+        Ok(match *self {
+            EstimatorSpec::Direct => Estimator::Direct,
+            EstimatorSpec::LowPass { time_constant } => {
+                Estimator::LowPass(LowPassVelocity::new(period, time_constant)?)
+            }
+            EstimatorSpec::Kalman(settings) => Estimator::Kalman(Box::new(JointKalman::new(
+                period,
+                profile.angle_std(),
+                profile.rate_noise,
+                profile.delay_samples,
+                settings,
+            )?)),
+        })
+    }
+}
+
+/// What stands between the controller and the plant in a run: sensors, estimator, and the
+/// motors' torque lag.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Conditions<const N: usize> {
+    pub sensors: SensorProfile<N>,
+    pub estimator: EstimatorSpec,
+    /// Per joint, the motor's torque time constant, s (0: none).
+    pub torque_lag: JointVector<N>,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+}
+
+impl<const N: usize> Conditions<N> {
+    /// Exact state, no lag: today's closed loop.
+    pub fn ideal() -> Self {
+        Self {
+            sensors: SensorProfile::ideal(),
+            estimator: EstimatorSpec::Direct,
+            torque_lag: JointVector::zeros(),
+            seed: 0,
+        }
+    }
+
+    /// The sensors and estimator of a run sampled every `period` s.
+    pub fn feedback(&self, period: f64) -> Result<Feedback<N>, SenseError> {
+        let sensors = Sensors::new(self.sensors.clone(), self.seed)?;
+        let estimator = self.estimator.build(&self.sensors, period)?;
+        Feedback::new(sensors, estimator)
+    }
+}

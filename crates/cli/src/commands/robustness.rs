@@ -1,0 +1,425 @@
+//! `robustness`: Monte Carlo over randomised trials. Each trial draws the true arm (link
+//! masses, centres of mass, inertia rotations, friction), the pieces' true masses and the
+//! sensors' noise from its own seed, then runs every controller on the same draws (common
+//! random numbers: the controllers are compared on identical arms and identical noise). One
+//! CSV row per trial and controller; the rows come out in trial order whatever the number of
+//! threads, and `--shard K/N` slices concatenate to the whole study.
+
+use crate::cli::RobustnessArgs;
+use crate::commands::plan::{Plan, plan_scenario};
+use crate::commands::simulate::{controller_specs, pawn_events, placement_error};
+use crate::commands::tune::shard_range;
+use crate::conditions::{Study, Trial};
+use crate::config::Setup;
+use crate::output::{ensure_dir, remove_stale, write_atomic, write_json};
+use crate::plots::{Panel, Series, plot_panels};
+use crate::print_json;
+use anyhow::{Context, Result};
+use chessarm_chess::notation::GameRecord;
+use chessarm_chess::play::{Game, Mover, PlaySettings};
+use chessarm_core::control::choice::ControllerSpec;
+use chessarm_core::sense::rng::derive_seed;
+use chessarm_core::sim::{Integrator, NoObserver, Plant, SimConfig, SimSummary, simulate_sensed};
+use rayon::prelude::*;
+use serde_json::json;
+use std::time::Instant;
+
+/// What every trial runs.
+#[derive(Debug)]
+pub enum Work {
+    Scenario { plan: Plan, payload_mass: f64 },
+    Game(GameRecord),
+}
+
+/// One controller's result in one trial (SI; tip and placement errors in mm).
+#[derive(Debug, Clone)]
+pub struct TrialRow {
+    pub trial: usize,
+    pub trial_seed: u64,
+    pub controller: String,
+    /// "ok", or why the run failed.
+    pub status: String,
+    /// Largest distance of a placed piece from its square centre, mm (NaN if it failed).
+    pub place_error_mm: f64,
+    pub pieces: usize,
+    /// Pieces placed further than the tolerance.
+    pub misplaced: usize,
+    pub max_tip_error_mm: f64,
+    pub rms_tip_error_mm: f64,
+    pub peak_torque_nm: f64,
+    pub peak_torque_ratio: f64,
+    pub saturated_samples: usize,
+    /// RMS over the joints and samples of the rate estimate's error, rad/s.
+    pub rms_rate_estimate_error: f64,
+    /// The trial's drawn parameters.
+    pub drawn: Vec<(String, f64)>,
+}
+
+impl TrialRow {
+    /// Every piece within the tolerance, and the run finished.
+    pub fn success(&self) -> bool {
+        self.status == "ok" && self.misplaced == 0
+    }
+}
+
+/// Metrics over one or more simulations of a trial.
+#[derive(Default)]
+struct Totals {
+    samples: f64,
+    squared_tip: f64,
+    squared_rate: f64,
+    max_tip: f64,
+    peak_torque: f64,
+    peak_ratio: f64,
+    saturated: usize,
+    places: Vec<f64>,
+}
+
+impl Totals {
+    fn add(&mut self, summary: &SimSummary<4>, limits: &chessarm_core::arm::model::JointVector<4>) {
+        let samples = summary.tracked_steps as f64;
+        self.samples += samples;
+        self.squared_tip += summary.rms_tip_error.powi(2) * samples;
+        self.squared_rate += summary.rms_rate_estimate_error.norm_squared() / 4.0 * samples;
+        self.max_tip = self.max_tip.max(summary.max_tip_error);
+        self.peak_torque = self.peak_torque.max(summary.peak_torque.max());
+        self.peak_ratio = self.peak_ratio.max(summary.peak_torque.component_div(limits).max());
+        self.saturated += summary.saturated_samples;
+    }
+}
+
+/// Runs one controller on one trial. `tolerance` in m.
+fn run_trial(
+    setup: &Setup,
+    work: &Work,
+    spec: &ControllerSpec,
+    trial: &Trial,
+    integrator: Integrator,
+    controller_knows_payload: bool,
+    tolerance: f64,
+) -> (String, Totals) {
+    let mut totals = Totals::default();
+    let limits = setup.arm.torque_limits();
+    let outcome: Result<()> = (|| {
+        match work {
+            Work::Scenario { plan, payload_mass } => {
+                let mut plant = Plant::new(trial.plant);
+                let mut controller = spec.build(setup.arm);
+                let mut feedback = trial.conditions.feedback(1e-3)?;
+                let config =
+                    SimConfig { integrator, torque_lag: trial.conditions.torque_lag, ..SimConfig::new(&plant) };
+                let events = pawn_events(setup, Some(trial), &plan.path, *payload_mass, controller_knows_payload);
+                let marks: Vec<f64> = plan.path.events().iter().map(|e| e.time).collect();
+                let summary = simulate_sensed(
+                    &mut plant,
+                    &mut feedback,
+                    controller.as_mut(),
+                    &plan.joint,
+                    None,
+                    &events,
+                    &marks,
+                    &config,
+                    &mut NoObserver,
+                )?;
+                totals.add(&summary, &limits);
+                totals.places.extend(placement_error(plan, &summary));
+            }
+            Work::Game(record) => {
+                let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
+                settings.controller = spec.clone();
+                settings.pieces = setup.pieces;
+                settings.record_every = 0;
+                settings.controller_knows_payload = controller_knows_payload;
+                settings.integrator = integrator;
+                settings.tolerance = tolerance;
+                settings.plant = Some(trial.plant);
+                settings.true_pieces = Some(trial.pieces);
+                settings.conditions = trial.conditions.clone();
+                let mut game = Game::new(setup.arm, setup.board, record.start.clone(), settings)?;
+                for mv in &record.moves {
+                    let report = game.play(mv, Mover::Robot)?;
+                    if let Some(summary) = &report.summary {
+                        totals.add(summary, &limits);
+                    }
+                    totals.places.extend(&report.place_errors);
+                }
+            }
+        }
+        Ok(())
+    })();
+    let status = match outcome {
+        Ok(()) => "ok".to_string(),
+        Err(error) => format!("failed: {}", crate::one_line(&error)),
+    };
+    (status, totals)
+}
+
+fn row(
+    trial_index: usize,
+    trial: &Trial,
+    spec: &ControllerSpec,
+    status: String,
+    totals: &Totals,
+    tolerance: f64,
+) -> TrialRow {
+    let ok = status == "ok";
+    let worst = totals.places.iter().copied().fold(0.0f64, f64::max);
+    TrialRow {
+        trial: trial_index,
+        trial_seed: trial.seed,
+        controller: spec.name.clone(),
+        place_error_mm: if ok { worst * 1e3 } else { f64::NAN },
+        pieces: totals.places.len(),
+        misplaced: totals.places.iter().filter(|e| **e > tolerance).count(),
+        max_tip_error_mm: totals.max_tip * 1e3,
+        rms_tip_error_mm: (totals.squared_tip / totals.samples.max(1.0)).sqrt() * 1e3,
+        peak_torque_nm: totals.peak_torque,
+        peak_torque_ratio: totals.peak_ratio,
+        saturated_samples: totals.saturated,
+        rms_rate_estimate_error: (totals.squared_rate / totals.samples.max(1.0)).sqrt(),
+        drawn: trial.columns(),
+        status,
+    }
+}
+
+const HEADER: &str = "trial,trial_seed,controller,status,success,place_error_mm,pieces,misplaced,max_tip_error_mm,rms_tip_error_mm,peak_torque_nm,peak_torque_ratio,saturated_samples,rms_rate_estimate_error_rad_per_s";
+
+fn csv_line(row: &TrialRow) -> String {
+    let mut line = format!(
+        "{},{},{},{},{},{:?},{},{},{:?},{:?},{:?},{:?},{},{:?}",
+        row.trial,
+        row.trial_seed,
+        row.controller,
+        row.status.replace(',', ";"),
+        row.success(),
+        row.place_error_mm,
+        row.pieces,
+        row.misplaced,
+        row.max_tip_error_mm,
+        row.rms_tip_error_mm,
+        row.peak_torque_nm,
+        row.peak_torque_ratio,
+        row.saturated_samples,
+        row.rms_rate_estimate_error
+    );
+    for (_, value) in &row.drawn {
+        line.push_str(&format!(",{value:?}"));
+    }
+    line
+}
+
+/// The `q`-quantile (0–1) of sorted `values` by linear interpolation between order statistics.
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let position = q * (sorted.len() - 1) as f64;
+    let (low, high) = (position.floor() as usize, position.ceil() as usize);
+    sorted[low] + (sorted[high] - sorted[low]) * (position - low as f64)
+}
+
+/// Per controller: the study's statistics.
+fn statistics(rows: &[TrialRow], name: &str) -> serde_json::Value {
+    let mine: Vec<&TrialRow> = rows.iter().filter(|r| r.controller == name).collect();
+    let mut errors: Vec<f64> = mine.iter().map(|r| r.place_error_mm).filter(|e| e.is_finite()).collect();
+    errors.sort_by(f64::total_cmp);
+    let successes = mine.iter().filter(|r| r.success()).count();
+    let failed = mine.iter().filter(|r| r.status != "ok").count();
+    json!({
+        "controller": name,
+        "trials": mine.len(),
+        "success_rate": successes as f64 / mine.len().max(1) as f64,
+        "failed_runs": failed,
+        "place_error_mm": {
+            "median": quantile(&errors, 0.5),
+            "p95": quantile(&errors, 0.95),
+            "max": errors.last().copied().unwrap_or(f64::NAN),
+        },
+        "peak_torque_nm": mine.iter().map(|r| r.peak_torque_nm).fold(0.0f64, f64::max),
+        "peak_torque_ratio": mine.iter().map(|r| r.peak_torque_ratio).fold(0.0f64, f64::max),
+        "trials_with_saturation": mine.iter().filter(|r| r.saturated_samples > 0).count(),
+        "rms_rate_estimate_error_rad_per_s": mine.iter().map(|r| r.rms_rate_estimate_error).sum::<f64>() / mine.len().max(1) as f64,
+        "worst_trial_seed": mine.iter().filter(|r| r.place_error_mm.is_finite()).max_by(|a, b| a.place_error_mm.total_cmp(&b.place_error_mm)).map(|r| r.trial_seed),
+    })
+}
+
+pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
+    let specs = controller_specs(&args.controller, &args.gains)?;
+    let study = Study::new(setup, &args.conditions, 1e-3)?;
+    if args.conditions.trial_seed.is_some() {
+        anyhow::bail!(
+            "--trial-seed runs one trial: use it with simulate or play; robustness draws --trials trials from --seed"
+        );
+    }
+    let work = match &args.game_file {
+        Some(path) => {
+            if args.payload_mass.is_some() {
+                anyhow::bail!("--payload-mass goes with a scenario; a game grips its real pieces");
+            }
+            Work::Game(crate::commands::play::read_pgn_game(path, args.game)?)
+        }
+        None => {
+            let plan = plan_scenario(setup, &args.scenario, 1e-3, "the trials")?;
+            Work::Scenario { plan, payload_mass: args.payload_mass.unwrap_or(setup.pieces.pawn.mass) }
+        }
+    };
+    let range = shard_range(args.trials, args.shard);
+    let tolerance = args.tolerance_mm / 1e3;
+    let threads = crate::resources::worker_threads(args.threads)?;
+    let pool =
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
+    ensure_dir(&args.out)?;
+    remove_stale(&[
+        args.out.join("robustness.csv"),
+        args.out.join("robustness.png"),
+        args.out.join("robustness.json"),
+    ])?;
+    let bar = crate::progress::bar(range.len() as u64, "trials");
+    let started = Instant::now();
+    let integrator = args.integrator.integrator();
+    let rows: Vec<TrialRow> = pool.install(|| {
+        range
+            .clone()
+            .into_par_iter()
+            .map(|index| {
+                let seed = derive_seed(args.conditions.seed, index as u64);
+                let rows = match study.trial(seed) {
+                    Ok(trial) => specs
+                        .iter()
+                        .map(|spec| {
+                            let (status, totals) = run_trial(
+                                setup,
+                                &work,
+                                spec,
+                                &trial,
+                                integrator,
+                                args.controller_knows_payload,
+                                tolerance,
+                            );
+                            row(index, &trial, spec, status, &totals, tolerance)
+                        })
+                        .collect(),
+                    Err(error) => vec![TrialRow {
+                        trial: index,
+                        trial_seed: seed,
+                        controller: "-".into(),
+                        status: format!("failed: {}", crate::one_line(&error)),
+                        place_error_mm: f64::NAN,
+                        pieces: 0,
+                        misplaced: 0,
+                        max_tip_error_mm: f64::NAN,
+                        rms_tip_error_mm: f64::NAN,
+                        peak_torque_nm: f64::NAN,
+                        peak_torque_ratio: f64::NAN,
+                        saturated_samples: 0,
+                        rms_rate_estimate_error: f64::NAN,
+                        drawn: Vec::new(),
+                    }],
+                };
+                bar.inc(1);
+                rows
+            })
+            .flatten()
+            .collect()
+    });
+    let wall_time_s = started.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    let csv_path = args.out.join("robustness.csv");
+    let with_header = args.shard.is_none_or(|(k, _)| k == 1);
+    let drawn_names: Vec<String> = rows
+        .iter()
+        .find(|r| !r.drawn.is_empty())
+        .map_or(Vec::new(), |r| r.drawn.iter().map(|(n, _)| n.clone()).collect());
+    write_atomic(&csv_path, |writer| {
+        if with_header {
+            let mut header = HEADER.to_string();
+            for name in &drawn_names {
+                header.push(',');
+                header.push_str(name);
+            }
+            writeln!(writer, "{header}")?;
+        }
+        for row in &rows {
+            writeln!(writer, "{}", csv_line(row))?;
+        }
+        Ok(())
+    })?;
+    let plot_path = args.out.join("robustness.png");
+    draw_cdf(&rows, &specs, args.tolerance_mm, &plot_path)?;
+    let stats: Vec<serde_json::Value> = specs.iter().map(|spec| statistics(&rows, &spec.name)).collect();
+    let summary = json!({
+        "work": match &args.game_file { Some(path) => json!({ "game_file": path.display().to_string(), "game": args.game }), None => json!({ "scenario": args.scenario }) },
+        "trials": args.trials,
+        "shard": args.shard.map(|(k, n)| format!("{k}/{n}")),
+        "trials_run": range.len(),
+        "seed": args.conditions.seed,
+        "tolerance_mm": args.tolerance_mm,
+        "conditions": study.describe(),
+        "controllers": stats,
+        "wall_time_s": wall_time_s,
+        "threads": threads,
+    });
+    let json_path = args.out.join("robustness.json");
+    write_json(&json_path, &summary)?;
+    crate::tell(&table(&stats, range.len(), args.tolerance_mm));
+    print_json(&json!({
+        "summary": summary,
+        "files": [csv_path.display().to_string(), plot_path.display().to_string(), json_path.display().to_string()],
+    }))?;
+    Ok(())
+}
+
+fn table(stats: &[serde_json::Value], trials: usize, tolerance_mm: f64) -> String {
+    let mut text = format!(
+        "{trials} trials; success = every piece within {tolerance_mm} mm of its square centre\n{:<10} {:>9} {:>12} {:>12} {:>12} {:>14} {:>11}\n",
+        "control", "success", "median mm", "p95 mm", "max mm", "peak |τ| N·m", "saturated"
+    );
+    for s in stats {
+        let number = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+        text.push_str(&format!(
+            "{:<10} {:>8.1}% {:>12.4} {:>12.4} {:>12.4} {:>14.3} {:>11}\n",
+            s["controller"].as_str().unwrap_or("?"),
+            100.0 * number(&s["success_rate"]),
+            number(&s["place_error_mm"]["median"]),
+            number(&s["place_error_mm"]["p95"]),
+            number(&s["place_error_mm"]["max"]),
+            number(&s["peak_torque_nm"]),
+            s["trials_with_saturation"],
+        ));
+    }
+    text
+}
+
+/// The placement-error distribution of each controller (empirical CDF, mm) with the tolerance.
+fn draw_cdf(rows: &[TrialRow], specs: &[ControllerSpec], tolerance_mm: f64, path: &std::path::Path) -> Result<()> {
+    let mut series: Vec<Series> = specs
+        .iter()
+        .enumerate()
+        .map(|(k, spec)| {
+            let mut errors: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.controller == spec.name)
+                .map(|r| r.place_error_mm)
+                .filter(|e| e.is_finite())
+                .collect();
+            errors.sort_by(f64::total_cmp);
+            let n = errors.len().max(1) as f64;
+            Series {
+                label: spec.name.clone(),
+                points: errors.iter().enumerate().map(|(i, e)| (*e, (i + 1) as f64 / n)).collect(),
+                color: k,
+                dashed: false,
+            }
+        })
+        .collect();
+    series.push(Series {
+        label: format!("tolerance {tolerance_mm} mm"),
+        points: vec![(tolerance_mm, 0.0), (tolerance_mm, 1.0)],
+        color: specs.len(),
+        dashed: true,
+    });
+    let panel =
+        Panel { title: "largest placement error per trial".into(), y_label: "fraction of trials".into(), series };
+    plot_panels(path, "Placement error distribution (CDF)", "placement error (mm)", &[panel])
+}

@@ -1,0 +1,455 @@
+//! Realistic conditions of a run: the sensors (`--sensors`, `[sensors.NAME]` tables), the
+//! estimator, the motors' torque lag, the true arm (`--plant FILE`) and random model errors
+//! (`--uncertainty FILE` or the setup's `[uncertainty]` table), with the seeds that make a run
+//! reproducible. Shared by `simulate`, `play`, `tune`, `gains` and `robustness`.
+
+use crate::args;
+use crate::config::Setup;
+use anyhow::{Context, Result, anyhow, bail};
+use chessarm_chess::pieces::{PieceSet, role_name};
+use chessarm_chess::shakmaty::Role;
+use chessarm_chess::trial::{DrawnTrial, PieceMassSpread, Uncertainty};
+use chessarm_core::arm::model::{ArmModel, JointVector};
+use chessarm_core::arm::uncertainty::{InertiaRotation, ModelUncertainty, Range};
+use chessarm_core::sense::{Conditions, EncoderSpec, EstimatorSpec, KalmanSettings, SensorProfile};
+use clap::Args;
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One number for every joint, or one per joint.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum PerJoint {
+    One(f64),
+    Each(Vec<f64>),
+}
+
+impl PerJoint {
+    fn values(&self, field: &str) -> Result<[f64; 4]> {
+        let values = match self {
+            PerJoint::One(value) => [*value; 4],
+            PerJoint::Each(values) => <[f64; 4]>::try_from(values.as_slice())
+                .map_err(|_| anyhow!("{field} has {} numbers; give one, or one per joint (4)", values.len()))?,
+        };
+        if let Some(value) = values.iter().find(|v| !v.is_finite()) {
+            bail!("{field} = {value} is not a finite number");
+        }
+        Ok(values)
+    }
+}
+
+/// A sensor profile as a setup file's `[sensors.NAME]` table or a `--sensors FILE` gives it.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SensorFile {
+    /// Encoder counts per revolution (whole numbers); left out: exact angles.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub counts_per_rev: Option<PerJoint>,
+    /// σ of the encoder noise, counts.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_counts: Option<PerJoint>,
+    /// Calibration offset of each encoder, rad.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub offset: Option<PerJoint>,
+    /// Delay of a reading, whole control samples.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub delay_samples: Option<f64>,
+    /// σ of a velocity sensor, rad/s; left out: no velocity sensor.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rate_noise: Option<PerJoint>,
+}
+
+impl SensorFile {
+    /// The profile named `name`, every number checked (errors name `sensors.NAME.field`).
+    pub fn to_profile(&self, name: &str) -> Result<SensorProfile<4>> {
+        let field = |f: &str| format!("sensors.{name}.{f}");
+        let counts = self.counts_per_rev.as_ref().map(|c| c.values(&field("counts_per_rev"))).transpose()?;
+        let noise = self.noise_counts.as_ref().map(|c| c.values(&field("noise_counts"))).transpose()?;
+        let offset = self.offset.as_ref().map(|c| c.values(&field("offset"))).transpose()?;
+        let delay = self.delay_samples.unwrap_or(0.0);
+        if !(delay.is_finite() && delay >= 0.0 && delay.fract() == 0.0) {
+            bail!("{} = {delay}: must be a whole number of control samples >= 0", field("delay_samples"));
+        }
+        let rate_noise = self.rate_noise.as_ref().map(|c| c.values(&field("rate_noise"))).transpose()?;
+        let encoders = std::array::from_fn(|j| EncoderSpec {
+            counts_per_rev: counts.map(|c| c[j]),
+            noise_counts: noise.map_or(0.0, |n| n[j]),
+            offset: offset.map_or(0.0, |o| o[j]),
+        });
+        let profile = SensorProfile {
+            name: name.to_string(),
+            encoders,
+            delay_samples: delay.min(1e9) as usize,
+            rate_noise: rate_noise.map(JointVector::<4>::from),
+        };
+        // `validate` names fields as `sensors.NAME joint J field`.
+        profile.validate()?;
+        Ok(profile)
+    }
+}
+
+/// How the plant's inertia tensors are turned: `"none"`, `"errata"`, or a largest random
+/// angle in rad.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum RotationFile {
+    Named(String),
+    MaxAngle(f64),
+}
+
+/// The `[uncertainty]` table (or a `--uncertainty FILE`'s top level).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct UncertaintyFile {
+    /// ± relative error of every link's mass (0.1 = ±10 %); the inertia scales with it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub link_mass: Option<f64>,
+    /// ± error of every link's centre of mass per axis, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub com: Option<f64>,
+    /// "none", "errata" (links 2–3 tensors exported with the link along y), or a largest
+    /// random rotation angle of every tensor, rad.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inertia_rotation: Option<RotationFile>,
+    /// Range [low, high] of every joint's viscous friction, N·m·s/rad.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub viscous: Option<Vec<f64>>,
+    /// Range [low, high] of every joint's Coulomb friction, N·m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coulomb: Option<Vec<f64>>,
+    /// ± relative error of every piece kind's mass without its own range.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub piece_mass: Option<f64>,
+    /// Per kind (pawn, knight, bishop, rook, queen, king): a range [low, high] of true masses, kg.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub piece_mass_kg: BTreeMap<String, Vec<f64>>,
+}
+
+fn range(field: &str, given: &[f64]) -> Result<Range> {
+    match given {
+        [low, high] => Ok(Range::new(*low, *high)),
+        _ => bail!("{field} has {} numbers; it needs [low, high]", given.len()),
+    }
+}
+
+impl UncertaintyFile {
+    /// The draws it describes, every number checked (errors name `uncertainty.field`).
+    pub fn to_uncertainty(&self) -> Result<Uncertainty> {
+        let inertia_rotation = match &self.inertia_rotation {
+            None => InertiaRotation::None,
+            Some(RotationFile::Named(name)) => match name.as_str() {
+                "none" => InertiaRotation::None,
+                "errata" => InertiaRotation::Errata,
+                other => bail!(
+                    "uncertainty.inertia_rotation = {other:?}: give \"none\", \"errata\" or a largest angle in rad"
+                ),
+            },
+            Some(RotationFile::MaxAngle(angle)) => InertiaRotation::Random { max_angle: *angle },
+        };
+        let model = ModelUncertainty {
+            link_mass: self.link_mass.unwrap_or(0.0),
+            com: self.com.unwrap_or(0.0),
+            inertia_rotation,
+            viscous: self.viscous.as_deref().map(|r| range("uncertainty.viscous", r)).transpose()?,
+            coulomb: self.coulomb.as_deref().map(|r| range("uncertainty.coulomb", r)).transpose()?,
+        };
+        let mut per_kind = [None; 6];
+        for (kind, given) in &self.piece_mass_kg {
+            let index = Role::ALL.iter().position(|role| role_name(*role) == kind).ok_or_else(|| {
+                anyhow!(
+                    "uncertainty.piece_mass_kg.{kind}: unknown piece kind (pawn, knight, bishop, rook, queen, king)"
+                )
+            })?;
+            per_kind[index] = Some(range(&format!("uncertainty.piece_mass_kg.{kind}"), given)?);
+        }
+        let uncertainty =
+            Uncertainty { model, piece_mass: PieceMassSpread { relative: self.piece_mass.unwrap_or(0.0), per_kind } };
+        uncertainty.validate()?;
+        Ok(uncertainty)
+    }
+}
+
+/// The state estimator between the sensors and the controller.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+pub enum EstimatorChoice {
+    /// Per-joint Kalman filter of angle and rate from the angles and the commanded acceleration.
+    Kalman,
+    /// The Kalman filter with a third state per joint: a disturbance acceleration.
+    KalmanDisturbance,
+    /// Finite-difference rates through a first-order low-pass (the baseline).
+    Lowpass,
+    /// The measurements as they are (needs a velocity sensor, or the ideal profile).
+    Direct,
+}
+
+/// Sensor, actuator and model-error options, the same on every command that simulates.
+#[derive(Debug, Args, Clone, Default)]
+pub struct ConditionArgs {
+    /// Sensors: ideal (the exact state), hobby (12-bit encoders, σ 0.5 count, 1 sample delay),
+    /// servo (17-bit, σ 0.5 count), a profile of the setup file's [sensors.NAME] tables, or a
+    /// TOML FILE of one profile (counts_per_rev, noise_counts, offset, delay_samples, rate_noise).
+    #[arg(long, value_name = "PROFILE|FILE")]
+    pub sensors: Option<String>,
+    /// State estimator. Default: direct with ideal sensors or a velocity sensor, kalman otherwise.
+    #[arg(long, value_enum)]
+    pub estimator: Option<EstimatorChoice>,
+    /// σ of the acceleration the Kalman filter's motion model does not know, rad/s².
+    #[arg(long, value_name = "RAD_PER_S2", value_parser = args::positive, allow_hyphen_values = true)]
+    pub kalman_acceleration_noise: Option<f64>,
+    /// Time constant of the low-pass of the lowpass estimator, s.
+    #[arg(long, value_name = "S", value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub lowpass_time_constant: Option<f64>,
+    /// Motors' first-order torque lag, s: one value or one per joint (default 0: none).
+    #[arg(long, value_name = "S", value_parser = args::gain, allow_hyphen_values = true)]
+    pub torque_lag: Option<[f64; 4]>,
+    /// The true arm and pieces: a second setup file (the controller keeps --arm's model).
+    #[arg(long, value_name = "FILE")]
+    pub plant: Option<PathBuf>,
+    /// Random model errors: a TOML file with the fields of an [uncertainty] table (default:
+    /// the setup file's [uncertainty] table, if any).
+    #[arg(long, value_name = "FILE")]
+    pub uncertainty: Option<PathBuf>,
+    /// Seed of the sensor noise and the model draws of a run (robustness: of the study).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Run one trial of `robustness` alone: the trial_seed of its row in robustness.csv.
+    #[arg(long, value_name = "SEED", conflicts_with = "seed")]
+    pub trial_seed: Option<u64>,
+}
+
+/// The conditions of a study, parsed once; [`Study::trial`] draws one run's.
+#[derive(Debug, Clone)]
+pub struct Study {
+    pub sensors: SensorProfile<4>,
+    pub estimator: EstimatorSpec,
+    pub torque_lag: JointVector<4>,
+    /// The nominal true arm and pieces (--plant's, or the controller's).
+    pub plant: ArmModel<4>,
+    pub plant_pieces: PieceSet,
+    pub plant_file: Option<PathBuf>,
+    pub uncertainty: Option<Uncertainty>,
+    pub uncertainty_file: Option<UncertaintyFile>,
+}
+
+/// One run's conditions.
+#[derive(Debug, Clone)]
+pub struct Trial {
+    pub seed: u64,
+    pub conditions: Conditions<4>,
+    pub plant: ArmModel<4>,
+    pub pieces: PieceSet,
+    /// The draws, when the study has model errors.
+    pub drawn: Option<DrawnTrial>,
+}
+
+fn read_toml<T: serde::de::DeserializeOwned>(flag: &str, path: &Path) -> Result<T> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{flag} {}: cannot read", path.display()))?;
+    toml::from_str(&text).map_err(|e| anyhow!("{flag} {}: {}", path.display(), crate::config::toml_error(&text, &e)))
+}
+
+impl Study {
+    /// Parses `args` against `setup` (the controller's arm and pieces).
+    pub fn new(setup: &Setup, args: &ConditionArgs, control_period: f64) -> Result<Self> {
+        let sensors = match args.sensors.as_deref() {
+            None => SensorProfile::ideal(),
+            Some(name) => match SensorProfile::named(name) {
+                Some(profile) => profile,
+                None => match setup.sensor_profiles.get(name) {
+                    Some(file) => file.to_profile(name).with_context(|| "the setup file's [sensors] table")?,
+                    None if Path::new(name).is_file() => {
+                        let file: SensorFile = read_toml("--sensors", Path::new(name))?;
+                        let stem =
+                            Path::new(name).file_stem().map_or("file".into(), |s| s.to_string_lossy().to_string());
+                        file.to_profile(&stem).with_context(|| format!("--sensors {name}"))?
+                    }
+                    None => {
+                        let mut known: Vec<String> = SensorProfile::<4>::NAMES.iter().map(|s| s.to_string()).collect();
+                        known.extend(setup.sensor_profiles.keys().cloned());
+                        bail!(
+                            "--sensors {}: no such profile ({}) and no such file",
+                            crate::escape_controls(name),
+                            known.join(", ")
+                        );
+                    }
+                },
+            },
+        };
+        let estimator = match args.estimator {
+            None if sensors.is_ideal() || sensors.measures_rate() => EstimatorSpec::Direct,
+            None | Some(EstimatorChoice::Kalman) | Some(EstimatorChoice::KalmanDisturbance) => {
+                let mut settings = KalmanSettings::DEFAULT;
+                if let Some(noise) = args.kalman_acceleration_noise {
+                    settings.acceleration_noise = noise;
+                }
+                if args.estimator == Some(EstimatorChoice::KalmanDisturbance) {
+                    settings.disturbance_noise = Some(KalmanSettings::DEFAULT_DISTURBANCE_NOISE);
+                }
+                EstimatorSpec::Kalman(settings)
+            }
+            Some(EstimatorChoice::Lowpass) => EstimatorSpec::LowPass {
+                time_constant: args.lowpass_time_constant.unwrap_or(match EstimatorSpec::LOW_PASS {
+                    EstimatorSpec::LowPass { time_constant } => time_constant,
+                    _ => 0.0,
+                }),
+            },
+            Some(EstimatorChoice::Direct) => EstimatorSpec::Direct,
+        };
+        if args.kalman_acceleration_noise.is_some() && !matches!(estimator, EstimatorSpec::Kalman(_)) {
+            bail!("--kalman-acceleration-noise is for the Kalman filter; the estimator is {}", estimator.name());
+        }
+        if args.lowpass_time_constant.is_some() && !matches!(estimator, EstimatorSpec::LowPass { .. }) {
+            bail!("--lowpass-time-constant is for --estimator lowpass; the estimator is {}", estimator.name());
+        }
+        // Build once to check the estimator against the sensors (e.g. direct without a rate sensor).
+        Conditions { sensors: sensors.clone(), estimator, torque_lag: JointVector::zeros(), seed: 0 }
+            .feedback(control_period)
+            .with_context(|| format!("--sensors {} with --estimator {}", sensors.name, estimator.name()))?;
+        let torque_lag = JointVector::<4>::from(args.torque_lag.unwrap_or([0.0; 4]));
+        let (plant, plant_pieces) = match &args.plant {
+            None => (setup.arm, setup.pieces),
+            Some(path) => {
+                let plant = Setup::load(Some(path)).with_context(|| format!("--plant {}", path.display()))?;
+                (plant.arm, plant.pieces)
+            }
+        };
+        let uncertainty_file = match &args.uncertainty {
+            Some(path) => Some(read_toml::<UncertaintyFile>("--uncertainty", path)?),
+            None => setup.uncertainty.clone(),
+        };
+        let uncertainty = uncertainty_file
+            .as_ref()
+            .map(|file| {
+                file.to_uncertainty().with_context(|| match &args.uncertainty {
+                    Some(path) => format!("--uncertainty {}", path.display()),
+                    None => "the setup file's [uncertainty] table".to_string(),
+                })
+            })
+            .transpose()?;
+        Ok(Self {
+            sensors,
+            estimator,
+            torque_lag,
+            plant,
+            plant_pieces,
+            plant_file: args.plant.clone(),
+            uncertainty,
+            uncertainty_file,
+        })
+    }
+
+    /// Whether every run sees the exact state of the controller's own arm and pieces.
+    pub fn is_ideal(&self, setup: &Setup) -> bool {
+        self.sensors.is_ideal()
+            && self.estimator == EstimatorSpec::Direct
+            && self.torque_lag == JointVector::<4>::zeros()
+            && self.plant == setup.arm
+            && self.plant_pieces == setup.pieces
+            && self.uncertainty.is_none()
+    }
+
+    /// The run of trial seed `seed`: the model and piece draws (with model errors) and the
+    /// sensors' seed.
+    pub fn trial(&self, seed: u64) -> Result<Trial> {
+        let drawn = self
+            .uncertainty
+            .as_ref()
+            .map(|u| u.draw(seed, &self.plant, &self.plant_pieces))
+            .transpose()
+            .context("drawing the model errors")?;
+        let sensor_seed = drawn.as_ref().map_or(chessarm_core::sense::rng::derive_seed(seed, 1), |d| d.sensor_seed);
+        let conditions = Conditions {
+            sensors: self.sensors.clone(),
+            estimator: self.estimator,
+            torque_lag: self.torque_lag,
+            seed: sensor_seed,
+        };
+        let (plant, pieces) = drawn.as_ref().map_or((self.plant, self.plant_pieces), |d| (d.plant, d.pieces));
+        Ok(Trial { seed, conditions, plant, pieces, drawn })
+    }
+
+    /// The study's conditions for summary.json and game.json.
+    pub fn describe(&self) -> Value {
+        let encoders: Vec<Value> = self
+            .sensors
+            .encoders
+            .iter()
+            .map(|e| json!({ "counts_per_rev": e.counts_per_rev, "noise_counts": e.noise_counts, "offset_rad": e.offset }))
+            .collect();
+        let estimator = match self.estimator {
+            EstimatorSpec::Direct => json!({ "name": "direct" }),
+            EstimatorSpec::LowPass { time_constant } => json!({ "name": "lowpass", "time_constant_s": time_constant }),
+            EstimatorSpec::Kalman(settings) => json!({
+                "name": "kalman",
+                "acceleration_noise_rad_per_s2": settings.acceleration_noise,
+                "disturbance_noise_rad_per_s2": settings.disturbance_noise,
+            }),
+        };
+        json!({
+            "sensors": {
+                "profile": self.sensors.name,
+                "encoders": encoders,
+                "delay_samples": self.sensors.delay_samples,
+                "rate_noise_rad_per_s": self.sensors.rate_noise.map(|n| n.as_slice().to_vec()),
+            },
+            "estimator": estimator,
+            "torque_lag_s": self.torque_lag.as_slice(),
+            "plant_file": self.plant_file.as_ref().map(|p| p.display().to_string()),
+            "uncertainty": self.uncertainty_file,
+        })
+    }
+}
+
+impl Trial {
+    /// What the trial drew, for reports (null without model errors).
+    pub fn describe(&self) -> Value {
+        let Some(drawn) = &self.drawn else { return json!({ "trial_seed": self.seed }) };
+        let d = &drawn.drawn;
+        json!({
+            "trial_seed": self.seed,
+            "link_mass_scale": d.mass_scale,
+            "link_com_shift_m": d.com_shift.iter().map(|v| v.as_slice().to_vec()).collect::<Vec<_>>(),
+            "inertia_rotation_rad": d.inertia_angle,
+            "viscous_nms_per_rad": d.viscous,
+            "coulomb_nm": d.coulomb,
+            "piece_mass_kg": Role::ALL.iter().map(|r| (role_name(*r), drawn.pieces.dimensions(*r).mass)).collect::<BTreeMap<_, _>>(),
+        })
+    }
+
+    /// The drawn parameters as CSV columns (names, values), in a fixed order.
+    pub fn columns(&self) -> Vec<(String, f64)> {
+        let mut columns = Vec::new();
+        if let Some(drawn) = &self.drawn {
+            let d = &drawn.drawn;
+            for i in 0..4 {
+                columns.push((format!("link_mass_scale_{}", i + 1), d.mass_scale[i]));
+            }
+            for i in 0..4 {
+                for (axis, value) in ["x", "y", "z"].iter().zip(d.com_shift[i].iter()) {
+                    columns.push((format!("link_com_shift_{axis}_{}", i + 1), *value));
+                }
+            }
+            for i in 0..4 {
+                columns.push((format!("inertia_rotation_{}", i + 1), d.inertia_angle[i]));
+            }
+            for i in 0..4 {
+                columns.push((format!("viscous_{}", i + 1), d.viscous[i]));
+            }
+            for i in 0..4 {
+                columns.push((format!("coulomb_{}", i + 1), d.coulomb[i]));
+            }
+            for role in Role::ALL {
+                columns.push((format!("{}_mass", role_name(role)), drawn.pieces.dimensions(role).mass));
+            }
+        }
+        columns
+    }
+}
+
+impl ConditionArgs {
+    /// The trial seed of a single run: --trial-seed, else --seed.
+    pub fn run_seed(&self) -> u64 {
+        self.trial_seed.unwrap_or(self.seed)
+    }
+}
