@@ -100,6 +100,7 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let spec = controller_specs(&[args.controller.into()], &args.gains)?.remove(0);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
+    let settings_name = spec.name.clone();
     settings.controller = spec;
     let study = Study::new(setup, &args.conditions, settings.control_period)?;
     let trial = study.trial(args.conditions.run_seed())?;
@@ -189,7 +190,10 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         crate::tell(&format!("note: this game may differ on another machine: {}\n", dependence.join("; ")));
     }
     let result = game_result(&game, &source, args, reports.len());
-    let summary = game_json(&game, &reports, wall_time_s, &dependence, &result);
+    let mut summary = game_json(&game, &reports, wall_time_s, &dependence, &result);
+    summary["controller"] = json!(settings_name);
+    summary["conditions"] = if ideal { Value::Null } else { study.describe() };
+    summary["trial"] = if ideal { Value::Null } else { trial.describe() };
     let game_json_path = args.out.join("game.json");
     write_json(&game_json_path, &summary)?;
     crate::tell(&format!(

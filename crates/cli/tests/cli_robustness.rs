@@ -1,0 +1,187 @@
+//! Realistic conditions end to end: sensor profiles and model errors on `simulate`, the
+//! Monte-Carlo `robustness` study (reproducible for any thread count and shard, any trial
+//! alone from its seed), and clear errors for bad profiles and uncertainty tables.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+mod common;
+use common::{assert_one_line_error, chessarm, json_of};
+
+use std::path::Path;
+
+const UNCERTAINTY: &str =
+    "link_mass = 0.10\ncom = 0.002\ninertia_rotation = \"errata\"\nviscous = [0.0, 0.01]\npiece_mass = 0.5\n";
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+fn robustness(out: &Path, uncertainty: &str, extra: &[&str]) -> String {
+    let mut args = vec![
+        "robustness",
+        "--trials",
+        "4",
+        "--controller",
+        "pd,pid",
+        "--sensors",
+        "hobby",
+        "--uncertainty",
+        uncertainty,
+        "--seed",
+        "7",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    json_of(&chessarm(&args));
+    std::fs::read_to_string(out.join("robustness.csv")).unwrap()
+}
+
+#[test]
+fn a_study_is_the_same_for_any_thread_count_and_its_shards_concatenate_to_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let uncertainty = write(dir.path(), "u.toml", UNCERTAINTY);
+    let one = robustness(&dir.path().join("one"), &uncertainty, &["--threads", "1"]);
+    let two = robustness(&dir.path().join("two"), &uncertainty, &["--threads", "2"]);
+    assert_eq!(one, two, "the CSV depends on the thread count");
+    let first = robustness(&dir.path().join("s1"), &uncertainty, &["--shard", "1/2"]);
+    let second = robustness(&dir.path().join("s2"), &uncertainty, &["--shard", "2/2"]);
+    assert_eq!(format!("{first}{second}"), one, "the shards do not concatenate to the study");
+    // A header and one row per trial and controller, each with its drawn parameters.
+    let lines: Vec<&str> = one.lines().collect();
+    assert_eq!(lines.len(), 1 + 4 * 2);
+    let header: Vec<&str> = lines[0].split(',').collect();
+    assert!(header.contains(&"link_mass_scale_2") && header.contains(&"pawn_mass"), "{header:?}");
+    for line in &lines[1..] {
+        assert_eq!(line.split(',').count(), header.len(), "{line}");
+    }
+    // Different trials draw different arms: the link 1 mass scales are not all equal.
+    let column = header.iter().position(|h| *h == "link_mass_scale_1").unwrap();
+    let scales: Vec<&str> = lines[1..].iter().map(|l| l.split(',').nth(column).unwrap()).collect();
+    assert!(scales.windows(3).any(|w| w[0] != w[2]), "{scales:?}");
+}
+
+#[test]
+fn any_trial_re_simulates_alone_from_its_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let uncertainty = write(dir.path(), "u.toml", UNCERTAINTY);
+    let csv = robustness(&dir.path().join("study"), &uncertainty, &[]);
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    // The third trial's PID row.
+    let row: Vec<&str> = csv.lines().nth(1 + 2 * 2 + 1).unwrap().split(',').collect();
+    assert_eq!(row[at("controller")], "pid");
+    let seed = row[at("trial_seed")];
+    let out = dir.path().join("alone");
+    let summary = json_of(&chessarm(&[
+        "simulate",
+        "--controller",
+        "pid",
+        "--sensors",
+        "hobby",
+        "--uncertainty",
+        &uncertainty,
+        "--trial-seed",
+        seed,
+        "--payload-mass",
+        "0.03",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let run = &summary["summary"]["controllers"][0];
+    // The same simulation, so the same numbers to the last bit (both printed with `{:?}`).
+    assert_eq!(format!("{:?}", run["placement_error_mm"].as_f64().unwrap()), row[at("place_error_mm")]);
+    assert_eq!(format!("{:?}", run["max_tip_error_mm"].as_f64().unwrap()), row[at("max_tip_error_mm")]);
+    assert_eq!(summary["summary"]["trial"]["trial_seed"].as_u64().unwrap().to_string(), seed);
+    assert_eq!(summary["summary"]["conditions"]["sensors"]["profile"], "hobby");
+}
+
+#[test]
+fn the_ideal_profile_is_todays_closed_loop_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    // A profile file that states the exact state: no counts, no delay, an exact rate sensor.
+    let exact = write(dir.path(), "exact.toml", "rate_noise = 0.0\n");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["simulate", "--payload-mass", "0.1", "--out", out.to_str().unwrap()];
+        args.extend(extra);
+        json_of(&chessarm(&args));
+        (std::fs::read(out.join("pd.csv")).unwrap(), std::fs::read(out.join("pid.csv")).unwrap())
+    };
+    let today = run("today", &[]);
+    assert_eq!(run("ideal", &["--sensors", "ideal"]), today);
+    assert_eq!(run("file", &["--sensors", &exact]), today);
+    // And the hobby profile does change it.
+    assert_ne!(run("hobby", &["--sensors", "hobby"]).0, today.0);
+}
+
+#[test]
+fn bad_profiles_and_uncertainty_tables_name_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    let sensors = |name: &str, text: &str, needles: &[&str]| {
+        let file = write(dir.path(), name, text);
+        assert_one_line_error(&chessarm(&["simulate", "--sensors", &file, "--out", out]), needles);
+    };
+    sensors("neg.toml", "counts_per_rev = 4096\nnoise_counts = -0.5\n", &["noise_counts", "-0.5"]);
+    sensors("zero.toml", "counts_per_rev = 0\n", &["counts_per_rev", "0"]);
+    sensors("nan.toml", "counts_per_rev = 4096\noffset = nan\n", &["offset", "NaN"]);
+    sensors("half.toml", "counts_per_rev = 4096\ndelay_samples = 1.5\n", &["delay_samples", "1.5", "whole"]);
+    sensors("five.toml", "counts_per_rev = [1, 2, 3, 4, 5]\n", &["counts_per_rev", "5 numbers"]);
+    sensors("typo.toml", "count_per_rev = 4096\n", &["count_per_rev"]);
+    assert_one_line_error(&chessarm(&["simulate", "--sensors", "potato", "--out", out]), &["potato", "hobby"]);
+    assert_one_line_error(
+        &chessarm(&["simulate", "--sensors", "hobby", "--estimator", "direct", "--out", out]),
+        &["velocity sensor", "hobby"],
+    );
+    let uncertainty = |name: &str, text: &str, needles: &[&str]| {
+        let file = write(dir.path(), name, text);
+        assert_one_line_error(
+            &chessarm(&["robustness", "--trials", "1", "--uncertainty", &file, "--out", out]),
+            needles,
+        );
+    };
+    uncertainty("m.toml", "link_mass = -0.1\n", &["uncertainty.link_mass", "-0.1"]);
+    uncertainty("r.toml", "inertia_rotation = \"sideways\"\n", &["inertia_rotation", "sideways"]);
+    uncertainty("p.toml", "[piece_mass_kg]\npawn = [0.05, 0.01]\n", &["piece_mass_kg.pawn", "0.05"]);
+    uncertainty("k.toml", "[piece_mass_kg]\nemperor = [0.05, 0.1]\n", &["emperor"]);
+    uncertainty("v.toml", "viscous = [0.1]\n", &["uncertainty.viscous", "1 numbers"]);
+    // In the setup file, the table's fields are named the same way.
+    let setup = write(dir.path(), "setup.toml", "[sensors.mine]\ncounts_per_rev = 4096\nnoise_counts = -1\n");
+    assert_one_line_error(&chessarm(&["--arm", &setup, "arm"]), &["sensors.mine", "noise_counts", "-1"]);
+}
+
+#[test]
+fn a_setup_profile_is_used_by_name_and_play_records_the_conditions() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = write(
+        dir.path(),
+        "setup.toml",
+        "[sensors.bench]\ncounts_per_rev = 16384\nnoise_counts = 0.25\ndelay_samples = 2\n\n[uncertainty]\nlink_mass = 0.05\n",
+    );
+    let printed = String::from_utf8(chessarm(&["--arm", &setup, "arm"]).stdout).unwrap();
+    assert!(printed.contains("[sensors.bench]") && printed.contains("[uncertainty]"), "{printed}");
+    let out = dir.path().join("game");
+    json_of(&chessarm(&[
+        "--arm",
+        &setup,
+        "play",
+        "--moves",
+        "e4",
+        "--sensors",
+        "bench",
+        "--seed",
+        "3",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let game: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
+    assert_eq!(game["conditions"]["sensors"]["profile"], "bench");
+    assert_eq!(game["conditions"]["sensors"]["delay_samples"], 2);
+    assert_eq!(game["conditions"]["estimator"]["name"], "kalman");
+    assert_eq!(game["conditions"]["uncertainty"]["link_mass"], 0.05);
+    assert!(game["trial"]["link_mass_scale"][0].as_f64().unwrap() != 1.0);
+}
