@@ -18,6 +18,8 @@ fn sweeps(c: &mut Criterion) {
     let range = shard_range(gains.len(), None);
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
+        kind: chessarm_core::control::choice::ControllerKind::ComputedTorque,
+        trial: None,
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(&args),
     };

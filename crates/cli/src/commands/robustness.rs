@@ -243,6 +243,73 @@ fn statistics(rows: &[TrialRow], name: &str) -> serde_json::Value {
     })
 }
 
+/// Settings every trial shares.
+#[derive(Debug, Clone, Copy)]
+pub struct TrialOptions {
+    /// The study's seed: trial `k` has the seed `derive_seed(seed, k)`.
+    pub seed: u64,
+    pub integrator: Integrator,
+    pub controller_knows_payload: bool,
+    /// A piece further than this from its square centre is misplaced, m.
+    pub tolerance: f64,
+}
+
+/// Runs trials `range` of every controller on the current rayon pool, in trial order.
+pub fn run_trials(
+    setup: &Setup,
+    work: &Work,
+    specs: &[ControllerSpec],
+    study: &Study,
+    options: &TrialOptions,
+    range: std::ops::Range<usize>,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Vec<TrialRow> {
+    range
+        .into_par_iter()
+        .map(|index| {
+            let seed = derive_seed(options.seed, index as u64);
+            let rows = match study.trial(seed) {
+                Ok(trial) => specs
+                    .iter()
+                    .map(|spec| {
+                        let (status, totals) = run_trial(
+                            setup,
+                            work,
+                            spec,
+                            &trial,
+                            options.integrator,
+                            options.controller_knows_payload,
+                            options.tolerance,
+                        );
+                        row(index, &trial, spec, status, &totals, options.tolerance)
+                    })
+                    .collect(),
+                Err(error) => vec![TrialRow {
+                    trial: index,
+                    trial_seed: seed,
+                    controller: "-".into(),
+                    status: format!("failed: {}", crate::one_line(&error)),
+                    place_error_mm: f64::NAN,
+                    pieces: 0,
+                    misplaced: 0,
+                    max_tip_error_mm: f64::NAN,
+                    rms_tip_error_mm: f64::NAN,
+                    peak_torque_nm: f64::NAN,
+                    peak_torque_ratio: f64::NAN,
+                    saturated_samples: 0,
+                    rms_rate_estimate_error: f64::NAN,
+                    drawn: Vec::new(),
+                }],
+            };
+            if let Some(bar) = progress {
+                bar.inc(1);
+            }
+            rows
+        })
+        .flatten()
+        .collect()
+}
+
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let specs = controller_specs(&args.controller, &args.gains)?;
     let study = Study::new(setup, &args.conditions, 1e-3)?;
@@ -276,52 +343,13 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     ])?;
     let bar = crate::progress::bar(range.len() as u64, "trials");
     let started = Instant::now();
-    let integrator = args.integrator.integrator();
-    let rows: Vec<TrialRow> = pool.install(|| {
-        range
-            .clone()
-            .into_par_iter()
-            .map(|index| {
-                let seed = derive_seed(args.conditions.seed, index as u64);
-                let rows = match study.trial(seed) {
-                    Ok(trial) => specs
-                        .iter()
-                        .map(|spec| {
-                            let (status, totals) = run_trial(
-                                setup,
-                                &work,
-                                spec,
-                                &trial,
-                                integrator,
-                                args.controller_knows_payload,
-                                tolerance,
-                            );
-                            row(index, &trial, spec, status, &totals, tolerance)
-                        })
-                        .collect(),
-                    Err(error) => vec![TrialRow {
-                        trial: index,
-                        trial_seed: seed,
-                        controller: "-".into(),
-                        status: format!("failed: {}", crate::one_line(&error)),
-                        place_error_mm: f64::NAN,
-                        pieces: 0,
-                        misplaced: 0,
-                        max_tip_error_mm: f64::NAN,
-                        rms_tip_error_mm: f64::NAN,
-                        peak_torque_nm: f64::NAN,
-                        peak_torque_ratio: f64::NAN,
-                        saturated_samples: 0,
-                        rms_rate_estimate_error: f64::NAN,
-                        drawn: Vec::new(),
-                    }],
-                };
-                bar.inc(1);
-                rows
-            })
-            .flatten()
-            .collect()
-    });
+    let options = TrialOptions {
+        seed: args.conditions.seed,
+        integrator: args.integrator.integrator(),
+        controller_knows_payload: args.controller_knows_payload,
+        tolerance,
+    };
+    let rows = pool.install(|| run_trials(setup, &work, &specs, &study, &options, range.clone(), Some(&bar)));
     let wall_time_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
