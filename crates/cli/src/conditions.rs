@@ -279,12 +279,13 @@ impl Study {
         let estimator = match args.estimator {
             None if sensors.is_ideal() || sensors.measures_rate() => EstimatorSpec::Direct,
             None | Some(EstimatorChoice::Kalman) | Some(EstimatorChoice::KalmanDisturbance) => {
-                let mut settings = KalmanSettings::DEFAULT;
+                let mut settings = if args.estimator == Some(EstimatorChoice::KalmanDisturbance) {
+                    KalmanSettings::WITH_DISTURBANCE
+                } else {
+                    KalmanSettings::DEFAULT
+                };
                 if let Some(noise) = args.kalman_acceleration_noise {
                     settings.acceleration_noise = noise;
-                }
-                if args.estimator == Some(EstimatorChoice::KalmanDisturbance) {
-                    settings.disturbance_noise = Some(KalmanSettings::DEFAULT_DISTURBANCE_NOISE);
                 }
                 EstimatorSpec::Kalman(settings)
             }

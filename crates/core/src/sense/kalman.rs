@@ -1,10 +1,80 @@
-//! Placeholder of the joint Kalman filter (being written on its own branch): a two-state
-//! per-joint filter without delay compensation.
+//! The joint Kalman filter: per joint, a linear Kalman filter of the angle `q` and rate `q̇`
+//! (and optionally a disturbance acceleration `d`) from the encoder angles (and a velocity
+//! sensor's rates, where there is one), with the commanded acceleration as the motion model's
+//! input and the sensors' delay compensated by prediction.
+//!
+//! # Model
+//!
+//! Computed torque makes each joint a double integrator, `q̈ = u (+ d)`, with `u` the commanded
+//! acceleration held over each sample of period `T`; the joints are decoupled and filtered one
+//! by one. The state of a joint is `x = (q, q̇, d)`:
+//!
+//! ```text
+//! x_{k+1} = F x_k + G u_k + w_k,   F = ⎡1  T  T²/2⎤,   G = ⎡T²/2⎤
+//!                                      ⎢0  1  T   ⎥        ⎢T   ⎥
+//!                                      ⎣0  0  1   ⎦        ⎣0   ⎦
+//! Q = Cov(w_k) = σ_a² G Gᵀ + σ_d² e₃ e₃ᵀ
+//! ```
+//!
+//! `σ_a` ([`KalmanSettings::acceleration_noise`]) is a white acceleration held over each sample
+//! (the discrete white noise acceleration model, Bar-Shalom, Li & Kirubarajan 2001, §6.3.2);
+//! `d` is a random walk whose increment over one sample has σ `σ_d`
+//! ([`KalmanSettings::disturbance_noise`]). Without the disturbance state the filter has two
+//! states: the third row and column of `F`, `G`, `Q` and `P` are zero throughout (so are the
+//! third rows of what [`JointKalman::covariance`] and [`JointKalman::gain`] return).
+//!
+//! The measurement is the angle, and the rate with a velocity sensor:
+//!
+//! ```text
+//! z_k = H x_k + v_k,   H = [1 0 0]  (or ⎡1 0 0⎤ with a rate sensor),   R = σ_q²  (or diag(σ_q², σ_r²))
+//!                                       ⎣0 1 0⎦
+//! ```
+//!
+//! # Recursion
+//!
+//! ```text
+//! predict:  x⁻ = F x + G u,               P⁻ = F P Fᵀ + Q
+//! update:   K = P⁻ Hᵀ (H P⁻ Hᵀ + R)⁻¹,     x = x⁻ + K (z − H x⁻),
+//!           P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ        (Joseph form: symmetric, ≥ 0)
+//! ```
+//!
+//! `R` is diagonal, so the angle and the rate are processed one after the other as scalar
+//! measurements, which is exactly the batch update; [`JointKalman::gain`] reports the batch
+//! gain `K` the two scalar updates amount to. A non-finite reading is treated as missing (the
+//! sample is a prediction only); a non-finite input is taken as 0.
+//!
+//! # Timing and delay
+//!
+//! [`JointKalman::update`] is called at sample `k` with the reading of the state at sample
+//! `k − δ` (`δ` = `delay_samples`) and `applied = u_{k−1}`, the acceleration commanded over
+//! `[k−1, k]`. The filter itself runs `δ` samples behind: it predicts from `k−δ−1` to `k−δ`
+//! with `u_{k−δ−1}` and updates with the reading. A ring of the last `δ + 1` inputs holds
+//! `u_{k−δ−1} … u_{k−1}`. The estimate returned is the filter's state carried forward by pure
+//! prediction through `u_{k−δ} … u_{k−1}`:
+//!
+//! ```text
+//! x̂_{k|k−δ} = F^δ x̂_{k−δ|k−δ} + Σ_{i=0}^{δ−1} F^{δ−1−i} G u_{k−δ+i},
+//! P_{k|k−δ} = F^δ P_{k−δ|k−δ} F^δᵀ + Σ_{i=0}^{δ−1} F^i Q F^iᵀ
+//! ```
+//!
+//! ([`JointKalman::covariance`]; the filter's own is [`JointKalman::filter_covariance`]).
+//!
+//! # Start
+//!
+//! [`JointKalman::reset`] sets the filter's state (at the sample before its first measurement,
+//! `−δ−1`) to the given angles and rates, no disturbance, and the ring of inputs to zeros (the
+//! sensors' delay line holds readings of the same state, as if the arm had been there). The
+//! covariance starts at the steady a-posteriori covariance `P₀ = (I − K∞ H) P∞`, with `P∞` the
+//! a-priori steady covariance ([`solve_dare`]) and `K∞` its gain: the filter starts converged, as
+//! if it had been tracking the arm before the run, so its gain is the steady gain from the first
+//! sample on (no start-up transient of large gains to kick the controller).
+//! [`JointKalman::reset_with_covariance`] starts from another `P₀`.
 
+use super::sensors::MAX_DELAY_SAMPLES;
 use super::{Measurement, SenseError, invalid};
 use crate::arm::model::JointVector;
 use crate::control::JointState;
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix3x2, SMatrix, Vector3};
 
 /// Tuning of the joint Kalman filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -18,59 +88,454 @@ pub struct KalmanSettings {
 }
 
 impl KalmanSettings {
-    /// Default tuning (placeholder value).
+    /// σ of the disturbance state's increments per sample, rad/s², when it is asked for
+    /// without a value: 0.01 lets `d̂` follow an unknown payload's acceleration error (of the
+    /// order of 1 rad/s², near constant between grip and release) within ~0.1 s.
+    pub const DEFAULT_DISTURBANCE_NOISE: f64 = 0.01;
+
+    /// The default tuning: σ_a = 20 rad/s² for the two-state filter. Under computed torque the
+    /// acceleration the filter does not know is the model error, a near-constant offset of up
+    /// to a few rad/s² with an unknown piece or ±10 % link masses; a two-state filter must
+    /// absorb it as noise, which a smaller σ_a turns into a biased rate (0.5 rad/s at σ_a = 1).
     pub const DEFAULT: KalmanSettings = KalmanSettings { acceleration_noise: 20.0, disturbance_noise: None };
-    /// Default σ of the disturbance state's increments per sample, rad/s² (placeholder).
-    pub const DEFAULT_DISTURBANCE_NOISE: f64 = 1.0;
+
+    /// The tuning with the disturbance state: σ_a = 1 rad/s² (what is left once the slow
+    /// offset is the disturbance's), σ_d = [`Self::DEFAULT_DISTURBANCE_NOISE`].
+    pub const WITH_DISTURBANCE: KalmanSettings =
+        KalmanSettings { acceleration_noise: 1.0, disturbance_noise: Some(Self::DEFAULT_DISTURBANCE_NOISE) };
 }
 
-/// Per-joint Kalman filters of `(q, q̇)`.
+/// Relative change of the solution below which [`solve_dare`]'s doubling iteration has
+/// converged (with the doubled transition matrix below [`DARE_TRANSITION_TOLERANCE`]).
+pub const DARE_TOLERANCE: f64 = 1e-13;
+
+/// Frobenius norm the doubled transition matrix `A_k` of [`solve_dare`] must fall below: it is
+/// the closed-loop transition over `2^k` samples, and reaching zero means the solution found is
+/// the stabilising one.
+pub const DARE_TRANSITION_TOLERANCE: f64 = 1e-10;
+
+/// Most doubling steps of [`solve_dare`]: step `k` covers `2^k` Riccati steps.
+pub const DARE_MAX_DOUBLINGS: usize = 64;
+
+/// The a-priori steady covariance of a Kalman filter: the stabilising solution of the discrete
+/// algebraic Riccati equation
+///
+/// ```text
+/// P = F P Fᵀ − F P Hᵀ (H P Hᵀ + R)⁻¹ H P Fᵀ + Q,
+/// ```
+///
+/// for `S` states and `M` measurements, `Q` symmetric ≥ 0 and `R` symmetric > 0.
+///
+/// By the structure-preserving doubling algorithm (Chu, Fan, Lin & Wang 2004) on the equivalent
+/// form `P = Aᵀ P (I + G P)⁻¹ A + Q` with `A = Fᵀ`, `G = Hᵀ R⁻¹ H`: from `A₀ = A`, `G₀ = G`,
+/// `P₀ = Q`,
+///
+/// ```text
+/// W_k = (I + G_k P_k)⁻¹,   A_{k+1} = A_k W_k A_k,   G_{k+1} = G_k + A_k W_k G_k A_kᵀ,
+/// P_{k+1} = P_k + A_kᵀ P_k W_k A_k,
+/// ```
+///
+/// `P_k` is the Riccati recursion after `2^k` steps from zero, so it converges quadratically.
+/// Stops when `‖P_{k+1} − P_k‖ ≤` [`DARE_TOLERANCE`] `‖P_{k+1}‖` and `‖A_{k+1}‖ ≤`
+/// [`DARE_TRANSITION_TOLERANCE`] (Frobenius norms); an error if that takes more than
+/// [`DARE_MAX_DOUBLINGS`] steps (no stabilising solution: `(F, Q)` not stabilisable or `(F, H)`
+/// not detectable), or if an input is not finite, `Q` or `R` not symmetric, or `R` not positive
+/// definite.
+pub fn solve_dare<const S: usize, const M: usize>(
+    f: &SMatrix<f64, S, S>,
+    h: &SMatrix<f64, M, S>,
+    q: &SMatrix<f64, S, S>,
+    r: &SMatrix<f64, M, M>,
+) -> Result<SMatrix<f64, S, S>, SenseError> {
+    let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
+    for (name, ok) in [
+        ("riccati F", finite(f.as_slice())),
+        ("riccati H", finite(h.as_slice())),
+        ("riccati Q", finite(q.as_slice())),
+        ("riccati R", finite(r.as_slice())),
+    ] {
+        if !ok {
+            return Err(invalid(name, "(not finite)", "every entry must be finite"));
+        }
+    }
+    let asymmetry = |m: &SMatrix<f64, S, S>| (m - m.transpose()).norm();
+    if asymmetry(q) > 1e-12 * q.norm() {
+        return Err(invalid("riccati Q", asymmetry(q), "must be symmetric (the value is ‖Q − Qᵀ‖)"));
+    }
+    if (r - r.transpose()).norm() > 1e-12 * r.norm() {
+        return Err(invalid("riccati R", (r - r.transpose()).norm(), "must be symmetric (the value is ‖R − Rᵀ‖)"));
+    }
+    let r_inverse = r.cholesky().ok_or_else(|| invalid("riccati R", r.norm(), "must be positive definite"))?.inverse();
+    let identity = SMatrix::<f64, S, S>::identity();
+    let mut a = f.transpose();
+    let mut g = h.transpose() * r_inverse * h;
+    let mut p = *q;
+    for _ in 0..DARE_MAX_DOUBLINGS {
+        let w = (identity + g * p)
+            .try_inverse()
+            .ok_or_else(|| invalid("riccati equation", p.norm(), "I + G P became singular while doubling"))?;
+        let a_w = a * w;
+        let next_a = a_w * a;
+        let next_g = g + a_w * g * a.transpose();
+        let next_p = p + a.transpose() * p * w * a;
+        a = next_a;
+        g = (next_g + next_g.transpose()) * 0.5;
+        let change = (next_p - p).norm();
+        p = (next_p + next_p.transpose()) * 0.5;
+        if !(finite(p.as_slice()) && finite(a.as_slice()) && finite(g.as_slice())) {
+            return Err(invalid(
+                "riccati equation",
+                "(not finite)",
+                "the doubling iteration diverged: no stabilising solution",
+            ));
+        }
+        if change <= DARE_TOLERANCE * p.norm() && a.norm() <= DARE_TRANSITION_TOLERANCE {
+            return Ok(p);
+        }
+    }
+    Err(invalid(
+        "riccati equation",
+        DARE_MAX_DOUBLINGS,
+        "doubling steps did not converge: no stabilising solution ((F, Q) not stabilisable or (F, H) not detectable)",
+    ))
+}
+
+/// Per-joint Kalman filters of `(q, q̇)` or `(q, q̇, d)`; see the module documentation for the
+/// model, the timing and the start.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointKalman<const N: usize> {
     period: f64,
-    angle_std: JointVector<N>,
     settings: KalmanSettings,
-    x: [Vector2<f64>; N],
-    p: [Matrix2<f64>; N],
+    delay: usize,
+    /// Whether the filter takes the rate measurement.
+    measures_rate: bool,
+    /// `F`, `G`, `Q` (the same for every joint).
+    f: Matrix3<f64>,
+    g: Vector3<f64>,
+    q: Matrix3<f64>,
+    /// `F^δ` and `Σ_{i<δ} F^i Q F^iᵀ`: the forward prediction's covariance terms.
+    f_ahead: Matrix3<f64>,
+    q_ahead: Matrix3<f64>,
+    /// Per joint, the variances of the angle and of the rate measurement.
+    angle_variance: JointVector<N>,
+    rate_variance: JointVector<N>,
+    /// Per joint, the a-priori steady covariance `P∞`, its gain `K∞` and `P₀ = (I − K∞ H) P∞`.
+    steady_covariance: [Matrix3<f64>; N],
+    steady_gain: [Matrix3x2<f64>; N],
+    initial_covariance: [Matrix3<f64>; N],
+    /// The filter's state and covariance at sample `k − δ`.
+    x: [Vector3<f64>; N],
+    p: [Matrix3<f64>; N],
+    /// The gain of the last update.
+    gain: [Matrix3x2<f64>; N],
+    /// The estimate of `x_k` last returned.
+    ahead: [Vector3<f64>; N],
+    /// The last `δ + 1` inputs, `u_{k−δ−1}` at `head` after an update.
+    inputs: [JointVector<N>; MAX_DELAY_SAMPLES + 1],
+    head: usize,
 }
 
 impl<const N: usize> JointKalman<N> {
+    /// Filters for samples every `period` s, angle readings of σ `angle_std` rad per joint,
+    /// rate readings of σ `rate_std` rad/s where there is a velocity sensor, readings
+    /// `delay_samples` samples old, and `settings`. Checks every number, naming the field; the
+    /// measurement σ must be > 0 (a zero σ declares an exact reading, which needs no filter:
+    /// use the direct estimator), and so must the process noises (without them the gains decay
+    /// to zero and the filter stops following the sensors; a constant disturbance is a random
+    /// walk of small σ). Solves each joint's Riccati equation for its steady covariance.
     pub fn new(
         period: f64,
         angle_std: JointVector<N>,
-        _rate_std: Option<JointVector<N>>,
-        _delay_samples: usize,
+        rate_std: Option<JointVector<N>>,
+        delay_samples: usize,
         settings: KalmanSettings,
     ) -> Result<Self, SenseError> {
-        if !(period.is_finite() && period > 0.0) {
-            return Err(invalid("control period", period, "must be finite and > 0 s"));
+        let positive = |field: String, value: f64, unit: &str| {
+            if value.is_finite() && value > 0.0 {
+                Ok(())
+            } else {
+                Err(invalid(field, value, format!("must be finite and > 0 {unit}")))
+            }
+        };
+        positive("kalman period".into(), period, "s")?;
+        for (j, value) in angle_std.iter().enumerate() {
+            positive(format!("kalman angle_std joint {}", j + 1), *value, "rad (an exact angle needs no filter)")?;
         }
-        Ok(Self { period, angle_std, settings, x: [Vector2::zeros(); N], p: [Matrix2::zeros(); N] })
-    }
+        if let Some(rate_std) = &rate_std {
+            for (j, value) in rate_std.iter().enumerate() {
+                positive(format!("kalman rate_std joint {}", j + 1), *value, "rad/s (an exact rate needs no filter)")?;
+            }
+        }
+        if delay_samples > MAX_DELAY_SAMPLES {
+            return Err(invalid("kalman delay_samples", delay_samples, format!("must be at most {MAX_DELAY_SAMPLES}")));
+        }
+        positive("kalman acceleration_noise".into(), settings.acceleration_noise, "rad/s²")?;
+        if let Some(noise) = settings.disturbance_noise {
+            positive("kalman disturbance_noise".into(), noise, "rad/s² per sample (None: no disturbance state)")?;
+        }
 
-    pub fn reset(&mut self, initial: &JointState<N>) {
+        let t = period;
+        let with_disturbance = settings.disturbance_noise.is_some();
+        let f = if with_disturbance {
+            Matrix3::new(1.0, t, 0.5 * t * t, 0.0, 1.0, t, 0.0, 0.0, 1.0)
+        } else {
+            Matrix3::new(1.0, t, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0)
+        };
+        let g = Vector3::new(0.5 * t * t, t, 0.0);
+        let sigma_a = settings.acceleration_noise;
+        let mut q = g * g.transpose() * (sigma_a * sigma_a);
+        if let Some(sigma_d) = settings.disturbance_noise {
+            q[(2, 2)] = sigma_d * sigma_d;
+        }
+        let (mut f_ahead, mut q_ahead) = (Matrix3::identity(), Matrix3::zeros());
+        for _ in 0..delay_samples {
+            q_ahead += f_ahead * q * f_ahead.transpose();
+            f_ahead = f * f_ahead;
+        }
+
+        let measures_rate = rate_std.is_some();
+        let angle_variance = angle_std.component_mul(&angle_std);
+        let rate_variance = rate_std.map_or_else(JointVector::zeros, |s| s.component_mul(&s));
+        // Without a rate sensor the second measurement row is zero; its placeholder variance
+        // of 1 keeps R invertible and changes nothing (G = Hᵀ R⁻¹ H and K's second column are
+        // zero).
+        let h = if measures_rate {
+            Matrix2x3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+        } else {
+            Matrix2x3::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        };
+        let mut steady_covariance = [Matrix3::zeros(); N];
+        let mut steady_gain = [Matrix3x2::zeros(); N];
+        let mut initial_covariance = [Matrix3::zeros(); N];
         for j in 0..N {
-            self.x[j] = Vector2::new(initial.q[j], initial.qd[j]);
-            self.p[j] = Matrix2::from_diagonal(&Vector2::new(self.angle_std[j].powi(2), 0.0));
+            let r = Matrix2::new(angle_variance[j], 0.0, 0.0, if measures_rate { rate_variance[j] } else { 1.0 });
+            let p = solve_dare(&f, &h, &q, &r).map_err(|error| match error {
+                SenseError::InvalidField { value, reason, .. } => SenseError::InvalidField {
+                    field: format!("kalman settings (joint {} riccati equation)", j + 1),
+                    value,
+                    reason,
+                },
+            })?;
+            let s = h * p * h.transpose() + r;
+            let s_inverse = s.try_inverse().ok_or_else(|| {
+                invalid(format!("kalman joint {} steady innovation covariance", j + 1), s.norm(), "is singular")
+            })?;
+            let k = p * h.transpose() * s_inverse;
+            let a = Matrix3::identity() - k * h;
+            let posterior = a * p * a.transpose() + k * r * k.transpose();
+            steady_covariance[j] = p;
+            steady_gain[j] = k;
+            initial_covariance[j] = (posterior + posterior.transpose()) * 0.5;
+        }
+
+        let mut filter = Self {
+            period,
+            settings,
+            delay: delay_samples,
+            measures_rate,
+            f,
+            g,
+            q,
+            f_ahead,
+            q_ahead,
+            angle_variance,
+            rate_variance,
+            steady_covariance,
+            steady_gain,
+            initial_covariance,
+            x: [Vector3::zeros(); N],
+            p: initial_covariance,
+            gain: steady_gain,
+            ahead: [Vector3::zeros(); N],
+            inputs: [JointVector::zeros(); MAX_DELAY_SAMPLES + 1],
+            head: 0,
+        };
+        filter.reset(&JointState::at_rest(JointVector::zeros()));
+        Ok(filter)
+    }
+
+    /// The sample period, s.
+    pub fn period(&self) -> f64 {
+        self.period
+    }
+
+    pub fn settings(&self) -> &KalmanSettings {
+        &self.settings
+    }
+
+    /// Samples between a reading and the update it arrives at.
+    pub fn delay_samples(&self) -> usize {
+        self.delay
+    }
+
+    /// Whether the filter has the disturbance state `d`.
+    pub fn has_disturbance(&self) -> bool {
+        self.settings.disturbance_noise.is_some()
+    }
+
+    /// Starts at `initial` (angles from the first due reading, rates as the arm was), no
+    /// disturbance, covariance `P₀ = (I − K∞ H) P∞` (see the module documentation).
+    pub fn reset(&mut self, initial: &JointState<N>) {
+        let covariance = self.initial_covariance;
+        self.start(initial, &covariance);
+    }
+
+    /// [`JointKalman::reset`] with every joint's covariance starting at `covariance` (rad²,
+    /// rad²/s, …; without the disturbance state its third row and column are ignored). An error
+    /// if it is not finite, symmetric and positive semi-definite.
+    pub fn reset_with_covariance(
+        &mut self,
+        initial: &JointState<N>,
+        covariance: &Matrix3<f64>,
+    ) -> Result<(), SenseError> {
+        let mut p = *covariance;
+        if !self.has_disturbance() {
+            p.row_mut(2).fill(0.0);
+            p.column_mut(2).fill(0.0);
+        }
+        let field = "kalman initial covariance";
+        if !p.iter().all(|v| v.is_finite()) {
+            return Err(invalid(field, "(not finite)", "every entry must be finite"));
+        }
+        let asymmetry = (p - p.transpose()).norm();
+        if asymmetry > 1e-12 * p.norm() {
+            return Err(invalid(field, asymmetry, "must be symmetric (the value is ‖P − Pᵀ‖)"));
+        }
+        let smallest = p.symmetric_eigenvalues().min();
+        if smallest < -1e-12 * p.norm() {
+            return Err(invalid(field, smallest, "must be positive semi-definite (the value is its least eigenvalue)"));
+        }
+        self.start(initial, &[p; N]);
+        Ok(())
+    }
+
+    fn start(&mut self, initial: &JointState<N>, covariance: &[Matrix3<f64>; N]) {
+        self.x = std::array::from_fn(|j| Vector3::new(initial.q[j], initial.qd[j], 0.0));
+        self.p = *covariance;
+        self.gain = self.steady_gain;
+        self.inputs = [JointVector::zeros(); MAX_DELAY_SAMPLES + 1];
+        self.head = 0;
+        self.ahead = self.x;
+        for _ in 0..self.delay {
+            for x in self.ahead.iter_mut() {
+                *x = self.f * *x;
+            }
         }
     }
 
+    /// One control sample: `measurement` is the reading of the state `delay_samples` samples
+    /// ago, `applied` the acceleration commanded over the sample just ended, rad/s². Returns the
+    /// estimate of the state now (see the module documentation for the timing).
     pub fn update(&mut self, measurement: &Measurement<N>, applied: &JointVector<N>) -> JointState<N> {
-        let t = self.period;
-        let f = Matrix2::new(1.0, t, 0.0, 1.0);
-        let g = Vector2::new(t * t / 2.0, t);
-        let q = g * g.transpose() * self.settings.acceleration_noise.powi(2);
+        let span = self.delay + 1;
+        self.inputs[self.head] = applied.map(|u| if u.is_finite() { u } else { 0.0 });
+        self.head = (self.head + 1) % span;
+        // Now `inputs[head]` is u_{k−δ−1}, and the next δ slots hold u_{k−δ} … u_{k−1}.
+        let oldest = self.inputs[self.head];
         let mut out = JointState { q: JointVector::zeros(), qd: JointVector::zeros() };
         for j in 0..N {
-            let x = f * self.x[j] + g * applied[j];
-            let p = f * self.p[j] * f.transpose() + q;
-            let s = p[(0, 0)] + self.angle_std[j].powi(2);
-            let k = p.column(0) / s;
-            self.x[j] = x + k * (measurement.q[j] - x[0]);
-            self.p[j] = p - k * p.row(0);
-            out.q[j] = self.x[j][0];
-            out.qd[j] = self.x[j][1];
+            let mut x = self.f * self.x[j] + self.g * oldest[j];
+            let mut p = self.f * self.p[j] * self.f.transpose() + self.q;
+            let angle = measurement.q[j];
+            let angle_gain = if angle.is_finite() {
+                scalar_update(&mut x, &mut p, 0, angle, self.angle_variance[j])
+            } else {
+                Vector3::zeros()
+            };
+            let rate = if self.measures_rate { measurement.qd.map(|qd| qd[j]) } else { None };
+            let rate_gain = match rate {
+                Some(rate) if rate.is_finite() => scalar_update(&mut x, &mut p, 1, rate, self.rate_variance[j]),
+                _ => Vector3::zeros(),
+            };
+            // The two scalar updates as one: x += k₁ r₁ + k₂ (r₂ − k₁[1] r₁).
+            self.gain[j].set_column(0, &(angle_gain - rate_gain * angle_gain[1]));
+            self.gain[j].set_column(1, &rate_gain);
+            self.x[j] = x;
+            self.p[j] = p;
+
+            for i in 1..=self.delay {
+                x = self.f * x + self.g * self.inputs[(self.head + i) % span][j];
+            }
+            self.ahead[j] = x;
+            out.q[j] = x[0];
+            out.qd[j] = x[1];
         }
         out
     }
+
+    /// The estimate of the state now (the one [`JointKalman::update`] last returned; after a
+    /// reset, the start carried forward over the delay).
+    pub fn estimate(&self) -> JointState<N> {
+        JointState {
+            q: JointVector::from_fn(|j, _| self.ahead[j][0]),
+            qd: JointVector::from_fn(|j, _| self.ahead[j][1]),
+        }
+    }
+
+    /// The estimated disturbance acceleration `d` per joint, rad/s² (zeros without the
+    /// disturbance state).
+    pub fn disturbance(&self) -> JointVector<N> {
+        JointVector::from_fn(|j, _| self.ahead[j][2])
+    }
+
+    /// Covariance of joint `joint`'s estimate of the state now, `P_{k|k−δ}` (module
+    /// documentation) of `(q, q̇, d)`; zero third row and column without the disturbance state.
+    ///
+    /// # Panics
+    /// If `joint ≥ N`.
+    pub fn covariance(&self, joint: usize) -> Matrix3<f64> {
+        let p = self.f_ahead * self.p[joint] * self.f_ahead.transpose() + self.q_ahead;
+        (p + p.transpose()) * 0.5
+    }
+
+    /// Covariance of the filter's own estimate, a posteriori at the sample of the last reading,
+    /// `P_{k−δ|k−δ}` (equal to [`JointKalman::covariance`] without delay).
+    ///
+    /// # Panics
+    /// If `joint ≥ N`.
+    pub fn filter_covariance(&self, joint: usize) -> Matrix3<f64> {
+        self.p[joint]
+    }
+
+    /// The gain `K` of joint `joint`'s last update (its steady value after a reset): columns
+    /// for the angle and the rate reading (zero without a rate sensor or a rate reading).
+    ///
+    /// # Panics
+    /// If `joint ≥ N`.
+    pub fn gain(&self, joint: usize) -> Matrix3x2<f64> {
+        self.gain[joint]
+    }
+
+    /// The steady gain `K∞ = P∞ Hᵀ (H P∞ Hᵀ + R)⁻¹` of joint `joint`, columns as
+    /// [`JointKalman::gain`].
+    ///
+    /// # Panics
+    /// If `joint ≥ N`.
+    pub fn steady_state_gain(&self, joint: usize) -> Matrix3x2<f64> {
+        self.steady_gain[joint]
+    }
+
+    /// The a-priori steady covariance `P∞` of joint `joint` ([`solve_dare`]).
+    ///
+    /// # Panics
+    /// If `joint ≥ N`.
+    pub fn steady_state_covariance(&self, joint: usize) -> Matrix3<f64> {
+        self.steady_covariance[joint]
+    }
+}
+
+/// The update with one scalar reading `z` of state component `row`, variance `r > 0`:
+/// `k = P eᵣ / (Pᵣᵣ + r)`, `x += k (z − xᵣ)`, `P = (I − k eᵣᵀ) P (I − k eᵣᵀ)ᵀ + r k kᵀ`.
+/// Returns `k`.
+fn scalar_update(x: &mut Vector3<f64>, p: &mut Matrix3<f64>, row: usize, z: f64, r: f64) -> Vector3<f64> {
+    let innovation_variance = p[(row, row)] + r;
+    let k: Vector3<f64> = p.column(row) / innovation_variance;
+    *x += k * (z - x[row]);
+    let mut a = Matrix3::<f64>::identity();
+    for i in 0..3 {
+        a[(i, row)] -= k[i];
+    }
+    let joseph: Matrix3<f64> = a * *p * a.transpose() + k * k.transpose() * r;
+    *p = (joseph + joseph.transpose()) * 0.5;
+    k
 }
