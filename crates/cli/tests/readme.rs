@@ -1,5 +1,6 @@
 //! Every example command of the README, run as written (`cargo run --release -- ARGS` is the
-//! binary with ARGS), in a fresh folder with a small `game.pgn`; each must succeed, and the
+//! binary with ARGS), in a fresh folder with a small `game.pgn` and the files the README shows
+//! (```toml blocks headed `# NAME.toml`); each must succeed, and the
 //! promises the README makes about some of them are checked.
 //!
 //! Not run here: `cargo test` (this is it) and `cargo bench` (minutes of measurement; CI's
@@ -28,6 +29,39 @@ fn readme_commands() -> Vec<String> {
         }
     }
     commands
+}
+
+/// The README's ```toml blocks that start with a `# NAME.toml` line: files its examples read.
+fn readme_files() -> Vec<(String, String)> {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+    let mut files = Vec::new();
+    let mut current: Option<(String, String)> = None;
+    let mut in_toml = false;
+    for line in readme.lines() {
+        let trimmed = line.trim();
+        if trimmed.starts_with("```") {
+            if let Some(file) = current.take() {
+                files.push(file);
+            }
+            in_toml = trimmed == "```toml";
+            continue;
+        }
+        if in_toml {
+            match &mut current {
+                None => {
+                    if let Some(name) = trimmed.strip_prefix("# ").filter(|n| n.ends_with(".toml")) {
+                        current = Some((name.to_owned(), String::new()));
+                    }
+                    in_toml = current.is_some();
+                }
+                Some((_, text)) => {
+                    text.push_str(line);
+                    text.push('\n');
+                }
+            }
+        }
+    }
+    files
 }
 
 /// Splits a command line as the shell would for these examples (double quotes group words).
@@ -62,6 +96,11 @@ fn every_readme_example_runs_and_keeps_its_promises() {
     assert!(commands.len() >= 9, "README examples not found: {commands:?}");
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("game.pgn"), GAME_PGN).unwrap();
+    let files = readme_files();
+    assert!(files.iter().any(|(name, _)| name == "uncertainty.toml"), "README files not found: {files:?}");
+    for (name, text) in &files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
     for command in &commands {
         let args: Vec<String> = words(command).into_iter().skip(3).skip_while(|w| w == "--").collect();
         if let Some(engine) = args.iter().skip_while(|a| *a != "--engine").nth(1)
