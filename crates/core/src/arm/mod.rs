@@ -5,5 +5,6 @@ pub mod kinematics;
 pub mod lagrange;
 pub mod mass_factor;
 pub mod model;
+pub mod payload;
 pub mod preset;
 pub mod task;
