@@ -1,6 +1,7 @@
 //! Controllers behind one trait. A controller owns its own model of the arm, which may differ
 //! from the plant's (the plant may carry a payload the controller does not know about).
 
+pub mod adaptive;
 pub mod computed_torque;
 pub mod gains;
 
