@@ -3,6 +3,7 @@
 
 pub mod adaptive;
 pub mod computed_torque;
+pub mod disturbance_observer;
 pub mod gains;
 
 use crate::arm::dynamics::DynamicsTerms;
