@@ -95,6 +95,8 @@ pub enum PlayError {
     Tolerance(f64),
     #[error(transparent)]
     Sensing(#[from] SenseError),
+    #[error("controller {name}: {source}")]
+    Controller { name: String, source: chessarm_core::control::gains::GainError },
 }
 
 /// Who moves the pieces of a move.
@@ -350,7 +352,10 @@ impl Game {
             marks.extend([step.plan.grip_time, step.plan.release_time]);
         }
         let mut plant = Plant::new(settings.plant.unwrap_or(self.arm));
-        let mut controller = settings.controller.build(self.arm);
+        let mut controller = settings
+            .controller
+            .build(self.arm)
+            .map_err(|source| PlayError::Controller { name: settings.controller.name.clone(), source })?;
         let config = SimConfig {
             dt: settings.dt,
             control_period: settings.control_period,

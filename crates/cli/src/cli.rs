@@ -55,6 +55,8 @@ pub enum ControllerName {
     Pd,
     /// Computed torque with a PID outer loop and anti-windup (report: kp = 600, kd = 25, ki = 75).
     Pid,
+    /// The report's PID as it was, without anti-windup (its start-up wind-up spoils the grip).
+    PidPlain,
     /// Computed torque that estimates the gripped piece's mass online (PD gains).
     Adaptive,
     /// Computed torque with a disturbance observer (PD gains).
@@ -68,6 +70,7 @@ impl ControllerName {
         match self {
             ControllerName::Pd => "pd",
             ControllerName::Pid => "pid",
+            ControllerName::PidPlain => "pid-plain",
             ControllerName::Adaptive => "adaptive",
             ControllerName::Dob => "dob",
             ControllerName::Both => "both",

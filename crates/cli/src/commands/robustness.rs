@@ -104,7 +104,7 @@ fn run_trial(
         match work {
             Work::Scenario { plan, payload_mass } => {
                 let mut plant = Plant::new(trial.plant);
-                let mut controller = spec.build(setup.arm);
+                let mut controller = spec.build(setup.arm)?;
                 let mut feedback = trial.conditions.feedback(1e-3)?;
                 let config =
                     SimConfig { integrator, torque_lag: trial.conditions.torque_lag, ..SimConfig::new(&plant) };

@@ -88,7 +88,7 @@ pub fn controller_specs(names: &[ControllerName], given: &GainArgs) -> Result<Ve
     let GainArgs { kp, kd, ki } = *given;
     let make = |name: &str, kind: ControllerKind, (default_kp, default_kd, default_ki): (f64, f64, f64)| {
         let pick = |given: Option<[f64; 4]>, default: f64| JointVector::<4>::from(given.unwrap_or([default; 4]));
-        let ki = if name == "pid" { pick(ki, default_ki) } else { JointVector::zeros() };
+        let ki = if name.starts_with("pid") { pick(ki, default_ki) } else { JointVector::zeros() };
         let gains = Gains::per_joint(pick(kp, default_kp), pick(kd, default_kd), ki)?;
         Ok::<_, anyhow::Error>(ControllerSpec { name: name.to_string(), kind, gains })
     };
@@ -105,16 +105,17 @@ pub fn controller_specs(names: &[ControllerName], given: &GainArgs) -> Result<Ve
             }
         }
     }
-    if ki.is_some() && !wanted.contains(&ControllerName::Pid) {
+    if ki.is_some() && !wanted.iter().any(|n| matches!(n, ControllerName::Pid | ControllerName::PidPlain)) {
         let list: Vec<&str> = wanted.iter().map(|n| n.name()).collect();
-        bail!("--ki given with --controller {}: only pid has an integral term", list.join(","));
+        bail!("--ki given with --controller {}: only pid and pid-plain have an integral term", list.join(","));
     }
     let pd = (REPORT_PD.0, REPORT_PD.1, 0.0);
     wanted
         .iter()
         .map(|name| match name {
             ControllerName::Pd | ControllerName::Both => make("pd", ControllerKind::ComputedTorque, pd),
-            ControllerName::Pid => make("pid", ControllerKind::ComputedTorque, REPORT_PID),
+            ControllerName::Pid => make("pid", ControllerKind::AntiWindupPid, REPORT_PID),
+            ControllerName::PidPlain => make("pid-plain", ControllerKind::ComputedTorque, REPORT_PID),
             ControllerName::Adaptive => make("adaptive", ControllerKind::Adaptive, pd),
             ControllerName::Dob => make("dob", ControllerKind::DisturbanceObserver, pd),
         })
@@ -149,7 +150,7 @@ pub fn run_controller(
 ) -> Result<ControllerRun> {
     let trial = options.trial.as_ref();
     let mut plant = Plant::new(trial.map_or(setup.arm, |t| t.plant));
-    let mut controller = spec.build(setup.arm);
+    let mut controller = spec.build(setup.arm).with_context(|| format!("controller {}", spec.name))?;
     let conditions = trial.map_or_else(chessarm_core::sense::Conditions::ideal, |t| t.conditions.clone());
     let mut feedback = conditions.feedback(options.control_period)?;
     let config = SimConfig {
@@ -289,7 +290,13 @@ pub fn write_run(run: &ControllerRun, out: &Path) -> Result<Vec<String>> {
 /// the tool-tip error.
 pub fn write_comparison(runs: &[ControllerRun], out: &Path) -> Result<Vec<String>> {
     // Displayed in mrad and mm; the CSVs keep rad and m.
-    let color_of = |name: &str| if name == "pid" { 0 } else { 2 };
+    let color_of = |name: &str| match name {
+        "pd" => 2,
+        "pid" => 0,
+        "pid-plain" => 1,
+        "adaptive" => 3,
+        _ => 4,
+    };
     let errors = out.join("tracking_error.png");
     let panels: Vec<Panel> = (0..4)
         .map(|j| Panel {
@@ -331,7 +338,7 @@ pub fn write_comparison(runs: &[ControllerRun], out: &Path) -> Result<Vec<String
 pub fn comparison_table(runs: &[ControllerRun], started_off: bool) -> String {
     let after = format!("max tip ≥{TRANSIENT_S} s mm");
     let mut table = format!(
-        "{:<8} {:>12} {:>12} {:>16} {:>22} {:>30} {:>9} {:>9}\n",
+        "{:<10} {:>12} {:>12} {:>16} {:>22} {:>30} {:>9} {:>9}\n",
         "control",
         "rms tip mm",
         "max tip mm",
@@ -348,7 +355,7 @@ pub fn comparison_table(runs: &[ControllerRun], started_off: bool) -> String {
         let after =
             if started_off { format!("{:.4}", max_tip_error_from(run, TRANSIENT_S) * 1e3) } else { String::new() };
         table.push_str(&format!(
-            "{:<8} {:>12.4} {:>12.4} {:>16} {:>22} {:>30} {:>9} {:>9.1}\n",
+            "{:<10} {:>12.4} {:>12.4} {:>16} {:>22} {:>30} {:>9} {:>9.1}\n",
             run.spec.name,
             s.rms_tip_error * 1e3,
             s.max_tip_error * 1e3,

@@ -179,7 +179,13 @@ pub fn simulate_candidate(
             let trial = options.trial.as_ref();
             let mut plant = Plant::new(trial.map_or(setup.arm, |t| t.plant));
             let spec = ControllerSpec { name: "candidate".into(), kind: options.kind, gains: *gains };
-            let mut controller = spec.build(setup.arm);
+            let mut controller = match spec.build(setup.arm) {
+                Ok(controller) => controller,
+                Err(error) => {
+                    candidate.status = format!("failed: {error}");
+                    return candidate;
+                }
+            };
             let conditions = trial.map_or_else(Conditions::ideal, |t| t.conditions.clone());
             let mut feedback = match conditions.feedback(1e-3) {
                 Ok(feedback) => feedback,

@@ -5,6 +5,7 @@ pub mod kinematics;
 pub mod lagrange;
 pub mod mass_factor;
 pub mod model;
+pub mod payload;
 pub mod preset;
 pub mod task;
 pub mod uncertainty;

@@ -2,18 +2,24 @@
 //! runner and the Monte-Carlo trials turn a name into a controller.
 
 use super::Controller;
-use super::computed_torque::ComputedTorque;
-use super::gains::Gains;
+use super::adaptive::AdaptiveComputedTorque;
+use super::computed_torque::{AntiWindup, ComputedTorque};
+use super::disturbance_observer::DisturbanceObserver;
+use super::gains::{GainError, Gains};
 use crate::arm::model::ArmModel;
 
 /// The controllers behind the [`Controller`] trait.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ControllerKind {
-    /// Computed torque with a PD outer loop, or PID when the gains have an integral term.
+    /// Computed torque with a PD outer loop, or the report's plain PID when the gains have an
+    /// integral term (kept to reproduce the report's start-up wind-up).
     ComputedTorque,
-    /// Computed torque that estimates the gripped payload online.
+    /// Computed torque with a PID outer loop and the default anti-windup
+    /// ([`AntiWindup::default`]).
+    AntiWindupPid,
+    /// Computed torque that estimates the gripped payload online ([`AdaptiveComputedTorque`]).
     Adaptive,
-    /// Computed torque with a disturbance observer.
+    /// Computed torque with a disturbance observer ([`DisturbanceObserver`]).
     DisturbanceObserver,
 }
 
@@ -26,12 +32,16 @@ pub struct ControllerSpec {
 }
 
 impl ControllerSpec {
-    /// The controller, using `model` as its model of the arm.
-    pub fn build(&self, model: ArmModel<4>) -> Box<dyn Controller<4>> {
-        match self.kind {
-            ControllerKind::ComputedTorque | ControllerKind::Adaptive | ControllerKind::DisturbanceObserver => {
-                Box::new(ComputedTorque::new(self.name.clone(), model, self.gains))
-            }
-        }
+    /// The controller, using `model` as its model of the arm. Refuses gains the kind cannot
+    /// use (an integral gain for the adaptive controller or the disturbance observer).
+    pub fn build(&self, model: ArmModel<4>) -> Result<Box<dyn Controller<4>>, GainError> {
+        Ok(match self.kind {
+            ControllerKind::ComputedTorque => Box::new(ComputedTorque::new(self.name.clone(), model, self.gains)),
+            ControllerKind::AntiWindupPid => Box::new(
+                ComputedTorque::new(self.name.clone(), model, self.gains).with_anti_windup(AntiWindup::default())?,
+            ),
+            ControllerKind::Adaptive => Box::new(AdaptiveComputedTorque::new(model).with_gains(self.gains)?),
+            ControllerKind::DisturbanceObserver => Box::new(DisturbanceObserver::new(model).with_gains(self.gains)?),
+        })
     }
 }

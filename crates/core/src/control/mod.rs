@@ -1,8 +1,10 @@
 //! Controllers behind one trait. A controller owns its own model of the arm, which may differ
 //! from the plant's (the plant may carry a payload the controller does not know about).
 
+pub mod adaptive;
 pub mod choice;
 pub mod computed_torque;
+pub mod disturbance_observer;
 pub mod gains;
 
 use crate::arm::dynamics::DynamicsTerms;
