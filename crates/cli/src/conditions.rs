@@ -174,10 +174,11 @@ impl UncertaintyFile {
 /// The state estimator between the sensors and the controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
 pub enum EstimatorChoice {
-    /// Per-joint Kalman filter of angle and rate from the angles and the commanded acceleration.
+    /// Per-joint Kalman filter of angle, rate and a disturbance acceleration, from the angles
+    /// and the commanded acceleration.
     Kalman,
-    /// The Kalman filter with a third state per joint: a disturbance acceleration.
-    KalmanDisturbance,
+    /// The Kalman filter without the disturbance state (angle and rate; σ_a 20 rad/s²).
+    KalmanTwoState,
     /// Finite-difference rates through a first-order low-pass (the baseline).
     Lowpass,
     /// The measurements as they are (needs a velocity sensor, or the ideal profile).
@@ -278,9 +279,9 @@ impl Study {
         };
         let estimator = match args.estimator {
             None if sensors.is_ideal() || sensors.measures_rate() => EstimatorSpec::Direct,
-            None | Some(EstimatorChoice::Kalman) | Some(EstimatorChoice::KalmanDisturbance) => {
-                let mut settings = if args.estimator == Some(EstimatorChoice::KalmanDisturbance) {
-                    KalmanSettings::WITH_DISTURBANCE
+            None | Some(EstimatorChoice::Kalman) | Some(EstimatorChoice::KalmanTwoState) => {
+                let mut settings = if args.estimator == Some(EstimatorChoice::KalmanTwoState) {
+                    KalmanSettings::TWO_STATE
                 } else {
                     KalmanSettings::DEFAULT
                 };

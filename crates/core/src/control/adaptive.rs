@@ -65,6 +65,23 @@ use nalgebra::{Matrix2, Vector2};
 /// reports, kg (1 g; the lightest piece of the default set weighs 30 g).
 pub const LOCATABLE_MASS: f64 = 1e-3;
 
+/// Largest payload mass the control law uses, kg: twenty times the heaviest default piece.
+pub const MAX_PAYLOAD_MASS: f64 = 1.0;
+/// Largest centre-of-mass offset along the tool the control law uses, m: half the tallest
+/// default piece (9.5 cm) and some.
+pub const MAX_COM_OFFSET: f64 = 0.05;
+
+/// The estimate the control law applies: `θ̂` projected onto the physical set
+/// `0 ≤ m ≤ MAX_PAYLOAD_MASS`, `|m c| ≤ m · MAX_COM_OFFSET`. With noisy rates the least-squares
+/// estimate can wander outside it (a negative mass, a piece 30 cm off the tip); used as it
+/// is, that estimate injects its noise into the torque through `Y(q, q̇, v)`. The estimator
+/// itself keeps the unprojected `θ̂`, so the projection biases nothing it learns.
+fn physical(estimate: &Vector2<f64>) -> Vector2<f64> {
+    let mass = estimate[0].clamp(0.0, MAX_PAYLOAD_MASS);
+    let bound = mass * MAX_COM_OFFSET;
+    Vector2::new(mass, estimate[1].clamp(-bound, bound))
+}
+
 /// Settings of the payload estimator.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AdaptiveSettings {
@@ -298,7 +315,7 @@ impl<const N: usize> Controller<N> for AdaptiveComputedTorque<N> {
         let outer = reference.qdd + self.gains.kd.component_mul(&error_rate) + self.gains.kp.component_mul(&error);
         let mut torque = terms.mass_matrix * outer + terms.bias;
         if self.gripping {
-            torque += payload_regressor(&self.model, &state.q, &state.qd, &outer) * self.estimate;
+            torque += payload_regressor(&self.model, &state.q, &state.qd, &outer) * physical(&self.estimate);
             let limits = self.model.torque_limits();
             let applied = torque.zip_map(&limits, |t, limit| t.clamp(-limit, limit));
             self.previous = Some(Previous { state: *state, torque: applied, period });
