@@ -185,3 +185,66 @@ fn a_setup_profile_is_used_by_name_and_play_records_the_conditions() {
     assert_eq!(game["conditions"]["uncertainty"]["link_mass"], 0.05);
     assert!(game["trial"]["link_mass_scale"][0].as_f64().unwrap() != 1.0);
 }
+
+#[test]
+fn a_game_trial_replays_alone_and_tune_and_gains_take_the_conditions() {
+    let dir = tempfile::tempdir().unwrap();
+    let uncertainty = write(dir.path(), "u.toml", UNCERTAINTY);
+    let pgn = write(dir.path(), "short.pgn", "[Result \"*\"]\n\n1. e4 e5 2. Nf3 *\n");
+    let study = dir.path().join("study");
+    json_of(&chessarm(&[
+        "robustness",
+        &pgn,
+        "--trials",
+        "2",
+        "--controller",
+        "dob",
+        "--sensors",
+        "servo",
+        "--uncertainty",
+        &uncertainty,
+        "--out",
+        study.to_str().unwrap(),
+    ]));
+    let csv = std::fs::read_to_string(study.join("robustness.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let row: Vec<&str> = csv.lines().nth(2).unwrap().split(',').collect();
+    assert_eq!((row[at("controller")], row[at("pieces")]), ("dob", "3"));
+    let out = dir.path().join("alone");
+    json_of(&chessarm(&[
+        "play",
+        &pgn,
+        "--controller",
+        "dob",
+        "--sensors",
+        "servo",
+        "--uncertainty",
+        &uncertainty,
+        "--trial-seed",
+        row[at("trial_seed")],
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let game: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
+    let worst = game["moves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|m| m["place_errors_mm"].as_array().unwrap().iter().map(|e| e.as_f64().unwrap()))
+        .fold(0.0f64, f64::max);
+    assert_eq!(format!("{worst:?}"), row[at("place_error_mm")]);
+
+    // tune and gains run under the same conditions, and say so.
+    let tune = |extra: &[&str]| {
+        let out = dir.path().join(format!("tune{}", extra.len()));
+        let mut args = vec!["tune", "--kp", "300..400:2", "--kd", "20..30:2", "--payload-mass", "0.03"];
+        args.extend(extra);
+        args.extend(["--out", out.to_str().unwrap()]);
+        json_of(&chessarm(&args));
+        std::fs::read_to_string(out.join("tune.csv")).unwrap()
+    };
+    assert_ne!(tune(&["--sensors", "hobby", "--torque-lag", "0.002"]), tune(&[]));
+    let gains = json_of(&chessarm(&["gains", "--wn", "20", "--zeta", "1", "--sensors", "servo"]));
+    assert_eq!(gains["designs"][0]["measured"]["conditions"]["sensors"]["profile"], "servo");
+}

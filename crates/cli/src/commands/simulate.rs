@@ -313,7 +313,8 @@ pub fn write_comparison(runs: &[ControllerRun], out: &Path) -> Result<Vec<String
                 .collect(),
         })
         .collect();
-    plot_panels(&errors, "Tracking error: PD (blue) vs PID (red)", "time (s)", &panels)?;
+    let names: Vec<String> = runs.iter().map(|run| run.spec.name.to_uppercase()).collect();
+    plot_panels(&errors, &format!("Tracking error: {}", names.join(" vs ")), "time (s)", &panels)?;
     let tip = out.join("tip_error.png");
     let panel = Panel {
         title: "distance between the actual and the desired tool tip".into(),
