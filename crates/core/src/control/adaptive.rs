@@ -179,13 +179,7 @@ impl<const N: usize> AdaptiveComputedTorque<N> {
 
     /// Other outer-loop gains; the outer loop is PD, so `ki` must be zero.
     pub fn with_gains(self, gains: Gains<N>) -> Result<Self, GainError> {
-        if let Some((j, &value)) = gains.ki.iter().enumerate().find(|(_, k)| **k != 0.0) {
-            return Err(GainError::Invalid {
-                name: format!("ki[joint {}]", j + 1),
-                value,
-                reason: "the adaptive controller's outer loop is PD: ki must be 0",
-            });
-        }
+        gains.require_pd("adaptive")?;
         Ok(Self { gains, ..self })
     }
 
@@ -310,9 +304,7 @@ impl<const N: usize> Controller<N> for AdaptiveComputedTorque<N> {
         if self.gripping {
             self.update_estimate(state);
         }
-        let error = reference.q - state.q;
-        let error_rate = reference.qd - state.qd;
-        let outer = reference.qdd + self.gains.kd.component_mul(&error_rate) + self.gains.kp.component_mul(&error);
+        let outer = self.gains.pd_outer_loop(reference, state);
         let mut torque = terms.mass_matrix * outer + terms.bias;
         if self.gripping {
             torque += payload_regressor(&self.model, &state.q, &state.qd, &outer) * physical(&self.estimate);

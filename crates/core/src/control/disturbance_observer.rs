@@ -83,13 +83,7 @@ impl<const N: usize> DisturbanceObserver<N> {
     /// Other outer-loop gains; the outer loop is PD (the observer does the integral's job), so
     /// `ki` must be zero.
     pub fn with_gains(self, gains: Gains<N>) -> Result<Self, GainError> {
-        if let Some((j, &value)) = gains.ki.iter().enumerate().find(|(_, k)| **k != 0.0) {
-            return Err(GainError::Invalid {
-                name: format!("ki[joint {}]", j + 1),
-                value,
-                reason: "the disturbance observer's outer loop is PD: ki must be 0",
-            });
-        }
+        gains.require_pd("dob")?;
         Ok(Self { gains, ..self })
     }
 
@@ -166,9 +160,7 @@ impl<const N: usize> Controller<N> for DisturbanceObserver<N> {
             let blend = 1.0 - (-self.bandwidth * h).exp();
             self.disturbance += (mean_acceleration - previous.acceleration - self.disturbance) * blend;
         }
-        let error = reference.q - state.q;
-        let error_rate = reference.qd - state.qd;
-        let outer = reference.qdd + self.gains.kd.component_mul(&error_rate) + self.gains.kp.component_mul(&error);
+        let outer = self.gains.pd_outer_loop(reference, state);
         let compensated = outer - self.disturbance;
         let torque = terms.mass_matrix * compensated + terms.bias;
         let limits = self.model.torque_limits();

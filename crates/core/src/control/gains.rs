@@ -52,6 +52,32 @@ impl<const N: usize> Gains<N> {
         Ok(Self { kp, kd, ki })
     }
 
+    /// The PD outer loop of computed torque, rad/s²: `v = q̈_d + kd (q̇_d − q̇) + kp (q_d − q)`
+    /// (the integral term, if any, is the caller's).
+    pub fn pd_outer_loop(
+        &self,
+        desired: &crate::control::Reference<N>,
+        state: &crate::control::JointState<N>,
+    ) -> JointVector<N> {
+        desired.qdd + self.kd.component_mul(&(desired.qd - state.qd)) + self.kp.component_mul(&(desired.q - state.q))
+    }
+
+    /// Refuses an integral gain: `owner`'s outer loop is PD.
+    pub fn require_pd(&self, owner: &str) -> Result<(), GainError> {
+        match self.ki.iter().enumerate().find(|(_, k)| **k != 0.0) {
+            Some((j, &value)) => Err(GainError::Invalid {
+                name: format!("ki[joint {}]", j + 1),
+                value,
+                reason: if owner == "adaptive" {
+                    "the adaptive controller's outer loop is PD: ki must be 0"
+                } else {
+                    "the disturbance observer's outer loop is PD: ki must be 0"
+                },
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// The same scalar gains on every joint.
     pub fn uniform(kp: f64, kd: f64, ki: f64) -> Result<Self, GainError> {
         Self::per_joint(JointVector::repeat(kp), JointVector::repeat(kd), JointVector::repeat(ki))
