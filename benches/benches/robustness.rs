@@ -40,7 +40,7 @@ fn trials(c: &mut Criterion) {
         let cli = Cli::parse_from(line);
         let Some(Command::Robustness(args)) = cli.command else { unreachable!("a robustness command line") };
         let specs = controller_specs(&args.controller, &args.gains).expect("specs");
-        let study = Study::new(&setup, &args.conditions, 1e-3).expect("conditions");
+        let study = Study::for_trials(&setup, &args.conditions, 1e-3).expect("conditions");
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("pool");
         group.bench_function(format!("{name}: 100 trials, 2 threads"), |b| {
             b.iter(|| pool.install(|| run_trials(&setup, &work, &specs, &study, &options, 0..100, None)))

@@ -60,6 +60,24 @@ fn gain_unescaped(text: &str) -> Result<[f64; 4], String> {
     }
 }
 
+/// One time constant for every joint or one per joint (`a,b,c,d`), s, each finite and >= 0.
+fn time_constants_unescaped(text: &str) -> Result<[f64; 4], String> {
+    let values = if text.contains(',') { four_unescaped(text)? } else { [finite_unescaped(text)?; 4] };
+    match values.iter().find(|v| **v < 0.0) {
+        Some(v) => Err(format!("time constant {v} s in '{text}' must be >= 0")),
+        None => Ok(values),
+    }
+}
+
+/// A count of at least 1.
+fn count_unescaped(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(0) => Err("needs at least 1".to_owned()),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("'{text}' is not a whole number")),
+    }
+}
+
 /// `N` evenly spaced gains from `A` to `B` inclusive (`A..B:N`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GainRange {
@@ -151,4 +169,6 @@ escaped! {
     range => range_unescaped -> GainRange;
     shard => shard_unescaped -> (usize, usize);
     game_number => game_number_unescaped -> usize;
+    time_constants => time_constants_unescaped -> [f64; 4];
+    count => count_unescaped -> usize;
 }

@@ -89,7 +89,7 @@ pub struct RobustnessArgs {
     #[arg(long, default_value = "queens-gambit")]
     pub scenario: String,
     /// Number of randomised trials.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, value_parser = args::count)]
     pub trials: usize,
     /// Controllers to compare, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "pd,pid,adaptive,dob")]

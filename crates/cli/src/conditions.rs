@@ -19,11 +19,40 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// One number for every joint, or one per joint.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, PartialEq)]
 #[serde(untagged)]
 pub enum PerJoint {
     One(f64),
     Each(Vec<f64>),
+}
+
+impl<'de> Deserialize<'de> for PerJoint {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = PerJoint;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a number, or a list of one number per joint")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<PerJoint, E> {
+                Ok(PerJoint::One(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<PerJoint, E> {
+                Ok(PerJoint::One(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<PerJoint, E> {
+                Ok(PerJoint::One(v as f64))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<PerJoint, A::Error> {
+                let mut values = Vec::new();
+                while let Some(value) = seq.next_element::<f64>()? {
+                    values.push(value);
+                }
+                Ok(PerJoint::Each(values))
+            }
+        }
+        deserializer.deserialize_any(Visit)
+    }
 }
 
 impl PerJoint {
@@ -72,6 +101,10 @@ impl SensorFile {
         if !(delay.is_finite() && delay >= 0.0 && delay.fract() == 0.0) {
             bail!("{} = {delay}: must be a whole number of control samples >= 0", field("delay_samples"));
         }
+        let most = chessarm_core::sense::sensors::MAX_DELAY_SAMPLES;
+        if delay > most as f64 {
+            bail!("{} = {delay}: must be at most {most} samples", field("delay_samples"));
+        }
         let rate_noise = self.rate_noise.as_ref().map(|c| c.values(&field("rate_noise"))).transpose()?;
         let encoders = std::array::from_fn(|j| EncoderSpec {
             counts_per_rev: counts.map(|c| c[j]),
@@ -81,7 +114,7 @@ impl SensorFile {
         let profile = SensorProfile {
             name: name.to_string(),
             encoders,
-            delay_samples: delay.min(1e9) as usize,
+            delay_samples: delay as usize,
             rate_noise: rate_noise.map(JointVector::<4>::from),
         };
         // `validate` names fields as `sensors.NAME joint J field`.
@@ -92,11 +125,33 @@ impl SensorFile {
 
 /// How the plant's inertia tensors are turned: `"none"`, `"errata"`, or a largest random
 /// angle in rad.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, PartialEq)]
 #[serde(untagged)]
 pub enum RotationFile {
     Named(String),
     MaxAngle(f64),
+}
+
+impl<'de> Deserialize<'de> for RotationFile {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = RotationFile;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("\"none\", \"errata\" or a largest angle in rad")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<RotationFile, E> {
+                Ok(RotationFile::Named(v.to_string()))
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<RotationFile, E> {
+                Ok(RotationFile::MaxAngle(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<RotationFile, E> {
+                Ok(RotationFile::MaxAngle(v as f64))
+            }
+        }
+        deserializer.deserialize_any(Visit)
+    }
 }
 
 /// The `[uncertainty]` table (or a `--uncertainty FILE`'s top level).
@@ -203,7 +258,7 @@ pub struct ConditionArgs {
     #[arg(long, value_name = "S", value_parser = args::non_negative, allow_hyphen_values = true)]
     pub lowpass_time_constant: Option<f64>,
     /// Motors' first-order torque lag, s: one value or one per joint (default 0: none).
-    #[arg(long, value_name = "S", value_parser = args::gain, allow_hyphen_values = true)]
+    #[arg(long, value_name = "S", value_parser = args::time_constants, allow_hyphen_values = true)]
     pub torque_lag: Option<[f64; 4]>,
     /// The true arm and pieces: a second setup file (the controller keeps --arm's model).
     #[arg(long, value_name = "FILE")]
@@ -250,9 +305,34 @@ fn read_toml<T: serde::de::DeserializeOwned>(flag: &str, path: &Path) -> Result<
     toml::from_str(&text).map_err(|e| anyhow!("{flag} {}: {}", path.display(), crate::config::toml_error(&text, &e)))
 }
 
+/// An uncertainty file: the fields at its top level, or a setup file's `[uncertainty]` table.
+fn read_uncertainty(path: &Path) -> Result<UncertaintyFile> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("--uncertainty {}: cannot read", path.display()))?;
+    let value: toml::Value = toml::from_str(&text)
+        .map_err(|e| anyhow!("--uncertainty {}: {}", path.display(), crate::config::toml_error(&text, &e)))?;
+    let table = match value.get("uncertainty") {
+        Some(table) => table.clone(),
+        None => value,
+    };
+    table.try_into().map_err(|e: toml::de::Error| anyhow!("--uncertainty {}: {}", path.display(), e.message().trim()))
+}
+
 impl Study {
-    /// Parses `args` against `setup` (the controller's arm and pieces).
+    /// Parses `args` against `setup` (the controller's arm and pieces). Model errors come
+    /// from `--uncertainty` only: a single run is never silently randomised by a table in
+    /// the setup file.
     pub fn new(setup: &Setup, args: &ConditionArgs, control_period: f64) -> Result<Self> {
+        Self::parse(setup, args, control_period, false)
+    }
+
+    /// [`Study::new`] for `robustness`, whose model errors may also come from the setup
+    /// file's `[uncertainty]` table.
+    pub fn for_trials(setup: &Setup, args: &ConditionArgs, control_period: f64) -> Result<Self> {
+        Self::parse(setup, args, control_period, true)
+    }
+
+    fn parse(setup: &Setup, args: &ConditionArgs, control_period: f64, setup_uncertainty: bool) -> Result<Self> {
         let sensors = match args.sensors.as_deref() {
             None => SensorProfile::ideal(),
             Some(name) => match SensorProfile::named(name) {
@@ -261,9 +341,13 @@ impl Study {
                     Some(file) => file.to_profile(name).with_context(|| "the setup file's [sensors] table")?,
                     None if Path::new(name).is_file() => {
                         let file: SensorFile = read_toml("--sensors", Path::new(name))?;
-                        let stem =
-                            Path::new(name).file_stem().map_or("file".into(), |s| s.to_string_lossy().to_string());
-                        file.to_profile(&stem).with_context(|| format!("--sensors {name}"))?
+                        file.to_profile(name).with_context(|| format!("--sensors {}", crate::escape_controls(name)))?
+                    }
+                    None if Path::new(name).is_dir() => {
+                        bail!(
+                            "--sensors {}: is a folder; give a profile name or a TOML file",
+                            crate::escape_controls(name)
+                        )
                     }
                     None => {
                         let mut known: Vec<String> = SensorProfile::<4>::NAMES.iter().map(|s| s.to_string()).collect();
@@ -278,7 +362,12 @@ impl Study {
             },
         };
         let estimator = match args.estimator {
-            None if sensors.is_ideal() || sensors.measures_rate() => EstimatorSpec::Direct,
+            None if sensors.is_ideal() => EstimatorSpec::Direct,
+            Some(EstimatorChoice::Kalman | EstimatorChoice::KalmanTwoState) if sensors.is_ideal() => bail!(
+                "--estimator {} with --sensors {}: the state is exact, there is nothing to filter (give encoder counts)",
+                if args.estimator == Some(EstimatorChoice::Kalman) { "kalman" } else { "kalman-two-state" },
+                sensors.name
+            ),
             None | Some(EstimatorChoice::Kalman) | Some(EstimatorChoice::KalmanTwoState) => {
                 let mut settings = if args.estimator == Some(EstimatorChoice::KalmanTwoState) {
                     KalmanSettings::TWO_STATE
@@ -307,7 +396,10 @@ impl Study {
         // Build once to check the estimator against the sensors (e.g. direct without a rate sensor).
         Conditions { sensors: sensors.clone(), estimator, torque_lag: JointVector::zeros(), seed: 0 }
             .feedback(control_period)
-            .with_context(|| format!("--sensors {} with --estimator {}", sensors.name, estimator.name()))?;
+            .with_context(|| {
+                let given = if args.estimator.is_some() { "--estimator" } else { "the default estimator" };
+                format!("--sensors {} with {given} {}", sensors.name, estimator.name())
+            })?;
         let torque_lag = JointVector::<4>::from(args.torque_lag.unwrap_or([0.0; 4]));
         let (plant, plant_pieces) = match &args.plant {
             None => (setup.arm, setup.pieces),
@@ -317,8 +409,9 @@ impl Study {
             }
         };
         let uncertainty_file = match &args.uncertainty {
-            Some(path) => Some(read_toml::<UncertaintyFile>("--uncertainty", path)?),
-            None => setup.uncertainty.clone(),
+            Some(path) => Some(read_uncertainty(path)?),
+            None if setup_uncertainty => setup.uncertainty.clone(),
+            None => None,
         };
         let uncertainty = uncertainty_file
             .as_ref()
@@ -369,6 +462,23 @@ impl Study {
         };
         let (plant, pieces) = drawn.as_ref().map_or((self.plant, self.plant_pieces), |d| (d.plant, d.pieces));
         Ok(Trial { seed, conditions, plant, pieces, drawn })
+    }
+
+    /// One line for the terminal: what is not ideal, and the trial seed.
+    pub fn note(&self, seed: u64) -> String {
+        let mut parts = vec![format!("sensors {}", self.sensors.name), format!("estimator {}", self.estimator.name())];
+        if self.torque_lag != JointVector::<4>::zeros() {
+            parts.push(format!("torque lag {:?} s", self.torque_lag.as_slice()));
+        }
+        if let Some(path) = &self.plant_file {
+            parts.push(format!("true arm from {}", path.display()));
+        }
+        if self.uncertainty.is_some() {
+            parts.push(format!("model errors drawn with trial seed {seed}"));
+        } else {
+            parts.push(format!("sensor noise seed {seed}"));
+        }
+        format!("conditions: {}\n", parts.join(", "))
     }
 
     /// The study's conditions for summary.json and game.json.
@@ -450,6 +560,42 @@ impl Trial {
 }
 
 impl ConditionArgs {
+    /// The options as given, as command-line flags (each with a leading space), for a
+    /// command that replays a run under the same conditions. `--seed` and `--trial-seed` are
+    /// left out (the replay names its trial).
+    pub fn flags(&self) -> String {
+        let mut flags = String::new();
+        let mut add = |flag: &str, value: String| flags.push_str(&format!(" --{flag} {value}"));
+        if let Some(sensors) = &self.sensors {
+            add("sensors", sensors.clone());
+        }
+        if let Some(estimator) = self.estimator {
+            let name = match estimator {
+                EstimatorChoice::Kalman => "kalman",
+                EstimatorChoice::KalmanTwoState => "kalman-two-state",
+                EstimatorChoice::Lowpass => "lowpass",
+                EstimatorChoice::Direct => "direct",
+            };
+            add("estimator", name.to_string());
+        }
+        if let Some(noise) = self.kalman_acceleration_noise {
+            add("kalman-acceleration-noise", noise.to_string());
+        }
+        if let Some(time_constant) = self.lowpass_time_constant {
+            add("lowpass-time-constant", time_constant.to_string());
+        }
+        if let Some(lag) = self.torque_lag {
+            add("torque-lag", lag.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","));
+        }
+        if let Some(plant) = &self.plant {
+            add("plant", plant.display().to_string());
+        }
+        if let Some(uncertainty) = &self.uncertainty {
+            add("uncertainty", uncertainty.display().to_string());
+        }
+        flags
+    }
+
     /// The trial seed of a single run: --trial-seed, else --seed.
     pub fn run_seed(&self) -> u64 {
         self.trial_seed.unwrap_or(self.seed)

@@ -155,6 +155,8 @@ pub struct Setup {
     pub sensor_profiles: BTreeMap<String, SensorFile>,
     /// The `[uncertainty]` table (checked when the file is read).
     pub uncertainty: Option<UncertaintyFile>,
+    /// The file this setup was read from (`None`: the built-in setup).
+    pub path: Option<std::path::PathBuf>,
 }
 
 impl Default for Setup {
@@ -165,6 +167,7 @@ impl Default for Setup {
             pieces: PieceSet::default(),
             sensor_profiles: BTreeMap::new(),
             uncertainty: None,
+            path: None,
         }
     }
 }
@@ -177,7 +180,8 @@ impl Setup {
             Some(path) => {
                 let text = std::fs::read_to_string(path)
                     .with_context(|| format!("cannot read arm file {}", path.display()))?;
-                Self::parse(&text).with_context(|| format!("arm file {}", path.display()))
+                let setup = Self::parse(&text).with_context(|| format!("arm file {}", path.display()))?;
+                Ok(Self { path: Some(path.to_path_buf()), ..setup })
             }
         }
     }
@@ -307,7 +311,14 @@ impl SetupFile {
         if let Some(uncertainty) = &self.uncertainty {
             uncertainty.to_uncertainty()?;
         }
-        Ok(Setup { arm, board, pieces, sensor_profiles: self.sensors.clone(), uncertainty: self.uncertainty.clone() })
+        Ok(Setup {
+            arm,
+            board,
+            pieces,
+            sensor_profiles: self.sensors.clone(),
+            uncertainty: self.uncertainty.clone(),
+            path: None,
+        })
     }
 }
 

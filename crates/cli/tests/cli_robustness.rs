@@ -165,7 +165,7 @@ fn a_setup_profile_is_used_by_name_and_play_records_the_conditions() {
     let printed = String::from_utf8(chessarm(&["--arm", &setup, "arm"]).stdout).unwrap();
     assert!(printed.contains("[sensors.bench]") && printed.contains("[uncertainty]"), "{printed}");
     let out = dir.path().join("game");
-    json_of(&chessarm(&[
+    let played = chessarm(&[
         "--arm",
         &setup,
         "play",
@@ -177,13 +177,45 @@ fn a_setup_profile_is_used_by_name_and_play_records_the_conditions() {
         "3",
         "--out",
         out.to_str().unwrap(),
-    ]));
+    ]);
+    assert!(String::from_utf8_lossy(&played.stderr).contains("conditions: sensors bench, estimator kalman"));
+    json_of(&played);
     let game: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
     assert_eq!(game["conditions"]["sensors"]["profile"], "bench");
     assert_eq!(game["conditions"]["sensors"]["delay_samples"], 2);
     assert_eq!(game["conditions"]["estimator"]["name"], "kalman");
-    assert_eq!(game["conditions"]["uncertainty"]["link_mass"], 0.05);
-    assert!(game["trial"]["link_mass_scale"][0].as_f64().unwrap() != 1.0);
+    // A single run is never randomised by the setup's [uncertainty] table: only robustness uses it.
+    assert!(game["conditions"]["uncertainty"].is_null() && game["trial"]["link_mass_scale"].is_null(), "{game}");
+    let study = dir.path().join("study");
+    let summary = json_of(&chessarm(&[
+        "--arm",
+        &setup,
+        "robustness",
+        "--trials",
+        "2",
+        "--controller",
+        "pd",
+        "--sensors",
+        "bench",
+        "--out",
+        study.to_str().unwrap(),
+    ]));
+    assert_eq!(summary["summary"]["conditions"]["uncertainty"]["link_mass"], 0.05);
+    // Its replay command names the setup file for the sensors and the model errors, and
+    // re-runs the worst trial to the same number.
+    let replay = summary["summary"]["controllers"][0]["replay_worst_trial"].as_str().unwrap().to_string();
+    assert!(
+        replay.contains(&format!("--arm {setup}")) && replay.contains(&format!("--uncertainty {setup}")),
+        "{replay}"
+    );
+    let alone = dir.path().join("alone");
+    let mut args: Vec<&str> = replay.split(' ').skip(1).collect();
+    args.extend(["--out", alone.to_str().unwrap()]);
+    let again = json_of(&chessarm(&args));
+    assert_eq!(
+        again["summary"]["controllers"][0]["placement_error_mm"],
+        summary["summary"]["controllers"][0]["place_error_mm"]["max"]
+    );
 }
 
 #[test]

@@ -146,6 +146,15 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             assert!(values[0] < 0.1 && json["tracking_metrics_from_s"].as_f64() == Some(1.0), "{json}");
             assert!(json["best"][0]["metric"].as_f64().unwrap() < 0.1, "{json}");
         }
+        // The replay of one trial: the one robustness.json says is PD's worst (the README
+        // says so), to the same placement error.
+        Some("simulate") if args.iter().any(|a| a == "--trial-seed") => {
+            let study: Value =
+                serde_json::from_slice(&std::fs::read(dir.join("out/robustness/robustness.json")).unwrap()).unwrap();
+            let pd = &study["controllers"].as_array().unwrap().iter().find(|c| c["controller"] == "pd").unwrap();
+            assert_eq!(pd["replay_worst_trial"].as_str().unwrap(), format!("chessarm {}", args.join(" ")));
+            assert_eq!(json["summary"]["controllers"][0]["placement_error_mm"], pd["place_error_mm"]["max"]);
+        }
         Some("play") if args.iter().any(|a| a == "--game") => {
             assert_eq!(json["result"].as_str(), Some("0-1"), "game 2 is the fool's mate: {json}");
         }

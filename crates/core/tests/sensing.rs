@@ -123,9 +123,13 @@ fn the_torque_lag_follows_its_first_order_response() {
         }
     }
     simulate(&mut plant, &mut Constant(command), &Short, None, &[], &[], &config, &mut records).unwrap();
-    // τ_k = τ_c (1 − e^{−k dt/T}) after k steps from zero: the exact response of T τ̇ + τ = τ_c.
+    // The torque held over step k is the mean over [k dt, (k + 1) dt] of the exact response
+    // of T τ̇ + τ = τ_c from zero, τ_c (1 − e^{−t/T}):
+    // τ_c (1 − (T/dt)(e^{−k dt/T} − e^{−(k+1) dt/T})).
+    let dt: f64 = 1e-3;
     for (k, record) in records.iter().enumerate().take(200) {
-        let expected = command * (1.0 - (-(k as f64 + 1.0) * 1e-3 / lag).exp());
+        let k = k as f64;
+        let expected = command * (1.0 - lag / dt * ((-k * dt / lag).exp() - (-(k + 1.0) * dt / lag).exp()));
         assert!((record.torque - expected).abs().max() < 1e-12, "step {k}: {} vs {expected}", record.torque);
     }
 }

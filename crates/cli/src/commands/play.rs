@@ -106,6 +106,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let trial = study.trial(args.conditions.run_seed())?;
     let ideal = study.is_ideal(setup);
     if !ideal {
+        crate::tell(&study.note(args.conditions.run_seed()));
+    }
+    if !ideal {
         settings.plant = Some(trial.plant);
         settings.true_pieces = Some(trial.pieces);
         settings.conditions = trial.conditions.clone();

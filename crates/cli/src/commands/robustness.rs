@@ -215,14 +215,23 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
     }
     let position = q * (sorted.len() - 1) as f64;
     let (low, high) = (position.floor() as usize, position.ceil() as usize);
+    if sorted[high].is_infinite() {
+        return f64::INFINITY;
+    }
     sorted[low] + (sorted[high] - sorted[low]) * (position - low as f64)
 }
 
-/// Per controller: the study's statistics.
-fn statistics(rows: &[TrialRow], name: &str) -> serde_json::Value {
+/// Per controller: the study's statistics. A failed run counts as an infinite placement
+/// error (JSON null), so a median, p95 or largest error over failures is not a number.
+fn statistics(rows: &[TrialRow], name: &str, replay: &str) -> serde_json::Value {
     let mine: Vec<&TrialRow> = rows.iter().filter(|r| r.controller == name).collect();
-    let mut errors: Vec<f64> = mine.iter().map(|r| r.place_error_mm).filter(|e| e.is_finite()).collect();
+    let mut errors: Vec<f64> =
+        mine.iter().map(|r| if r.place_error_mm.is_finite() { r.place_error_mm } else { f64::INFINITY }).collect();
     errors.sort_by(f64::total_cmp);
+    let worst = mine
+        .iter()
+        .filter(|r| r.place_error_mm.is_finite())
+        .max_by(|a, b| a.place_error_mm.total_cmp(&b.place_error_mm));
     let successes = mine.iter().filter(|r| r.success()).count();
     let failed = mine.iter().filter(|r| r.status != "ok").count();
     json!({
@@ -239,7 +248,8 @@ fn statistics(rows: &[TrialRow], name: &str) -> serde_json::Value {
         "peak_torque_ratio": mine.iter().map(|r| r.peak_torque_ratio).fold(0.0f64, f64::max),
         "trials_with_saturation": mine.iter().filter(|r| r.saturated_samples > 0).count(),
         "rms_rate_estimate_error_rad_per_s": mine.iter().map(|r| r.rms_rate_estimate_error).sum::<f64>() / mine.len().max(1) as f64,
-        "worst_trial_seed": mine.iter().filter(|r| r.place_error_mm.is_finite()).max_by(|a, b| a.place_error_mm.total_cmp(&b.place_error_mm)).map(|r| r.trial_seed),
+        "worst_trial_seed": worst.map(|r| r.trial_seed),
+        "replay_worst_trial": worst.map(|r| format!("chessarm {replay} --controller {name} --trial-seed {}", r.trial_seed)),
     })
 }
 
@@ -312,7 +322,7 @@ pub fn run_trials(
 
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let specs = controller_specs(&args.controller, &args.gains)?;
-    let study = Study::new(setup, &args.conditions, 1e-3)?;
+    let study = Study::for_trials(setup, &args.conditions, 1e-3)?;
     if args.conditions.trial_seed.is_some() {
         anyhow::bail!(
             "--trial-seed runs one trial: use it with simulate or play; robustness draws --trials trials from --seed"
@@ -375,7 +385,28 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     })?;
     let plot_path = args.out.join("robustness.png");
     draw_cdf(&rows, &specs, args.tolerance_mm, &plot_path)?;
-    let stats: Vec<serde_json::Value> = specs.iter().map(|spec| statistics(&rows, &spec.name)).collect();
+    let knows = if args.controller_knows_payload { " --controller-knows-payload" } else { "" };
+    // The replay names the setup file, and takes the model errors from its [uncertainty] table
+    // when they came from there.
+    let arm = setup.path.as_ref().map_or(String::new(), |p| format!("--arm {} ", p.display()));
+    let from_setup = match (&args.conditions.uncertainty, &setup.path, &setup.uncertainty) {
+        (None, Some(path), Some(_)) => format!(" --uncertainty {}", path.display()),
+        _ => String::new(),
+    };
+    let replay = match &work {
+        Work::Scenario { payload_mass, .. } => format!(
+            "{arm}simulate --scenario {} --payload-mass {payload_mass}{knows}{}{from_setup}",
+            args.scenario,
+            args.conditions.flags()
+        ),
+        Work::Game(_) => format!(
+            "{arm}play {} --game {}{knows}{}{from_setup}",
+            args.game_file.as_ref().map_or(String::new(), |p| p.display().to_string()),
+            args.game,
+            args.conditions.flags()
+        ),
+    };
+    let stats: Vec<serde_json::Value> = specs.iter().map(|spec| statistics(&rows, &spec.name, &replay)).collect();
     let summary = json!({
         "work": match &args.game_file { Some(path) => json!({ "game_file": path.display().to_string(), "game": args.game }), None => json!({ "scenario": args.scenario }) },
         "trials": args.trials,
@@ -425,14 +456,12 @@ fn draw_cdf(rows: &[TrialRow], specs: &[ControllerSpec], tolerance_mm: f64, path
         .iter()
         .enumerate()
         .map(|(k, spec)| {
-            let mut errors: Vec<f64> = rows
-                .iter()
-                .filter(|r| r.controller == spec.name)
-                .map(|r| r.place_error_mm)
-                .filter(|e| e.is_finite())
-                .collect();
+            let mine: Vec<f64> = rows.iter().filter(|r| r.controller == spec.name).map(|r| r.place_error_mm).collect();
+            // Fractions of all trials: failed runs (NaN) are left out of the curve, which then
+            // ends below 1.
+            let n = mine.len().max(1) as f64;
+            let mut errors: Vec<f64> = mine.into_iter().filter(|e| e.is_finite()).collect();
             errors.sort_by(f64::total_cmp);
-            let n = errors.len().max(1) as f64;
             Series {
                 label: spec.name.clone(),
                 points: errors.iter().enumerate().map(|(i, e)| (*e, (i + 1) as f64 / n)).collect(),

@@ -29,6 +29,12 @@ pub fn gripped_pawn(setup: &Setup, mass: f64) -> Payload {
     PieceDimensions { mass, ..setup.pieces.pawn }.payload()
 }
 
+/// The true mass of a pawn the controller believes weighs `mass` kg: scaled as the trial's
+/// pawn is to the setup's.
+pub fn true_pawn_mass(setup: &Setup, trial: Option<&Trial>, mass: f64) -> f64 {
+    trial.map_or(mass, |t| mass * t.pieces.pawn.mass / setup.pieces.pawn.mass)
+}
+
 /// Payload events of a path: the trial's true pawn, gripped at every grip mark and released
 /// at every release mark (none when the mass is 0). `mass` is the pawn's nominal mass, kg (the
 /// controller's belief); the true one is scaled as the trial's pawn is to the setup's.
@@ -43,7 +49,7 @@ pub fn pawn_events(
         return Vec::new();
     }
     let pawn = trial.map_or(setup.pieces.pawn, |t| t.pieces.pawn);
-    let payload = PieceDimensions { mass: mass * pawn.mass / setup.pieces.pawn.mass, ..pawn }.payload();
+    let payload = PieceDimensions { mass: true_pawn_mass(setup, trial, mass), ..pawn }.payload();
     path.events()
         .iter()
         .map(|event| PayloadEvent {
@@ -435,6 +441,7 @@ pub fn run_study(
         "integrator": options.integrator.name(),
         "control_period_s": options.control_period,
         "payload_mass_kg": options.payload_mass,
+        "true_payload_mass_kg": true_pawn_mass(setup, options.trial.as_ref(), options.payload_mass),
         "controller_knows_payload": options.controller_knows_payload,
         "q0_rad": options.q0,
         "tracking_metrics_from_s": options.tracking_from,
@@ -465,6 +472,7 @@ pub fn options_from(setup: &Setup, args: &SimulateArgs) -> Result<RunOptions> {
     let (trial, conditions) = if study.is_ideal(setup) {
         (None, Value::Null)
     } else {
+        crate::tell(&study.note(args.conditions.run_seed()));
         (Some(study.trial(args.conditions.run_seed())?), study.describe())
     };
     Ok(RunOptions {

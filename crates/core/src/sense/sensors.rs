@@ -203,14 +203,15 @@ impl<const N: usize> Sensors<N> {
     }
 
     /// Fills the delay line with readings of `state`, as if the arm had been there before the
-    /// run (noise is drawn for each). Returns the oldest, the one due at the first sample
-    /// of a delayed profile.
+    /// run (noise is drawn for each). Returns a reading of `state`: with a delay, the one
+    /// delivered at the first sample (the slot after the one [`Sensors::measure`] fills first).
     pub fn reset(&mut self, state: &JointState<N>) -> Measurement<N> {
         self.head = 0;
-        for k in 0..=self.profile.delay_samples {
+        let delay = self.profile.delay_samples;
+        for k in 0..=delay {
             self.line[k] = self.read(state);
         }
-        self.line[0]
+        self.line[1 % (delay + 1)]
     }
 
     /// One sample: reads `state` now and returns the reading of `delay_samples` samples ago.

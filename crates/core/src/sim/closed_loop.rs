@@ -37,9 +37,10 @@ pub struct SimConfig<const N: usize> {
     /// at the marks count over the whole run.
     pub tracking_from: f64,
     /// Per joint, the time constant of the motor's torque response, s (default 0: the
-    /// command is applied at once). The applied torque follows the clipped command `τ_c` by
-    /// `τ_{k+1} = τ_k + (1 − e^{−dt/T}) (τ_c − τ_k)` at every integration step and is held over
-    /// the step: the exact response of `T τ̇ + τ = τ_c` sampled at the steps.
+    /// command is applied at once). The motor torque follows the clipped command `τ_c` by the
+    /// exact response of `T τ̇ + τ = τ_c`, `τ_{k+1} = τ_c + (τ_k − τ_c) e^{−dt/T}`, and the plant
+    /// is given its mean over each integration step,
+    /// `τ_c + (τ_k − τ_c)(T/dt)(1 − e^{−dt/T})`, held over the step.
     pub torque_lag: JointVector<N>,
 }
 
@@ -274,8 +275,13 @@ where
     let mut estimate = state;
     let mut applied_acceleration = JointVector::<N>::zeros();
     let mut command = JointVector::<N>::zeros();
-    let lag_blend = config.torque_lag.map(|lag| if lag > 0.0 { 1.0 - (-dt / lag).exp() } else { 1.0 });
+    // Per joint: e^{−dt/T} (the decay over a step) and (T/dt)(1 − e^{−dt/T}) (the mean over a
+    // step of the decaying part).
+    let lag_decay = config.torque_lag.map(|lag| if lag > 0.0 { (-dt / lag).exp() } else { 0.0 });
+    let lag_mean = config.torque_lag.map(|lag| if lag > 0.0 { lag / dt * (1.0 - (-dt / lag).exp()) } else { 0.0 });
     let has_lag = config.torque_lag.iter().any(|lag| *lag > 0.0);
+    // The motors' torque at the start of the current step (with a lag).
+    let mut motor_torque = JointVector::<N>::zeros();
     let (mut squared_angle_estimate_error, mut squared_rate_estimate_error) =
         (JointVector::<N>::zeros(), JointVector::<N>::zeros());
     let mut samples_taken = 0usize;
@@ -294,7 +300,6 @@ where
     let mut tip_at_marks = vec![Vector3::repeat(f64::NAN); marks.len()];
     let mut tip_error_at_marks = vec![f64::NAN; marks.len()];
     let mut next_event = 0;
-    let mut torque = JointVector::<N>::zeros();
     // The plant's M and C q̇ + g at each step are the first stage of its integrator; a
     // controller with the same model gets them too instead of computing them again.
     let shares_terms = |plant: &Plant<N>, controller: &C| controller.dynamics_model() == Some(plant.model());
@@ -332,7 +337,6 @@ where
                 controller.torque(&estimate, &desired, config.control_period)
             };
             samples_taken += 1;
-            applied_acceleration = controller.commanded_acceleration().unwrap_or_else(JointVector::zeros);
             let mut clipped = false;
             for j in 0..N {
                 if !raw[j].is_finite() {
@@ -351,12 +355,20 @@ where
                 }
             }
             saturated_samples += usize::from(clipped);
+            if !exact {
+                applied_acceleration = acceleration_of(controller, &estimate, &command, clipped);
+            }
         }
-        if has_lag {
-            torque += (command - torque).component_mul(&lag_blend);
+        let torque = if has_lag {
+            // The exact response of T τ̇ + τ = τ_c over the step, held as its mean (what
+            // the step integrates): τ̄ = τ_c + (τ_k − τ_c)(T/dt)(1 − e^{−dt/T}),
+            // τ_{k+1} = τ_c + (τ_k − τ_c) e^{−dt/T}.
+            let gap = motor_torque - command;
+            motor_torque = command + gap.component_mul(&lag_decay);
+            command + gap.component_mul(&lag_mean)
         } else {
-            torque = command;
-        }
+            command
+        };
         let error = desired.q - state.q;
         peak_torque = peak_torque.sup(&torque.abs());
         let tip_desired = reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
@@ -401,6 +413,30 @@ where
         rms_angle_estimate_error: (squared_angle_estimate_error / samples_taken.max(1) as f64).map(f64::sqrt),
         rms_rate_estimate_error: (squared_rate_estimate_error / samples_taken.max(1) as f64).map(f64::sqrt),
     })
+}
+
+/// The joint acceleration the controller's command will produce as its model predicts it, the
+/// estimator's input for the coming sample: the controller's own `v`, unless the command was
+/// clipped, when its model's `M̂⁻¹(τ_clipped − N̂)` at the state it saw (only then computed, and
+/// only if the controller has a model), rad/s².
+fn acceleration_of<const N: usize, C: Controller<N> + ?Sized>(
+    controller: &C,
+    seen: &JointState<N>,
+    clipped_command: &JointVector<N>,
+    clipped: bool,
+) -> JointVector<N> {
+    let commanded = controller.commanded_acceleration().unwrap_or_else(JointVector::zeros);
+    if !clipped {
+        return commanded;
+    }
+    match controller.dynamics_model() {
+        Some(model) => {
+            let terms = crate::arm::dynamics::DynamicsTerms::new(model, &seen.q, &seen.qd);
+            crate::arm::mass_factor::MassMatrixFactor::new(&terms.mass_matrix)
+                .map_or(commanded, |factor| factor.solve(&(clipped_command - terms.bias)))
+        }
+        None => commanded,
+    }
 }
 
 fn check_state<const N: usize>(state: &JointState<N>, time: f64, runaway_speed: f64) -> Result<(), SimError> {
