@@ -341,6 +341,13 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         }
     };
     let range = shard_range(args.trials, args.shard);
+    // Every row (with its drawn parameters' names and values) is held until the CSV is written.
+    crate::resources::ensure_fits(
+        &format!("--trials {} with {} controllers", args.trials, specs.len()),
+        "trial rows",
+        range.len() as f64 * specs.len() as f64,
+        (std::mem::size_of::<TrialRow>() + 46 * 64) as f64,
+    )?;
     let tolerance = args.tolerance_mm / 1e3;
     let threads = crate::resources::worker_threads(args.threads)?;
     let pool =
