@@ -275,3 +275,52 @@ fn adaptive_and_observer_place_an_unknown_pawn_better_than_pd() {
     assert!(adaptive_release < 0.1 * pd_release, "adaptive {adaptive_release} mm, PD {pd_release} mm");
     assert!(dob_release < 0.1 * pd_release, "DOB {dob_release} mm, PD {pd_release} mm");
 }
+
+/// The adaptive controller's estimate at grip + 0.3 s with encoders and the Kalman filter.
+fn noisy_estimate(sensors: chessarm_core::sense::SensorProfile<4>, seed: u64) -> f64 {
+    use chessarm_core::sense::{Conditions, EstimatorSpec};
+    let scene = Scenario::queens_gambit();
+    let events = scene.unknown(pawn());
+    let grip = scene.time_of(GripperAction::Grip);
+    let conditions = Conditions { sensors, estimator: EstimatorSpec::KALMAN, torque_lag: JointVector::zeros(), seed };
+    let mut feedback = conditions.feedback(1e-3).unwrap();
+    let mut plant = Plant::new(scene.arm);
+    let config = SimConfig::new(&plant);
+    let reference = Prefix { trajectory: &scene.trajectory, duration: grip + 0.3 };
+    let mut controller = AdaptiveComputedTorque::new(scene.arm);
+    chessarm_core::sim::simulate_sensed(
+        &mut plant,
+        &mut feedback,
+        &mut controller,
+        &reference,
+        None,
+        &events,
+        &[],
+        &config,
+        &mut NoObserver,
+    )
+    .unwrap();
+    controller.payload_estimate().0
+}
+
+#[test]
+fn adaptive_estimate_with_encoders_is_measured_against_its_target() {
+    // The target (within 5 % of the true mass 0.3 s after the grip) holds with exact
+    // states (above). With encoders the acceleration the estimator needs comes from estimated
+    // rates, whose noise is in the regressor as well as in the residual (errors in variables).
+    // Measured over 8 seeds: servo mean 0.2 %, worst 0.5 % (the target holds); hobby mean
+    // 5.0 %, worst 8.0 % (it does not, by up to 3 points). The bounds are about twice the
+    // measured worst, so that a regression shows.
+    let true_mass = pawn().inertial.mass;
+    for (name, sensors, bound) in [
+        ("servo", chessarm_core::sense::SensorProfile::servo(), 0.01),
+        ("hobby", chessarm_core::sense::SensorProfile::hobby(), 0.15),
+    ] {
+        let errors: Vec<f64> =
+            (0..8).map(|seed| (noisy_estimate(sensors.clone(), seed) - true_mass).abs() / true_mass).collect();
+        let worst = errors.iter().copied().fold(0.0, f64::max);
+        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        println!("adaptive at grip + 0.3 s, {name} + kalman: relative mass error mean {mean:.3}, worst {worst:.3}");
+        assert!(worst < bound, "{name}: {errors:?}");
+    }
+}
