@@ -248,7 +248,7 @@ pub struct ConditionArgs {
     /// TOML FILE of one profile (counts_per_rev, noise_counts, offset, delay_samples, rate_noise).
     #[arg(long, value_name = "PROFILE|FILE")]
     pub sensors: Option<String>,
-    /// State estimator. Default: direct with ideal sensors or a velocity sensor, kalman otherwise.
+    /// State estimator. Default: direct with ideal sensors, kalman otherwise.
     #[arg(long, value_enum)]
     pub estimator: Option<EstimatorChoice>,
     /// σ of the acceleration the Kalman filter's motion model does not know, rad/s².
