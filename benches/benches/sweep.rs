@@ -19,6 +19,7 @@ fn sweeps(c: &mut Criterion) {
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
         kind: chessarm_core::control::choice::ControllerKind::ComputedTorque,
+        knows_friction: false,
         trial: None,
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(&args),

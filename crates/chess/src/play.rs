@@ -62,7 +62,12 @@ impl PlaySettings {
         Self {
             pieces: PieceSet::default(),
             limits: MotionLimits::default(),
-            controller: ControllerSpec { name: controller.into(), kind: ControllerKind::ComputedTorque, gains },
+            controller: ControllerSpec {
+                name: controller.into(),
+                kind: ControllerKind::ComputedTorque,
+                gains,
+                knows_friction: false,
+            },
             controller_knows_payload: false,
             plant: None,
             true_pieces: None,

@@ -260,6 +260,10 @@ pub struct ConditionArgs {
     /// Motors' first-order torque lag, s: one value or one per joint (default 0: none).
     #[arg(long, value_name = "S", value_parser = args::time_constants, allow_hyphen_values = true)]
     pub torque_lag: Option<[f64; 4]>,
+    /// The controller is told --arm's friction (viscous, coulomb) and compensates it; without
+    /// it, friction acts in the plant only.
+    #[arg(long)]
+    pub controller_knows_friction: bool,
     /// The true arm and pieces: a second setup file (the controller keeps --arm's model).
     #[arg(long, value_name = "FILE")]
     pub plant: Option<PathBuf>,
@@ -287,6 +291,8 @@ pub struct Study {
     pub plant_file: Option<PathBuf>,
     pub uncertainty: Option<Uncertainty>,
     pub uncertainty_file: Option<UncertaintyFile>,
+    /// Whether the controllers compensate --arm's friction.
+    pub controller_knows_friction: bool,
 }
 
 /// One run's conditions.
@@ -431,6 +437,7 @@ impl Study {
             plant_file: args.plant.clone(),
             uncertainty,
             uncertainty_file,
+            controller_knows_friction: args.controller_knows_friction,
         })
     }
 
@@ -442,6 +449,7 @@ impl Study {
             && self.plant == setup.arm
             && self.plant_pieces == setup.pieces
             && self.uncertainty.is_none()
+            && !(self.controller_knows_friction && setup.arm.has_friction())
     }
 
     /// The run of trial seed `seed`: the model and piece draws (with model errors) and the
@@ -507,6 +515,7 @@ impl Study {
             },
             "estimator": estimator,
             "torque_lag_s": self.torque_lag.as_slice(),
+            "controller_knows_friction": self.controller_knows_friction,
             "plant_file": self.plant_file.as_ref().map(|p| p.display().to_string()),
             "uncertainty": self.uncertainty_file,
         })
@@ -590,8 +599,12 @@ impl ConditionArgs {
         if let Some(plant) = &self.plant {
             add("plant", plant.display().to_string());
         }
+
         if let Some(uncertainty) = &self.uncertainty {
             add("uncertainty", uncertainty.display().to_string());
+        }
+        if self.controller_knows_friction {
+            flags.push_str(" --controller-knows-friction");
         }
         flags
     }

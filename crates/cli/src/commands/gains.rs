@@ -59,7 +59,12 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
     let mut designs = Vec::new();
     for &(name, pid) in controllers {
         let (gains, wn, zeta, ratio) = design(args, pid)?;
-        let spec = ControllerSpec { name: name.into(), kind: ControllerKind::ComputedTorque, gains };
+        let spec = ControllerSpec {
+            name: name.into(),
+            kind: ControllerKind::ComputedTorque,
+            gains,
+            knows_friction: args.conditions.controller_knows_friction,
+        };
         // What the design promises: the exact response of the error dynamics.
         let shape = ResponseShape::of(zeta, ratio);
         let poles: Vec<[f64; 2]> = gains.closed_loop_poles(0).iter().map(|p| [p.re, p.im]).collect();

@@ -98,7 +98,8 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 }
 
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
-    let spec = controller_specs(&[args.controller.into()], &args.gains)?.remove(0);
+    let mut spec = controller_specs(&[args.controller.into()], &args.gains)?.remove(0);
+    spec.knows_friction = args.conditions.controller_knows_friction;
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     let settings_name = spec.name.clone();
     settings.controller = spec;

@@ -321,7 +321,10 @@ pub fn run_trials(
 }
 
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
-    let specs = controller_specs(&args.controller, &args.gains)?;
+    let mut specs = controller_specs(&args.controller, &args.gains)?;
+    for spec in &mut specs {
+        spec.knows_friction = args.conditions.controller_knows_friction;
+    }
     let study = Study::for_trials(setup, &args.conditions, 1e-3)?;
     if args.conditions.trial_seed.is_some() {
         anyhow::bail!(

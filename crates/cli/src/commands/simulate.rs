@@ -96,7 +96,7 @@ pub fn controller_specs(names: &[ControllerName], given: &GainArgs) -> Result<Ve
         let pick = |given: Option<[f64; 4]>, default: f64| JointVector::<4>::from(given.unwrap_or([default; 4]));
         let ki = if name.starts_with("pid") { pick(ki, default_ki) } else { JointVector::zeros() };
         let gains = Gains::per_joint(pick(kp, default_kp), pick(kd, default_kd), ki)?;
-        Ok::<_, anyhow::Error>(ControllerSpec { name: name.to_string(), kind, gains })
+        Ok::<_, anyhow::Error>(ControllerSpec { name: name.to_string(), kind, gains, knows_friction: false })
     };
     let mut wanted: Vec<ControllerName> = Vec::new();
     for name in names {
@@ -521,7 +521,10 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
     }
-    let specs = controller_specs(&args.controller, &args.gains)?;
+    let mut specs = controller_specs(&args.controller, &args.gains)?;
+    for spec in &mut specs {
+        spec.knows_friction = args.conditions.controller_knows_friction;
+    }
     let options = options_from(setup, args)?;
     let total = study_steps(setup, &args.scenario, &options)?.saturating_mul(specs.len() as u64);
     let bar = crate::progress::bar(total, "simulating");

@@ -178,7 +178,12 @@ pub fn simulate_candidate(
         Study::Scenario(scenario) => {
             let trial = options.trial.as_ref();
             let mut plant = Plant::new(trial.map_or(setup.arm, |t| t.plant));
-            let spec = ControllerSpec { name: "candidate".into(), kind: options.kind, gains: *gains };
+            let spec = ControllerSpec {
+                name: "candidate".into(),
+                kind: options.kind,
+                gains: *gains,
+                knows_friction: options.knows_friction,
+            };
             let mut controller = match spec.build(setup.arm) {
                 Ok(controller) => controller,
                 Err(error) => {
@@ -261,6 +266,8 @@ pub struct CandidateOptions {
     pub controller_knows_payload: bool,
     /// Which controller the gains are for.
     pub kind: ControllerKind,
+    /// Whether the controller compensates its model's friction.
+    pub knows_friction: bool,
     /// Sensors, estimator, lag and the true arm (`None`: ideal, the setup's arm); every
     /// candidate runs the same trial (the same draws and sensor noise).
     pub trial: Option<Trial>,
@@ -396,6 +403,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
         kind,
+        knows_friction: args.conditions.controller_knows_friction,
         trial,
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(args),

@@ -29,12 +29,25 @@ pub struct ControllerSpec {
     pub name: String,
     pub kind: ControllerKind,
     pub gains: Gains<4>,
+    /// Whether the controller is told the arm's friction (its model's `viscous`, `coulomb`)
+    /// and compensates it; otherwise its model has none.
+    pub knows_friction: bool,
 }
 
 impl ControllerSpec {
     /// The controller, using `model` as its model of the arm. Refuses gains the kind cannot
     /// use (an integral gain for the adaptive controller or the disturbance observer).
     pub fn build(&self, model: ArmModel<4>) -> Result<Box<dyn Controller<4>>, GainError> {
+        let model = if self.knows_friction || !model.has_friction() {
+            model
+        } else {
+            let mut links = *model.links();
+            for link in &mut links {
+                link.friction = Default::default();
+            }
+            // The same links without friction: valid whenever the model was.
+            model.with_links(links).unwrap_or(model)
+        };
         Ok(match self.kind {
             ControllerKind::ComputedTorque => Box::new(ComputedTorque::new(self.name.clone(), model, self.gains)),
             ControllerKind::AntiWindupPid => Box::new(

@@ -206,7 +206,7 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
             }
         }
         let mut outer = self.outer_loop(reference, &error, &error_rate);
-        let mut torque = terms.mass_matrix * outer + terms.bias;
+        let mut torque = super::compensate_friction(&self.model, &state.qd, terms.mass_matrix * outer + terms.bias);
         if integrates {
             let limits = self.model.torque_limits();
             match self.anti_windup {
@@ -223,7 +223,8 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
                     }
                     if held {
                         outer = self.outer_loop(reference, &error, &error_rate);
-                        torque = terms.mass_matrix * outer + terms.bias;
+                        torque =
+                            super::compensate_friction(&self.model, &state.qd, terms.mass_matrix * outer + terms.bias);
                     }
                 }
             }

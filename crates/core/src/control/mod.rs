@@ -10,6 +10,18 @@ pub mod gains;
 use crate::arm::dynamics::DynamicsTerms;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 
+/// `torque` plus the compensation of the friction in `model`, if it has any:
+/// `τ + b q̇ + c tanh(q̇/ε)` (the opposite of [`crate::arm::dynamics::friction_torques`]). A
+/// controller whose model has no friction (the default: the plant's friction is unknown to it)
+/// gets `torque` unchanged, bit for bit.
+pub fn compensate_friction<const N: usize>(
+    model: &ArmModel<N>,
+    qd: &JointVector<N>,
+    torque: JointVector<N>,
+) -> JointVector<N> {
+    if model.has_friction() { torque - crate::arm::dynamics::friction_torques(model, qd) } else { torque }
+}
+
 /// Measured joint state: angles (rad) and rates (rad/s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointState<const N: usize> {
