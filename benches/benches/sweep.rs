@@ -13,7 +13,7 @@ fn sweeps(c: &mut Criterion) {
     let cli = Cli::parse_from(["chessarm", "tune", "--kp", "100..900:40", "--kd", "10..60:40"]);
     let Some(Command::Tune(args)) = cli.command else { unreachable!("a tune command line") };
     let setup = Setup::load(None).expect("built-in setup");
-    let study = study(&setup, &args).expect("scenario");
+    let study = study(&setup, &args, None).expect("scenario");
     let gains = candidate_gains(&args).expect("valid ranges");
     let range = shard_range(gains.len(), None);
     let options = CandidateOptions {

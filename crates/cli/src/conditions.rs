@@ -386,10 +386,9 @@ impl Study {
                 EstimatorSpec::Kalman(settings)
             }
             Some(EstimatorChoice::Lowpass) => EstimatorSpec::LowPass {
-                time_constant: args.lowpass_time_constant.unwrap_or(match EstimatorSpec::LOW_PASS {
-                    EstimatorSpec::LowPass { time_constant } => time_constant,
-                    _ => 0.0,
-                }),
+                time_constant: args
+                    .lowpass_time_constant
+                    .unwrap_or(chessarm_core::sense::LowPassVelocity::<4>::DEFAULT_TIME_CONSTANT),
             },
             Some(EstimatorChoice::Direct) => EstimatorSpec::Direct,
         };

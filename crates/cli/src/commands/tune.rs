@@ -331,24 +331,23 @@ pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
     Ok(all)
 }
 
-/// The study a sweep runs: the PGN game if one is given, else the scenario.
-pub fn study(setup: &Setup, args: &TuneArgs) -> Result<Study> {
+/// The study a sweep runs: the PGN game if one is given, else the scenario (whose payload is
+/// `trial`'s true pawn, if the sweep runs under realistic conditions).
+pub fn study(setup: &Setup, args: &TuneArgs, trial: Option<&Trial>) -> Result<Study> {
     if let Some(path) = &args.game_file {
         if args.payload_mass > 0.0 || args.q0.is_some() {
             bail!("--payload-mass and --q0 go with a scenario; a game grips real pieces from its home position");
         }
         return Ok(Study::Game(crate::commands::play::read_pgn_game(path, args.game)?));
     }
-    scenario_study(setup, args).map(Study::Scenario)
+    scenario_study(setup, args, trial).map(Study::Scenario)
 }
 
 /// The scenario study for the tune command.
-fn scenario_study(setup: &Setup, args: &TuneArgs) -> Result<ScenarioStudy> {
+fn scenario_study(setup: &Setup, args: &TuneArgs, trial: Option<&Trial>) -> Result<ScenarioStudy> {
     let plan = plan_scenario(setup, &args.scenario, 1e-3, "the sweep")?;
     crate::commands::simulate::ensure_tracked(tracking_from(args), &plan)?;
-    let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;
-    let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
-    let events = pawn_events(setup, trial.as_ref(), &plan.path, args.payload_mass, args.controller_knows_payload);
+    let events = pawn_events(setup, trial, &plan.path, args.payload_mass, args.controller_knows_payload);
     let marks = plan.path.events().iter().map(|e| e.time).collect();
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
@@ -396,9 +395,9 @@ pub fn sweep(
 pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let gains = candidate_gains(args)?;
     let range = shard_range(gains.len(), args.shard);
-    let study = study(setup, args)?;
     let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;
     let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
+    let study = study(setup, args, trial.as_ref())?;
     let kind = controller_specs(&[args.controller.into()], &GainArgs::default())?.remove(0).kind;
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,

@@ -179,7 +179,7 @@ impl<const N: usize> AdaptiveComputedTorque<N> {
 
     /// Other outer-loop gains; the outer loop is PD, so `ki` must be zero.
     pub fn with_gains(self, gains: Gains<N>) -> Result<Self, GainError> {
-        gains.require_pd("adaptive")?;
+        gains.require_pd("the adaptive controller's outer loop is PD: ki must be 0")?;
         Ok(Self { gains, ..self })
     }
 

@@ -83,7 +83,7 @@ impl<const N: usize> DisturbanceObserver<N> {
     /// Other outer-loop gains; the outer loop is PD (the observer does the integral's job), so
     /// `ki` must be zero.
     pub fn with_gains(self, gains: Gains<N>) -> Result<Self, GainError> {
-        gains.require_pd("dob")?;
+        gains.require_pd("the disturbance observer's outer loop is PD: ki must be 0")?;
         Ok(Self { gains, ..self })
     }
 

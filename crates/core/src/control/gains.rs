@@ -62,18 +62,10 @@ impl<const N: usize> Gains<N> {
         desired.qdd + self.kd.component_mul(&(desired.qd - state.qd)) + self.kp.component_mul(&(desired.q - state.q))
     }
 
-    /// Refuses an integral gain: `owner`'s outer loop is PD.
-    pub fn require_pd(&self, owner: &str) -> Result<(), GainError> {
+    /// Refuses an integral gain, with `reason` (the controller's outer loop is PD).
+    pub fn require_pd(&self, reason: &'static str) -> Result<(), GainError> {
         match self.ki.iter().enumerate().find(|(_, k)| **k != 0.0) {
-            Some((j, &value)) => Err(GainError::Invalid {
-                name: format!("ki[joint {}]", j + 1),
-                value,
-                reason: if owner == "adaptive" {
-                    "the adaptive controller's outer loop is PD: ki must be 0"
-                } else {
-                    "the disturbance observer's outer loop is PD: ki must be 0"
-                },
-            }),
+            Some((j, &value)) => Err(GainError::Invalid { name: format!("ki[joint {}]", j + 1), value, reason }),
             None => Ok(()),
         }
     }
