@@ -1,5 +1,10 @@
-//! Planning: LSPB profiles, Cartesian paths and joint trajectories.
+//! Planning: LSPB profiles, Cartesian paths, joint trajectories, and time-optimal timing of
+//! geometric paths (TOPP-RA) under joint, torque, tool and grip limits.
 
+pub mod constraints;
+pub mod geometric;
+pub mod optimal;
 pub mod path;
 pub mod profile;
+pub mod topp;
 pub mod trajectory;

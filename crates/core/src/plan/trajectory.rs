@@ -39,8 +39,53 @@ pub enum PlanError {
 /// arm has |det J| ≈ 0.01–0.05 over the board; 1e-6 is four orders below.
 pub const SINGULAR_DETERMINANT: f64 = 1e-6;
 
-/// The joint state that puts the tool tip on `sample` with the given constant tool `pitch`.
+/// A tool motion that can be sampled in time: a [`CartesianPath`] of LSPB moves or a
+/// time-optimal [`super::geometric::TimedMotion`].
+pub trait ToolMotion {
+    /// Duration, s.
+    fn duration(&self) -> f64;
+    /// The tool tip at time `t`, s.
+    fn sample(&self, t: f64) -> CartesianSample;
+}
+
+impl ToolMotion for CartesianPath {
+    fn duration(&self) -> f64 {
+        CartesianPath::duration(self)
+    }
+    fn sample(&self, t: f64) -> CartesianSample {
+        CartesianPath::sample(self, t)
+    }
+}
+
+impl ToolMotion for super::geometric::TimedMotion {
+    fn duration(&self) -> f64 {
+        super::geometric::TimedMotion::duration(self)
+    }
+    fn sample(&self, t: f64) -> CartesianSample {
+        super::geometric::TimedMotion::sample(self, t)
+    }
+}
+
+/// The joint state that puts the tool tip on `sample` with the given constant tool `pitch`,
+/// and checks the joint speed limits.
 pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64) -> Result<JointSample, PlanError> {
+    let state = joint_motion_at(model, sample, pitch)?;
+    for (i, link) in model.links().iter().enumerate() {
+        if state.qd[i].abs() > link.limits.velocity {
+            return Err(PlanError::VelocityLimit {
+                time: sample.t,
+                joint: i + 1,
+                rate: state.qd[i],
+                limit: link.limits.velocity,
+            });
+        }
+    }
+    Ok(state)
+}
+
+/// The joint state that puts the tool tip on `sample` with the given constant tool `pitch`;
+/// with a path's `p'`, `p''` as the sample's velocity and acceleration it gives `q'`, `q''`.
+pub fn joint_motion_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64) -> Result<JointSample, PlanError> {
     let q = inverse_kinematics(model, &sample.position, pitch)
         .map_err(|source| PlanError::Ik { time: sample.t, source })?;
     let jacobian = task_jacobian(model, &q);
@@ -58,16 +103,6 @@ pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64)
     let qd = lu.solve(&task(&sample.velocity)).ok_or_else(singular)?;
     let drift = task_jacobian_derivative(model, &q, &qd) * qd;
     let qdd = lu.solve(&(task(&sample.acceleration) - drift)).ok_or_else(singular)?;
-    for (i, link) in model.links().iter().enumerate() {
-        if qd[i].abs() > link.limits.velocity {
-            return Err(PlanError::VelocityLimit {
-                time: sample.t,
-                joint: i + 1,
-                rate: qd[i],
-                limit: link.limits.velocity,
-            });
-        }
-    }
     Ok(JointSample { t: sample.t, position: sample.position, q, qd, qdd })
 }
 
@@ -80,7 +115,7 @@ pub struct JointTrajectory {
 
 impl JointTrajectory {
     /// Samples `path` every `dt` s and converts each sample to joint space.
-    pub fn from_path(model: &ArmModel<4>, path: &CartesianPath, dt: f64, pitch: f64) -> Result<Self, PlanError> {
+    pub fn from_path(model: &ArmModel<4>, path: &impl ToolMotion, dt: f64, pitch: f64) -> Result<Self, PlanError> {
         let samples = sample_times(path.duration(), dt)?
             .map(|t| joint_state_at(model, &path.sample(t), pitch))
             .collect::<Result<Vec<_>, _>>()?;

@@ -1,0 +1,320 @@
+//! Time-optimal timing (TOPP-RA): closed-form optima, an independent dense-grid solver on a
+//! real pick-and-place path, blend geometry, and every limit checked between grid points.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+use chessarm_core::arm::dynamics::mass_matrix;
+use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
+use chessarm_core::arm::preset::report_arm;
+use chessarm_core::arm::task::TOOL_DOWN;
+use chessarm_core::nalgebra::Vector3;
+use chessarm_core::plan::constraints::{
+    JointAcceleration, JointSpeed, JointTorque, PathConstraint, PathPoint, ToolAcceleration, ToolSpeed,
+    constraint_table,
+};
+use chessarm_core::plan::geometric::{GeometricPath, PathPiece, Stretch, TimedMotion};
+use chessarm_core::plan::optimal::{MotionCheck, check_motion, path_points, time_leg};
+use chessarm_core::plan::topp::{ConstraintTable, LimitId, ToppError, acceleration_bounds, project, time_optimal};
+
+const G: f64 = 9.81;
+
+/// A straight 1-D motion of length `length` under |s̈| ≤ a and ṡ ≤ v, on `n` grid points.
+fn kinematic_table(length: f64, v: f64, a: f64, n: usize) -> ConstraintTable {
+    let mut table = ConstraintTable::new();
+    for k in 0..n {
+        table.push_point(length * k as f64 / (n - 1) as f64);
+        table.push_row(0.0, 1.0 / (v * v), 1.0, LimitId(0));
+        table.push_row(1.0 / a, 0.0, 1.0, LimitId(1));
+        table.push_row(-1.0 / a, 0.0, 1.0, LimitId(1));
+    }
+    table
+}
+
+/// The bang–bang (triangle) or bang–coast–bang (trapezoid) optimum of a rest-to-rest move.
+fn trapezoid_time(length: f64, v: f64, a: f64) -> f64 {
+    if length <= v * v / a { 2.0 * (length / a).sqrt() } else { length / v + v / a }
+}
+
+#[test]
+fn rest_to_rest_kinematic_limits_match_the_bang_bang_optimum() {
+    // The discretised optimum converges to the continuous one as the grid is refined; at 200
+    // points it is within 1 % (the target), on both a trapezoid and a triangle.
+    for (length, v, a) in [(0.4, 0.5, 2.0), (0.05, 1.0, 2.0), (1.3, 3.0, 85.0)] {
+        let exact = trapezoid_time(length, v, a);
+        let timing = time_optimal(&kinematic_table(length, v, a, 200), 0.0, 0.0).unwrap();
+        let error = (timing.duration() - exact).abs() / exact;
+        assert!(
+            error < 0.01,
+            "L {length} v {v} a {a}: {} s against {exact} s ({:.3} %)",
+            timing.duration(),
+            100.0 * error
+        );
+        // The timing never breaks the limits it was given.
+        for (i, &u) in timing.u.iter().enumerate() {
+            assert!(u.abs() <= a * (1.0 + 1e-9), "stage {i}: s̈ = {u}");
+            assert!(timing.x[i] <= v * v * (1.0 + 1e-9));
+        }
+        assert_eq!(timing.x[0], 0.0);
+        assert_eq!(*timing.x.last().unwrap(), 0.0);
+    }
+}
+
+#[test]
+fn projection_and_bounds_are_exact_on_a_known_polygon() {
+    use chessarm_core::plan::topp::Row;
+    let row = |alpha, beta, gamma| Row { alpha, beta, gamma, limit: LimitId(0) };
+    // u ≤ 2 − x, u ≥ x − 4, x ≤ 5: the projection is x ≤ 3 (where 2 − x = x − 4).
+    let rows = [row(1.0, 1.0, 2.0), row(-1.0, 1.0, 4.0), row(0.0, 1.0, 5.0)];
+    let (lo, hi) = project(rows.iter().copied()).unwrap();
+    assert_eq!(lo, 0.0);
+    assert!((hi - 3.0).abs() < 1e-15);
+    let (low, high) = acceleration_bounds(rows.iter().copied(), 1.0);
+    assert!((low - -3.0).abs() < 1e-15 && (high - 1.0).abs() < 1e-15);
+    // Contradictory rows: empty.
+    assert!(project([row(1.0, 0.0, -1.0), row(-1.0, 0.0, -1.0)].into_iter()).is_none());
+}
+
+/// Path points of joint 1 alone turning from −1 to +1 rad (the other joints fixed).
+fn base_turn_points(rest: [f64; 3], n: usize) -> Vec<PathPoint<4>> {
+    (0..n)
+        .map(|k| {
+            let s = 2.0 * k as f64 / (n - 1) as f64;
+            let q = JointVector::<4>::new(-1.0 + s, rest[0], rest[1], rest[2]);
+            let unit = JointVector::<4>::new(1.0, 0.0, 0.0, 0.0);
+            let zero = Vector3::zeros();
+            PathPoint { s, q, dq: unit, ddq: JointVector::zeros(), tip: zero, dtip: zero, ddtip: zero }
+        })
+        .collect()
+}
+
+#[test]
+fn a_base_turn_under_its_torque_and_speed_limits_is_the_closed_form_trapezoid() {
+    // Joint 1 (the base yaw) alone: τ₁ = M₁₁ q̈₁ (M₁₁ does not depend on q₁ and gravity does
+    // not act about the vertical axis), so |q̈₁| ≤ 0.85·τ_max/M₁₁, and q̇₁ ≤ 3 rad/s.
+    let model = report_arm();
+    let rest = [0.6, -1.2, -0.9];
+    let points = base_turn_points(rest, 300);
+    let torque = JointTorque { model, margin: 0.85, max_speed: [3.0; 4] };
+    let speed = JointSpeed { max: [3.0; 4] };
+    let constraints: [&dyn PathConstraint<4>; 2] = [&torque, &speed];
+    let (table, names) = constraint_table(&points, &constraints);
+    let timing = time_optimal(&table, 0.0, 0.0).unwrap();
+    let m11 = mass_matrix(&model, &points[0].q)[(0, 0)];
+    let a = 0.85 * model.link(0).limits.torque / m11;
+    let exact = trapezoid_time(2.0, 3.0, a);
+    let error = (timing.duration() - exact).abs() / exact;
+    assert!(error < 0.01, "{} s against {exact} s ({:.3} %)", timing.duration(), 100.0 * error);
+    // The other joints carry gravity and the centrifugal load of the turn well inside their
+    // limits, so the closed form is the whole story: only joint 1's limits bind.
+    for active in timing.active.iter().flatten() {
+        let name = &names[active.0 as usize];
+        assert!(name == "joint 1 torque" || name == "joint 1 speed", "binding: {name}");
+    }
+}
+
+/// Rise, traverse and descend between two squares of the report's board, corners blended.
+fn pick_and_place(cut: f64) -> GeometricPath {
+    let (h, z) = (0.13, 0.025);
+    let points = [
+        Vector3::new(0.09, 0.21, z),
+        Vector3::new(0.09, 0.21, h),
+        Vector3::new(-0.15, 0.45, h),
+        Vector3::new(-0.15, 0.45, z),
+    ];
+    GeometricPath::polyline(&points, |_| cut).unwrap()
+}
+
+#[test]
+fn blends_are_smooth_and_stay_inside_their_corner() {
+    let path = pick_and_place(0.04);
+    assert_eq!(path.pieces().len(), 5);
+    let starts = path.piece_starts();
+    // p, p' and p'' are continuous across every piece boundary (p'' is zero on lines and at
+    // the ends of blends).
+    for &s in &starts[1..] {
+        let (a, da, dda) = path.eval(s - 1e-9);
+        let (b, db, ddb) = path.eval(s + 1e-9);
+        assert!((a - b).norm() < 1e-8 && (da - db).norm() < 1e-6, "at s = {s}");
+        // 1e-9 into a blend of cut d, |p''| = |u₂ − u₁|·6τ/(2d) with τ = 1e-9/(2d): ≈ 1.3e-6 here.
+        assert!(dda.norm() < 1e-5 && ddb.norm() < 1e-5, "curvature at s = {s}: {dda} {ddb}");
+    }
+    // p' and p'' are the derivatives of p (central differences, error O(h²)).
+    let h = 1e-5;
+    for k in 1..200 {
+        let s = path.length() * k as f64 / 200.0;
+        let (_, dp, ddp) = path.eval(s);
+        let (before, dp0, _) = path.eval(s - h);
+        let (after, dp1, _) = path.eval(s + h);
+        assert!(((after - before) / (2.0 * h) - dp).norm() < 1e-6, "p' at s = {s}");
+        assert!(((dp1 - dp0) / (2.0 * h) - ddp).norm() < 1e-3, "p'' at s = {s}");
+    }
+    // Each blend lies in the triangle A–C–B: below the traverse height, above the ends' line.
+    for piece in path.pieces() {
+        if let PathPiece::Blend { .. } = piece {
+            for k in 0..=100 {
+                let (p, _, _) = piece.eval(piece.length() * k as f64 / 100.0);
+                assert!(p.z <= 0.13 + 1e-12 && p.z >= 0.13 - 0.04 - 1e-12, "z = {}", p.z);
+            }
+        }
+    }
+    assert!((path.start() - Vector3::new(0.09, 0.21, 0.025)).norm() < 1e-12);
+    assert!((path.end() - Vector3::new(-0.15, 0.45, 0.025)).norm() < 1e-12);
+}
+
+#[test]
+fn a_straight_line_under_tool_speed_and_acceleration_limits_is_the_trapezoid() {
+    let model = report_arm();
+    let line =
+        GeometricPath::polyline(&[Vector3::new(0.15, 0.2, 0.1), Vector3::new(-0.15, 0.4, 0.1)], |_| 0.0).unwrap();
+    let (v, a) = (0.4, 1.5);
+    let speed = ToolSpeed { max: v };
+    let acceleration = ToolAcceleration { max: a, gravity: Vector3::zeros(), label: "tool acceleration".into() };
+    let constraints: [&dyn PathConstraint<4>; 2] = [&speed, &acceleration];
+    let plan = time_leg(&model, &line, &constraints, line.length() / 200.0, TOOL_DOWN, 1e-9).unwrap();
+    let exact = trapezoid_time(line.length(), v, a);
+    let error = (plan.leg.timing.duration() - exact).abs() / exact;
+    assert!(error < 0.01, "{} s against {exact} s", plan.leg.timing.duration());
+}
+
+/// A slow, obviously correct solver: on a dense grid, integrate the phase plane backward from
+/// the end at the largest deceleration and forward from the start at the largest
+/// acceleration, each capped by the maximum velocity curve and the forward one by the backward
+/// one (the classical numerical-integration method).
+fn dense_grid_time(points: &[PathPoint<4>], constraints: &[&dyn PathConstraint<4>]) -> f64 {
+    let (table, _) = constraint_table(points, constraints);
+    let n = table.len();
+    let s = table.grid().to_vec();
+    let mvc: Vec<f64> = (0..n).map(|i| project(table.rows(i).iter().copied()).map_or(0.0, |(_, hi)| hi)).collect();
+    let mut backward = vec![0.0; n];
+    for i in (0..n - 1).rev() {
+        let (low, _) = acceleration_bounds(table.rows(i + 1).iter().copied(), backward[i + 1]);
+        backward[i] = (backward[i + 1] - 2.0 * (s[i + 1] - s[i]) * low).min(mvc[i]);
+    }
+    let mut x = vec![0.0; n];
+    let mut time = 0.0;
+    for i in 0..n - 1 {
+        let (_, high) = acceleration_bounds(table.rows(i).iter().copied(), x[i]);
+        x[i + 1] = (x[i] + 2.0 * (s[i + 1] - s[i]) * high).min(backward[i + 1]).max(0.0);
+        time += 2.0 * (s[i + 1] - s[i]) / (x[i].sqrt() + x[i + 1].sqrt());
+    }
+    time
+}
+
+struct Limits {
+    torque_carrying: JointTorque<4>,
+    speed: JointSpeed<4>,
+    acceleration: JointAcceleration<4>,
+    tool: ToolSpeed,
+    carry: ToolAcceleration,
+    grip: ToolAcceleration,
+}
+
+fn limits(model: &ArmModel<4>) -> Limits {
+    let payload = Payload::upright_cylinder(0.1, 0.08, 0.014, 0.05);
+    let gravity = model.gravity();
+    Limits {
+        torque_carrying: JointTorque {
+            model: model.with_payload(Some(payload)).unwrap(),
+            margin: 0.85,
+            max_speed: [3.0; 4],
+        },
+        speed: JointSpeed { max: [3.0; 4] },
+        acceleration: JointAcceleration { max: [20.0; 4] },
+        tool: ToolSpeed { max: 1.0 },
+        carry: ToolAcceleration {
+            max: 5.0,
+            gravity: Vector3::zeros(),
+            label: "tool acceleration while carrying".into(),
+        },
+        grip: ToolAcceleration { max: 2.0 * G, gravity, label: "grip".into() },
+    }
+}
+
+impl Limits {
+    fn carrying(&self) -> [&dyn PathConstraint<4>; 6] {
+        [&self.torque_carrying, &self.speed, &self.acceleration, &self.tool, &self.carry, &self.grip]
+    }
+}
+
+#[test]
+fn the_pick_and_place_optimum_matches_a_dense_grid_integration_within_one_percent() {
+    let model = report_arm();
+    let limits = limits(&model);
+    let path = pick_and_place(0.04);
+    let constraints = limits.carrying();
+    let plan = time_leg(&model, &path, &constraints, 0.005, TOOL_DOWN, 1e-9).unwrap();
+    let dense = path_points(&model, &path, &path.grid(0.0002), TOOL_DOWN).unwrap();
+    let reference = dense_grid_time(&dense, &constraints);
+    let duration = plan.leg.timing.duration();
+    let error = (duration - reference).abs() / reference;
+    assert!(error < 0.01, "TOPP-RA {duration} s against the dense grid's {reference} s ({:.3} %)", 100.0 * error);
+    // The carried piece's acceleration limit binds on this move (5 m/s² is low for this arm).
+    let binding = plan.time_per_limit();
+    let (name, longest) = binding.iter().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert!(*longest > 0.0, "{binding:?}");
+    assert!(!name.is_empty());
+}
+
+fn motion_of(plan: &chessarm_core::plan::optimal::LegPlan) -> TimedMotion {
+    let mut motion = TimedMotion::new(plan.leg.path.start());
+    motion.push(Stretch::Leg(plan.leg.clone()));
+    motion
+}
+
+#[test]
+fn every_limit_holds_at_ten_times_the_planning_grid() {
+    let model = report_arm();
+    let limits = limits(&model);
+    let path = pick_and_place(0.04);
+    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, TOOL_DOWN, 1e-3).unwrap();
+    let motion = motion_of(&plan);
+    let stages = plan.leg.timing.u.len() as f64;
+    let dt = motion.duration() / (10.0 * stages);
+    let check = MotionCheck {
+        joint_speed: [3.0; 4],
+        joint_acceleration: [20.0; 4],
+        torque_margin: 0.85,
+        tool_speed: 1.0,
+        carry_acceleration: 5.0,
+        grip_strength: 2.0 * G,
+    };
+    let carried = model.with_payload(Some(Payload::upright_cylinder(0.1, 0.08, 0.014, 0.05))).unwrap();
+    let result = check_motion(&model, &motion, &[(0.0, f64::INFINITY, carried)], &check, TOOL_DOWN, dt).unwrap();
+    let largest = result.unwrap();
+    // The plan uses its limits to the full (a time-optimal plan touches at least one).
+    assert!(largest.share > 0.99, "largest share of a limit used: {largest:?}");
+    // The duration is a whole number of control periods.
+    let periods = motion.duration() / 1e-3;
+    assert!((periods - periods.round()).abs() < 1e-6, "{periods}");
+}
+
+#[test]
+fn a_grip_weaker_than_gravity_and_a_motor_weaker_than_the_holding_torque_are_named() {
+    let model = report_arm();
+    let path = pick_and_place(0.04);
+    let weak_grip = ToolAcceleration { max: 8.0, gravity: model.gravity(), label: "grip".into() };
+    let constraints: [&dyn PathConstraint<4>; 1] = [&weak_grip];
+    let error = time_leg(&model, &path, &constraints, 0.005, TOOL_DOWN, 1e-3).unwrap_err().to_string();
+    let gravity = format!("{:.3}", model.gravity().norm());
+    assert!(error.contains("grip") && error.contains(&gravity) && error.contains("8 m/s²"), "{error}");
+
+    let mut links = *model.links();
+    links[1].limits.torque = 0.5;
+    let weak = model.with_links(links).unwrap();
+    let torque = JointTorque { model: weak, margin: 0.85, max_speed: [3.0; 4] };
+    let constraints: [&dyn PathConstraint<4>; 1] = [&torque];
+    let error = time_leg(&weak, &path, &constraints, 0.005, TOOL_DOWN, 1e-3).unwrap_err().to_string();
+    assert!(error.contains("joint 2") && error.contains("gravity") && error.contains("0.5 N·m"), "{error}");
+}
+
+#[test]
+fn bad_grids_and_boundaries_are_errors_not_panics() {
+    let mut table = ConstraintTable::new();
+    table.push_point(0.0);
+    assert_eq!(time_optimal(&table, 0.0, 0.0), Err(ToppError::Grid(1)));
+    let table = kinematic_table(1.0, 1.0, 1.0, 10);
+    assert!(matches!(time_optimal(&table, -1.0, 0.0), Err(ToppError::Boundary { .. })));
+    assert!(matches!(time_optimal(&table, f64::NAN, 0.0), Err(ToppError::Boundary { .. })));
+    // Starting faster than the speed limit allows.
+    assert!(matches!(time_optimal(&table, 4.0, 0.0), Err(ToppError::Infeasible { index: 0, .. })));
+}
