@@ -7,18 +7,18 @@
 //! exactly to their squares.
 
 use crate::board::BoardGeometry;
+use crate::motion::{PhaseTimes, PlannedMove, TimingMode, plan_move};
 use crate::outcome::{GameOutcome, outcome, position_key};
 use crate::pieces::PieceSet;
 use crate::table::{Location, Misplaced, Table, TableError};
-use crate::tasks::{MotionLimits, MoveKind, TaskError, append_move_path, classify, move_tasks};
+use crate::tasks::{MotionLimits, MoveKind, TaskError, classify, move_tasks};
 use chessarm_core::arm::model::ArmModel;
 use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
 use chessarm_core::control::JointState;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
 use chessarm_core::nalgebra::{Rotation2, Vector2, Vector3};
-use chessarm_core::plan::path::CartesianPath;
-use chessarm_core::plan::trajectory::{JointTrajectory, PlanError};
+use chessarm_core::plan::trajectory::{PlanError, ToolMotion};
 use chessarm_core::sense::{Conditions, Feedback, SenseError};
 use chessarm_core::sim::{
     Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, simulate_sensed,
@@ -33,6 +33,8 @@ use shakmaty::{CastlingMode, Chess, Color, EnPassantMode, Move, Position};
 pub struct PlaySettings {
     pub pieces: PieceSet,
     pub limits: MotionLimits,
+    /// How the motions are timed (default: time-optimal).
+    pub timing: TimingMode,
     /// The controller (its model is the game's arm).
     pub controller: ControllerSpec,
     /// Whether the controller's model is told about gripped pieces (their true masses).
@@ -62,6 +64,7 @@ impl PlaySettings {
         Self {
             pieces: PieceSet::default(),
             limits: MotionLimits::default(),
+            timing: TimingMode::default(),
             controller: ControllerSpec {
                 name: controller.into(),
                 kind: ControllerKind::ComputedTorque,
@@ -138,20 +141,14 @@ pub struct MoveReport {
     pub summary: Option<SimSummary<4>>,
     /// Time of the move's start in the game's robot time, s.
     pub start_time: f64,
-}
-
-/// How many times a move is replanned slower before its joint-speed violation is an error.
-const SLOWDOWN_ATTEMPTS: usize = 8;
-
-/// The limits with every speed and acceleration scaled by 0.7.
-fn slower(limits: &MotionLimits) -> MotionLimits {
-    MotionLimits {
-        max_speed: 0.7 * limits.max_speed,
-        max_acceleration: 0.7 * limits.max_acceleration,
-        vertical_speed: 0.7 * limits.vertical_speed,
-        vertical_acceleration: 0.7 * limits.vertical_acceleration,
-        ..*limits
-    }
+    /// Planned duration of the robot's motion, s (0 for the opponent's).
+    pub planned_duration: f64,
+    /// The planned time by phase (robot moves only).
+    pub phases: PhaseTimes,
+    /// Time-optimal moves: the limit binding longest and for how long, s.
+    pub longest_limit: Option<(String, f64)>,
+    /// LSPB moves: how many times the limits were scaled by 0.7 for the joint speeds.
+    pub slowdowns: usize,
 }
 
 /// Keeps every n-th step.
@@ -244,6 +241,11 @@ impl Game {
         outcome(&self.position, &self.history)
     }
 
+    /// Where the tool rests now (planned tip at the end of the last robot move), m.
+    pub fn tool(&self) -> Vector3<f64> {
+        self.tool
+    }
+
     /// Total robot time so far, s.
     pub fn robot_time(&self) -> f64 {
         self.robot_time
@@ -287,6 +289,10 @@ impl Game {
             records: Vec::new(),
             summary: None,
             start_time: self.robot_time,
+            planned_duration: 0.0,
+            phases: PhaseTimes::default(),
+            longest_limit: None,
+            slowdowns: 0,
         };
         match mover {
             Mover::Opponent => {
@@ -329,26 +335,25 @@ impl Game {
     /// Plans, simulates and applies one robot move.
     fn execute(&mut self, mv: &Move, name: &str, report: &mut MoveReport) -> Result<(), PlayError> {
         let settings = &self.settings;
-        // Cartesian limits do not bound joint rates near the base axis (joint 1 turns at
-        // v/r): when a joint would exceed its speed limit, the move is replanned slower.
-        let mut limits = settings.limits;
-        let mut attempt = 0;
-        let (path, planned, trajectory) = loop {
-            let mut path = CartesianPath::new(self.tool);
-            let planned =
-                append_move_path(&mut path, &self.position, mv, &self.table, &settings.pieces, &limits, &self.arm)?;
-            match JointTrajectory::from_path(&self.arm, &path, settings.control_period, TOOL_DOWN) {
-                Ok(trajectory) => break (path, planned, trajectory),
-                Err(PlanError::VelocityLimit { .. }) if attempt < SLOWDOWN_ATTEMPTS => {
-                    attempt += 1;
-                    limits = slower(&limits);
-                }
-                Err(source) => return Err(PlayError::Plan { mv: name.to_string(), source }),
-            }
-        };
+        let plan = plan_move(
+            self.tool,
+            &self.position,
+            mv,
+            &self.table,
+            &settings.pieces,
+            &settings.limits,
+            &self.arm,
+            settings.timing,
+            settings.control_period,
+        )?;
+        let PlannedMove { motion, trajectory, tasks: planned, phases, .. } = &plan;
+        report.planned_duration = motion.duration();
+        report.phases = *phases;
+        report.longest_limit = plan.longest_limit().map(|(n, t)| (n.to_string(), t));
+        report.slowdowns = plan.slowdowns;
         let mut events = Vec::with_capacity(2 * planned.len());
         let mut marks = Vec::with_capacity(2 * planned.len());
-        for step in &planned {
+        for step in planned {
             let piece = self.table.piece_at(step.task.from).map(|p| p.piece.role).unwrap_or(step.task.piece.role);
             let payload = settings.true_pieces.as_ref().unwrap_or(&settings.pieces).payload(piece);
             let knows = settings.controller_knows_payload;
@@ -373,7 +378,7 @@ impl Game {
             &mut plant,
             &mut self.feedback,
             controller.as_mut(),
-            &trajectory,
+            trajectory,
             Some(self.state),
             &events,
             &marks,
@@ -399,7 +404,7 @@ impl Game {
         report.records = sampler.records;
         report.summary = Some(summary.clone());
         self.robot_time += summary.duration;
-        self.tool = path.end();
+        self.tool = motion.end();
         self.state = summary.final_state;
         Ok(())
     }

@@ -156,6 +156,21 @@ pub enum TaskError {
         /// The profile's error.
         source: ProfileError,
     },
+    /// A leg of a time-optimal motion cannot be timed within the limits.
+    #[error("{0}")]
+    Leg(chessarm_core::plan::optimal::LegError),
+    /// A leg's geometry is unusable.
+    #[error("{0}")]
+    Geometry(chessarm_core::plan::geometric::GeometryError),
+    /// The planned motion has no joint trajectory.
+    #[error("{0}")]
+    Trajectory(chessarm_core::plan::trajectory::PlanError),
+    /// The planned motion exceeds a limit.
+    #[error("{0}")]
+    Violation(chessarm_core::plan::optimal::Violation),
+    /// The arm cannot carry a piece.
+    #[error("{0}")]
+    Model(chessarm_core::arm::model::ModelError),
     /// A task of a move failed.
     #[error("move {mv}: {source}")]
     Move {
@@ -287,61 +302,117 @@ pub fn move_tasks(position: &Chess, mv: &Move, table: &Table) -> Result<Vec<Task
 }
 
 /// Speed, acceleration and timing limits of the pick-and-place motions.
+///
+/// The LSPB planner (the report's) uses the traverse and vertical limits and the pauses; the
+/// time-optimal planner ([`crate::motion`]) uses the joint limits of the arm, the tool speed,
+/// joint acceleration, torque margin, the gripper's limits and the blends. Both use the
+/// clearance margin and the dwell times.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionLimits {
-    /// Largest tool-tip speed on traverses, m/s.
-    pub max_speed: f64,
-    /// Largest tool-tip acceleration on traverses, m/s².
-    pub max_acceleration: f64,
-    /// Largest tool-tip speed on vertical moves (rise, descend), m/s.
+    /// Largest tool-tip speed on LSPB traverses, m/s.
+    pub traverse_speed: f64,
+    /// Largest tool-tip acceleration on LSPB traverses, m/s².
+    pub traverse_acceleration: f64,
+    /// Largest tool-tip speed on LSPB vertical moves (rise, descend), m/s.
     pub vertical_speed: f64,
-    /// Largest tool-tip acceleration on vertical moves, m/s².
+    /// Largest tool-tip acceleration on LSPB vertical moves, m/s².
     pub vertical_acceleration: f64,
-    /// Rest between consecutive moves, s (0 for none).
+    /// Rest between consecutive LSPB moves, s (0 for none).
     pub pause: f64,
     /// Clearance between the lowest point of the tool or carried piece and the tallest piece
     /// passed over, m.
     pub clearance_margin: f64,
-    /// Time the gripper needs to close or open, s (0 for none).
+    /// Time the gripper needs to close, s (0 for none).
     pub grip_dwell: f64,
+    /// Time the gripper needs to open, s (0 for none).
+    pub release_dwell: f64,
+    /// Largest tool-tip speed of time-optimal motions, m/s.
+    pub tool_speed: f64,
+    /// Largest |joint acceleration| of time-optimal motions, rad/s², per joint.
+    pub joint_acceleration: [f64; 4],
+    /// Share of each motor's torque limit a time-optimal plan may use (the rest is the
+    /// feedback controller's headroom).
+    pub torque_margin: f64,
+    /// Largest tool acceleration while carrying a piece, m/s² (gravity not counted).
+    pub carry_acceleration: f64,
+    /// Largest `|p̈ − g|` the friction grip holds (its friction force over the piece's mass),
+    /// m/s²: above `|g|`, or a piece slips even at rest.
+    pub grip_strength: f64,
+    /// Largest corner cut of a blend, m (0: stop at every corner).
+    pub blend: f64,
+    /// Planning grid step along the path, m.
+    pub grid_step: f64,
 }
 
 impl Default for MotionLimits {
-    /// 0.25 m/s and 0.8 m/s² on traverses, 0.15 m/s and 0.6 m/s² vertically, 0.25 s pauses,
-    /// 3 cm clearance, 0.3 s for the gripper.
+    /// LSPB: 0.25 m/s and 0.8 m/s² on traverses, 0.15 m/s and 0.6 m/s² vertically, 0.25 s
+    /// pauses. Both: 3 cm clearance, 0.3 s to grip and to release. Time-optimal: 1 m/s tool
+    /// speed, 20 rad/s² per joint, 85 % of the torque limits, 5 m/s² while carrying, a grip
+    /// holding twice a piece's weight (2 × 9.81 m/s²), blends cutting corners by up to 4 cm
+    /// on a 5 mm grid.
     fn default() -> Self {
         Self {
-            max_speed: 0.25,
-            max_acceleration: 0.8,
+            traverse_speed: 0.25,
+            traverse_acceleration: 0.8,
             vertical_speed: 0.15,
             vertical_acceleration: 0.6,
             pause: 0.25,
             clearance_margin: 0.03,
             grip_dwell: 0.3,
+            release_dwell: 0.3,
+            tool_speed: 1.0,
+            joint_acceleration: [20.0; 4],
+            torque_margin: 0.85,
+            carry_acceleration: 5.0,
+            grip_strength: 2.0 * 9.81,
+            blend: 0.04,
+            grid_step: 0.005,
         }
     }
 }
 
 impl MotionLimits {
-    /// Checks that speeds, accelerations and the margin are finite and > 0 and the pauses
-    /// finite and ≥ 0.
+    /// Checks that speeds, accelerations, the margin and the grid step are finite and > 0,
+    /// the pauses, dwells and blend finite and ≥ 0, and the torque margin in (0, 1].
     pub fn validated(self) -> Result<Self, TaskError> {
+        let [a1, a2, a3, a4] = self.joint_acceleration;
         let positive = [
-            ("max_speed", self.max_speed),
-            ("max_acceleration", self.max_acceleration),
+            ("traverse_speed", self.traverse_speed),
+            ("traverse_acceleration", self.traverse_acceleration),
             ("vertical_speed", self.vertical_speed),
             ("vertical_acceleration", self.vertical_acceleration),
             ("clearance_margin", self.clearance_margin),
+            ("tool_speed", self.tool_speed),
+            ("joint_acceleration[1]", a1),
+            ("joint_acceleration[2]", a2),
+            ("joint_acceleration[3]", a3),
+            ("joint_acceleration[4]", a4),
+            ("carry_acceleration", self.carry_acceleration),
+            ("grip_strength", self.grip_strength),
+            ("grid_step", self.grid_step),
         ];
         for (field, value) in positive {
             if !(value.is_finite() && value > 0.0) {
                 return Err(TaskError::Limits { field, value, reason: "must be finite and > 0" });
             }
         }
-        for (field, value) in [("pause", self.pause), ("grip_dwell", self.grip_dwell)] {
+        let non_negative = [
+            ("pause", self.pause),
+            ("grip_dwell", self.grip_dwell),
+            ("release_dwell", self.release_dwell),
+            ("blend", self.blend),
+        ];
+        for (field, value) in non_negative {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(TaskError::Limits { field, value, reason: "must be finite and >= 0" });
             }
+        }
+        if !(self.torque_margin > 0.0 && self.torque_margin <= 1.0) {
+            return Err(TaskError::Limits {
+                field: "torque_margin",
+                value: self.torque_margin,
+                reason: "must lie in (0, 1]",
+            });
         }
         Ok(self)
     }
@@ -367,10 +438,53 @@ pub struct TaskPlan {
     pub release_point: Vector3<f64>,
 }
 
+/// Where a task picks and places, and at which heights (m above the table surface).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct TaskGeometry {
+    pub traverse_height: f64,
+    /// Where the piece stands and its target's centre (board plane, m).
+    pub pick: Vector2<f64>,
+    pub place: Vector2<f64>,
+    /// Tool-tip height at the grip and the release (the piece's grip height).
+    pub grip_z: f64,
+    /// The table surface's height, m.
+    pub surface: f64,
+    /// How far from the tool's axis a piece counts as under it, m.
+    pub radius: f64,
+}
+
+/// The heights of [`append_task_path`] for a task whose tool starts above `here`.
+pub(crate) fn task_geometry(
+    here: Vector2<f64>,
+    task: &Task,
+    table: &Table,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+) -> Result<TaskGeometry, TaskError> {
+    let standing = table
+        .piece_at(task.from)
+        .ok_or(TaskError::TaskTable { task: task.to_string(), source: TableError::Empty(task.from) })?;
+    let carried = pieces.dimensions(task.piece.role);
+    let pick = standing.position;
+    let place = table.nominal_position(task.to);
+    let radius = 0.5 * (carried.base_diameter + pieces.widest());
+    let margin = limits.clearance_margin;
+    let empty = table.tallest_under(here, pick, radius, pieces, None) + margin;
+    let loaded = table.tallest_under(pick, place, radius, pieces, Some(task.from)) + margin + carried.grip_height;
+    Ok(TaskGeometry {
+        traverse_height: empty.max(loaded),
+        pick,
+        place,
+        grip_z: carried.grip_height,
+        surface: table.geometry().surface_height,
+        radius,
+    })
+}
+
 /// Extends `path` (which ends where the tool currently is) by one task: rise (or sink) to the
 /// traverse height, traverse above `from`, descend to the grip height, mark
 /// [`GripperAction::Grip`] and wait `grip_dwell`, rise, traverse above `to`, descend until the
-/// piece's base touches the table, mark [`GripperAction::Release`] and wait `grip_dwell`,
+/// piece's base touches the table, mark [`GripperAction::Release`] and wait `release_dwell`,
 /// rise. Consecutive moves are separated by `pause`.
 ///
 /// `table` is the table before this task (after the earlier tasks of the move). The piece is
@@ -395,24 +509,11 @@ pub fn append_task_path(
 ) -> Result<TaskPlan, TaskError> {
     let limits = limits.validated()?;
     let task_name = task.to_string();
-    let standing = table
-        .piece_at(task.from)
-        .ok_or(TaskError::TaskTable { task: task_name.clone(), source: TableError::Empty(task.from) })?;
-    let carried = pieces.dimensions(task.piece.role);
-    let surface = table.geometry().surface_height;
     let start = path.end();
+    let TaskGeometry { traverse_height, pick, place, grip_z, surface, .. } =
+        task_geometry(Vector2::new(start.x, start.y), task, table, pieces, &limits)?;
     let here = Vector2::new(start.x, start.y);
-    let pick = standing.position;
-    let place = table.nominal_position(task.to);
-
-    let radius = 0.5 * (carried.base_diameter + pieces.widest());
-    let margin = limits.clearance_margin;
-    let empty = table.tallest_under(here, pick, radius, pieces, None) + margin;
-    let loaded = table.tallest_under(pick, place, radius, pieces, Some(task.from)) + margin + carried.grip_height;
-    let traverse_height = empty.max(loaded);
-
     let at = |xy: Vector2<f64>, height: f64| Vector3::new(xy.x, xy.y, surface + height);
-    let grip_z = carried.grip_height;
     // (target, vertical move?, gripper action at the end)
     let steps = [
         (at(here, traverse_height), true, None),
@@ -444,7 +545,7 @@ pub fn append_task_path(
             let (speed, acceleration) = if vertical {
                 (limits.vertical_speed, limits.vertical_acceleration)
             } else {
-                (limits.max_speed, limits.max_acceleration)
+                (limits.traverse_speed, limits.traverse_acceleration)
             };
             extended.move_to_limited(target, speed, acceleration).map_err(profile_error)?;
         }
@@ -454,8 +555,12 @@ pub fn append_task_path(
                 GripperAction::Release => release_time = extended.duration(),
             }
             extended.mark(action);
-            if limits.grip_dwell > 0.0 {
-                extended.pause(limits.grip_dwell).map_err(profile_error)?;
+            let dwell = match action {
+                GripperAction::Grip => limits.grip_dwell,
+                GripperAction::Release => limits.release_dwell,
+            };
+            if dwell > 0.0 {
+                extended.pause(dwell).map_err(profile_error)?;
             }
         }
     }
@@ -465,7 +570,7 @@ pub fn append_task_path(
 
 /// Checks the straight move `from` → `to` with inverse kinematics (tool down) at its end and
 /// at points at most [`CHECK_STEP`] apart.
-fn check_segment(arm: &ArmModel<4>, from: &Vector3<f64>, to: &Vector3<f64>) -> Result<(), IkError> {
+pub(crate) fn check_segment(arm: &ArmModel<4>, from: &Vector3<f64>, to: &Vector3<f64>) -> Result<(), IkError> {
     let steps = ((to - from).norm() / CHECK_STEP).ceil().max(1.0) as usize;
     for k in 1..=steps {
         let point = from + (to - from) * (k as f64 / steps as f64);

@@ -4,6 +4,7 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 use chessarm_chess::board::BoardGeometry;
+use chessarm_chess::motion::TimingMode;
 use chessarm_chess::notation::{parse_fen, parse_pgn};
 use chessarm_chess::play::{Game, Mover, PlaySettings};
 use chessarm_chess::shakmaty::uci::UciMove;
@@ -69,24 +70,34 @@ fn every_kind_of_move_for_both_colours_ends_with_the_physical_board_equal_to_the
 fn a_master_game_plays_through_with_every_piece_on_its_square() {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/opera_game.pgn")).unwrap();
     let record = parse_pgn(&text).unwrap().remove(0);
-    let mut game = Game::new(report_arm(), BoardGeometry::default(), record.start.clone(), settings()).unwrap();
-    let mut worst = 0.0f64;
-    for (ply, mv) in record.moves.iter().enumerate() {
-        let report = game.play(mv, Mover::Robot).unwrap();
-        assert!(report.new_misplaced.is_empty(), "ply {}: {:?}", ply + 1, report.new_misplaced);
-        worst = report.place_errors.iter().fold(worst, |a, b| a.max(*b));
+    // The report's LSPB timing places every piece within 1 mm; the time-optimal timing, with
+    // the controller not told the piece's mass, within 2 mm (it stops harder into the release,
+    // measured 1.42 mm worst) in half the robot time or less.
+    let mut robot_times = Vec::new();
+    for (timing, tolerance) in [(TimingMode::Lspb, 0.001), (TimingMode::Optimal, 0.002)] {
+        let settings = PlaySettings { timing, ..settings() };
+        let mut game = Game::new(report_arm(), BoardGeometry::default(), record.start.clone(), settings).unwrap();
+        let mut worst = 0.0f64;
+        for (ply, mv) in record.moves.iter().enumerate() {
+            let report = game.play(mv, Mover::Robot).unwrap();
+            assert!(report.new_misplaced.is_empty(), "ply {}: {:?}", ply + 1, report.new_misplaced);
+            assert_eq!(report.summary.as_ref().unwrap().saturated_samples, 0, "{timing:?} ply {}", ply + 1);
+            worst = report.place_errors.iter().fold(worst, |a, b| a.max(*b));
+        }
+        assert_eq!(game.fen_physical(), game.fen_rules());
+        assert_eq!(
+            game.fen_rules(),
+            chessarm_chess::shakmaty::fen::Fen::from_position(
+                &record.final_position(),
+                chessarm_chess::shakmaty::EnPassantMode::Legal
+            )
+            .to_string()
+        );
+        assert!(worst < tolerance, "{timing:?}: worst placement {worst} m");
+        robot_times.push(game.robot_time());
     }
-    assert_eq!(game.fen_physical(), game.fen_rules());
-    assert_eq!(
-        game.fen_rules(),
-        chessarm_chess::shakmaty::fen::Fen::from_position(
-            &record.final_position(),
-            chessarm_chess::shakmaty::EnPassantMode::Legal
-        )
-        .to_string()
-    );
-    assert!(worst < 0.001, "worst placement {worst} m");
-    assert!(game.robot_time() > 60.0);
+    assert!(robot_times[0] > 60.0, "{robot_times:?}");
+    assert!(robot_times[1] < 0.5 * robot_times[0], "{robot_times:?}");
 }
 
 #[test]

@@ -459,8 +459,8 @@ fn the_path_follows_the_reports_pattern_with_limited_timing() {
     let samples = path.sample_uniform(0.002).unwrap();
     for s in &samples {
         let (horizontal, vertical) = (s.velocity.xy().norm(), s.velocity.z.abs());
-        assert!(horizontal <= limits.max_speed + 1e-9 && vertical <= limits.vertical_speed + 1e-9, "{s:?}");
-        assert!(s.acceleration.norm() <= limits.max_acceleration.max(limits.vertical_acceleration) + 1e-9);
+        assert!(horizontal <= limits.traverse_speed + 1e-9 && vertical <= limits.vertical_speed + 1e-9, "{s:?}");
+        assert!(s.acceleration.norm() <= limits.traverse_acceleration.max(limits.vertical_acceleration) + 1e-9);
     }
     // Gripper dwell after each event, pauses between moves.
     let pauses: Vec<f64> = path
@@ -472,7 +472,7 @@ fn the_path_follows_the_reports_pattern_with_limited_timing() {
     assert_eq!(pauses.iter().filter(|&&d| d == limits.pause).count(), 4);
     assert!(plan.grip_time > 0.0 && plan.release_time > plan.grip_time + limits.grip_dwell);
     // Slower limits give a longer path.
-    let slow = MotionLimits { max_speed: 0.1, ..limits };
+    let slow = MotionLimits { traverse_speed: 0.1, ..limits };
     let mut slow_path = CartesianPath::new(start_point());
     append_task_path(&mut slow_path, &task, &table, &pieces, &slow, &report_arm()).unwrap();
     assert!(slow_path.duration() > path.duration());

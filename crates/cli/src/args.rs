@@ -171,4 +171,11 @@ escaped! {
     game_number => game_number_unescaped -> usize;
     time_constants => time_constants_unescaped -> [f64; 4];
     count => count_unescaped -> usize;
+    share => share_unescaped -> f64;
+}
+
+/// A share in (0, 1].
+fn share_unescaped(text: &str) -> Result<f64, String> {
+    let value = finite_unescaped(text)?;
+    if value > 0.0 && value <= 1.0 { Ok(value) } else { Err(format!("'{text}' must lie in (0, 1]")) }
 }

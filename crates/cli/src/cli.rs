@@ -98,6 +98,9 @@ pub struct RobustnessArgs {
     pub gains: GainArgs,
     #[command(flatten)]
     pub conditions: ConditionArgs,
+    /// Motion limits of a game's moves (a scenario keeps its own LSPB path).
+    #[command(flatten)]
+    pub motion: MotionArgs,
     /// The scenario's pawn mass as the controller believes it, kg (default: the setup's pawn);
     /// its true mass follows the [uncertainty] piece_mass draws.
     #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
@@ -120,6 +123,109 @@ pub struct RobustnessArgs {
     /// Output folder.
     #[arg(long, default_value = "out/robustness")]
     pub out: PathBuf,
+}
+
+/// How robot moves are timed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum TimingChoice {
+    /// As fast as every limit allows (TOPP-RA), corners blended, no pauses.
+    Optimal,
+    /// The report's straight LSPB moves that stop at every corner, with pauses.
+    Lspb,
+}
+
+/// The motion limits as flags; each overrides the setup file's `[motion]` or `[gripper]`.
+#[derive(Debug, Args, Clone)]
+pub struct MotionArgs {
+    /// How robot moves are timed.
+    #[arg(long, value_enum, default_value_t = TimingChoice::Optimal)]
+    pub timing: TimingChoice,
+    /// Largest tool-tip speed of optimal motions, m/s (default 1).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub tool_speed: Option<f64>,
+    /// Largest joint accelerations of optimal motions, rad/s²: one for all joints or 4
+    /// comma-separated (default 20).
+    #[arg(long, value_delimiter = ',', value_parser = args::positive, allow_hyphen_values = true)]
+    pub joint_acceleration: Option<Vec<f64>>,
+    /// Share of each motor's torque limit an optimal plan may use, in (0, 1] (default 0.85).
+    #[arg(long, value_parser = args::share, allow_hyphen_values = true)]
+    pub torque_margin: Option<f64>,
+    /// Largest tool acceleration while carrying a piece, m/s² (default 5).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub carry_acceleration: Option<f64>,
+    /// Largest |acceleration − gravity| of a carried piece the grip holds, m/s² (default 19.62).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub grip_strength: Option<f64>,
+    /// Time to close the gripper, s (default 0.3).
+    #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub grip_dwell: Option<f64>,
+    /// Time to open the gripper, s (default 0.3).
+    #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub release_dwell: Option<f64>,
+    /// Largest corner cut of a blend, m (0: stop at every corner; default 0.04).
+    #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub blend: Option<f64>,
+    /// Clearance over the tallest piece passed over, m (default 0.03).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub clearance_margin: Option<f64>,
+    /// Planning grid step along the path, m (default 0.005).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub grid_step: Option<f64>,
+    /// LSPB traverse speed, m/s (default 0.25).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub traverse_speed: Option<f64>,
+    /// LSPB traverse acceleration, m/s² (default 0.8).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub traverse_acceleration: Option<f64>,
+    /// LSPB rise and descent speed, m/s (default 0.15).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub vertical_speed: Option<f64>,
+    /// LSPB rise and descent acceleration, m/s² (default 0.6).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub vertical_acceleration: Option<f64>,
+    /// Rest between LSPB moves, s (default 0.25).
+    #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub pause: Option<f64>,
+}
+
+impl MotionArgs {
+    /// `setup` with its motion limits overridden by the flags given and the timing set.
+    pub fn apply(&self, setup: &crate::config::Setup) -> anyhow::Result<crate::config::Setup> {
+        let mut limits = setup.motion;
+        let set = |target: &mut f64, given: Option<f64>| {
+            if let Some(value) = given {
+                *target = value;
+            }
+        };
+        set(&mut limits.tool_speed, self.tool_speed);
+        set(&mut limits.torque_margin, self.torque_margin);
+        set(&mut limits.carry_acceleration, self.carry_acceleration);
+        set(&mut limits.grip_strength, self.grip_strength);
+        set(&mut limits.grip_dwell, self.grip_dwell);
+        set(&mut limits.release_dwell, self.release_dwell);
+        set(&mut limits.blend, self.blend);
+        set(&mut limits.clearance_margin, self.clearance_margin);
+        set(&mut limits.grid_step, self.grid_step);
+        set(&mut limits.traverse_speed, self.traverse_speed);
+        set(&mut limits.traverse_acceleration, self.traverse_acceleration);
+        set(&mut limits.vertical_speed, self.vertical_speed);
+        set(&mut limits.vertical_acceleration, self.vertical_acceleration);
+        set(&mut limits.pause, self.pause);
+        if let Some(values) = &self.joint_acceleration {
+            limits.joint_acceleration = match values.as_slice() {
+                [one] => [*one; 4],
+                [a, b, c, d] => [*a, *b, *c, *d],
+                _ => anyhow::bail!("--joint-acceleration takes 1 or 4 values (rad/s²), not {}", values.len()),
+            };
+        }
+        let mut setup = setup.clone();
+        setup.motion = crate::config::checked_limits(limits, "motion", "gripper")?;
+        setup.timing = match self.timing {
+            TimingChoice::Optimal => chessarm_chess::motion::TimingMode::Optimal,
+            TimingChoice::Lspb => chessarm_chess::motion::TimingMode::Lspb,
+        };
+        Ok(setup)
+    }
 }
 
 /// Which side the arm plays.
@@ -179,6 +285,8 @@ pub struct PlayArgs {
     pub controller_knows_payload: bool,
     #[command(flatten)]
     pub conditions: ConditionArgs,
+    #[command(flatten)]
+    pub motion: MotionArgs,
     /// Integrator of the plant.
     #[arg(long, value_enum, default_value_t)]
     pub integrator: IntegratorChoice,
@@ -268,6 +376,9 @@ pub struct TuneArgs {
     pub controller_knows_payload: bool,
     #[command(flatten)]
     pub conditions: ConditionArgs,
+    /// Motion limits of a game's moves (a scenario keeps its own LSPB path).
+    #[command(flatten)]
+    pub motion: MotionArgs,
     /// Initial joint angles (rad), at rest; default: on the trajectory's first point.
     #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
     pub q0: Option<[f64; 4]>,

@@ -6,7 +6,9 @@
 use crate::conditions::{SensorFile, UncertaintyFile};
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::board::BoardGeometry;
+use chessarm_chess::motion::TimingMode;
 use chessarm_chess::pieces::{PieceDimensions, PieceSet};
+use chessarm_chess::tasks::{MotionLimits, TaskError};
 use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointLimits, Link};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
@@ -121,6 +123,113 @@ pub struct PiecesFile {
     pub king: Option<PieceFile>,
 }
 
+/// The motion limits in the file (`[motion]`); fields left out keep the defaults.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct MotionFile {
+    /// Largest tool-tip speed of time-optimal motions, m/s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tool_speed: Option<f64>,
+    /// Largest |joint acceleration| of time-optimal motions, rad/s² (4 numbers).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joint_acceleration: Option<Vec<f64>>,
+    /// Share of each motor's torque limit a time-optimal plan may use, in (0, 1].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub torque_margin: Option<f64>,
+    /// Largest corner cut of a blend, m (0: stop at every corner).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blend: Option<f64>,
+    /// Planning grid step along the path, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid_step: Option<f64>,
+    /// Clearance over the tallest piece passed over, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clearance_margin: Option<f64>,
+    /// LSPB traverses: speed (m/s) and acceleration (m/s²).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub traverse_speed: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub traverse_acceleration: Option<f64>,
+    /// LSPB rises and descents: speed (m/s) and acceleration (m/s²).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vertical_speed: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vertical_acceleration: Option<f64>,
+    /// Rest between LSPB moves, s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pause: Option<f64>,
+}
+
+/// The gripper in the file (`[gripper]`); fields left out keep the defaults.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct GripperFile {
+    /// Largest tool acceleration while carrying a piece, m/s² (gravity not counted).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub carry_acceleration: Option<f64>,
+    /// Largest |acceleration − gravity| of a carried piece the friction grip holds, m/s²
+    /// (above 9.81, or a piece slips at rest).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grip_strength: Option<f64>,
+    /// Time to close and to open the gripper, s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grip_dwell: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub release_dwell: Option<f64>,
+}
+
+impl MotionFile {
+    /// The file's `[motion]` and `[gripper]` over `default`, checked.
+    pub fn to_limits(&self, gripper: &GripperFile, default: &MotionLimits) -> Result<MotionLimits> {
+        let m = |name: &str, given: Option<f64>, default: f64| number_or(&format!("motion.{name}"), given, default);
+        let g = |name: &str, given: Option<f64>, default: f64| number_or(&format!("gripper.{name}"), given, default);
+        let limits = MotionLimits {
+            traverse_speed: m("traverse_speed", self.traverse_speed, default.traverse_speed)?,
+            traverse_acceleration: m(
+                "traverse_acceleration",
+                self.traverse_acceleration,
+                default.traverse_acceleration,
+            )?,
+            vertical_speed: m("vertical_speed", self.vertical_speed, default.vertical_speed)?,
+            vertical_acceleration: m(
+                "vertical_acceleration",
+                self.vertical_acceleration,
+                default.vertical_acceleration,
+            )?,
+            pause: m("pause", self.pause, default.pause)?,
+            clearance_margin: m("clearance_margin", self.clearance_margin, default.clearance_margin)?,
+            grip_dwell: g("grip_dwell", gripper.grip_dwell, default.grip_dwell)?,
+            release_dwell: g("release_dwell", gripper.release_dwell, default.release_dwell)?,
+            tool_speed: m("tool_speed", self.tool_speed, default.tool_speed)?,
+            joint_acceleration: numbers_or(
+                "motion.joint_acceleration",
+                self.joint_acceleration.as_ref(),
+                "one per joint, rad/s²",
+                default.joint_acceleration,
+            )?,
+            torque_margin: m("torque_margin", self.torque_margin, default.torque_margin)?,
+            carry_acceleration: g("carry_acceleration", gripper.carry_acceleration, default.carry_acceleration)?,
+            grip_strength: g("grip_strength", gripper.grip_strength, default.grip_strength)?,
+            blend: m("blend", self.blend, default.blend)?,
+            grid_step: m("grid_step", self.grid_step, default.grid_step)?,
+        };
+        checked_limits(limits, "motion", "gripper")
+    }
+}
+
+/// `limits` validated, an error naming the field as `TABLE.FIELD` (the gripper's fields in
+/// `gripper_table`).
+pub fn checked_limits(limits: MotionLimits, motion_table: &str, gripper_table: &str) -> Result<MotionLimits> {
+    limits.validated().map_err(|error| match error {
+        TaskError::Limits { field, value, reason } => {
+            let gripper = ["carry_acceleration", "grip_strength", "grip_dwell", "release_dwell"];
+            let table = if gripper.contains(&field) { gripper_table } else { motion_table };
+            anyhow!("{table}.{field} = {value}: {reason}")
+        }
+        other => anyhow!(other),
+    })
+}
+
 /// The whole setup file. Every table and field may be left out: what is missing keeps the
 /// report's value (per link, per piece kind, per board field).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
@@ -143,6 +252,12 @@ pub struct SetupFile {
     /// Random model errors for `robustness` and the simulating commands.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub uncertainty: Option<UncertaintyFile>,
+    /// Motion limits of the pick-and-place planners.
+    #[serde(default)]
+    pub motion: MotionFile,
+    /// The gripper's limits and dwell times.
+    #[serde(default)]
+    pub gripper: GripperFile,
 }
 
 /// What a setup file describes, validated.
@@ -157,6 +272,10 @@ pub struct Setup {
     pub uncertainty: Option<UncertaintyFile>,
     /// The file this setup was read from (`None`: the built-in setup).
     pub path: Option<std::path::PathBuf>,
+    /// The motion limits (`[motion]`, `[gripper]`, then the motion flags).
+    pub motion: MotionLimits,
+    /// How robot moves are timed (set by `--timing`; the file does not say).
+    pub timing: TimingMode,
 }
 
 impl Default for Setup {
@@ -168,6 +287,8 @@ impl Default for Setup {
             sensor_profiles: BTreeMap::new(),
             uncertainty: None,
             path: None,
+            motion: MotionLimits::default(),
+            timing: TimingMode::default(),
         }
     }
 }
@@ -203,6 +324,7 @@ const HEADER: &str = "\
 # chessarm setup: the arm (standard DH, one [[links]] table per joint, base to tool), the board
 # and the chess pieces (height, base diameter, mass, grip height above the piece's base).
 # Units: m, rad, kg, kg·m² (inertia about the COM in DH frame i, rotated by inertia_rpy), N·m, s.
+# [motion] and [gripper] hold the pick-and-place planners' limits (m/s, m/s², rad/s², s).
 # Every field may be left out; the report's values are the defaults.
 ";
 
@@ -318,6 +440,8 @@ impl SetupFile {
             sensor_profiles: self.sensors.clone(),
             uncertainty: self.uncertainty.clone(),
             path: None,
+            motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
+            timing: TimingMode::default(),
         })
     }
 }
@@ -420,6 +544,7 @@ impl From<&Setup> for SetupFile {
             })
         };
         let p = &setup.pieces;
+        let m = &setup.motion;
         SetupFile {
             gravity: Some(setup.arm.gravity().iter().copied().collect()),
             board: BoardFile {
@@ -438,6 +563,25 @@ impl From<&Setup> for SetupFile {
             links,
             sensors: setup.sensor_profiles.clone(),
             uncertainty: setup.uncertainty.clone(),
+            motion: MotionFile {
+                tool_speed: Some(m.tool_speed),
+                joint_acceleration: Some(m.joint_acceleration.to_vec()),
+                torque_margin: Some(m.torque_margin),
+                blend: Some(m.blend),
+                grid_step: Some(m.grid_step),
+                clearance_margin: Some(m.clearance_margin),
+                traverse_speed: Some(m.traverse_speed),
+                traverse_acceleration: Some(m.traverse_acceleration),
+                vertical_speed: Some(m.vertical_speed),
+                vertical_acceleration: Some(m.vertical_acceleration),
+                pause: Some(m.pause),
+            },
+            gripper: GripperFile {
+                carry_acceleration: Some(m.carry_acceleration),
+                grip_strength: Some(m.grip_strength),
+                grip_dwell: Some(m.grip_dwell),
+                release_dwell: Some(m.release_dwell),
+            },
         }
     }
 }

@@ -33,15 +33,39 @@ fn special_moves_game_plays_through_and_reports_every_move() {
     for kind in ["en-passant", "castle-kingside", "castle-queenside", "promotion", "capture"] {
         assert!(kinds.contains(&kind), "no {kind} in {kinds:?}");
     }
+    let mut total = 0.0;
     for m in moves {
-        for key in ["ply", "san", "uci", "kind", "tasks", "duration_s", "max_tip_error_mm", "place_errors_mm"] {
+        for key in [
+            "ply",
+            "san",
+            "uci",
+            "kind",
+            "tasks",
+            "duration_s",
+            "planned_duration_s",
+            "phases_s",
+            "longest_limit",
+            "saturated_samples",
+            "max_tip_error_mm",
+            "place_errors_mm",
+        ] {
             assert!(!m[key].is_null(), "{key} missing in {m}");
         }
         for error in m["place_errors_mm"].as_array().unwrap() {
             assert!(error.as_f64().unwrap() < 5.0);
         }
+        // The simulation runs the planned motion, and the phases add up to it.
+        let duration = m["duration_s"].as_f64().unwrap();
+        assert!((duration - m["planned_duration_s"].as_f64().unwrap()).abs() < 1e-9, "{m}");
+        let phases = &m["phases_s"];
+        let sum: f64 = ["travel", "vertical", "grip", "pause"].iter().map(|k| phases[k].as_f64().unwrap()).sum();
+        assert!((sum - duration).abs() < 1e-6, "phases {sum} s against {duration} s: {m}");
+        assert_eq!(phases["pause"].as_f64(), Some(0.0), "the optimal timing has no pauses: {m}");
+        assert_eq!(m["saturated_samples"].as_u64(), Some(0), "{m}");
+        assert!(m["longest_limit"]["time_s"].as_f64().unwrap() > 0.0);
+        total += duration;
     }
-    assert!(game["total_robot_time_s"].as_f64().unwrap() > 100.0);
+    assert!((game["total_robot_time_s"].as_f64().unwrap() - total).abs() < 1e-6);
     assert!(game["wall_time_s"].as_f64().unwrap() > 0.0);
     // One CSV a move, and the list of what chessarm wrote there.
     let csvs = std::fs::read_dir(dir.path().join("moves"))

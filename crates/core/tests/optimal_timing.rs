@@ -170,7 +170,7 @@ fn a_straight_line_under_tool_speed_and_acceleration_limits_is_the_trapezoid() {
     let speed = ToolSpeed { max: v };
     let acceleration = ToolAcceleration { max: a, gravity: Vector3::zeros(), label: "tool acceleration".into() };
     let constraints: [&dyn PathConstraint<4>; 2] = [&speed, &acceleration];
-    let plan = time_leg(&model, &line, &constraints, line.length() / 200.0, TOOL_DOWN, 1e-9).unwrap();
+    let plan = time_leg(&model, &line, &constraints, line.length() / 200.0, 0, TOOL_DOWN, 1e-9).unwrap();
     let exact = trapezoid_time(line.length(), v, a);
     let error = (plan.leg.timing.duration() - exact).abs() / exact;
     assert!(error < 0.01, "{} s against {exact} s", plan.leg.timing.duration());
@@ -242,8 +242,8 @@ fn the_pick_and_place_optimum_matches_a_dense_grid_integration_within_one_percen
     let limits = limits(&model);
     let path = pick_and_place(0.04);
     let constraints = limits.carrying();
-    let plan = time_leg(&model, &path, &constraints, 0.005, TOOL_DOWN, 1e-9).unwrap();
-    let dense = path_points(&model, &path, &path.grid(0.0002), TOOL_DOWN).unwrap();
+    let plan = time_leg(&model, &path, &constraints, 0.005, 0, TOOL_DOWN, 1e-9).unwrap();
+    let dense = path_points(&model, &path, &path.grid(0.0002, 0), TOOL_DOWN).unwrap();
     let reference = dense_grid_time(&dense, &constraints);
     let duration = plan.leg.timing.duration();
     let error = (duration - reference).abs() / reference;
@@ -266,7 +266,7 @@ fn every_limit_holds_at_ten_times_the_planning_grid() {
     let model = report_arm();
     let limits = limits(&model);
     let path = pick_and_place(0.04);
-    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, TOOL_DOWN, 1e-3).unwrap();
+    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, TOOL_DOWN, 1e-3).unwrap();
     let motion = motion_of(&plan);
     let stages = plan.leg.timing.u.len() as f64;
     let dt = motion.duration() / (10.0 * stages);
@@ -294,7 +294,7 @@ fn a_grip_weaker_than_gravity_and_a_motor_weaker_than_the_holding_torque_are_nam
     let path = pick_and_place(0.04);
     let weak_grip = ToolAcceleration { max: 8.0, gravity: model.gravity(), label: "grip".into() };
     let constraints: [&dyn PathConstraint<4>; 1] = [&weak_grip];
-    let error = time_leg(&model, &path, &constraints, 0.005, TOOL_DOWN, 1e-3).unwrap_err().to_string();
+    let error = time_leg(&model, &path, &constraints, 0.005, 0, TOOL_DOWN, 1e-3).unwrap_err().to_string();
     let gravity = format!("{:.3}", model.gravity().norm());
     assert!(error.contains("grip") && error.contains(&gravity) && error.contains("8 m/s²"), "{error}");
 
@@ -303,7 +303,7 @@ fn a_grip_weaker_than_gravity_and_a_motor_weaker_than_the_holding_torque_are_nam
     let weak = model.with_links(links).unwrap();
     let torque = JointTorque { model: weak, margin: 0.85, max_speed: [3.0; 4] };
     let constraints: [&dyn PathConstraint<4>; 1] = [&torque];
-    let error = time_leg(&weak, &path, &constraints, 0.005, TOOL_DOWN, 1e-3).unwrap_err().to_string();
+    let error = time_leg(&weak, &path, &constraints, 0.005, 0, TOOL_DOWN, 1e-3).unwrap_err().to_string();
     assert!(error.contains("joint 2") && error.contains("gravity") && error.contains("0.5 N·m"), "{error}");
 }
 

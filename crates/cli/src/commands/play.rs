@@ -98,6 +98,7 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 }
 
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
+    let setup = &args.motion.apply(setup)?;
     let mut spec = controller_specs(&[args.controller.into()], &args.gains)?.remove(0);
     spec.knows_friction = args.conditions.controller_knows_friction;
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
@@ -115,6 +116,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         settings.conditions = trial.conditions.clone();
     }
     settings.pieces = setup.pieces;
+    settings.limits = setup.motion;
+    settings.timing = setup.timing;
     settings.controller_knows_payload = args.controller_knows_payload;
     settings.integrator = args.integrator.integrator();
     settings.tolerance = args.tolerance_mm / 1e3;
@@ -309,6 +312,17 @@ fn game_json(
                 "by": if r.mover == Mover::Robot { "robot" } else { "hand" },
                 "tasks": r.tasks,
                 "duration_s": r.duration,
+                "planned_duration_s": r.planned_duration,
+                "phases_s": (r.mover == Mover::Robot).then(|| json!({
+                    "travel": r.phases.travel,
+                    "vertical": r.phases.vertical,
+                    "grip": r.phases.grip,
+                    "pause": r.phases.pause,
+                })),
+                "longest_limit": r.longest_limit.as_ref().map(|(name, time)| json!({"limit": name, "time_s": time})),
+                "lspb_slowdowns": r.slowdowns,
+                "saturated_samples": r.summary.as_ref().map(|s| s.saturated_samples),
+                "peak_torque_nm": r.summary.as_ref().map(|s| s.peak_torque.as_slice().to_vec()),
                 "max_tip_error_mm": r.max_tip_error.map(|e| e * 1e3),
                 "place_errors_mm": r.place_errors.iter().map(|e| e * 1e3).collect::<Vec<_>>(),
             })

@@ -128,6 +128,8 @@ fn run_trial(
                 let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
                 settings.controller = spec.clone();
                 settings.pieces = setup.pieces;
+                settings.limits = setup.motion;
+                settings.timing = setup.timing;
                 settings.record_every = 0;
                 settings.controller_knows_payload = controller_knows_payload;
                 settings.integrator = integrator;
@@ -321,6 +323,7 @@ pub fn run_trials(
 }
 
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
+    let setup = &args.motion.apply(setup)?;
     let mut specs = controller_specs(&args.controller, &args.gains)?;
     for spec in &mut specs {
         spec.knows_friction = args.conditions.controller_knows_friction;

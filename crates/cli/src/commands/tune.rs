@@ -229,6 +229,8 @@ pub fn simulate_candidate(
             let mut settings = PlaySettings::new("candidate", *gains);
             settings.controller.kind = options.kind;
             settings.pieces = setup.pieces;
+            settings.limits = setup.motion;
+            settings.timing = setup.timing;
             if let Some(trial) = &options.trial {
                 settings.plant = Some(trial.plant);
                 settings.true_pieces = Some(trial.pieces);
@@ -393,6 +395,7 @@ pub fn sweep(
 }
 
 pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
+    let setup = &args.motion.apply(setup)?;
     let gains = candidate_gains(args)?;
     let range = shard_range(gains.len(), args.shard);
     let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;

@@ -85,17 +85,19 @@ pub fn path_points(
         .collect()
 }
 
-/// Times `path` from rest to rest under `constraints` on a grid of steps ≤ `step` (units of
-/// the path parameter, m), stretched to a whole number of `period`s (s).
+/// Times `path` from rest to rest under `constraints` on the grid [`GeometricPath::grid`] of
+/// steps ≤ `step` (units of the path parameter, m) at `refinement`, stretched to a whole number
+/// of `period`s (s).
 pub fn time_leg(
     model: &ArmModel<4>,
     path: &GeometricPath,
     constraints: &[&dyn PathConstraint<4>],
     step: f64,
+    refinement: u32,
     pitch: f64,
     period: f64,
 ) -> Result<LegPlan, LegError> {
-    let grid = path.grid(step);
+    let grid = path.grid(step, refinement);
     let points = path_points(model, path, &grid, pitch)?;
     let (mut table, names) = constraint_table(&points, constraints);
     table.tighten(GRID_SLACK);

@@ -1,0 +1,501 @@
+//! A move's whole motion, planned one of two ways:
+//!
+//! - **LSPB** (the report's): every straight move of every task stops at its end, with fixed
+//!   Cartesian limits and pauses ([`crate::tasks::append_move_path`]). A move whose joint
+//!   speeds exceed the arm's limits (near the base axis joint 1 turns at `v/r`) is replanned
+//!   with every limit × 0.7, up to 8 times: kept as it was, so that `--timing lspb` reproduces
+//!   the earlier timings exactly.
+//! - **Time-optimal**: the move is cut into legs at the grips and releases (where the tool must
+//!   stop); each leg is the polyline of the tasks' waypoints (rise, traverse, descend) with its
+//!   corners blended and is timed by TOPP-RA ([`chessarm_core::plan::optimal::time_leg`]) under
+//!   the arm's joint speed limits, the joint acceleration limits, the motors' torque limits
+//!   times the margin (with the carried piece in the dynamics), the tool speed limit, and, while
+//!   carrying, the carry acceleration and the grip's strength. A blend is kept only where the
+//!   tool (empty) or the carried piece's base clears every piece under it by the margin, checked
+//!   every millimetre along it; otherwise its cut is halved, and below 1 mm the corner becomes a
+//!   stop. The grips and releases stay vertical (they are the ends of legs). Every leg is then
+//!   checked against every limit at every control period and at least twice per planning
+//!   stage, and timed again on a finer grid if a limit is exceeded between grid points.
+
+use crate::pieces::PieceSet;
+use crate::table::{Location, Table};
+use crate::tasks::{
+    MotionLimits, PlannedTask, Task, TaskError, TaskGeometry, TaskPlan, append_move_path, check_segment, describe_move,
+    move_tasks, task_geometry,
+};
+use chessarm_core::arm::model::ArmModel;
+use chessarm_core::arm::task::TOOL_DOWN;
+use chessarm_core::nalgebra::{Vector2, Vector3};
+use chessarm_core::plan::constraints::{
+    JointAcceleration, JointSpeed, JointTorque, PathConstraint, ToolAcceleration, ToolSpeed,
+};
+use chessarm_core::plan::geometric::{GeometricPath, PathPiece, Stretch, TimedMotion};
+use chessarm_core::plan::optimal::{LegPlan, MotionCheck, Usage, check_motion, time_leg};
+use chessarm_core::plan::path::{CartesianPath, CartesianSample, GripperAction, Segment};
+use chessarm_core::plan::trajectory::{JointTrajectory, PlanError, ToolMotion};
+use shakmaty::{Chess, Move};
+
+/// How a move's motion is timed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TimingMode {
+    /// Time-optimal legs with blended corners (TOPP-RA).
+    #[default]
+    Optimal,
+    /// The report's straight LSPB moves with stops and pauses.
+    Lspb,
+}
+
+/// A planned motion of either kind.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MoveMotion {
+    Lspb(CartesianPath),
+    Optimal(TimedMotion),
+}
+
+impl ToolMotion for MoveMotion {
+    fn duration(&self) -> f64 {
+        match self {
+            MoveMotion::Lspb(path) => path.duration(),
+            MoveMotion::Optimal(motion) => motion.duration(),
+        }
+    }
+    fn sample(&self, t: f64) -> CartesianSample {
+        match self {
+            MoveMotion::Lspb(path) => path.sample(t),
+            MoveMotion::Optimal(motion) => motion.sample(t),
+        }
+    }
+}
+
+impl MoveMotion {
+    pub fn end(&self) -> Vector3<f64> {
+        match self {
+            MoveMotion::Lspb(path) => path.end(),
+            MoveMotion::Optimal(motion) => motion.end(),
+        }
+    }
+}
+
+/// Planned time of a move by phase, s.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PhaseTimes {
+    /// Horizontal moves and (time-optimal) blends.
+    pub travel: f64,
+    /// Rises and descents.
+    pub vertical: f64,
+    /// Gripper closing and opening (the dwells).
+    pub grip: f64,
+    /// Rests between LSPB moves.
+    pub pause: f64,
+}
+
+/// A move planned: its motion, the joint trajectory at the control period, its tasks, and
+/// what took the time.
+#[derive(Debug, Clone)]
+pub struct PlannedMove {
+    pub motion: MoveMotion,
+    pub trajectory: JointTrajectory,
+    pub tasks: Vec<PlannedTask>,
+    pub phases: PhaseTimes,
+    /// Time-optimal only: per limit, the time it was the binding one, s.
+    pub limit_times: Vec<(String, f64)>,
+    /// Time-optimal only: every leg as timed (for phase-plane plots).
+    pub legs: Vec<LegPlan>,
+    /// Time-optimal only: the largest share of a limit used and which (checked every control
+    /// period).
+    pub usage: Option<Usage>,
+    /// LSPB only: how many times the limits were scaled by 0.7.
+    pub slowdowns: usize,
+}
+
+impl PlannedMove {
+    /// The limit that was binding longest, with its time (s).
+    pub fn longest_limit(&self) -> Option<(&str, f64)> {
+        self.limit_times
+            .iter()
+            .filter(|(_, t)| *t > 0.0)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(name, t)| (name.as_str(), *t))
+    }
+}
+
+/// How many times an LSPB move is replanned slower before its joint-speed violation is an error.
+const SLOWDOWN_ATTEMPTS: usize = 8;
+
+/// The limits with every LSPB speed and acceleration scaled by 0.7.
+fn slower(limits: &MotionLimits) -> MotionLimits {
+    MotionLimits {
+        traverse_speed: 0.7 * limits.traverse_speed,
+        traverse_acceleration: 0.7 * limits.traverse_acceleration,
+        vertical_speed: 0.7 * limits.vertical_speed,
+        vertical_acceleration: 0.7 * limits.vertical_acceleration,
+        ..*limits
+    }
+}
+
+/// Plans a legal move from the tool at rest at `start` (m): tasks, motion and joint trajectory
+/// sampled every `period` s. The planner's pieces (`pieces`) give the carried payloads. Errors
+/// name the move.
+#[allow(clippy::too_many_arguments)]
+pub fn plan_move(
+    start: Vector3<f64>,
+    position: &Chess,
+    mv: &Move,
+    table: &Table,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+    arm: &ArmModel<4>,
+    mode: TimingMode,
+    period: f64,
+) -> Result<PlannedMove, TaskError> {
+    let limits = limits.validated()?;
+    let wrap = |source: TaskError| TaskError::Move { mv: describe_move(position, mv), source: Box::new(source) };
+    match mode {
+        TimingMode::Lspb => {
+            let mut current = limits;
+            let mut slowdowns = 0;
+            loop {
+                let mut path = CartesianPath::new(start);
+                let tasks = append_move_path(&mut path, position, mv, table, pieces, &current, arm)?;
+                match JointTrajectory::from_path(arm, &path, period, TOOL_DOWN) {
+                    Ok(trajectory) => {
+                        let phases = lspb_phases(&path);
+                        return Ok(PlannedMove {
+                            motion: MoveMotion::Lspb(path),
+                            trajectory,
+                            tasks,
+                            phases,
+                            limit_times: Vec::new(),
+                            legs: Vec::new(),
+                            usage: None,
+                            slowdowns,
+                        });
+                    }
+                    Err(PlanError::VelocityLimit { .. }) if slowdowns < SLOWDOWN_ATTEMPTS => {
+                        slowdowns += 1;
+                        current = slower(&current);
+                    }
+                    Err(source) => return Err(wrap(TaskError::Trajectory(source))),
+                }
+            }
+        }
+        TimingMode::Optimal => plan_optimal(start, position, mv, table, pieces, &limits, arm, period).map_err(wrap),
+    }
+}
+
+fn lspb_phases(path: &CartesianPath) -> PhaseTimes {
+    let mut phases = PhaseTimes::default();
+    let mut time = 0.0;
+    let marks: Vec<f64> = path.events().iter().map(|e| e.time).collect();
+    for segment in path.segments() {
+        let duration = segment.duration();
+        match segment {
+            Segment::Move { from, to, .. } => {
+                if from.xy() == to.xy() {
+                    phases.vertical += duration;
+                } else {
+                    phases.travel += duration;
+                }
+            }
+            Segment::Pause { .. } => {
+                if marks.iter().any(|&m| (m - time).abs() < 1e-9) {
+                    phases.grip += duration;
+                } else {
+                    phases.pause += duration;
+                }
+            }
+        }
+        time += duration;
+    }
+    phases
+}
+
+/// One leg to time: waypoints from rest to rest, and what the gripper holds.
+struct LegSpec {
+    points: Vec<Vector3<f64>>,
+    /// The task carried on this leg, if any.
+    carried: Option<Task>,
+    /// The table the leg moves over (the carried piece still on its square).
+    table: Table,
+    /// What happens at the leg's end.
+    action: Option<GripperAction>,
+    /// Clearance radius of the task the leg belongs to, m.
+    radius: f64,
+}
+
+/// Shortest corner cut tried before a corner becomes a stop, m.
+const MIN_CUT: f64 = 0.001;
+
+/// Spacing of the clearance checks along a blend, m.
+const CLEARANCE_STEP: f64 = 0.001;
+
+#[allow(clippy::too_many_arguments)]
+fn plan_optimal(
+    start: Vector3<f64>,
+    position: &Chess,
+    mv: &Move,
+    table: &Table,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+    arm: &ArmModel<4>,
+    period: f64,
+) -> Result<PlannedMove, TaskError> {
+    let tasks = move_tasks(position, mv, table)?;
+    let mut scratch = table.clone();
+    let mut specs = Vec::with_capacity(2 * tasks.len() + 1);
+    let mut current = vec![start];
+    let mut here = Vector2::new(start.x, start.y);
+    let mut last_height = start.z - table.geometry().surface_height;
+    let mut geometries = Vec::with_capacity(tasks.len());
+    for task in &tasks {
+        let geometry = task_geometry(here, task, &scratch, pieces, limits)?;
+        let TaskGeometry { traverse_height: h, pick, place, grip_z, surface, radius } = geometry;
+        let at = |xy: Vector2<f64>, height: f64| Vector3::new(xy.x, xy.y, surface + height);
+        let waypoints = [at(here, h), at(pick, h), at(pick, grip_z), at(pick, h), at(place, h), at(place, grip_z)];
+        // A tool already above the piece goes straight down to it: rising to the traverse
+        // height first would double back.
+        let above = (pick - here).norm() < chessarm_core::plan::geometric::MIN_LINE;
+        let approach: &[Vector3<f64>] = if above { &waypoints[2..3] } else { &waypoints[..3] };
+        let mut previous = *current.last().unwrap_or(&start);
+        for target in approach.iter().chain(&waypoints[3..]) {
+            check_segment(arm, &previous, target)
+                .map_err(|source| TaskError::Unreachable { task: task.to_string(), source })?;
+            previous = *target;
+        }
+        current.extend_from_slice(approach);
+        specs.push(LegSpec {
+            points: std::mem::take(&mut current),
+            carried: None,
+            table: scratch.clone(),
+            action: Some(GripperAction::Grip),
+            radius,
+        });
+        specs.push(LegSpec {
+            points: waypoints[2..].to_vec(),
+            carried: Some(*task),
+            table: scratch.clone(),
+            action: Some(GripperAction::Release),
+            radius,
+        });
+        let target = scratch.nominal_position(task.to);
+        scratch
+            .relocate(task.from, task.to, target)
+            .map_err(|source| TaskError::TaskTable { task: task.to_string(), source })?;
+        current.push(at(place, grip_z));
+        here = place;
+        last_height = h;
+        geometries.push(geometry);
+    }
+    let surface = table.geometry().surface_height;
+    let rest = Vector3::new(here.x, here.y, surface + last_height);
+    if let Some(from) = current.last() {
+        check_segment(arm, from, &rest).map_err(|source| TaskError::Unreachable {
+            task: tasks.last().map_or_else(String::new, |t| t.to_string()),
+            source,
+        })?;
+    }
+    current.push(rest);
+    let radius = geometries.last().map_or(0.0, |g| g.radius);
+    specs.push(LegSpec { points: current, carried: None, table: scratch, action: None, radius });
+
+    let mut motion = TimedMotion::new(start);
+    let mut legs = Vec::new();
+    let mut phases = PhaseTimes::default();
+    let mut marks = Vec::new();
+    let mut usage: Option<Usage> = None;
+    for spec in &specs {
+        let payload_arm = match &spec.carried {
+            Some(task) => arm.with_payload(Some(pieces.payload(task.piece.role))).map_err(TaskError::Model)?,
+            None => *arm,
+        };
+        for path in blended_paths(spec, pieces, limits)? {
+            let (plan, used) = time_optimal_leg(&path, &payload_arm, spec.carried.is_some(), limits, arm, period)?;
+            if usage.as_ref().is_none_or(|u| used.share > u.share) {
+                usage = Some(used);
+            }
+            add_phases(&mut phases, &plan);
+            motion.push(Stretch::Leg(plan.leg.clone()));
+            legs.push(plan);
+        }
+        if let Some(action) = spec.action {
+            motion.mark(action);
+            marks.push(motion.duration());
+            let dwell = match action {
+                GripperAction::Grip => limits.grip_dwell,
+                GripperAction::Release => limits.release_dwell,
+            };
+            if dwell > 0.0 {
+                motion.push(Stretch::Dwell { at: motion.end(), duration: dwell });
+                phases.grip += dwell;
+            }
+        }
+    }
+    let trajectory = JointTrajectory::from_path(arm, &motion, period, TOOL_DOWN).map_err(TaskError::Trajectory)?;
+    let mut planned = Vec::with_capacity(tasks.len());
+    for (k, (task, geometry)) in tasks.iter().zip(&geometries).enumerate() {
+        let at = |xy: Vector2<f64>| Vector3::new(xy.x, xy.y, geometry.surface + geometry.grip_z);
+        planned.push(PlannedTask {
+            task: *task,
+            plan: TaskPlan {
+                traverse_height: geometry.traverse_height,
+                grip_time: marks[2 * k],
+                release_time: marks[2 * k + 1],
+                release_point: at(geometry.place),
+            },
+        });
+    }
+    let mut limit_times: Vec<(String, f64)> = Vec::new();
+    for leg in &legs {
+        for (name, time) in leg.time_per_limit() {
+            match limit_times.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, total)) => *total += time * leg.leg.scale,
+                None => limit_times.push((name, time * leg.leg.scale)),
+            }
+        }
+    }
+    Ok(PlannedMove {
+        motion: MoveMotion::Optimal(motion),
+        trajectory,
+        tasks: planned,
+        phases,
+        limit_times,
+        legs,
+        usage,
+        slowdowns: 0,
+    })
+}
+
+/// Adds a timed leg's time per piece: vertical lines to `vertical`, the rest to `travel`.
+fn add_phases(phases: &mut PhaseTimes, plan: &LegPlan) {
+    let timing = &plan.leg.timing;
+    let time_at = |s: f64| {
+        let i = timing.s.partition_point(|&g| g < s - 1e-12).min(timing.s.len() - 1);
+        timing.t[i] * plan.leg.scale
+    };
+    let path = &plan.leg.path;
+    for (piece, start) in path.pieces().iter().zip(path.piece_starts()) {
+        let duration = time_at(start + piece.length()) - time_at(*start);
+        if piece.is_vertical() {
+            phases.vertical += duration;
+        } else {
+            phases.travel += duration;
+        }
+    }
+}
+
+/// How many times a leg's grid is halved when its check finds a limit exceeded between grid
+/// points (the rows hold at the grid points only).
+const REFINEMENTS: u32 = 3;
+
+/// Times one leg and checks it at every control period against the full limits; a leg that
+/// exceeds one between grid points is timed again on a grid twice as fine (up to
+/// [`REFINEMENTS`] times).
+fn time_optimal_leg(
+    path: &GeometricPath,
+    model: &ArmModel<4>,
+    carrying: bool,
+    limits: &MotionLimits,
+    arm: &ArmModel<4>,
+    period: f64,
+) -> Result<(LegPlan, Usage), TaskError> {
+    let max_speed = arm.links().map(|l| l.limits.velocity);
+    let speed = JointSpeed { max: max_speed };
+    let acceleration = JointAcceleration { max: limits.joint_acceleration };
+    let torque = JointTorque { model: *model, margin: limits.torque_margin, max_speed };
+    let tool = ToolSpeed { max: limits.tool_speed };
+    let carry = ToolAcceleration {
+        max: limits.carry_acceleration,
+        gravity: Vector3::zeros(),
+        label: "tool acceleration while carrying".to_string(),
+    };
+    let grip = ToolAcceleration { max: limits.grip_strength, gravity: arm.gravity(), label: "grip".to_string() };
+    let mut constraints: Vec<&dyn PathConstraint<4>> = vec![&speed, &acceleration, &torque, &tool];
+    if carrying {
+        constraints.push(&carry);
+        // |p̈ − g| ≤ |p̈| + |g|: a grip at least that strong is never the binding limit.
+        if limits.carry_acceleration + arm.gravity().norm() > limits.grip_strength {
+            constraints.push(&grip);
+        }
+    }
+    let check = MotionCheck {
+        joint_speed: max_speed,
+        joint_acceleration: limits.joint_acceleration,
+        torque_margin: limits.torque_margin,
+        tool_speed: limits.tool_speed,
+        carry_acceleration: if carrying { limits.carry_acceleration } else { f64::INFINITY },
+        grip_strength: if carrying { limits.grip_strength } else { f64::INFINITY },
+    };
+    let carried = [(0.0, f64::INFINITY, *model)];
+    let carried: &[(f64, f64, ArmModel<4>)] = if carrying { &carried } else { &[] };
+    let mut refinement = 0;
+    loop {
+        let plan = time_leg(arm, path, &constraints, limits.grid_step, refinement, TOOL_DOWN, period)
+            .map_err(TaskError::Leg)?;
+        let mut leg = TimedMotion::new(path.start());
+        leg.push(Stretch::Leg(plan.leg.clone()));
+        // Every control period, and at least twice per planning stage.
+        let stages = plan.leg.timing.u.len().max(1) as f64;
+        let dt = period.min(plan.leg.duration() / (2.0 * stages));
+        match check_motion(arm, &leg, carried, &check, TOOL_DOWN, dt).map_err(TaskError::Trajectory)? {
+            Ok(usage) => return Ok((plan, usage)),
+            Err(_) if refinement < REFINEMENTS => refinement += 1,
+            Err(violation) => return Err(TaskError::Violation(violation)),
+        }
+    }
+}
+
+/// The leg's polyline with its corners blended as far as the clearance allows, split into
+/// several paths at corners that must stay sharp (stops).
+fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Result<Vec<GeometricPath>, TaskError> {
+    let corners = GeometricPath::corners(&spec.points).map_err(TaskError::Geometry)?;
+    let interior = corners.len().saturating_sub(2);
+    let mut cuts = vec![limits.blend; interior];
+    loop {
+        // Split at sharp corners (cut 0), blend the rest.
+        let mut paths = Vec::new();
+        let mut first = 0;
+        let mut owners = Vec::new();
+        for k in 0..=interior {
+            let end = k + 1;
+            if k == interior || cuts[k] < MIN_CUT {
+                let section = &corners[first..=end];
+                let section_cuts: Vec<f64> = cuts[first..end.saturating_sub(1)].to_vec();
+                let path = GeometricPath::polyline(section, |c| section_cuts[c]).map_err(TaskError::Geometry)?;
+                owners.push((first, path.clone()));
+                paths.push(path);
+                first = end;
+            }
+        }
+        let mut changed = false;
+        for (offset, path) in &owners {
+            let blends = path.pieces().iter().filter(|p| matches!(p, PathPiece::Blend { .. }));
+            for (k, blend) in blends.enumerate() {
+                if !clears(blend, spec, pieces, limits) {
+                    let corner = offset + k;
+                    cuts[corner] = if cuts[corner] * 0.5 < MIN_CUT { 0.0 } else { cuts[corner] * 0.5 };
+                    changed = true;
+                }
+            }
+        }
+        if !changed {
+            return Ok(paths);
+        }
+    }
+}
+
+/// Whether the tool (empty) or the carried piece's base clears every piece under it by the
+/// margin along `blend`, sampled every [`CLEARANCE_STEP`].
+fn clears(blend: &PathPiece, spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> bool {
+    let surface = spec.table.geometry().surface_height;
+    let (below_tip, exclude): (f64, Option<Location>) = match &spec.carried {
+        Some(task) => (pieces.dimensions(task.piece.role).grip_height, Some(task.from)),
+        None => (0.0, None),
+    };
+    let n = (blend.length() / CLEARANCE_STEP).ceil().max(1.0) as usize;
+    (0..=n).all(|k| {
+        let (p, _, _) = blend.eval(blend.length() * k as f64 / n as f64);
+        let xy = p.xy();
+        let top = spec.table.tallest_under(xy, xy, spec.radius, pieces, exclude);
+        p.z - surface - below_tip >= top + limits.clearance_margin - 1e-12
+    })
+}
