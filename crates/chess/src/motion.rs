@@ -12,13 +12,13 @@
 //!   times the margin (with the carried piece in the dynamics), the tool speed limit, and, while
 //!   carrying, the carry acceleration and the grip's strength. A blend is kept only where the
 //!   tool (empty) or the carried piece's base clears every piece under it by the margin, checked
-//!   every millimetre along it; otherwise its cut is halved, and below 1 mm the corner becomes a
-//!   stop. The grips and releases stay vertical (they are the ends of legs). Every leg is then
+//!   every millimetre along it (see `clears`); otherwise its cut is halved, and below 1 mm the
+//!   corner becomes a stop. The grips and releases stay vertical (they are the ends of legs). Every leg is then
 //!   checked against every limit at every control period and at least twice per planning
 //!   stage, and timed again on a finer grid if a limit is exceeded between grid points.
 
 use crate::pieces::PieceSet;
-use crate::table::{Location, Table};
+use crate::table::{PhysicalPiece, Table};
 use crate::tasks::{
     MotionLimits, PlannedTask, Task, TaskError, TaskGeometry, TaskPlan, append_move_path, check_segment, describe_move,
     move_tasks, task_geometry,
@@ -483,19 +483,29 @@ fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Re
     }
 }
 
-/// Whether the tool (empty) or the carried piece's base clears every piece under it by the
-/// margin along `blend`, sampled every [`CLEARANCE_STEP`].
+/// Whether the tool (empty) or the carried piece's base clears every piece under it, and the
+/// bare table, by the margin along `blend`, sampled every [`CLEARANCE_STEP`]. Over the leg's
+/// first and last points (within the clearance radius of them) the tool is coming down onto
+/// the table or rising from it: there the piece standing in that column (the one about to be
+/// gripped, or just put down) and the table do not count, only other pieces under the tool.
 fn clears(blend: &PathPiece, spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> bool {
     let surface = spec.table.geometry().surface_height;
-    let (below_tip, exclude): (f64, Option<Location>) = match &spec.carried {
-        Some(task) => (pieces.dimensions(task.piece.role).grip_height, Some(task.from)),
-        None => (0.0, None),
-    };
+    let below_tip = spec.carried.map_or(0.0, |task| pieces.dimensions(task.piece.role).grip_height);
+    let carried = spec.carried.map(|task| task.from);
+    let ends = [spec.points[0].xy(), spec.points[spec.points.len() - 1].xy()];
+    let own_square = 0.5 * spec.table.geometry().square_size;
     let n = (blend.length() / CLEARANCE_STEP).ceil().max(1.0) as usize;
     (0..=n).all(|k| {
         let (p, _, _) = blend.eval(blend.length() * k as f64 / n as f64);
         let xy = p.xy();
-        let top = spec.table.tallest_under(xy, xy, spec.radius, pieces, exclude);
-        p.z - surface - below_tip >= top + limits.clearance_margin - 1e-12
+        let column = ends.iter().find(|end| (xy - **end).norm() <= spec.radius);
+        let keep = |piece: &PhysicalPiece| {
+            Some(piece.location) != carried && column.is_none_or(|end| (piece.position - end).norm() > own_square)
+        };
+        let bottom = p.z - surface - below_tip;
+        match spec.table.tallest_under_point_where(xy, xy, spec.radius, pieces, keep) {
+            Some(top) => bottom >= top + limits.clearance_margin - 1e-12,
+            None => column.is_some() || bottom >= limits.clearance_margin - 1e-12,
+        }
     })
 }

@@ -203,8 +203,7 @@ impl Game {
         let table = Table::from_position(board, &start);
         let traverse = limits.highest_traverse(&settings.pieces);
         table.check_reachable(&arm, &settings.pieces, traverse).map_err(PlayError::Reach)?;
-        let rank_one = board.square_center(shakmaty::Square::D1);
-        let tool = Vector3::new(board.center.x, rank_one.y, board.surface_height + traverse);
+        let tool = home_tool(&board, &settings.pieces, &limits);
         let q = inverse_kinematics(&arm, &tool, TOOL_DOWN).map_err(PlayError::Home)?;
         let misplaced =
             table.verify(start.board(), settings.tolerance).into_iter().map(|m| (0, "start".to_string(), m)).collect();
@@ -408,6 +407,13 @@ impl Game {
         self.state = summary.final_state;
         Ok(())
     }
+}
+
+/// Where the tool rests before the first move: above the middle of rank 1 at the highest
+/// traverse height any task can need, m.
+pub fn home_tool(board: &BoardGeometry, pieces: &PieceSet, limits: &MotionLimits) -> Vector3<f64> {
+    let rank_one = board.square_center(shakmaty::Square::D1);
+    Vector3::new(board.center.x, rank_one.y, board.surface_height + limits.highest_traverse(pieces))
 }
 
 /// Where a piece that stood at `standing` (board plane, m) is put down when gripped with the

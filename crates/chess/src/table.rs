@@ -402,12 +402,26 @@ impl Table {
         pieces: &PieceSet,
         exclude: Option<Location>,
     ) -> f64 {
+        self.tallest_under_point_where(from, to, clearance_radius, pieces, |p| Some(p.location) != exclude)
+            .unwrap_or(0.0)
+    }
+
+    /// The height of the tallest piece that `keep` accepts with its base centre within
+    /// `clearance_radius` of the segment `from`–`to` (m), or `None` when there is none.
+    pub fn tallest_under_point_where(
+        &self,
+        from: Vector2<f64>,
+        to: Vector2<f64>,
+        clearance_radius: f64,
+        pieces: &PieceSet,
+        keep: impl Fn(&PhysicalPiece) -> bool,
+    ) -> Option<f64> {
         self.pieces
             .iter()
-            .filter(|p| Some(p.location) != exclude)
+            .filter(|p| keep(p))
             .filter(|p| distance_to_segment(p.position, from, to) <= clearance_radius)
             .map(|p| pieces.dimensions(p.piece.role).height)
-            .fold(0.0, f64::max)
+            .reduce(f64::max)
     }
 
     /// Checks that the arm reaches, with the tool pointing down, every square and every

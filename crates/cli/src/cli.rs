@@ -29,7 +29,8 @@ pub enum Command {
     Ik(IkArgs),
     /// Print the arm as URDF (links with mass, COM and inertia; joints with limits; a tool frame).
     Urdf,
-    /// Plan a scenario: Cartesian LSPB path → IK → joint trajectory; CSV, plots, optional XLSX.
+    /// Plan a scenario (Cartesian LSPB path → IK → joint trajectory) or chess moves (--moves,
+    /// time-optimal with a phase-plane plot); CSV, plots, optional XLSX.
     Plan(PlanArgs),
     /// Dynamics terms at a state: M(q), C(q, q̇)·q̇ and g(q), as JSON.
     Dynamics(DynamicsArgs),
@@ -569,6 +570,15 @@ pub struct PlanArgs {
     /// Built-in scenario.
     #[arg(long, default_value = "queens-gambit")]
     pub scenario: String,
+    /// Plan these chess moves (SAN or UCI, e.g. "e4 e5") instead of the scenario, each by the
+    /// robot with --timing: path, joint trajectory, and a phase-plane plot per move.
+    #[arg(long)]
+    pub moves: Option<String>,
+    /// Start position of --moves as FEN (default: the initial position).
+    #[arg(long, requires = "moves")]
+    pub fen: Option<String>,
+    #[command(flatten)]
+    pub motion: MotionArgs,
     /// Output folder.
     #[arg(long, default_value = "out/plan")]
     pub out: PathBuf,

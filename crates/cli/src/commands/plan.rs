@@ -6,7 +6,19 @@ use crate::output::{ensure_dir, numbered, write_csv};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
 use anyhow::{Result, anyhow, bail};
+use crate::config::checked_limits;
+use chessarm_chess::motion::{PlannedMove, TimingMode, plan_move};
+use chessarm_chess::notation::{parse_fen, parse_move_list};
+use chessarm_chess::play::home_tool;
 use chessarm_chess::scenario::{SCENARIOS, scenario};
+use chessarm_chess::shakmaty::san::SanPlus;
+use chessarm_chess::shakmaty::uci::UciMove;
+use chessarm_chess::shakmaty::{CastlingMode, Chess, Position};
+use chessarm_chess::table::Table;
+use chessarm_chess::tasks::classify;
+use chessarm_core::plan::path::sample_times;
+use chessarm_core::plan::topp::limit_curve;
+use chessarm_core::plan::trajectory::ToolMotion;
 use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::nalgebra::Vector2;
 use chessarm_core::plan::path::{CartesianPath, CartesianSample};
@@ -59,6 +71,9 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<
 }
 
 pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
+    if let Some(moves) = &args.moves {
+        return run_moves(&args.motion.apply(setup)?, args, moves);
+    }
     let cause = format!("--dt {}", crate::resources::show(args.dt));
     let plan = plan_scenario(setup, &args.scenario, args.dt, &cause)?;
     let files = write_plan(&plan, &args.out, args.xlsx)?;
@@ -83,10 +98,22 @@ const XLSX_ROWS: usize = 1_048_576;
 
 /// Writes cartesian.csv, joint.csv, the two plots and (with `xlsx`) joint.xlsx into `out`.
 pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool) -> Result<Vec<String>> {
-    if xlsx && plan.joint.samples().len() >= XLSX_ROWS {
+    let samples = Samples { name: &plan.name, cartesian: &plan.cartesian, joint: plan.joint.samples() };
+    write_samples(&samples, out, xlsx)
+}
+
+/// What [`write_samples`] writes: a name for the plots and the samples.
+struct Samples<'a> {
+    name: &'a str,
+    cartesian: &'a [CartesianSample],
+    joint: &'a [JointSample],
+}
+
+fn write_samples(plan: &Samples<'_>, out: &Path, xlsx: bool) -> Result<Vec<String>> {
+    if xlsx && plan.joint.len() >= XLSX_ROWS {
         bail!(
             "--xlsx with {} samples: a worksheet holds at most {} rows of samples; use a larger --dt or leave out --xlsx",
-            plan.joint.samples().len(),
+            plan.joint.len(),
             XLSX_ROWS - 1
         );
     }
@@ -105,7 +132,7 @@ pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool) -> Result<Vec<String>> {
     )?;
     files.push(cartesian_csv);
     let joint_csv = out.join("joint.csv");
-    write_csv(&joint_csv, &joint_header(), plan.joint.samples().iter().map(joint_row))?;
+    write_csv(&joint_csv, &joint_header(), plan.joint.iter().map(joint_row))?;
     files.push(joint_csv);
     let cartesian_png = out.join("cartesian.png");
     plot_cartesian(&cartesian_png, plan)?;
@@ -137,7 +164,7 @@ fn joint_row(sample: &JointSample) -> Vec<f64> {
     row
 }
 
-fn plot_cartesian(path: &Path, plan: &Plan) -> Result<()> {
+fn plot_cartesian(path: &Path, plan: &Samples<'_>) -> Result<()> {
     // Shown in cm like the report's Figure 2; the CSV stays in m.
     let axis_names = ["x", "y", "z"];
     let panel = |title: &str, unit: &str, pick: fn(&CartesianSample) -> [f64; 3]| Panel {
@@ -164,14 +191,14 @@ fn plot_cartesian(path: &Path, plan: &Plan) -> Result<()> {
     )
 }
 
-fn plot_joint(path: &Path, plan: &Plan) -> Result<()> {
+fn plot_joint(path: &Path, plan: &Samples<'_>) -> Result<()> {
     let panel = |title: &str, unit: &str, pick: fn(&JointSample) -> [f64; 4]| Panel {
         title: title.to_string(),
         y_label: unit.to_string(),
         series: (0..4)
             .map(|j| Series {
                 label: format!("θ{}", j + 1),
-                points: plan.joint.samples().iter().map(|s| (s.t, pick(s)[j])).collect(),
+                points: plan.joint.iter().map(|s| (s.t, pick(s)[j])).collect(),
                 color: j,
                 dashed: false,
             })
@@ -190,7 +217,7 @@ fn plot_joint(path: &Path, plan: &Plan) -> Result<()> {
 }
 
 #[cfg(feature = "xlsx")]
-fn write_xlsx(path: &Path, plan: &Plan) -> Result<()> {
+fn write_xlsx(path: &Path, plan: &Samples<'_>) -> Result<()> {
     use rust_xlsxwriter::{DocProperties, ExcelDateTime, Workbook};
     let mut workbook = Workbook::new();
     // A fixed creation time (the Unix epoch) instead of the clock's: the same plan gives the
@@ -201,7 +228,7 @@ fn write_xlsx(path: &Path, plan: &Plan) -> Result<()> {
     for (column, name) in joint_header().iter().enumerate() {
         sheet.write_string(0, column as u16, name)?;
     }
-    for (row, sample) in plan.joint.samples().iter().enumerate() {
+    for (row, sample) in plan.joint.iter().enumerate() {
         for (column, value) in joint_row(sample).iter().enumerate() {
             sheet.write_number(row as u32 + 1, column as u16, *value)?;
         }
@@ -211,6 +238,189 @@ fn write_xlsx(path: &Path, plan: &Plan) -> Result<()> {
 }
 
 #[cfg(not(feature = "xlsx"))]
-fn write_xlsx(_path: &Path, _plan: &Plan) -> Result<()> {
+fn write_xlsx(_path: &Path, _plan: &Samples<'_>) -> Result<()> {
     anyhow::bail!("this chessarm was built without the 'xlsx' feature; rebuild with --features xlsx")
+}
+
+/// `plan --moves`: plans each move by the robot from the start position (pieces put exactly on
+/// their targets), writes the whole sequence's path and joint trajectory sampled every `--dt`
+/// and, for time-optimal timing, one phase-plane plot per move (`phase-NNN-UCI.png`: ṡ against
+/// s of every leg with each family of limits' own speed limit curve and the controllable set).
+fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
+    let start = match &args.fen {
+        Some(fen) => parse_fen(fen)?,
+        None => Chess::default(),
+    };
+    let record = parse_move_list(moves, start)?;
+    let limits = checked_limits(setup.motion, "motion", "gripper")?;
+    let mut table = Table::from_position(setup.board, &record.start);
+    table
+        .check_reachable(&setup.arm, &setup.pieces, limits.highest_traverse(&setup.pieces))
+        .map_err(|e| anyhow!("the table cannot be served by this arm: {e}"))?;
+    let mut tool = home_tool(&setup.board, &setup.pieces, &limits);
+    let mut position = record.start.clone();
+    ensure_dir(&args.out)?;
+    // An earlier run's phase planes of other moves would pass for this run's: those chessarm
+    // wrote are removed (a file of that name it did not write is an error, and stays).
+    let earlier: Vec<std::path::PathBuf> = std::fs::read_dir(&args.out)?
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("phase-") && n.ends_with(".png")))
+        .collect();
+    crate::output::remove_stale(&earlier)?;
+    let mut cartesian = Vec::new();
+    let mut joint = Vec::new();
+    let mut offset = 0.0;
+    let mut summaries = Vec::new();
+    let mut files = Vec::new();
+    let mut phase_files = Vec::new();
+    for (index, mv) in record.moves.iter().enumerate() {
+        let san = SanPlus::from_move(position.clone(), *mv).to_string();
+        let uci = UciMove::from_move(*mv, CastlingMode::Standard).to_string();
+        let planned = plan_move(
+            tool,
+            &position,
+            mv,
+            &table,
+            &setup.pieces,
+            &limits,
+            &setup.arm,
+            setup.timing,
+            CONTROL_PERIOD,
+        )?;
+        let motion = &planned.motion;
+        let duration = motion.duration();
+        let sampled = JointTrajectory::from_path(&setup.arm, motion, args.dt, TOOL_DOWN)
+            .map_err(|e| anyhow!("move {san}: {e}"))?;
+        cartesian.extend(sample_times(duration, args.dt)?.map(|t| CartesianSample { t: t + offset, ..motion.sample(t) }));
+        joint.extend(sampled.samples().iter().map(|s| JointSample { t: s.t + offset, ..*s }));
+        let name = format!("{:03}-{uci}", index + 1);
+        if !planned.legs.is_empty() {
+            let png = args.out.join(format!("phase-{name}.png"));
+            plot_phase_plane(&png, &format!("Phase plane of {san} ({uci}): why it takes {duration:.2} s"), &planned)?;
+            phase_files.push(png.display().to_string());
+        }
+        summaries.push(json!({
+            "ply": index + 1,
+            "san": san,
+            "uci": uci,
+            "kind": classify(&position, mv).name(),
+            "start_s": offset,
+            "duration_s": duration,
+            "phases_s": {
+                "travel": planned.phases.travel,
+                "vertical": planned.phases.vertical,
+                "grip": planned.phases.grip,
+                "pause": planned.phases.pause,
+            },
+            "longest_limit": planned.longest_limit().map(|(limit, time)| json!({"limit": limit, "time_s": time})),
+            "most_used_limit": planned.usage.as_ref().map(|u| json!({"limit": u.limit, "share": u.share})),
+            "legs": planned.legs.iter().map(|leg| json!({
+                "length_m": leg.leg.path.length(),
+                "duration_s": leg.leg.duration(),
+                "limit_time_s": leg
+                    .time_per_limit()
+                    .into_iter()
+                    .filter(|(_, t)| *t > 0.0)
+                    .map(|(name, t)| (name, json!(t * leg.leg.scale)))
+                    .collect::<serde_json::Map<_, _>>(),
+            })).collect::<Vec<_>>(),
+        }));
+        for task in &planned.tasks {
+            let target = table.nominal_position(task.task.to);
+            table
+                .relocate(task.task.from, task.task.to, target)
+                .map_err(|e| anyhow!("move {san}: {e}"))?;
+        }
+        tool = motion.end();
+        position.play_unchecked(*mv);
+        offset += duration;
+    }
+    let name = format!("moves {moves}");
+    files.extend(write_samples(&Samples { name: &name, cartesian: &cartesian, joint: &joint }, &args.out, args.xlsx)?);
+    files.extend(phase_files);
+    print_json(&json!({
+        "moves": summaries,
+        "timing": match setup.timing { TimingMode::Optimal => "optimal", TimingMode::Lspb => "lspb" },
+        "duration_s": offset,
+        "dt_s": args.dt,
+        "files": files,
+    }))?;
+    Ok(())
+}
+
+/// The control period moves are planned for, s (as `play` simulates them).
+const CONTROL_PERIOD: f64 = 1e-3;
+
+/// One panel per leg: the planned ṡ(s), the bound of the controllable set, and for each family
+/// of limits (joint speed, joint acceleration, joint torque, tool speed, carry acceleration,
+/// grip) the largest ṡ it alone allows at each s (the lowest over its joints).
+fn plot_phase_plane(path: &Path, title: &str, planned: &PlannedMove) -> Result<()> {
+    let mut panels = Vec::with_capacity(planned.legs.len());
+    for (k, leg) in planned.legs.iter().enumerate() {
+        let timing = &leg.leg.timing;
+        let table = &leg.table;
+        let speed = |x: f64| x.max(0.0).sqrt() / leg.leg.scale;
+        let planned_speed: Vec<(f64, f64)> = timing.s.iter().zip(&timing.x).map(|(s, x)| (*s, speed(*x))).collect();
+        let top = planned_speed.iter().map(|p| p.1).fold(0.0, f64::max).max(1e-3);
+        // Curves far above the motion say nothing; they are cut at 3× its top speed.
+        let cap = 3.0 * top;
+        let mut series = vec![Series { label: "planned ṡ".into(), points: planned_speed, color: 3, dashed: false }];
+        series.push(Series {
+            label: "largest ṡ that can still stop (controllable set)".into(),
+            points: timing.s.iter().zip(&timing.controllable).map(|(s, (_, hi))| (*s, speed(*hi).min(cap))).collect(),
+            color: 3,
+            dashed: true,
+        });
+        let mut families: Vec<String> = Vec::new();
+        for name in &leg.names {
+            let family = family_of(name);
+            if !families.contains(&family) {
+                families.push(family);
+            }
+        }
+        for (color, family) in families.iter().enumerate() {
+            let members: Vec<u16> =
+                leg.names.iter().enumerate().filter(|(_, n)| family_of(n) == *family).map(|(i, _)| i as u16).collect();
+            let points: Vec<(f64, f64)> = (0..table.len())
+                .map(|i| {
+                    let x = limit_curve(table, i, |id| members.contains(&id.0));
+                    (table.grid()[i], speed(x).min(cap))
+                })
+                .collect();
+            if points.iter().all(|p| p.1 >= cap) {
+                continue;
+            }
+            series.push(Series { label: family.clone(), points, color: color % 3 + 4 * usize::from(color >= 3), dashed: false });
+        }
+        let carrying = leg.names.iter().any(|n| n == "tool acceleration while carrying");
+        let binding = leg
+            .time_per_limit()
+            .into_iter()
+            .filter(|(_, t)| *t > 0.0)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or_else(String::new, |(name, t)| format!("; binding longest: {name} ({:.2} s)", t * leg.leg.scale));
+        panels.push(Panel {
+            title: format!(
+                "leg {} ({}): {:.3} m in {:.3} s{binding}",
+                k + 1,
+                if carrying { "carrying" } else { "empty" },
+                leg.leg.path.length(),
+                leg.leg.duration()
+            ),
+            y_label: "ṡ (m/s)".into(),
+            series,
+        });
+    }
+    plot_panels(path, title, "path parameter s (m; arc length on lines)", &panels)
+}
+
+/// "joint 2 torque" → "joint torque"; other names unchanged.
+fn family_of(name: &str) -> String {
+    match name.strip_prefix("joint ") {
+        Some(rest) => match rest.split_once(' ') {
+            Some((_, what)) => format!("joint {what}"),
+            None => name.to_string(),
+        },
+        None => name.to_string(),
+    }
 }
