@@ -444,44 +444,56 @@ fn time_optimal_leg(
     }
 }
 
-/// The leg's polyline with its corners blended as far as the clearance allows, split into
-/// several paths at corners that must stay sharp (stops).
+/// The leg's polyline with each corner blended at the largest cut (up to `limits.blend`) whose
+/// blend keeps the clearance ([`clears`]), found by bisection to 1/64 of the largest; a corner
+/// whose blend cannot clear even at [`MIN_CUT`] stays sharp, and the leg is split there into
+/// paths that each start and end at rest.
 fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Result<Vec<GeometricPath>, TaskError> {
     let corners = GeometricPath::corners(&spec.points).map_err(TaskError::Geometry)?;
     let interior = corners.len().saturating_sub(2);
-    let mut cuts = vec![limits.blend; interior];
-    loop {
-        // Split at sharp corners (cut 0), blend the rest.
-        let mut paths = Vec::new();
-        let mut first = 0;
-        let mut owners = Vec::new();
-        for k in 0..=interior {
+    let mut cuts = vec![0.0; interior];
+    for (k, cut) in cuts.iter_mut().enumerate() {
+        let around = [corners[k], corners[k + 1], corners[k + 2]];
+        let fits = |d: f64| -> Result<bool, TaskError> {
+            let path = GeometricPath::polyline(&around, |_| d).map_err(TaskError::Geometry)?;
+            let blend = path.pieces().iter().find(|p| matches!(p, PathPiece::Blend { .. }));
+            Ok(blend.is_none_or(|b| clears(b, spec, pieces, limits)))
+        };
+        if limits.blend < MIN_CUT {
+            continue;
+        }
+        if fits(limits.blend)? {
+            *cut = limits.blend;
+            continue;
+        }
+        let (mut good, mut bad) = (0.0, limits.blend);
+        for _ in 0..BISECTIONS {
+            let middle = 0.5 * (good + bad);
+            if fits(middle)? {
+                good = middle;
+            } else {
+                bad = middle;
+            }
+        }
+        *cut = if good >= MIN_CUT { good } else { 0.0 };
+    }
+    let mut paths = Vec::new();
+    let mut first = 0;
+    for k in 0..=interior {
+        if k == interior || cuts[k] == 0.0 {
             let end = k + 1;
-            if k == interior || cuts[k] < MIN_CUT {
-                let section = &corners[first..=end];
-                let section_cuts: Vec<f64> = cuts[first..end.saturating_sub(1)].to_vec();
-                let path = GeometricPath::polyline(section, |c| section_cuts[c]).map_err(TaskError::Geometry)?;
-                owners.push((first, path.clone()));
-                paths.push(path);
-                first = end;
-            }
-        }
-        let mut changed = false;
-        for (offset, path) in &owners {
-            let blends = path.pieces().iter().filter(|p| matches!(p, PathPiece::Blend { .. }));
-            for (k, blend) in blends.enumerate() {
-                if !clears(blend, spec, pieces, limits) {
-                    let corner = offset + k;
-                    cuts[corner] = if cuts[corner] * 0.5 < MIN_CUT { 0.0 } else { cuts[corner] * 0.5 };
-                    changed = true;
-                }
-            }
-        }
-        if !changed {
-            return Ok(paths);
+            let section_cuts = &cuts[first..k];
+            let path =
+                GeometricPath::polyline(&corners[first..=end], |c| section_cuts[c]).map_err(TaskError::Geometry)?;
+            paths.push(path);
+            first = end;
         }
     }
+    Ok(paths)
 }
+
+/// Bisection steps of a corner's cut: 1/64 of the largest cut (0.6 mm of 4 cm).
+const BISECTIONS: usize = 6;
 
 /// Whether the tool (empty) or the carried piece's base clears every piece under it, and the
 /// bare table, by the margin along `blend`, sampled every [`CLEARANCE_STEP`]. Over the leg's

@@ -2,11 +2,11 @@
 
 use crate::cli::PlanArgs;
 use crate::config::Setup;
+use crate::config::checked_limits;
 use crate::output::{ensure_dir, numbered, write_csv};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
 use anyhow::{Result, anyhow, bail};
-use crate::config::checked_limits;
 use chessarm_chess::motion::{PlannedMove, TimingMode, plan_move};
 use chessarm_chess::notation::{parse_fen, parse_move_list};
 use chessarm_chess::play::home_tool;
@@ -16,12 +16,12 @@ use chessarm_chess::shakmaty::uci::UciMove;
 use chessarm_chess::shakmaty::{CastlingMode, Chess, Position};
 use chessarm_chess::table::Table;
 use chessarm_chess::tasks::classify;
-use chessarm_core::plan::path::sample_times;
-use chessarm_core::plan::topp::limit_curve;
-use chessarm_core::plan::trajectory::ToolMotion;
 use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::nalgebra::Vector2;
+use chessarm_core::plan::path::sample_times;
 use chessarm_core::plan::path::{CartesianPath, CartesianSample};
+use chessarm_core::plan::topp::limit_curve;
+use chessarm_core::plan::trajectory::ToolMotion;
 use chessarm_core::plan::trajectory::{JointSample, JointTrajectory};
 use serde_json::json;
 use std::path::Path;
@@ -264,7 +264,9 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
     // wrote are removed (a file of that name it did not write is an error, and stays).
     let earlier: Vec<std::path::PathBuf> = std::fs::read_dir(&args.out)?
         .filter_map(|entry| entry.ok().map(|e| e.path()))
-        .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("phase-") && n.ends_with(".png")))
+        .filter(|p| {
+            p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("phase-") && n.ends_with(".png"))
+        })
         .collect();
     crate::output::remove_stale(&earlier)?;
     let mut cartesian = Vec::new();
@@ -276,22 +278,14 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
     for (index, mv) in record.moves.iter().enumerate() {
         let san = SanPlus::from_move(position.clone(), *mv).to_string();
         let uci = UciMove::from_move(*mv, CastlingMode::Standard).to_string();
-        let planned = plan_move(
-            tool,
-            &position,
-            mv,
-            &table,
-            &setup.pieces,
-            &limits,
-            &setup.arm,
-            setup.timing,
-            CONTROL_PERIOD,
-        )?;
+        let planned =
+            plan_move(tool, &position, mv, &table, &setup.pieces, &limits, &setup.arm, setup.timing, CONTROL_PERIOD)?;
         let motion = &planned.motion;
         let duration = motion.duration();
         let sampled = JointTrajectory::from_path(&setup.arm, motion, args.dt, TOOL_DOWN)
             .map_err(|e| anyhow!("move {san}: {e}"))?;
-        cartesian.extend(sample_times(duration, args.dt)?.map(|t| CartesianSample { t: t + offset, ..motion.sample(t) }));
+        cartesian
+            .extend(sample_times(duration, args.dt)?.map(|t| CartesianSample { t: t + offset, ..motion.sample(t) }));
         joint.extend(sampled.samples().iter().map(|s| JointSample { t: s.t + offset, ..*s }));
         let name = format!("{:03}-{uci}", index + 1);
         if !planned.legs.is_empty() {
@@ -327,9 +321,7 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         }));
         for task in &planned.tasks {
             let target = table.nominal_position(task.task.to);
-            table
-                .relocate(task.task.from, task.task.to, target)
-                .map_err(|e| anyhow!("move {san}: {e}"))?;
+            table.relocate(task.task.from, task.task.to, target).map_err(|e| anyhow!("move {san}: {e}"))?;
         }
         tool = motion.end();
         position.play_unchecked(*mv);
@@ -390,7 +382,12 @@ fn plot_phase_plane(path: &Path, title: &str, planned: &PlannedMove) -> Result<(
             if points.iter().all(|p| p.1 >= cap) {
                 continue;
             }
-            series.push(Series { label: family.clone(), points, color: color % 3 + 4 * usize::from(color >= 3), dashed: false });
+            series.push(Series {
+                label: family.clone(),
+                points,
+                color: color % 3 + 4 * usize::from(color >= 3),
+                dashed: false,
+            });
         }
         let carrying = leg.names.iter().any(|n| n == "tool acceleration while carrying");
         let binding = leg

@@ -1,0 +1,189 @@
+//! The binary, end to end: motion timing (`--timing optimal|lspb`), the `[motion]` and
+//! `[gripper]` tables and flags, `plan --moves` with its phase planes, and limits that cannot
+//! be kept.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+mod common;
+use common::{assert_one_line_error, chessarm, json_of};
+
+use serde_json::Value;
+use std::path::Path;
+
+fn fixture(name: &str) -> String {
+    format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn game_json(dir: &Path, args: &[&str]) -> Value {
+    let mut all = vec!["play", "--out", dir.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let output = chessarm(&all);
+    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_str(&std::fs::read_to_string(dir.join("game.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn lspb_timing_reproduces_the_timings_and_placements_from_before_the_optimal_planner() {
+    // lspb_timings.json was written by chessarm a12c6b4, the commit before the time-optimal
+    // planner: the report's LSPB timing must give those durations and placements to the bit.
+    let golden: Value = serde_json::from_str(&std::fs::read_to_string(fixture("lspb_timings.json")).unwrap()).unwrap();
+    for (game, expected) in golden["games"].as_object().unwrap() {
+        let dir = tempfile::tempdir().unwrap();
+        let played = game_json(dir.path(), &[&fixture(game), "--timing", "lspb"]);
+        let moves = played["moves"].as_array().unwrap();
+        let durations: Vec<&Value> = moves.iter().map(|m| &m["duration_s"]).collect();
+        let places: Vec<&Value> = moves.iter().map(|m| &m["place_errors_mm"]).collect();
+        assert_eq!(durations, expected["duration_s"].as_array().unwrap().iter().collect::<Vec<_>>(), "{game}");
+        assert_eq!(places, expected["place_errors_mm"].as_array().unwrap().iter().collect::<Vec<_>>(), "{game}");
+        // The LSPB moves pause between their straight moves and have no binding limit.
+        assert!(moves.iter().all(|m| m["phases_s"]["pause"].as_f64().unwrap() > 0.0 && m["longest_limit"].is_null()));
+    }
+}
+
+#[test]
+fn the_opera_game_at_blitz_pace_within_every_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let played = game_json(dir.path(), &[&fixture("opera_game.pgn")]);
+    let moves = played["moves"].as_array().unwrap();
+    assert_eq!(played["misplaced"].as_array().unwrap().len(), 0);
+    assert_eq!(played["final_fen_physical"], played["final_fen_rules"]);
+    let known = [
+        "joint 1 speed",
+        "joint 2 speed",
+        "joint 3 speed",
+        "joint 4 speed",
+        "joint 1 acceleration",
+        "joint 2 acceleration",
+        "joint 3 acceleration",
+        "joint 4 acceleration",
+        "joint 1 torque",
+        "joint 2 torque",
+        "joint 3 torque",
+        "joint 4 torque",
+        "tool speed",
+        "tool acceleration while carrying",
+        "grip",
+    ];
+    let mut quiet = Vec::new();
+    for m in moves {
+        assert_eq!(m["saturated_samples"].as_u64(), Some(0), "{m}");
+        assert!(known.contains(&m["longest_limit"]["limit"].as_str().unwrap()), "{m}");
+        if m["kind"] == "quiet" {
+            quiet.push(m["duration_s"].as_f64().unwrap());
+        }
+    }
+    quiet.sort_by(f64::total_cmp);
+    // Human blitz pace: the median quiet move within 2.5 s (the report's LSPB: 6.4 s).
+    assert!(quiet[quiet.len() / 2] <= 2.5, "quiet moves {quiet:?}");
+    let per_ply = played["total_robot_time_s"].as_f64().unwrap() / moves.len() as f64;
+    assert!(per_ply < 3.5, "{per_ply} s per ply");
+}
+
+#[test]
+fn motion_tables_and_flags_set_the_limits_and_the_flags_win() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = dir.path().join("setup.toml");
+    std::fs::write(&setup, "[gripper]\ngrip_dwell = 0.1\nrelease_dwell = 0.2\n\n[motion]\ntool_speed = 0.5\n").unwrap();
+    let setup = setup.to_str().unwrap();
+    let phases = |extra: &[&str]| {
+        let out = dir.path().join("out");
+        let mut args = vec!["--arm", setup, "--moves", "e4"];
+        args.extend_from_slice(extra);
+        let played = game_json(&out, &args);
+        played["moves"][0]["phases_s"].clone()
+    };
+    assert!((phases(&[])["grip"].as_f64().unwrap() - 0.3).abs() < 1e-12);
+    assert!((phases(&["--grip-dwell", "0.5"])["grip"].as_f64().unwrap() - 0.7).abs() < 1e-12);
+    // The slower tool limit of the file makes the move slower than the defaults'.
+    let slow = game_json(&dir.path().join("slow"), &["--arm", setup, "--moves", "e4"]);
+    let fast = game_json(&dir.path().join("fast"), &["--moves", "e4"]);
+    let duration = |g: &Value| g["moves"][0]["duration_s"].as_f64().unwrap();
+    assert!(duration(&slow) > duration(&fast) - 0.6 + 0.3, "{} vs {}", duration(&slow), duration(&fast));
+    // `chessarm arm` prints both tables, and reading the print back gives the same setup.
+    let printed = String::from_utf8(chessarm(&["--arm", setup, "arm"]).stdout).unwrap();
+    assert!(printed.contains("[motion]") && printed.contains("[gripper]") && printed.contains("grip_dwell = 0.1"));
+    let again = dir.path().join("again.toml");
+    std::fs::write(&again, &printed).unwrap();
+    assert_eq!(String::from_utf8(chessarm(&["--arm", again.to_str().unwrap(), "arm"]).stdout).unwrap(), printed);
+}
+
+#[test]
+fn bad_motion_settings_are_one_line_errors_naming_the_field_and_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    for (text, needles) in [
+        ("[motion]\ntorque_margin = 1.5\n", &["motion.torque_margin", "1.5", "(0, 1]"][..]),
+        ("[gripper]\ngrip_dwell = -1.0\n", &["gripper.grip_dwell", "-1", ">= 0"][..]),
+        ("[motion]\njoint_acceleration = [1.0, 2.0]\n", &["motion.joint_acceleration", "2 numbers"][..]),
+        ("[motion]\ntool_sped = 1.0\n", &["tool_sped"][..]),
+    ] {
+        let setup = dir.path().join("bad.toml");
+        std::fs::write(&setup, text).unwrap();
+        let output = chessarm(&["--arm", setup.to_str().unwrap(), "play", "--moves", "e4", "--out", out]);
+        assert_one_line_error(&output, needles);
+    }
+    for (flag, value) in
+        [("--torque-margin", "0"), ("--tool-speed", "-1"), ("--blend", "nan"), ("--grip-dwell", "-0.1")]
+    {
+        let output = chessarm(&["play", "--moves", "e4", "--out", out, flag, value]);
+        assert_one_line_error(&output, &[flag, value]);
+    }
+    let output = chessarm(&["play", "--moves", "e4", "--out", out, "--joint-acceleration", "1,2"]);
+    assert_one_line_error(&output, &["--joint-acceleration", "1 or 4"]);
+}
+
+#[test]
+fn limits_the_arm_cannot_keep_exit_2_naming_the_move_the_limit_and_the_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    // A grip weaker than gravity: the piece would slip at rest.
+    let output = chessarm(&["play", "--moves", "e4", "--out", out, "--grip-strength", "8"]);
+    assert_one_line_error(&output, &["move e4 (e2e4)", "grip", "9.8", "8 m/s²"]);
+    // A shoulder motor too weak to hold the arm up.
+    let setup = dir.path().join("weak.toml");
+    let links = "[[links]]\n\n[[links]]\ntorque_limit = 0.5\n\n[[links]]\n\n[[links]]\n";
+    std::fs::write(&setup, links).unwrap();
+    let output = chessarm(&["--arm", setup.to_str().unwrap(), "play", "--moves", "e4", "--out", out]);
+    assert_one_line_error(&output, &["move e4 (e2e4)", "joint 2", "gravity", "0.5 N·m"]);
+}
+
+#[test]
+fn plan_moves_writes_the_path_the_joint_trajectory_and_a_phase_plane_per_move() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plan");
+    let result = json_of(&chessarm(&["plan", "--moves", "e4 d5 exd5", "--out", out.to_str().unwrap()]));
+    let moves = result["moves"].as_array().unwrap();
+    assert_eq!(moves.len(), 3);
+    for name in ["cartesian.csv", "joint.csv", "cartesian.png", "joint.png", "phase-001-e2e4.png", "phase-003-e4d5.png"]
+    {
+        assert!(out.join(name).is_file(), "{name} missing");
+    }
+    // A quiet move has three legs (to the piece, carrying, rising), a capture five.
+    assert_eq!(moves[0]["legs"].as_array().unwrap().len(), 3);
+    assert_eq!(moves[2]["legs"].as_array().unwrap().len(), 5);
+    // The first move's plan is the one `play` runs (later ones differ a little: `play` picks
+    // the pieces where the simulated arm put them, `plan` on their squares' centres).
+    let played = game_json(&dir.path().join("play"), &["--moves", "e4 d5 exd5"]);
+    assert_eq!(moves[0]["duration_s"], played["moves"][0]["planned_duration_s"]);
+    let total: f64 = moves.iter().map(|m| m["duration_s"].as_f64().unwrap()).sum();
+    let csv = std::fs::read_to_string(out.join("joint.csv")).unwrap();
+    let last: f64 = csv.lines().last().unwrap().split(',').next().unwrap().parse().unwrap();
+    assert!((last - total).abs() < 0.005 + 1e-9, "CSV ends at {last} s, the moves take {total} s");
+    // Each leg's binding limits add up to (at most) its duration.
+    for m in moves {
+        for leg in m["legs"].as_array().unwrap() {
+            let bound: f64 = leg["limit_time_s"].as_object().unwrap().values().map(|v| v.as_f64().unwrap()).sum();
+            assert!((bound - leg["duration_s"].as_f64().unwrap()).abs() < 1e-9, "{leg}");
+        }
+    }
+    // With LSPB timing there is no phase plane; an earlier run's are removed.
+    let lspb = json_of(&chessarm(&["plan", "--moves", "e4", "--timing", "lspb", "--out", out.to_str().unwrap()]));
+    assert!(!out.join("phase-001-e2e4.png").exists());
+    assert!(lspb["files"].as_array().unwrap().iter().all(|f| !f.as_str().unwrap().contains("phase-")));
+    assert!(lspb["moves"][0]["duration_s"].as_f64().unwrap() > 5.0);
+    // An illegal move is a one-line error.
+    let output = chessarm(&["plan", "--moves", "e4 e4", "--out", out.to_str().unwrap()]);
+    assert_one_line_error(&output, &["e4"]);
+}
