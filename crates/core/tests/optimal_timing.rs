@@ -318,3 +318,54 @@ fn bad_grids_and_boundaries_are_errors_not_panics() {
     // Starting faster than the speed limit allows.
     assert!(matches!(time_optimal(&table, 4.0, 0.0), Err(ToppError::Infeasible { index: 0, .. })));
 }
+
+/// Fourier–Motzkin elimination of `u`: every pure row bounds `x`, every pair of an upper
+/// (`α_p > 0`) and a lower (`α_n < 0`) line needs `(α_p β_n − α_n β_p) x ≤ α_p γ_n − α_n γ_p`.
+fn fourier_motzkin(rows: &[chessarm_core::plan::topp::Row]) -> Option<(f64, f64)> {
+    let (mut lo, mut hi) = (0.0_f64, f64::INFINITY);
+    let mut bound = |c: f64, rhs: f64| {
+        if c > 0.0 {
+            hi = hi.min(rhs / c);
+        } else if c < 0.0 {
+            lo = lo.max(rhs / c);
+        } else if rhs < 0.0 {
+            lo = f64::INFINITY;
+        }
+    };
+    for p in rows {
+        if p.alpha == 0.0 {
+            bound(p.beta, p.gamma);
+        }
+        for n in rows.iter().filter(|n| n.alpha < 0.0 && p.alpha > 0.0) {
+            bound(p.alpha * n.beta - n.alpha * p.beta, p.alpha * n.gamma - n.alpha * p.gamma);
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+proptest::proptest! {
+    #[test]
+    fn the_newton_projection_equals_fourier_motzkin_elimination(
+        rows in proptest::collection::vec((-2.0f64..2.0, -2.0f64..2.0, -1.0f64..3.0, 0u8..4), 1..40)
+    ) {
+        use chessarm_core::plan::topp::Row;
+        // A quarter of the rows pure (α = 0), like speed limits.
+        let rows: Vec<Row> = rows
+            .into_iter()
+            .map(|(a, b, c, kind)| Row { alpha: if kind == 0 { 0.0 } else { a }, beta: b, gamma: c, limit: LimitId(0) })
+            .collect();
+        let fast = project(rows.iter().copied());
+        let slow = fourier_motzkin(&rows);
+        match (fast, slow) {
+            (None, None) => {}
+            (Some((a, b)), Some((c, d))) => {
+                let close = |x: f64, y: f64| x == y || (x - y).abs() <= 1e-9 * (1.0 + x.abs().max(y.abs()));
+                proptest::prop_assert!(close(a, c) && close(b, d), "Newton [{a}, {b}], FM [{c}, {d}]");
+            }
+            // A projection that is a single point up to rounding may be seen as empty by one.
+            (Some((a, b)), None) | (None, Some((a, b))) => {
+                proptest::prop_assert!((b - a).abs() <= 1e-9 * (1.0 + b.abs()), "one empty, the other [{a}, {b}]");
+            }
+        }
+    }
+}
