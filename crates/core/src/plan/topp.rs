@@ -181,7 +181,7 @@ pub fn project<I: Iterator<Item = Row> + Clone>(rows: I) -> Option<(f64, f64)> {
             lower = true;
         }
     }
-    if !(lo <= hi) {
+    if lo > hi || lo.is_nan() || hi.is_nan() {
         return None;
     }
     if !(lower && upper) {
@@ -231,7 +231,7 @@ pub fn project<I: Iterator<Item = Row> + Clone>(rows: I) -> Option<(f64, f64)> {
             return None;
         }
         let next = meet(&j, &k);
-        if !(next < x) || next < lo {
+        if next >= x || next.is_nan() || next < lo {
             return None;
         }
         x = next;
@@ -249,7 +249,7 @@ pub fn project<I: Iterator<Item = Row> + Clone>(rows: I) -> Option<(f64, f64)> {
             return None;
         }
         let next = meet(&j, &k);
-        if !(next > x) || next > top {
+        if next <= x || next.is_nan() || next > top {
             return None;
         }
         x = next;
