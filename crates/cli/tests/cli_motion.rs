@@ -183,6 +183,18 @@ fn plan_moves_writes_the_path_the_joint_trajectory_and_a_phase_plane_per_move() 
     assert!(!out.join("phase-001-e2e4.png").exists());
     assert!(lspb["files"].as_array().unwrap().iter().all(|f| !f.as_str().unwrap().contains("phase-")));
     assert!(lspb["moves"][0]["duration_s"].as_f64().unwrap() > 5.0);
+    // A pawn's final rise is only the clearance margin: with a 2 mm margin it is a leg of 2 mm,
+    // which still moves (every line has an interior grid point).
+    let short = json_of(&chessarm(&[
+        "plan",
+        "--moves",
+        "e4 d6",
+        "--clearance-margin",
+        "0.002",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    assert_eq!(short["moves"].as_array().unwrap().len(), 2);
     // An illegal move is a one-line error.
     let output = chessarm(&["plan", "--moves", "e4 e4", "--out", out.to_str().unwrap()]);
     assert_one_line_error(&output, &["e4"]);

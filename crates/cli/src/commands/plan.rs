@@ -351,8 +351,11 @@ fn plot_phase_plane(path: &Path, title: &str, planned: &PlannedMove) -> Result<(
     for (k, leg) in planned.legs.iter().enumerate() {
         let timing = &leg.leg.timing;
         let table = &leg.table;
-        let speed = |x: f64| x.max(0.0).sqrt() / leg.leg.scale;
-        let planned_speed: Vec<(f64, f64)> = timing.s.iter().zip(&timing.x).map(|(s, x)| (*s, speed(*x))).collect();
+        // The motion runs stretched by the leg's scale (to whole control periods); the limit
+        // curves and the controllable set belong to the path and are drawn unstretched.
+        let speed = |x: f64| x.max(0.0).sqrt();
+        let planned_speed: Vec<(f64, f64)> =
+            timing.s.iter().zip(&timing.x).map(|(s, x)| (*s, speed(*x) / leg.leg.scale)).collect();
         let top = planned_speed.iter().map(|p| p.1).fold(0.0, f64::max).max(1e-3);
         // Curves far above the motion say nothing; they are cut at 3× its top speed.
         let cap = 3.0 * top;
@@ -360,7 +363,7 @@ fn plot_phase_plane(path: &Path, title: &str, planned: &PlannedMove) -> Result<(
         series.push(Series {
             label: "largest ṡ that can still stop (controllable set)".into(),
             points: timing.s.iter().zip(&timing.controllable).map(|(s, (_, hi))| (*s, speed(*hi).min(cap))).collect(),
-            color: 3,
+            color: 7,
             dashed: true,
         });
         let mut families: Vec<String> = Vec::new();

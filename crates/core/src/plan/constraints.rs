@@ -7,8 +7,9 @@
 //! - joint speed `|q'_j| √x ≤ v_j`: `(q'_j / v_j)² x ≤ 1`;
 //! - joint acceleration `|q'_j u + q''_j x| ≤ a_j`;
 //! - joint torque `|(M q')_j u + (M q'' + C(q, q') q')_j x + g_j + f_j| ≤ m τ_j` with the
-//!   margin `m`; `f_j` bounds the friction: Coulomb `τ_c sign(q'_j)` and viscous
-//!   `b |q'_j| √x_max`, its largest value at the point's top joint speed `x_max`;
+//!   margin `m`, for every friction torque `f_j` the plant can produce there: Coulomb between 0
+//!   and `τ_c sign(q'_j)` (it fades as a joint stops), viscous between 0 and `b |q'_j| √x_max`,
+//!   its value at the point's top joint speed `x_max`;
 //! - tool speed `|p'|² x ≤ v²`;
 //! - tool acceleration `‖p' u + p'' x − g‖ ≤ A` (with `g = 0` a plain acceleration limit,
 //!   with gravity the specific force a friction grip must hold). In the orthonormal frame
@@ -147,22 +148,29 @@ impl<const N: usize> PathConstraint<N> for JointTorque<N> {
             let link = self.model.link(j);
             let limit = self.margin * link.limits.torque;
             let friction = link.friction;
+            // The plant's Coulomb friction τ_c tanh(q̇/ε) lies between 0 and τ_c sign(q'_j)
+            // (it fades as the joint stops), the viscous between 0 and its top value: the
+            // motor torque lies in [lin + c + low, lin + c + high].
             let coulomb = friction.coulomb * point.dq[j].signum() * f64::from(point.dq[j] != 0.0);
             let viscous = if top_speed.is_finite() { friction.viscous * point.dq[j].abs() * top_speed } else { 0.0 };
-            let bias = c[j] + coulomb;
-            table.push_row(a[j] / limit, b[j] / limit, 1.0 - (bias + viscous) / limit, id(first, j));
-            table.push_row(-a[j] / limit, -b[j] / limit, 1.0 + (bias - viscous) / limit, id(first, j));
+            let (low, high) = (coulomb.min(0.0) - viscous, coulomb.max(0.0) + viscous);
+            table.push_row(a[j] / limit, b[j] / limit, 1.0 - (c[j] + high) / limit, id(first, j));
+            table.push_row(-a[j] / limit, -b[j] / limit, 1.0 + (c[j] + low) / limit, id(first, j));
         }
     }
     fn explain(&self, point: &PathPoint<N>, part: usize) -> String {
         let (_, _, c) = self.coefficients(point);
         let limit = self.model.link(part).limits.torque;
+        let coulomb = self.model.link(part).friction.coulomb;
+        let friction =
+            if coulomb > 0.0 { format!(" (plus up to {coulomb} N·m of Coulomb friction)") } else { String::new() };
         format!(
-            "joint {} must hold {:.3} N·m against gravity there, above {:.0} % of its {limit} N·m torque limit ({:.3} N·m)",
+            "joint {} must hold {:.4} N·m against gravity there{friction}, above {:.0} % of its {limit} N·m torque limit ({:.4} N·m, of which the plan uses {:.4} N·m)",
             part + 1,
             c[part].abs(),
             100.0 * self.margin,
-            self.margin * limit
+            self.margin * limit,
+            (1.0 - super::optimal::GRID_SLACK) * self.margin * limit
         )
     }
 }
@@ -205,10 +213,11 @@ impl<const N: usize> PathConstraint<N> for ToolAcceleration {
     }
     fn explain(&self, _: &PathPoint<N>, _: usize) -> String {
         format!(
-            "{}: holding still takes {:.3} m/s², above its {} m/s² limit",
+            "{}: holding still takes {:.4} m/s², above its {} m/s² limit (of which the plan uses {:.4} m/s²)",
             self.label,
             self.gravity.norm(),
-            self.max
+            self.max,
+            (1.0 - super::optimal::GRID_SLACK) * self.max
         )
     }
     fn push_rows(&self, point: &PathPoint<N>, first: u16, table: &mut ConstraintTable) {

@@ -113,7 +113,8 @@ impl GeometricPath {
             from = corner + outgoing * d;
         }
         pieces.push(PathPiece::Line { from, to: corners[corners.len() - 1] });
-        pieces.retain(|p| p.length() > 0.0);
+        // A line left this short between two blends (each cut to half of it) is rounding.
+        pieces.retain(|p| p.length() > 1e-9);
         let mut starts = Vec::with_capacity(pieces.len());
         let mut s = 0.0;
         for piece in &pieces {
@@ -169,11 +170,20 @@ impl GeometricPath {
         for (piece, start) in self.pieces.iter().zip(&self.starts) {
             let blend = matches!(piece, PathPiece::Blend { .. });
             let step = if blend { 0.5 * step } else { step } / factor;
-            let fewest = if blend { MIN_BLEND_INTERVALS * factor } else { 1.0 };
+            // A leg from rest to rest needs an interior grid point to move at all.
+            let fewest = if blend { MIN_BLEND_INTERVALS * factor } else { 2.0 };
             let n = (piece.length() / step).ceil().max(fewest) as usize;
-            grid.extend((0..n).map(|k| start + piece.length() * k as f64 / n as f64));
+            for k in 0..n {
+                let s = start + piece.length() * k as f64 / n as f64;
+                if grid.last().is_none_or(|&last| s > last) {
+                    grid.push(s);
+                }
+            }
         }
-        grid.push(self.length());
+        let end = self.length();
+        if grid.last().is_none_or(|&last| end > last) {
+            grid.push(end);
+        }
         grid
     }
 }

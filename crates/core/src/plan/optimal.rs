@@ -40,6 +40,8 @@ pub enum LegError {
     Infeasible { position: [f64; 3], reason: String },
     #[error(transparent)]
     Topp(#[from] ToppError),
+    #[error("the path leaves the arm's reach at ({:.4}, {:.4}, {:.4}) m: {reason}", .position[0], .position[1], .position[2])]
+    Unreachable { position: [f64; 3], reason: String },
 }
 
 /// A timed leg with what was used to time it (for phase-plane plots and reports).
@@ -74,12 +76,22 @@ pub fn path_points(
     path: &GeometricPath,
     grid: &[f64],
     pitch: f64,
-) -> Result<Vec<PathPoint<4>>, PlanError> {
+) -> Result<Vec<PathPoint<4>>, LegError> {
     grid.iter()
         .map(|&s| {
             let (tip, dtip, ddtip) = path.eval(s);
-            let sample = CartesianSample { t: s, position: tip, velocity: dtip, acceleration: ddtip };
-            let joint = joint_motion_at(model, &sample, pitch)?;
+            let sample = CartesianSample { t: 0.0, position: tip, velocity: dtip, acceleration: ddtip };
+            let joint = joint_motion_at(model, &sample, pitch).map_err(|error| {
+                // The sample's time means nothing here (the path is not timed yet): say where.
+                let reason = match error {
+                    PlanError::Ik { source, .. } => source.to_string(),
+                    PlanError::Singular { determinant, .. } => {
+                        format!("the arm is singular there (|det J| = {determinant:.3e})")
+                    }
+                    other => other.to_string(),
+                };
+                LegError::Unreachable { position: tip.into(), reason }
+            })?;
             Ok(PathPoint { s, q: joint.q, dq: joint.qd, ddq: joint.qdd, tip, dtip, ddtip })
         })
         .collect()
@@ -188,8 +200,20 @@ pub fn check_motion(
     pitch: f64,
     dt: f64,
 ) -> Result<Result<Usage, Violation>, PlanError> {
+    check_motion_at(model, motion, carrying, limits, pitch, sample_times(motion.duration(), dt)?)
+}
+
+/// [`check_motion`] at the given instants (s).
+pub fn check_motion_at(
+    model: &ArmModel<4>,
+    motion: &impl ToolMotion,
+    carrying: &[(f64, f64, ArmModel<4>)],
+    limits: &MotionCheck,
+    pitch: f64,
+    times: impl Iterator<Item = f64>,
+) -> Result<Result<Usage, Violation>, PlanError> {
     let mut largest = Usage { share: 0.0, limit: String::new(), time: 0.0 };
-    for t in sample_times(motion.duration(), dt)? {
+    for t in times {
         let sample = motion.sample(t);
         let joint = joint_motion_at(model, &sample, pitch)?;
         let carried = carrying.iter().find(|(grip, release, _)| t >= *grip && t < *release).map(|(_, _, m)| m);

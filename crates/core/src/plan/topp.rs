@@ -123,11 +123,15 @@ impl Timing {
         self.t.last().copied().unwrap_or(0.0)
     }
 
-    /// `(s, ṡ, s̈)` at time `t` (s), held at the ends outside `[0, T]`.
+    /// `(s, ṡ, s̈)` at time `t` (s): at `t = 0` the first stage's acceleration (the motion
+    /// leaves rest with it), held at rest outside `[0, T)`.
     pub fn sample(&self, t: f64) -> (f64, f64, f64) {
         let n = self.s.len();
-        if t <= 0.0 {
+        if t < 0.0 {
             return (self.s[0], self.x[0].sqrt(), 0.0);
+        }
+        if t == 0.0 {
+            return (self.s[0], self.x[0].sqrt(), self.u[0]);
         }
         if t >= self.duration() {
             return (self.s[n - 1], self.x[n - 1].sqrt(), 0.0);
@@ -231,8 +235,13 @@ pub fn project<I: Iterator<Item = Row> + Clone>(rows: I) -> Option<(f64, f64)> {
             return None;
         }
         let next = meet(&j, &k);
-        if next >= x || next.is_nan() || next < lo {
+        if next.is_nan() || next < lo {
             return None;
+        }
+        if next >= x {
+            // The active lines meet here: g(x) > 0 is rounding (steep lines amplify it).
+            top = Some(x);
+            break;
         }
         x = next;
     }
@@ -249,8 +258,11 @@ pub fn project<I: Iterator<Item = Row> + Clone>(rows: I) -> Option<(f64, f64)> {
             return None;
         }
         let next = meet(&j, &k);
-        if next <= x || next.is_nan() || next > top {
+        if next.is_nan() || next > top {
             return None;
+        }
+        if next <= x {
+            return Some((x, top.max(x)));
         }
         x = next;
     }
@@ -288,7 +300,8 @@ pub fn time_optimal(table: &ConstraintTable, x_start: f64, x_end: f64) -> Result
         return Err(ToppError::Boundary { start: x_start, end: x_end });
     }
     let infeasible = |index: usize| {
-        let limit = table.rows(index).iter().find(|r| r.gamma < 0.0).map(|r| r.limit);
+        let limit = table.rows(index).iter().filter(|r| r.gamma < 0.0).min_by(|a, b| a.gamma.total_cmp(&b.gamma));
+        let limit = limit.map(|r| r.limit);
         ToppError::Infeasible { index, s: table.s[index], limit }
     };
     let mut controllable = vec![(0.0, 0.0); n];
