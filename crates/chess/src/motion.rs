@@ -304,7 +304,9 @@ fn plan_optimal(
     let mut phases = PhaseTimes::default();
     let mut marks = Vec::new();
     let mut usage: Option<Usage> = None;
-    for spec in &specs {
+    for spec in &mut specs {
+        // Each leg starts where the motion is (a skipped leg's end may lie up to MIN_LINE away).
+        spec.points[0] = motion.end();
         let payload_arm = match &spec.carried {
             Some(task) => arm.with_payload(Some(pieces.payload(task.piece.role))).map_err(TaskError::Model)?,
             None => *arm,
@@ -442,7 +444,8 @@ fn time_optimal_leg(
         let timing = &plan.leg.timing;
         let scale = plan.leg.scale;
         let periods = sample_times(plan.leg.duration(), period).map_err(|e| TaskError::Trajectory(e.into()))?;
-        let stages = timing.t.windows(2).flat_map(|w| [w[0] * scale, 0.5 * (w[0] + w[1]) * scale]);
+        let stages =
+            timing.t.windows(2).flat_map(|w| [w[0] * scale, 0.5 * (w[0] + w[1]) * scale, w[1] * scale * (1.0 - 1e-12)]);
         let times = periods.chain(stages);
         match check_motion_at(arm, &leg, carried, &check, TOOL_DOWN, times).map_err(TaskError::Trajectory)? {
             Ok(usage) => return Ok((plan, usage)),
@@ -453,7 +456,7 @@ fn time_optimal_leg(
 }
 
 /// The leg's polyline with each corner blended at the largest cut (up to `limits.blend`) whose
-/// blend keeps the clearance ([`clears`]), found by bisection to 1/64 of the largest; a corner
+/// blend keeps the clearance ([`clears`]), found by bisection to 1/64 of the range; a corner
 /// whose blend cannot clear even at [`MIN_CUT`] stays sharp, and the leg is split there into
 /// paths that each start and end at rest.
 fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Result<Vec<GeometricPath>, TaskError> {
@@ -474,7 +477,10 @@ fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Re
             *cut = limits.blend;
             continue;
         }
-        let (mut good, mut bad) = (0.0, limits.blend);
+        if !fits(MIN_CUT)? {
+            continue;
+        }
+        let (mut good, mut bad) = (MIN_CUT, limits.blend);
         for _ in 0..BISECTIONS {
             let middle = 0.5 * (good + bad);
             if fits(middle)? {
@@ -483,7 +489,7 @@ fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Re
                 bad = middle;
             }
         }
-        *cut = if good >= MIN_CUT { good } else { 0.0 };
+        *cut = good;
     }
     let mut paths = Vec::new();
     let mut first = 0;
@@ -500,7 +506,7 @@ fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Re
     Ok(paths)
 }
 
-/// Bisection steps of a corner's cut: 1/64 of the largest cut (0.6 mm of 4 cm).
+/// Bisection steps of a corner's cut between [`MIN_CUT`] and the largest: 1/64 of the range.
 const BISECTIONS: usize = 6;
 
 /// Whether the tool (empty) or the carried piece's base clears every piece under it, and the

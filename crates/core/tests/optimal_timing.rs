@@ -400,3 +400,20 @@ fn steep_nearly_pure_rows_meeting_at_the_root_are_not_taken_for_an_empty_set() {
     let (flo, fhi) = fourier_motzkin(&rows).unwrap();
     assert!((lo - flo).abs() < 1e-12 && (hi - fhi).abs() < 1e-9 * fhi, "[{lo}, {hi}] against [{flo}, {fhi}]");
 }
+
+#[test]
+fn without_an_upper_bound_on_x_the_projection_is_decided_by_the_lines_at_infinity() {
+    use chessarm_core::plan::topp::Row;
+    let rows = |raw: &[(f64, f64, f64)]| -> Vec<Row> {
+        raw.iter().map(|&(alpha, beta, gamma)| Row { alpha, beta, gamma, limit: LimitId(0) }).collect()
+    };
+    // u ≥ x − 0 and u ≤ (1 − 1e-13) x + 1e-13: feasible for x ≤ 0.9997 only (the lines meet
+    // there); a start far out at 1e15 used to accept it all.
+    let (lo, hi) = project(rows(&[(-1.0, 1.0, 0.0), (1.0, -(1.0 - 1e-13), 1e-13)]).into_iter()).unwrap();
+    assert_eq!(lo, 0.0);
+    assert!((hi - 1.0).abs() < 1e-3, "{hi}");
+    // u ≤ x and u ≥ x − 1: every x ≥ 0 is feasible.
+    assert_eq!(project(rows(&[(1.0, -1.0, 0.0), (-1.0, 1.0, 1.0)]).into_iter()), Some((0.0, f64::INFINITY)));
+    // u ≥ 2x + 1 and u ≤ x: nothing for x ≥ 0.
+    assert_eq!(project(rows(&[(-1.0, 2.0, -1.0), (1.0, -1.0, 0.0)]).into_iter()), None);
+}

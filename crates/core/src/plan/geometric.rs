@@ -220,11 +220,12 @@ fn corner_points(points: &[Vector3<f64>]) -> Result<Vec<Vector3<f64>>, GeometryE
         if let Some(last) = kept.last()
             && (p - last).norm() < MIN_LINE
         {
-            // The ends stay exact: the final point replaces an interior one close to it.
-            if last_point && kept.len() > 1 {
-                kept.pop();
-            } else {
+            if !last_point {
                 continue;
+            }
+            // The ends stay exact: the final point replaces interior ones close to it.
+            while kept.len() > 1 && kept.last().is_some_and(|last| (p - last).norm() < MIN_LINE) {
+                kept.pop();
             }
         }
         while kept.len() >= 2 {

@@ -221,11 +221,38 @@ pub fn project<I: Iterator<Item = Row> + Clone>(rows: I) -> Option<(f64, f64)> {
     let meet = |j: &Row, k: &Row| (k.alpha * j.gamma - j.alpha * k.gamma) / (k.alpha * j.beta - j.alpha * k.beta);
     let feasible = |value: f64, scale: f64| value <= 1e-12 * (1.0 + scale);
     const STEPS: usize = 100;
+    // Without a pure upper bound, g's fate at +∞ is that of the steepest lower line against the
+    // flattest upper one: below it the set is unbounded; above it, g ≥ 0 from where they meet
+    // on, and the largest root is no further.
+    let mut start = hi;
+    if !hi.is_finite() {
+        let pick = |lower: bool| {
+            rows.clone()
+                .filter(|r| r.alpha.abs() > PURE_ROW * (r.beta.abs() + r.gamma.abs()) && (r.alpha < 0.0) == lower)
+                .map(|r| (-r.beta / r.alpha, r.gamma / r.alpha, r))
+                .reduce(|a, b| {
+                    let steeper = if lower {
+                        b.0 > a.0 || (b.0 == a.0 && b.1 > a.1)
+                    } else {
+                        b.0 < a.0 || (b.0 == a.0 && b.1 < a.1)
+                    };
+                    if steeper { b } else { a }
+                })
+        };
+        let (Some((slope_j, at_j, j)), Some((slope_k, at_k, k))) = (pick(true), pick(false)) else { return None };
+        if slope_j < slope_k || (slope_j == slope_k && at_j <= at_k) {
+            start = f64::INFINITY;
+        } else {
+            let x = meet(&j, &k);
+            start = if x.is_finite() { x.max(lo) } else { 1e15 };
+        }
+    }
     // Largest root, from the top. A Newton step on g = L_j − U_k lands where the two lines
-    // meet, computed from the lines themselves so that no digits are lost when x is far away.
-    let mut x = if hi.is_finite() { hi } else { 1e15 };
-    let mut top = None;
-    for _ in 0..STEPS {
+    // meet, computed from the lines themselves so that no digits are lost.
+    let mut x = start;
+    let mut top = if start.is_infinite() { Some(f64::INFINITY) } else { None };
+    let steps = if top.is_some() { 0 } else { STEPS };
+    for _ in 0..steps {
         let (value, slope, scale, j, k) = g(x, true);
         if feasible(value, scale) {
             top = Some(x);
@@ -239,14 +266,17 @@ pub fn project<I: Iterator<Item = Row> + Clone>(rows: I) -> Option<(f64, f64)> {
             return None;
         }
         if next >= x {
-            // The active lines meet here: g(x) > 0 is rounding (steep lines amplify it).
-            top = Some(x);
-            break;
+            // The active lines meet here: g(x) > 0 is rounding (steep lines amplify it), or
+            // the set is empty.
+            if value <= 1e-9 * (1.0 + scale) {
+                top = Some(x);
+                break;
+            }
+            return None;
         }
         x = next;
     }
     let top = top?;
-    let top = if !hi.is_finite() && top >= 1e15 { f64::INFINITY } else { top };
     // Smallest root, from the bottom.
     let mut x = lo;
     for _ in 0..STEPS {
@@ -262,7 +292,7 @@ pub fn project<I: Iterator<Item = Row> + Clone>(rows: I) -> Option<(f64, f64)> {
             return None;
         }
         if next <= x {
-            return Some((x, top.max(x)));
+            return (value <= 1e-9 * (1.0 + scale)).then_some((x, top.max(x)));
         }
         x = next;
     }
