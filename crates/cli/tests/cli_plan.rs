@@ -151,7 +151,7 @@ fn urdf_chain_reproduces_forward_kinematics() {
     let urdf = String::from_utf8(output.stdout).unwrap();
     assert_eq!(urdf.matches("<link name=").count(), 6);
     assert_eq!(urdf.matches("type=\"revolute\"").count(), 4);
-    assert!(urdf.contains("<link name=\"tool\"/>") && urdf.contains("type=\"fixed\""));
+    assert!(urdf.contains("<link name=\"tool\">") && urdf.contains("type=\"fixed\""));
     assert!(urdf.contains("<mass value=\"0.5261671\"/>"));
     assert!(urdf.contains("effort=\"25\""));
     let joints = joint_origins(&urdf);
@@ -235,4 +235,42 @@ fn plan_into_an_unwritable_place_fails_cleanly() {
     std::fs::write(&blocker, "not a folder").unwrap();
     let out = blocker.join("plan").display().to_string();
     assert_one_line_error(&chessarm(&["plan", "--out", &out]), &["output folder"]);
+}
+
+#[test]
+fn every_urdf_link_has_a_body_that_a_real_parser_reads() {
+    let urdf = String::from_utf8(chessarm(&["urdf"]).stdout).unwrap();
+    let robot = urdf_rs::read_from_string(&urdf).unwrap();
+    let names: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["base_link", "link1", "link2", "link3", "link4", "tool"]);
+    let model = report_arm();
+    for link in &robot.links {
+        assert!(!link.visual.is_empty() && link.visual.len() == link.collision.len(), "{}", link.name);
+        for (visual, collision) in link.visual.iter().zip(&link.collision) {
+            assert_eq!(format!("{:?}", visual.geometry), format!("{:?}", collision.geometry), "{}", link.name);
+        }
+        // Link i's long cylinder runs from its joint to the next: √(aᵢ² + dᵢ²) long.
+        if let Some(i) = link.name.strip_prefix("link").and_then(|n| n.parse::<usize>().ok()) {
+            let dh = model.link(i - 1).dh;
+            let expected = dh.a.hypot(dh.d);
+            let lengths: Vec<f64> = link
+                .visual
+                .iter()
+                .filter_map(|v| match v.geometry {
+                    urdf_rs::Geometry::Cylinder { radius, length } if radius < 0.02 => Some(length),
+                    _ => None,
+                })
+                .collect();
+            if expected > 1e-9 {
+                assert_eq!(lengths.len(), 1, "{}", link.name);
+                assert!((lengths[0] - expected).abs() < 1e-12, "{}: {} against {expected}", link.name, lengths[0]);
+            }
+        }
+    }
+    // The tool keeps a (tiny) mass and a marker so that importers do not drop it, and no
+    // number in the file is a negative zero.
+    let tool = robot.links.iter().find(|l| l.name == "tool").unwrap();
+    assert!(tool.inertial.mass.value > 0.0 && tool.inertial.mass.value < 1e-6);
+    assert!(!urdf.contains(" -0 ") && !urdf.contains("\"-0 ") && !urdf.contains(" -0\""));
+    assert_eq!(robot.joints.len(), 5);
 }
