@@ -19,7 +19,6 @@ use super::topp::{ConstraintTable, LimitId, Timing, ToppError, time_optimal};
 use super::trajectory::{PlanError, ToolMotion, joint_motion_at};
 use crate::arm::dynamics::{friction_torques, inverse_dynamics};
 use crate::arm::model::ArmModel;
-use nalgebra::Vector3;
 
 /// Share of every limit the planner keeps back for what happens between grid points: the rows
 /// hold at the grid points only, and in between the limits drift by O(step²). Measured on the
@@ -184,6 +183,12 @@ pub struct Usage {
     pub time: f64,
 }
 
+/// Names of the per-joint limits, as the constraints name them.
+const JOINT_SPEED: [&str; 4] = ["joint 1 speed", "joint 2 speed", "joint 3 speed", "joint 4 speed"];
+const JOINT_ACCELERATION: [&str; 4] =
+    ["joint 1 acceleration", "joint 2 acceleration", "joint 3 acceleration", "joint 4 acceleration"];
+const JOINT_TORQUE: [&str; 4] = ["joint 1 torque", "joint 2 torque", "joint 3 torque", "joint 4 torque"];
+
 /// Relative excess over a limit accepted as rounding (planner and check compute the same
 /// quantities in different orders).
 pub const CHECK_TOLERANCE: f64 = 1e-6;
@@ -219,31 +224,32 @@ pub fn check_motion_at(
         let carried = carrying.iter().find(|(grip, release, _)| t >= *grip && t < *release).map(|(_, _, m)| m);
         let arm = carried.unwrap_or(model);
         let torque = inverse_dynamics(arm, &joint.q, &joint.qd, &joint.qdd) - friction_torques(arm, &joint.qd);
-        let mut checks: Vec<(String, f64, f64, &'static str)> = Vec::with_capacity(16);
-        for j in 0..4 {
-            checks.push((format!("joint {} speed", j + 1), joint.qd[j].abs(), limits.joint_speed[j], "rad/s"));
-            checks.push((
-                format!("joint {} acceleration", j + 1),
-                joint.qdd[j].abs(),
-                limits.joint_acceleration[j],
-                "rad/s²",
-            ));
-            let max = limits.torque_margin * model.link(j).limits.torque;
-            checks.push((format!("joint {} torque", j + 1), torque[j].abs(), max, "N·m"));
-        }
-        checks.push(("tool speed".to_string(), sample.velocity.norm(), limits.tool_speed, "m/s"));
-        if carried.is_some() {
-            let g: Vector3<f64> = model.gravity();
+        // (limit, value, largest allowed, unit): no allocation per sample; the name becomes a
+        // String only in what is returned.
+        let carry = carried.map_or((0.0, 0.0), |_| {
             let a = sample.acceleration;
-            checks.push(("tool acceleration while carrying".to_string(), a.norm(), limits.carry_acceleration, "m/s²"));
-            checks.push(("grip".to_string(), (a - g).norm(), limits.grip_strength, "m/s²"));
+            (a.norm(), (a - model.gravity()).norm())
+        });
+        let (carry_max, grip_max) = match carried {
+            Some(_) => (limits.carry_acceleration, limits.grip_strength),
+            None => (f64::INFINITY, f64::INFINITY),
+        };
+        let mut checks = [("", 0.0, 0.0, ""); 15];
+        for j in 0..4 {
+            checks[3 * j] = (JOINT_SPEED[j], joint.qd[j].abs(), limits.joint_speed[j], "rad/s");
+            checks[3 * j + 1] = (JOINT_ACCELERATION[j], joint.qdd[j].abs(), limits.joint_acceleration[j], "rad/s²");
+            let max = limits.torque_margin * model.link(j).limits.torque;
+            checks[3 * j + 2] = (JOINT_TORQUE[j], torque[j].abs(), max, "N·m");
         }
+        checks[12] = ("tool speed", sample.velocity.norm(), limits.tool_speed, "m/s");
+        checks[13] = ("tool acceleration while carrying", carry.0, carry_max, "m/s²");
+        checks[14] = ("grip", carry.1, grip_max, "m/s²");
         for (limit, value, max, unit) in checks {
             if value > max * (1.0 + CHECK_TOLERANCE) {
-                return Ok(Err(Violation { time: t, limit, value, max, unit }));
+                return Ok(Err(Violation { time: t, limit: limit.to_string(), value, max, unit }));
             }
             if max.is_finite() && max > 0.0 && value / max > largest.share {
-                largest = Usage { share: value / max, limit, time: t };
+                largest = Usage { share: value / max, limit: limit.to_string(), time: t };
             }
         }
     }
