@@ -149,6 +149,28 @@ pub struct MoveReport {
     pub longest_limit: Option<(String, f64)>,
     /// LSPB moves: how many times the limits were scaled by 0.7 for the joint speeds.
     pub slowdowns: usize,
+    /// Every piece the move moved, in the order moved.
+    pub handled: Vec<Handling>,
+}
+
+/// One piece moved by a move: carried by the arm from its grip to its release, or put on its
+/// new place by the opponent's hand.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Handling {
+    /// Index of the piece in [`Table::pieces`], the same for the whole game.
+    pub piece: usize,
+    pub from: Location,
+    pub to: Location,
+    /// Grip and release instants in the game's robot time, s (both the move's start for the
+    /// opponent's hand).
+    pub grip_time: f64,
+    pub release_time: f64,
+    /// Where the piece stood before it was moved and where it was put down (x, y, m).
+    pub standing: Vector2<f64>,
+    pub placed: Vector2<f64>,
+    /// The simulated tool tip at the grip instant, m (`None` for the hand). While gripped the
+    /// piece moves rigidly with the tool: its base is at `standing + tip(t) − grip_tip`.
+    pub grip_tip: Option<Vector3<f64>>,
 }
 
 /// Keeps every n-th step.
@@ -292,11 +314,24 @@ impl Game {
             phases: PhaseTimes::default(),
             longest_limit: None,
             slowdowns: 0,
+            handled: Vec::new(),
         };
         match mover {
             Mover::Opponent => {
                 for task in move_tasks(&self.position, mv, &self.table)? {
                     let target = self.table.nominal_position(task.to);
+                    if let Some(piece) = self.table.index_at(task.from) {
+                        report.handled.push(Handling {
+                            piece,
+                            from: task.from,
+                            to: task.to,
+                            grip_time: self.robot_time,
+                            release_time: self.robot_time,
+                            standing: self.table.pieces()[piece].position,
+                            placed: target,
+                            grip_tip: None,
+                        });
+                    }
                     self.relocate(&name, task.from, task.to, target)?;
                     report.tasks.push(task.to_string());
                     report.place_errors.push(0.0);
@@ -394,6 +429,18 @@ impl Game {
             let placed =
                 placed_position(&summary.tip_at_marks[2 * index], &summary.tip_at_marks[2 * index + 1], &standing);
             let target = self.table.nominal_position(step.task.to);
+            if let Some(piece) = self.table.index_at(step.task.from) {
+                report.handled.push(Handling {
+                    piece,
+                    from: step.task.from,
+                    to: step.task.to,
+                    grip_time: self.robot_time + step.plan.grip_time,
+                    release_time: self.robot_time + step.plan.release_time,
+                    standing,
+                    placed,
+                    grip_tip: Some(summary.tip_at_marks[2 * index]),
+                });
+            }
             self.relocate(name, step.task.from, step.task.to, placed)?;
             report.tasks.push(step.task.to_string());
             report.place_errors.push((placed - target).norm());

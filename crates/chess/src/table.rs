@@ -243,6 +243,12 @@ impl Table {
         self.pieces.iter().find(|p| p.location == location)
     }
 
+    /// Index in [`Table::pieces`] of the piece meant to stand at `location`, if any. A piece
+    /// keeps its index for the table's whole life: relocating it changes only its location.
+    pub fn index_at(&self, location: Location) -> Option<usize> {
+        self.pieces.iter().position(|p| p.location == location)
+    }
+
     /// The lowest free graveyard slot of `color`.
     pub fn free_graveyard_slot(&self, color: Color) -> Result<usize, TableError> {
         (0..GRAVEYARD_SLOTS)

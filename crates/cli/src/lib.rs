@@ -9,6 +9,7 @@ pub mod config;
 pub mod output;
 pub mod plots;
 pub mod progress;
+pub mod replay;
 pub mod resources;
 pub mod urdf;
 

@@ -32,11 +32,11 @@ fn dh_fixed_part(dh: &DhParameters) -> (Vector3<f64>, Rotation3<f64>) {
 }
 
 /// Radius of the drawn links and of the joints' motor housings, and the housings' length, m.
-const LINK_RADIUS: f64 = 0.015;
-const JOINT_RADIUS: f64 = 0.022;
-const JOINT_LENGTH: f64 = 0.05;
+pub const LINK_RADIUS: f64 = 0.015;
+pub const JOINT_RADIUS: f64 = 0.022;
+pub const JOINT_LENGTH: f64 = 0.05;
 /// Radius of the tool's marker sphere, m.
-const TOOL_RADIUS: f64 = 0.008;
+pub const TOOL_RADIUS: f64 = 0.008;
 
 /// The same `<visual>` and `<collision>` for `geometry` placed at `at`.
 fn body(text: &mut String, at: &str, geometry: &str) {

@@ -7,6 +7,7 @@ use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json};
 use crate::plots::{Panel, Series, plot_panels};
 use crate::print_json;
+use crate::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list, read_game};
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
@@ -154,7 +155,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         name.ends_with(".csv") && name.len() > 4 && name.as_bytes()[..3].iter().all(u8::is_ascii_digit)
     })?;
     let started = Instant::now();
+    let first_number = (start.fullmoves().get(), start.turn());
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
+    let start_table = game.table().clone();
     let bar = crate::progress::bar(total as u64, "playing");
     let header = format!(
         "{:>4} {:>8} {:>6} {:<18} {:>8} {:>12} {:>22}",
@@ -203,6 +206,24 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     summary["trial"] = if ideal { Value::Null } else { trial.describe() };
     let game_json_path = args.out.join("game.json");
     write_json(&game_json_path, &summary)?;
+    let replay_path = args.out.join("replay.html");
+    let replay = Replay {
+        title: format!("chessarm play: {} plies, {} controller", reports.len(), settings_name),
+        arm: &setup.arm,
+        board: &setup.board,
+        pieces: &setup.pieces,
+        table: &start_table,
+        tolerance: args.tolerance_mm / 1e3,
+        note: format!(
+            "result {} ({}); robot time {:.1} s; {} misplaced",
+            result.result,
+            result.reason,
+            game.robot_time(),
+            game.misplaced().len()
+        ),
+        runs: vec![replay_run(&settings_name, &reports, first_number)],
+    };
+    write_replay(&replay_path, &replay)?;
     crate::tell(&format!(
         "result {} ({}); {} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
         result.result,
@@ -213,8 +234,10 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         if game.fen_physical() == game.fen_rules() { "equals" } else { "DIFFERS FROM" },
         game.misplaced().len()
     ));
-    let files: Vec<String> =
-        [game_json_path, plot, placement_plot, moves_dir].iter().map(|p| p.display().to_string()).collect();
+    let files: Vec<String> = [game_json_path, replay_path, plot, placement_plot, moves_dir]
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
     print_json(&json!({
         "result": result.result,
         "result_reason": result.reason,
@@ -345,12 +368,47 @@ fn game_json(
         "final_fen_rules": game.fen_rules(),
         "final_fen_physical": game.fen_physical(),
         "misplaced": misplaced,
+        // Every piece on the table at the end, in the order of the start's table (the replay's
+        // piece ids): where it is meant to stand and where it stands (m).
+        "final_table": game.table().pieces().iter().map(|p| json!({
+            "piece": chessarm_chess::pieces::piece_name(p.piece),
+            "location": p.location.to_string(),
+            "x_m": p.position.x,
+            "y_m": p.position.y,
+        })).collect::<Vec<_>>(),
         "total_robot_time_s": game.robot_time(),
         "wall_time_s": wall_time_s,
         // Whether the same command plays the same moves on any machine, and if not why.
         "deterministic": machine_dependence.is_empty(),
         "machine_dependent_because": machine_dependence,
     })
+}
+
+/// The game as the replay shows it: every robot move's recorded steps at the display rate,
+/// every piece moved, every move on the timeline. `first` is the start position's move number
+/// and side to move.
+fn replay_run(name: &str, reports: &[MoveReport], first: (u32, Color)) -> ReplayRun {
+    let mut frames = Vec::new();
+    let mut moves = Vec::with_capacity(reports.len());
+    let (mut number, mut turn) = first;
+    for report in reports {
+        thin(report.records.iter().map(|r| Frame::of(report.start_time + r.t, r)), &mut frames);
+        moves.push(ReplayMove {
+            ply: report.ply,
+            number: format!("{number}{}", if turn == Color::White { "." } else { "..." }),
+            san: report.san.clone(),
+            uci: report.uci.clone(),
+            by: if report.mover == Mover::Robot { "robot" } else { "hand" },
+            start: report.start_time,
+            end: report.start_time + report.duration,
+        });
+        if turn == Color::Black {
+            number += 1;
+        }
+        turn = !turn;
+    }
+    let handled = reports.iter().flat_map(|r| r.handled.iter().copied()).collect();
+    ReplayRun { name: name.to_string(), frames, handled, moves }
 }
 
 fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {

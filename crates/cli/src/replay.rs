@@ -1,0 +1,383 @@
+//! `replay.html`: the simulated motion in 3D, one self-contained file that opens offline.
+//!
+//! The page embeds the vendored three.js ([`THREE_VERSION`], `assets/three/`), the viewer
+//! (`assets/replay.html`) and the run's data as JSON. The data are for display: the joint
+//! angles every [`DISPLAY_PERIOD`] (at most 50 Hz), quantised to 10 µrad, the desired tool tip
+//! to 10 µm, the tip error to 1 µm, times to 0.1 ms, each channel delta-encoded; exact values
+//! stay in the CSVs. The page computes the arm's pose from the angles with the model's own DH
+//! parameters, so the tool drawn is where forward kinematics puts it. A gripped piece moves
+//! rigidly with the tool (its base at `standing + tip(t) − tip(grip)`), a released one stays
+//! where the simulation put it down.
+
+use crate::output::write_atomic;
+use crate::urdf::{JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, TOOL_RADIUS};
+use anyhow::Result;
+use chessarm_chess::board::BoardGeometry;
+use chessarm_chess::pieces::{PieceSet, role_name};
+use chessarm_chess::play::Handling;
+use chessarm_chess::shakmaty::{Color, Square};
+use chessarm_chess::table::{Location, Table};
+use chessarm_core::arm::model::ArmModel;
+use chessarm_core::nalgebra::Vector3;
+use chessarm_core::sim::StepRecord;
+use serde_json::{Value, json};
+use std::path::Path;
+
+/// The vendored three.js release (see `assets/three/README.md`).
+pub const THREE_VERSION: &str = "0.185.1";
+const THREE_CORE: &str = include_str!("../assets/three/three.core.min.js");
+const THREE_MODULE: &str = include_str!("../assets/three/three.module.min.js");
+const VIEWER: &str = include_str!("../assets/replay.html");
+
+/// Time between displayed frames, s (50 Hz: every second record of `play`, every twentieth
+/// of `simulate`).
+pub const DISPLAY_PERIOD: f64 = 0.02;
+
+/// Units of the quantised channels: time (s), angle (rad), position (m), tip error (m).
+const TIME_UNIT: f64 = 1e-4;
+const ANGLE_UNIT: f64 = 1e-5;
+const POSITION_UNIT: f64 = 1e-5;
+const ERROR_UNIT: f64 = 1e-6;
+
+/// What the phase labels of the timeline say, by code.
+const PHASES: [&str; 9] = [
+    "at rest",
+    "travelling",
+    "lowering",
+    "raising",
+    "gripping",
+    "releasing",
+    "carrying",
+    "lowering the piece",
+    "lifting the piece",
+];
+
+/// One displayed instant: time in the run (s), joint angles (rad), desired tool tip (m) and
+/// tip error (m).
+#[derive(Debug, Clone, Copy)]
+pub struct Frame {
+    pub t: f64,
+    pub q: [f64; 4],
+    pub tip_desired: Vector3<f64>,
+    pub tip_error: f64,
+}
+
+impl Frame {
+    /// The frame of a recorded step at run time `t`.
+    pub fn of(t: f64, record: &StepRecord<4>) -> Self {
+        Self {
+            t,
+            q: record.state.q.into(),
+            tip_desired: record.tip_desired,
+            tip_error: (record.tip - record.tip_desired).norm(),
+        }
+    }
+}
+
+/// One move on the timeline.
+#[derive(Debug, Clone)]
+pub struct ReplayMove {
+    pub ply: usize,
+    /// The move number as notation writes it: `1.` for White's, `1...` for Black's.
+    pub number: String,
+    pub san: String,
+    pub uci: String,
+    /// `robot` or `hand`.
+    pub by: &'static str,
+    pub start: f64,
+    pub end: f64,
+}
+
+/// One simulated run (a controller, a game).
+#[derive(Debug, Clone)]
+pub struct ReplayRun {
+    pub name: String,
+    pub frames: Vec<Frame>,
+    pub handled: Vec<Handling>,
+    pub moves: Vec<ReplayMove>,
+}
+
+/// Everything a replay shows.
+#[derive(Debug, Clone)]
+pub struct Replay<'a> {
+    pub title: String,
+    pub arm: &'a ArmModel<4>,
+    pub board: &'a BoardGeometry,
+    pub pieces: &'a PieceSet,
+    /// The table at the start (every piece, with its index as id).
+    pub table: &'a Table,
+    /// Placement tolerance, m: a piece put down farther from its place is shown misplaced.
+    pub tolerance: f64,
+    /// A note shown under the title (e.g. "payload 0 kg").
+    pub note: String,
+    pub runs: Vec<ReplayRun>,
+}
+
+/// Keeps the frames at least [`DISPLAY_PERIOD`] apart, and the last of `frames` (the end of a
+/// move), dropping any not later than the one before.
+pub fn thin(frames: impl IntoIterator<Item = Frame>, into: &mut Vec<Frame>) {
+    let mut pending: Option<Frame> = None;
+    for frame in frames {
+        let last = into.last().map(|f| f.t);
+        if last.is_none_or(|t| frame.t >= t + DISPLAY_PERIOD - 1e-9) {
+            into.push(frame);
+            pending = None;
+        } else if last.is_some_and(|t| frame.t > t + 1e-9) {
+            pending = Some(frame);
+        }
+    }
+    into.extend(pending);
+}
+
+fn quantise(value: f64, unit: f64) -> i64 {
+    (value / unit).round() as i64
+}
+
+/// Delta encoding: the first value, then each value's difference from the one before.
+fn deltas(values: impl Iterator<Item = i64>) -> Vec<i64> {
+    let mut last = 0;
+    values
+        .map(|v| {
+            let d = v - last;
+            last = v;
+            d
+        })
+        .collect()
+}
+
+/// Rounds to 1 µm (positions in m) for the JSON; `+ 0.0` drops negative zeros.
+fn micro(value: f64) -> f64 {
+    (value * 1e6).round() / 1e6 + 0.0
+}
+
+fn location_name(location: Location) -> String {
+    location.to_string()
+}
+
+/// The phase of each frame, run-length encoded as `[time, code]`: from the desired tool
+/// velocity and whether a piece is gripped.
+fn phases(run: &ReplayRun) -> Vec<[f64; 2]> {
+    let mut out: Vec<[f64; 2]> = Vec::new();
+    let robot = |h: &&Handling| h.grip_tip.is_some();
+    for (i, frame) in run.frames.iter().enumerate() {
+        let next = run.frames.get(i + 1).or_else(|| i.checked_sub(1).and_then(|p| run.frames.get(p)));
+        let velocity = match next {
+            Some(other) if (other.t - frame.t).abs() > 0.0 => {
+                (other.tip_desired - frame.tip_desired) / (other.t - frame.t)
+            }
+            _ => Vector3::zeros(),
+        };
+        let t = frame.t;
+        let carrying = run.handled.iter().filter(robot).any(|h| h.grip_time <= t && t < h.release_time);
+        let near = |at: f64| (at - t).abs() <= 0.6;
+        let code = if velocity.norm() < 1e-3 {
+            if run.handled.iter().filter(robot).any(|h| near(h.grip_time)) {
+                4
+            } else if run.handled.iter().filter(robot).any(|h| near(h.release_time)) {
+                5
+            } else {
+                0
+            }
+        } else if velocity.xy().norm() < 0.1 * velocity.z.abs() {
+            match (velocity.z < 0.0, carrying) {
+                (true, false) => 2,
+                (false, false) => 3,
+                (true, true) => 7,
+                (false, true) => 8,
+            }
+        } else if carrying {
+            6
+        } else {
+            1
+        };
+        if out.last().is_none_or(|last| last[1] != code as f64) {
+            out.push([micro(t), code as f64]);
+        }
+    }
+    out
+}
+
+fn run_json(run: &ReplayRun, table: &Table, tolerance: f64) -> Value {
+    let frames = &run.frames;
+    let channel = |get: &dyn Fn(&Frame) -> f64, unit: f64| deltas(frames.iter().map(|f| quantise(get(f), unit)));
+    let q: Vec<Vec<i64>> = (0..4).map(|j| channel(&|f: &Frame| f.q[j], ANGLE_UNIT)).collect();
+    let tip: Vec<Vec<i64>> = (0..3).map(|k| channel(&|f: &Frame| f.tip_desired[k], POSITION_UNIT)).collect();
+    let handled: Vec<Value> = run
+        .handled
+        .iter()
+        .map(|h| {
+            let target = table.nominal_position(h.to);
+            let error = (h.placed - target).norm();
+            json!({
+                "piece": h.piece,
+                "from": location_name(h.from),
+                "to": location_name(h.to),
+                "grip_t": micro(h.grip_time),
+                "release_t": micro(h.release_time),
+                "standing": [micro(h.standing.x), micro(h.standing.y)],
+                "placed": [micro(h.placed.x), micro(h.placed.y)],
+                "grip_tip": h.grip_tip.map(|p| [micro(p.x), micro(p.y), micro(p.z)]),
+                "error_mm": (error * 1e6).round() / 1e3,
+                "misplaced": error > tolerance,
+            })
+        })
+        .collect();
+    let moves: Vec<Value> = run
+        .moves
+        .iter()
+        .map(|m| json!({"ply": m.ply, "number": m.number, "san": m.san, "uci": m.uci, "by": m.by, "start": micro(m.start), "end": micro(m.end)}))
+        .collect();
+    json!({
+        "name": run.name,
+        "frames": {
+            "t": channel(&|f: &Frame| f.t, TIME_UNIT),
+            "q": q,
+            "tip_desired": tip,
+            "tip_error": frames.iter().map(|f| quantise(f.tip_error, ERROR_UNIT)).collect::<Vec<_>>(),
+        },
+        "handled": handled,
+        "moves": moves,
+        "phases": phases(run),
+    })
+}
+
+fn side(color: Color) -> &'static str {
+    if color == Color::White { "white" } else { "black" }
+}
+
+/// The replay's data as JSON.
+pub fn replay_json(replay: &Replay<'_>) -> Value {
+    let board = replay.board;
+    let dh: Vec<[f64; 4]> =
+        replay.arm.links().iter().map(|l| [l.dh.a, l.dh.alpha, l.dh.d, l.dh.theta_offset].map(|v| v + 0.0)).collect();
+    let squares: Vec<Value> = Square::ALL
+        .iter()
+        .map(|&s| {
+            let c = board.square_center(s);
+            json!([s.to_string(), micro(c.x), micro(c.y)])
+        })
+        .collect();
+    let slots: Vec<Value> = Location::off_board()
+        .map(|l| {
+            let p = replay.table.nominal_position(l);
+            json!([location_name(l), micro(p.x), micro(p.y)])
+        })
+        .collect();
+    let pieces: serde_json::Map<String, Value> = replay
+        .pieces
+        .all()
+        .iter()
+        .map(|(role, d)| {
+            (
+                role_name(*role).to_string(),
+                json!({"height": d.height, "base_diameter": d.base_diameter, "grip_height": d.grip_height}),
+            )
+        })
+        .collect();
+    let table: Vec<Value> = replay
+        .table
+        .pieces()
+        .iter()
+        .map(|p| {
+            json!({
+                "color": side(p.piece.color),
+                "role": role_name(p.piece.role),
+                "location": location_name(p.location),
+                "xy": [micro(p.position.x), micro(p.position.y)],
+            })
+        })
+        .collect();
+    json!({
+        "format": "chessarm-replay",
+        "version": 1,
+        "three": THREE_VERSION,
+        "title": replay.title,
+        "note": replay.note,
+        "units": {"time": TIME_UNIT, "angle": ANGLE_UNIT, "position": POSITION_UNIT, "tip_error": ERROR_UNIT},
+        "phase_names": PHASES,
+        "arm": {
+            "dh": dh,
+            "link_radius": LINK_RADIUS,
+            "joint_radius": JOINT_RADIUS,
+            "joint_length": JOINT_LENGTH,
+            "tool_radius": TOOL_RADIUS,
+        },
+        "board": {
+            "square_size": board.square_size,
+            "center": [board.center.x, board.center.y],
+            "surface_height": board.surface_height,
+            "squares": squares,
+            "slots": slots,
+        },
+        "pieces": pieces,
+        "table": table,
+        "tolerance_mm": replay.tolerance * 1e3,
+        "runs": replay.runs.iter().map(|r| run_json(r, replay.table, replay.tolerance)).collect::<Vec<_>>(),
+    })
+}
+
+/// The whole page: the viewer with three.js and the data filled in.
+pub fn replay_html(replay: &Replay<'_>) -> String {
+    // In a <script> element only "</script" (and "<!--") can end or disturb the text: JSON
+    // escapes every '<'; the three.js files hold neither (tested).
+    let data = replay_json(replay).to_string().replace('<', "\\u003c");
+    VIEWER
+        .replacen("/*THREE_CORE*/", THREE_CORE, 1)
+        .replacen("/*THREE_MODULE*/", THREE_MODULE, 1)
+        .replacen("/*CHESSARM_DATA*/", &data, 1)
+        .replacen("<!--TITLE-->", &html_escape(&replay.title), 1)
+}
+
+fn html_escape(text: &str) -> String {
+    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+/// Writes `replay.html` at `path` (temporary file, then rename).
+pub fn write_replay(path: &Path, replay: &Replay<'_>) -> Result<()> {
+    let html = replay_html(replay);
+    write_atomic(path, |out| Ok(out.write_all(html.as_bytes())?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_vendored_three_js_cannot_end_its_script_element() {
+        for (name, text) in [("core", THREE_CORE), ("module", THREE_MODULE)] {
+            let lower = text.to_ascii_lowercase();
+            assert!(!lower.contains("</script") && !lower.contains("<!--"), "three.{name} would break the page");
+        }
+        assert!(THREE_MODULE.contains("\"./three.core.min.js\""), "the module imports the core by this name");
+    }
+
+    #[test]
+    fn thinning_keeps_the_display_rate_and_each_move_end() {
+        let frame = |t: f64| Frame { t, q: [t; 4], tip_desired: Vector3::zeros(), tip_error: 0.0 };
+        let mut out = Vec::new();
+        thin((0..=105).map(|k| frame(k as f64 * 0.01)), &mut out);
+        // Every second of 10 ms records, and the last (1.05 s) though only 10 ms after 1.04.
+        assert_eq!(out.len(), 54);
+        assert!(out.windows(2).all(|w| w[1].t > w[0].t));
+        assert!((out.last().unwrap().t - 1.05).abs() < 1e-12);
+        // The next move starts where this one ended: its first record (same time) is dropped.
+        thin((0..=4).map(|k| frame(1.05 + k as f64 * 0.01)), &mut out);
+        assert!(out.windows(2).all(|w| w[1].t - w[0].t > 1e-9));
+        assert!((out.last().unwrap().t - 1.09).abs() < 1e-12);
+    }
+
+    #[test]
+    fn deltas_invert_by_a_running_sum() {
+        let values = [5, 7, 7, -3, 10];
+        let d = deltas(values.into_iter());
+        let mut sum = 0;
+        let back: Vec<i64> = d
+            .iter()
+            .map(|x| {
+                sum += x;
+                sum
+            })
+            .collect();
+        assert_eq!(back, values);
+    }
+}

@@ -1,0 +1,62 @@
+// Opens a chessarm replay.html from file:// in Debian's Chromium (headless, through
+// playwright-core; never a downloaded browser) and reports what the page shows, as JSON on
+// stdout. The Rust tests (crates/cli/tests/cli_replay.rs) make the assertions.
+//
+//   node probe.mjs REPLAY.html SCREENSHOT.png [--run N] [--times t1,t2,...] [--shot-at T]
+import { chromium } from 'playwright-core';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { pathToFileURL } from 'node:url';
+
+const [html, screenshot, ...rest] = process.argv.slice(2);
+const option = (name, fallback) => {
+  const i = rest.indexOf(name);
+  return i >= 0 ? rest[i + 1] : fallback;
+};
+const run = Number(option('--run', '0'));
+const times = option('--times', '').split(',').filter((s) => s !== '').map(Number);
+const shotAt = option('--shot-at', null);
+const executablePath = process.env.CHESSARM_CHROMIUM || '/usr/bin/chromium';
+const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'chessarm-chromium-'));
+const context = await chromium.launchPersistentContext(profile, {
+  executablePath,
+  headless: true,
+  viewport: { width: 1280, height: 800 },
+  args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update',
+    '--disable-sync', '--no-first-run', '--disable-quic'],
+});
+const errors = [];
+const requests = [];
+try {
+  const page = await context.newPage();
+  page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'warning') errors.push(`${m.type()}: ${m.text()}`); });
+  page.on('pageerror', (e) => errors.push(`pageerror: ${e.message}`));
+  page.on('request', (r) => { const u = r.url(); if (!u.startsWith('file:') && !u.startsWith('blob:') && !u.startsWith('data:')) requests.push(u); });
+  await page.goto(pathToFileURL(path.resolve(html)).href);
+  await page.waitForFunction(() => window.chessarm && window.chessarm.ready === true, null, { timeout: 60000 });
+  const report = await page.evaluate(({ run, times }) => {
+    const api = window.chessarm;
+    api.selectRun(run);
+    const samples = times.map((t) => { api.seek(t); return { t, tool: api.toolPosition(), phase: api.phase(), ply: api.currentMove() }; });
+    api.seek(api.duration());
+    return { runs: api.runs(), webgl: api.webgl, three: api.three, duration: api.duration(), samples,
+      pieces: api.pieces(), moves: api.moves() };
+  }, { run, times });
+  // The screenshot: the player's view at the given instant, rendered, with the points to look at.
+  const view = await page.evaluate((t) => {
+    const api = window.chessarm;
+    api.camera('player');
+    api.seek(t === null ? api.duration() / 2 : Number(t));
+    api.render();
+    return api.landmarks();
+  }, shotAt);
+  await page.screenshot({ path: screenshot });
+  report.landmarks = view;
+  report.errors = errors;
+  report.requests = requests;
+  process.stdout.write(JSON.stringify(report));
+} finally {
+  await context.close();
+  fs.rmSync(profile, { recursive: true, force: true });
+}

@@ -1,0 +1,266 @@
+//! `replay.html` in a real browser: Debian's Chromium, headless, driven by playwright-core
+//! (`tests/browser/probe.mjs`), the page opened from `file://`. Without Node.js, the npm
+//! package or Chromium the browser tests say SKIPPED on the terminal; with `CI=true` they fail.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{chessarm, json_of};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn browser_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser")
+}
+
+/// Why the browser tests cannot run here, if they cannot.
+fn missing_browser() -> Option<String> {
+    let chromium = std::env::var("CHESSARM_CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
+    if !Path::new(&chromium).exists() {
+        return Some(format!("{chromium} is not installed"));
+    }
+    if Command::new("node").arg("--version").output().is_err() {
+        return Some("node is not installed".into());
+    }
+    if !browser_dir().join("node_modules/playwright-core").exists() {
+        return Some("playwright-core is not installed (npm ci in crates/cli/tests/browser)".into());
+    }
+    None
+}
+
+/// Whether to run a browser test; says SKIPPED past the harness's capture when not, and fails
+/// under CI, which installs everything.
+fn browser_available(test: &str) -> bool {
+    let Some(reason) = missing_browser() else { return true };
+    assert!(std::env::var("CI").as_deref() != Ok("true"), "CI must run {test}: {reason}");
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "test {test} ... SKIPPED ({reason}; CI installs it and runs it)");
+    false
+}
+
+/// Where a test keeps its screenshot, as a test artefact: `target/test-artifacts/`.
+fn artefact(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/test-artifacts");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Opens `html` in the browser: the page's report (see probe.mjs).
+fn probe(html: &Path, screenshot: &Path, run: usize, times: &[f64], shot_at: f64) -> Value {
+    let times: Vec<String> = times.iter().map(|t| format!("{t}")).collect();
+    let output = Command::new("node")
+        .current_dir(browser_dir())
+        .arg("probe.mjs")
+        .arg(html)
+        .arg(screenshot)
+        .args(["--run", &run.to_string(), "--times", &times.join(","), "--shot-at", &shot_at.to_string()])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "probe failed: {}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_slice(&output.stdout).unwrap()
+}
+
+/// Console errors, page errors and warnings, but not the software GL driver's notes on
+/// reading pixels back for the screenshot (a performance hint, not a fault of the page).
+fn assert_clean_console(report: &Value) {
+    let problems: Vec<&str> = report["errors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e.as_str().unwrap())
+        .filter(|e| !(e.starts_with("warning:") && e.contains("GL Driver Message")))
+        .collect();
+    assert!(problems.is_empty(), "console: {problems:?}");
+    assert_eq!(report["requests"].as_array().unwrap().len(), 0, "the page went to the network: {}", report["requests"]);
+    assert_eq!(report["webgl"], true, "no WebGL: the 3D view was not drawn");
+}
+
+/// Rows of a CSV as maps from column name to value.
+fn csv_rows(path: &Path) -> Vec<std::collections::HashMap<String, f64>> {
+    let mut reader = csv::Reader::from_path(path).unwrap();
+    let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
+    reader
+        .records()
+        .map(|r| header.iter().cloned().zip(r.unwrap().iter().map(|v| v.parse::<f64>().unwrap())).collect())
+        .collect()
+}
+
+/// Every `step`-th row of the CSVs: `(t, [x, y, z])` of the simulated tool tip.
+fn tip_samples(csvs: &[PathBuf], step: usize, offset: usize) -> Vec<(f64, [f64; 3])> {
+    csvs.iter()
+        .flat_map(|csv| csv_rows(csv).into_iter().skip(offset).step_by(step).collect::<Vec<_>>())
+        .map(|row| (row["t"], [row["x"], row["y"], row["z"]]))
+        .collect()
+}
+
+/// Largest distance between the scene's tool and the CSV's tip at the probed instants, m.
+fn worst_tool_error(report: &Value, samples: &[(f64, [f64; 3])]) -> (f64, f64) {
+    let probed = report["samples"].as_array().unwrap();
+    assert_eq!(probed.len(), samples.len());
+    let mut worst = (0.0f64, 0.0);
+    for (probe, (t, tip)) in probed.iter().zip(samples) {
+        let tool = common::numbers(&probe["tool"]);
+        let distance = ((tool[0] - tip[0]).powi(2) + (tool[1] - tip[1]).powi(2) + (tool[2] - tip[2]).powi(2)).sqrt();
+        if distance > worst.0 {
+            worst = (distance, *t);
+        }
+    }
+    worst
+}
+
+/// An RGB pixel of a PNG screenshot, averaged over the 3×3 block around `(x, y)` (page pixels).
+struct Picture {
+    width: usize,
+    height: usize,
+    rgb: Vec<[f64; 3]>,
+}
+
+impl Picture {
+    fn read(path: &Path) -> Self {
+        let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
+        let mut reader = decoder.read_info().unwrap();
+        let mut buffer = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buffer).unwrap();
+        let channels = info.color_type.samples();
+        assert_eq!(info.bit_depth, png::BitDepth::Eight);
+        let rgb = buffer[..info.buffer_size()]
+            .chunks(channels)
+            .map(|p| [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])])
+            .collect();
+        Self { width: info.width as usize, height: info.height as usize, rgb }
+    }
+
+    fn at(&self, point: &Value) -> [f64; 3] {
+        let (x, y) = (point[0].as_f64().unwrap() as usize, point[1].as_f64().unwrap() as usize);
+        let mut sum = [0.0; 3];
+        for dy in 0..3 {
+            for dx in 0..3 {
+                let p = self.rgb[(y + dy - 1).min(self.height - 1) * self.width + (x + dx - 1).min(self.width - 1)];
+                for k in 0..3 {
+                    sum[k] += p[k] / 9.0;
+                }
+            }
+        }
+        sum
+    }
+}
+
+fn luminance(c: [f64; 3]) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+fn difference(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|k| (a[k] - b[k]).abs()).sum()
+}
+
+/// The screenshot shows the board's light and dark squares and the arm where the scene puts
+/// them, and is not one colour.
+fn assert_picture_shows_the_scene(screenshot: &Path, report: &Value) {
+    let picture = Picture::read(screenshot);
+    let marks = &report["landmarks"];
+    let background = picture.at(&marks["background"]);
+    let first = |kind: &str| {
+        let list = marks[kind].as_array().unwrap();
+        assert!(!list.is_empty(), "no unobstructed {kind} landmark in view: {marks}");
+        list.iter().map(|m| picture.at(&m["at"])).collect::<Vec<_>>()
+    };
+    let (light, dark, links) = (first("light"), first("dark"), first("links"));
+    let mean = |colours: &[[f64; 3]]| colours.iter().map(|c| luminance(*c)).sum::<f64>() / colours.len() as f64;
+    // Lit from above, the light squares (#e9d4aa) stay well brighter than the dark (#9a6a3f):
+    // their luminances differ by 90 unlit; a third of that must survive the shading.
+    assert!(mean(&light) > mean(&dark) + 30.0, "light {light:?} vs dark {dark:?} squares");
+    for square in light.iter().chain(&dark) {
+        assert!(difference(*square, background) > 60.0, "a square looks like the background: {square:?}");
+    }
+    // The arm's links (#c8ccd2) are grey, not the board's brown nor the background.
+    for link in &links {
+        assert!(difference(*link, background) > 60.0, "a link looks like the background: {link:?}");
+        let spread = link.iter().cloned().fold(f64::MIN, f64::max) - link.iter().cloned().fold(f64::MAX, f64::min);
+        assert!(spread < 40.0, "a link is not grey: {link:?}");
+    }
+    // Not blank: many distinct colours over the picture.
+    let mut seen = std::collections::HashSet::new();
+    for p in &picture.rgb {
+        seen.insert((p[0] as u8 >> 3, p[1] as u8 >> 3, p[2] as u8 >> 3));
+    }
+    assert!(seen.len() > 200, "only {} colours in the screenshot", seen.len());
+}
+
+#[test]
+fn the_readme_game_replays_in_a_browser_where_the_simulation_put_everything() {
+    let test = "the_readme_game_replays_in_a_browser_where_the_simulation_put_everything";
+    if !browser_available(test) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    json_of(&chessarm(&["play", "--moves", "e4 e5 Nf3 Nc6 Bb5", "--out", out.to_str().unwrap()]));
+    let game: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let mut csvs: Vec<PathBuf> = std::fs::read_dir(out.join("moves"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+        .collect();
+    csvs.sort();
+    // Every 7th row (70 ms): instants on the display frames (every 20 ms) and between them.
+    let samples = tip_samples(&csvs, 7, 3);
+    assert!(samples.len() > 100);
+    let times: Vec<f64> = samples.iter().map(|s| s.0).collect();
+    let screenshot = artefact("replay-play.png");
+    let report = probe(&out.join("replay.html"), &screenshot, 0, &times, 7.777);
+    assert_clean_console(&report);
+    // The drawn tool is where the simulation's CSV puts the tip: display sampling (50 Hz,
+    // cubic interpolation) and quantisation (10 µrad) cost less than 0.5 mm.
+    let (worst, at) = worst_tool_error(&report, &samples);
+    assert!(worst < 0.5e-3, "tool {:.3} mm from the CSV's tip at t = {at} s", worst * 1e3);
+    eprintln!("replay: worst tool-vs-CSV distance {:.4} mm at t = {at} s", worst * 1e3);
+    // One entry per ply, in order, with the game's SAN.
+    let moves = report["moves"].as_array().unwrap();
+    let plies = game["moves"].as_array().unwrap();
+    assert_eq!(moves.len(), plies.len());
+    for (shown, played) in moves.iter().zip(plies) {
+        assert_eq!(shown["san"], played["san"]);
+        assert_eq!(shown["ply"], played["ply"]);
+    }
+    // At the end every piece stands where game.json's final table says (to the µm the
+    // replay's data are rounded to).
+    assert_final_table(&report, &game);
+    assert_picture_shows_the_scene(&screenshot, &report);
+    assert!(report["samples"].as_array().unwrap().iter().any(|s| s["phase"] == "carrying"));
+}
+
+fn assert_final_table(report: &Value, game: &Value) {
+    let pieces = report["pieces"].as_array().unwrap();
+    let table = game["final_table"].as_array().unwrap();
+    assert_eq!(pieces.len(), table.len());
+    for (shown, truth) in pieces.iter().zip(table) {
+        let p = common::numbers(&shown["position"]);
+        let (x, y) = (truth["x_m"].as_f64().unwrap(), truth["y_m"].as_f64().unwrap());
+        let off = ((p[0] - x).powi(2) + (p[1] - y).powi(2)).sqrt();
+        assert!(off < 1e-6, "{} at {} is drawn {:.4} mm away", truth["piece"], truth["location"], off * 1e3);
+        assert!(p[2].abs() < 1e-12, "{} is not standing on the table: z = {}", truth["piece"], p[2]);
+        let name = format!("{} {}", shown["color"].as_str().unwrap(), shown["role"].as_str().unwrap());
+        assert_eq!(name, truth["piece"].as_str().unwrap());
+    }
+}
+
+#[test]
+fn captures_castling_and_promotions_end_with_every_piece_in_its_place() {
+    let test = "captures_castling_and_promotions_end_with_every_piece_in_its_place";
+    if !browser_available(test) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let pgn = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures/special_moves.pgn");
+    json_of(&chessarm(&["play", pgn.to_str().unwrap(), "--out", out.to_str().unwrap()]));
+    let game: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let report = probe(&out.join("replay.html"), &artefact("replay-special-moves.png"), 0, &[], 1.0);
+    assert_clean_console(&report);
+    assert_final_table(&report, &game);
+    let table = game["final_table"].as_array().unwrap();
+    assert!(table.iter().any(|p| p["location"].as_str().unwrap().contains("graveyard")), "nothing was captured");
+    assert_eq!(report["moves"].as_array().unwrap().len(), game["moves"].as_array().unwrap().len());
+}
