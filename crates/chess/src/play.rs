@@ -28,6 +28,9 @@ use shakmaty::san::SanPlus;
 use shakmaty::uci::UciMove;
 use shakmaty::{CastlingMode, Chess, Color, EnPassantMode, Move, Position};
 
+/// How far from its place a piece may stand and still count as placed, m (5 mm).
+pub const DEFAULT_TOLERANCE: f64 = 0.005;
+
 /// Settings of a game.
 #[derive(Debug, Clone)]
 pub struct PlaySettings {
@@ -75,7 +78,7 @@ impl PlaySettings {
             plant: None,
             true_pieces: None,
             conditions: Conditions::ideal(),
-            tolerance: 0.005,
+            tolerance: DEFAULT_TOLERANCE,
             dt: 1e-3,
             control_period: 1e-3,
             integrator: Integrator::default(),

@@ -15,6 +15,10 @@ pub struct Cli {
     /// Setup file (TOML) describing the arm and the board; `chessarm arm` prints the default.
     #[arg(long, global = true, value_name = "FILE")]
     pub arm: Option<PathBuf>,
+    /// Print the result as one line of JSON on standard output (for scripts) instead of a
+    /// summary for people; tables and progress then go to standard error.
+    #[arg(long, global = true)]
+    pub json: bool,
     #[command(subcommand)]
     pub command: Option<Command>,
 }

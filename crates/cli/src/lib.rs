@@ -17,8 +17,46 @@ use anyhow::Result;
 use cli::{Cli, Command};
 use config::Setup;
 
+/// Whether `--json` was given: results as JSON on stdout instead of a summary for people.
+static JSON_OUTPUT: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+
+/// Whether the result goes out as JSON (`--json`).
+pub fn json_output() -> bool {
+    JSON_OUTPUT.get().copied().unwrap_or(false)
+}
+
+/// Prints a command's result: `json` with `--json`, else `human` (a summary for people, which
+/// ends with a newline).
+///
+/// # Errors
+///
+/// As [`print_json`].
+pub fn emit(human: &str, json: &serde_json::Value) -> Result<()> {
+    if json_output() { print_json(json) } else { print_text(human) }
+}
+
+/// Text for the terminal that goes with the result: on stdout with the human summary, on
+/// stderr with `--json` (so that stdout stays one JSON value).
+pub fn tell_or_keep(text: &str, summary: &mut String) {
+    if json_output() {
+        tell(text);
+    } else {
+        summary.push_str(text);
+    }
+}
+
+/// "files:" and one indented line per file, for the human summaries.
+pub fn files_text(files: &[String]) -> String {
+    let mut text = String::from("files:\n");
+    for file in files {
+        text.push_str(&format!("  {file}\n"));
+    }
+    text
+}
+
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
+    let _ = JSON_OUTPUT.set(cli.json);
     let setup = Setup::load(cli.arm.as_deref())?;
     match cli.command {
         None => commands::demo::run(&setup, &cli::DemoArgs { out: "out".into() }),

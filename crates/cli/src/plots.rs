@@ -5,6 +5,7 @@ use crate::output::render_atomic;
 use anyhow::{Result, anyhow};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 use std::sync::Once;
 
@@ -30,23 +31,78 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(140, 86, 75),
 ];
 
-/// One line of a panel.
-#[derive(Debug, Clone)]
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Style {
+    /// A solid line (measured values).
+    #[default]
+    Line,
+    /// A dashed line (desired/reference values).
+    Dashed,
+    /// Unjoined points (one value per ply, per trial).
+    Points,
+}
+
+/// One series of a panel.
+#[derive(Debug, Clone, Default)]
 pub struct Series {
     pub label: String,
     pub points: Vec<(f64, f64)>,
     /// Index into [`PALETTE`].
     pub color: usize,
-    /// Dashed lines show desired/reference values.
-    pub dashed: bool,
+    pub style: Style,
+}
+
+/// A horizontal line across a panel: a limit or a tolerance.
+#[derive(Debug, Clone)]
+pub struct Level {
+    pub value: f64,
+    pub label: String,
+    /// Index into [`PALETTE`].
+    pub color: usize,
+}
+
+/// A marked instant: a vertical line with a label written beside it (e.g. the grip and the
+/// errors there).
+#[derive(Debug, Clone)]
+pub struct Mark {
+    pub x: f64,
+    pub label: String,
 }
 
 /// One chart of a stacked figure.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Panel {
     pub title: String,
     pub y_label: String,
     pub series: Vec<Series>,
+    /// Horizontal lines (limits, tolerances), in the legend.
+    pub levels: Vec<Level>,
+    /// Vertical lines at instants, labelled on the plot.
+    pub marks: Vec<Mark>,
+    /// Stretches of x shaded, and what they mean (for the legend).
+    pub shaded: Vec<(f64, f64)>,
+    pub shaded_label: String,
+    /// y on a logarithmic scale (values ≤ 0 are left out): for errors that span decades.
+    pub log_y: bool,
+    /// Show only this x range (a zoom); all the data otherwise.
+    pub x_range: Option<(f64, f64)>,
+    /// Whole-number x ticks only (plies).
+    pub integer_x: bool,
+    /// Where the legend goes.
+    pub legend: Corner,
+}
+
+/// A corner of a panel, for its legend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Corner {
+    #[default]
+    UpperRight,
+    LowerRight,
+    UpperLeft,
+    LowerLeft,
+    /// No legend: the title says what is drawn.
+    Hidden,
 }
 
 fn range_of(values: impl Iterator<Item = f64>) -> (f64, f64) {
@@ -58,6 +114,28 @@ fn range_of(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let span = high - low;
     let pad = if span > 1e-12 { 0.05 * span } else { low.abs().max(1.0) * 0.05 };
     (low - pad, high + pad)
+}
+
+/// A tick label: at most four significant digits, no trailing zeros, never "-0"; scientific
+/// notation beyond 10⁶ and below 10⁻⁴.
+pub fn tick(value: f64) -> String {
+    if !value.is_finite() {
+        return String::new();
+    }
+    if value.abs() < 1e-12 {
+        return "0".into();
+    }
+    let magnitude = value.abs().log10().floor() as i32;
+    if !(-4..6).contains(&magnitude) {
+        let text = format!("{value:.2e}");
+        let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
+        let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+        return format!("{mantissa}e{exponent}");
+    }
+    let decimals = (3 - magnitude).clamp(0, 8) as usize;
+    let text = format!("{value:.decimals$}");
+    let text = if text.contains('.') { text.trim_end_matches('0').trim_end_matches('.').to_string() } else { text };
+    if text == "-0" { "0".into() } else { text }
 }
 
 /// Draws `panels` stacked vertically over a shared x axis into the PNG at `path`.
@@ -82,37 +160,130 @@ fn draw_panel(
     panel: &Panel,
     x_label: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let points = || panel.series.iter().flat_map(|s| s.points.iter());
-    let (x_low, x_high) = range_of(points().map(|p| p.0));
-    let (y_low, y_high) = range_of(points().map(|p| p.1));
+    // On a log scale the values drawn are log10(y); labels show y.
+    let shown = |y: f64| if panel.log_y { if y > 0.0 { y.log10() } else { f64::NAN } } else { y };
+    let inside = |x: f64| panel.x_range.is_none_or(|(a, b)| x >= a && x <= b);
+    let series: Vec<Vec<(f64, f64)>> = panel
+        .series
+        .iter()
+        .map(|s| {
+            s.points.iter().filter(|p| inside(p.0)).map(|&(x, y)| (x, shown(y))).filter(|p| p.1.is_finite()).collect()
+        })
+        .collect();
+    let (x_low, x_high) = match panel.x_range {
+        Some(range) => range,
+        None => range_of(series.iter().flatten().map(|p| p.0)),
+    };
+    let levels = panel.levels.iter().map(|l| shown(l.value));
+    let (y_low, y_high) = range_of(series.iter().flatten().map(|p| p.1).chain(levels));
+    // A log scale shows at most six decades under the largest value: below that is rounding.
+    let y_low = if panel.log_y { y_low.max(y_high - 6.0) } else { y_low };
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, ("sans-serif", 20))
         .margin(10)
+        .margin_right(20)
         .x_label_area_size(40)
         .y_label_area_size(80)
         .build_cartesian_2d(x_low..x_high, y_low..y_high)?;
+    let log = panel.log_y;
+    let integer_x = panel.integer_x;
+    let x_format = move |x: &f64| {
+        if integer_x {
+            if (x - x.round()).abs() < 1e-6 { format!("{}", x.round() as i64) } else { String::new() }
+        } else {
+            tick(*x)
+        }
+    };
+    let decades = (y_high - y_low).abs();
+    let y_format = move |y: &f64| {
+        if !log {
+            return tick(*y);
+        }
+        // Decades only when there are several; otherwise every tick.
+        if decades >= 2.0 && (y - y.round()).abs() > 1e-6 { String::new() } else { tick(10f64.powf(*y)) }
+    };
+    let x_ticks = if integer_x { ((x_high - x_low).round() as usize + 1).clamp(2, 20) } else { 10 };
     chart
         .configure_mesh()
         .x_desc(x_label)
         .y_desc(&panel.y_label)
+        .x_labels(x_ticks)
+        .x_label_formatter(&x_format)
+        .y_label_formatter(&y_format)
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 16))
         .draw()?;
-    for series in &panel.series {
-        let color = PALETTE[series.color % PALETTE.len()];
-        let style = color.stroke_width(2);
-        let annotation = if series.dashed {
-            chart.draw_series(DashedLineSeries::new(series.points.iter().copied(), 8, 5, style))?
-        } else {
-            chart.draw_series(LineSeries::new(series.points.iter().copied(), style))?
-        };
+    if !panel.shaded.is_empty() {
+        let shade = RGBColor(255, 160, 160).mix(0.45);
+        let annotation = chart.draw_series(
+            panel
+                .shaded
+                .iter()
+                .map(|&(a, b)| Rectangle::new([(a.max(x_low), y_low), (b.min(x_high), y_high)], shade.filled())),
+        )?;
         annotation
-            .label(series.label.clone())
+            .label(panel.shaded_label.clone())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], shade.filled()));
+    }
+    for level in &panel.levels {
+        let color = PALETTE[level.color % PALETTE.len()];
+        let y = shown(level.value);
+        let annotation =
+            chart.draw_series(DashedLineSeries::new([(x_low, y), (x_high, y)], 10, 6, color.stroke_width(2)))?;
+        annotation
+            .label(level.label.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
     }
+    for (series, points) in panel.series.iter().zip(series) {
+        let color = PALETTE[series.color % PALETTE.len()];
+        let style = color.stroke_width(2);
+        let annotation = match series.style {
+            Style::Dashed => chart.draw_series(DashedLineSeries::new(points, 8, 5, style))?,
+            Style::Line => chart.draw_series(LineSeries::new(points, style))?,
+            Style::Points => chart.draw_series(points.into_iter().map(|p| Circle::new(p, 4, color.filled())))?,
+        };
+        let points_only = series.style == Style::Points;
+        annotation.label(series.label.clone()).legend(
+            move |(x, y)| -> DynElement<'static, BitMapBackend<'_>, (i32, i32)> {
+                if points_only {
+                    Circle::new((x + 10, y), 4, color.filled()).into_dyn()
+                } else {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)).into_dyn()
+                }
+            },
+        );
+    }
+    // Instants: a vertical line each, the label beside it, staggered so neighbours do not overlap.
+    for (index, mark) in panel.marks.iter().enumerate() {
+        let grey = RGBColor(90, 90, 90);
+        chart.draw_series(DashedLineSeries::new([(mark.x, y_low), (mark.x, y_high)], 6, 4, grey.stroke_width(1)))?;
+        let y = y_high - (y_high - y_low) * (0.04 + 0.08 * (index % 3) as f64);
+        // Right of the line in the left part of the panel, left of it in the right part.
+        let right_half = mark.x > x_low + 0.55 * (x_high - x_low);
+        let anchor = if right_half { HPos::Right } else { HPos::Left };
+        let style = ("sans-serif", 14).into_font().color(&BLACK).pos(Pos::new(anchor, VPos::Top));
+        // On a white box, so that lines under it do not make it unreadable (DejaVu Sans at 14
+        // px is about 8 px a character).
+        let (px, py) = chart.backend_coord(&(mark.x, y));
+        let width = 8 * mark.label.chars().count() as i32 + 8;
+        let (left, right) = if right_half { (px - width - 4, px - 4) } else { (px + 4, px + width + 4) };
+        let pixels = chart.plotting_area().strip_coord_spec();
+        let (offset_x, offset_y) = pixels.get_base_pixel();
+        let local = |x: i32, y: i32| (x - offset_x, y - offset_y);
+        pixels.draw(&Rectangle::new([local(left, py - 2), local(right, py + 17)], WHITE.mix(0.85).filled()))?;
+        let text_x = if right_half { right - 4 } else { left + 4 };
+        pixels.draw(&Text::new(mark.label.clone(), local(text_x, py), style))?;
+    }
+    let position = match panel.legend {
+        Corner::UpperRight => SeriesLabelPosition::UpperRight,
+        Corner::LowerRight => SeriesLabelPosition::LowerRight,
+        Corner::UpperLeft => SeriesLabelPosition::UpperLeft,
+        Corner::LowerLeft => SeriesLabelPosition::LowerLeft,
+        Corner::Hidden => return Ok(()),
+    };
     chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(position)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 14))

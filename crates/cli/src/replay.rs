@@ -2,7 +2,8 @@
 //!
 //! The page embeds the vendored three.js ([`THREE_VERSION`], `assets/three/`), the viewer
 //! (`assets/replay.html`) and the run's data as JSON. The data are for display: the joint
-//! angles every [`DISPLAY_PERIOD`] (at most 50 Hz), quantised to 10 µrad, the desired tool tip
+//! angles and rates every [`DISPLAY_PERIOD`] (at most 50 Hz), quantised to 10 µrad and
+//! 100 µrad/s (the page interpolates between frames by cubic Hermite on both), the desired tool tip
 //! to 10 µm, the tip error to 1 µm, times to 0.1 ms, each channel delta-encoded; exact values
 //! stay in the CSVs. The page computes the arm's pose from the angles with the model's own DH
 //! parameters, so the tool drawn is where forward kinematics puts it. A gripped piece moves
@@ -36,6 +37,7 @@ pub const DISPLAY_PERIOD: f64 = 0.02;
 /// Units of the quantised channels: time (s), angle (rad), position (m), tip error (m).
 const TIME_UNIT: f64 = 1e-4;
 const ANGLE_UNIT: f64 = 1e-5;
+const RATE_UNIT: f64 = 1e-4;
 const POSITION_UNIT: f64 = 1e-5;
 const ERROR_UNIT: f64 = 1e-6;
 
@@ -58,6 +60,7 @@ const PHASES: [&str; 9] = [
 pub struct Frame {
     pub t: f64,
     pub q: [f64; 4],
+    pub qd: [f64; 4],
     pub tip_desired: Vector3<f64>,
     pub tip_error: f64,
 }
@@ -68,6 +71,7 @@ impl Frame {
         Self {
             t,
             q: record.state.q.into(),
+            qd: record.state.qd.into(),
             tip_desired: record.tip_desired,
             tip_error: (record.tip - record.tip_desired).norm(),
         }
@@ -201,6 +205,7 @@ fn run_json(run: &ReplayRun, table: &Table, tolerance: f64) -> Value {
     let frames = &run.frames;
     let channel = |get: &dyn Fn(&Frame) -> f64, unit: f64| deltas(frames.iter().map(|f| quantise(get(f), unit)));
     let q: Vec<Vec<i64>> = (0..4).map(|j| channel(&|f: &Frame| f.q[j], ANGLE_UNIT)).collect();
+    let qd: Vec<Vec<i64>> = (0..4).map(|j| channel(&|f: &Frame| f.qd[j], RATE_UNIT)).collect();
     let tip: Vec<Vec<i64>> = (0..3).map(|k| channel(&|f: &Frame| f.tip_desired[k], POSITION_UNIT)).collect();
     let handled: Vec<Value> = run
         .handled
@@ -232,6 +237,7 @@ fn run_json(run: &ReplayRun, table: &Table, tolerance: f64) -> Value {
         "frames": {
             "t": channel(&|f: &Frame| f.t, TIME_UNIT),
             "q": q,
+            "qd": qd,
             "tip_desired": tip,
             "tip_error": frames.iter().map(|f| quantise(f.tip_error, ERROR_UNIT)).collect::<Vec<_>>(),
         },
@@ -293,7 +299,7 @@ pub fn replay_json(replay: &Replay<'_>) -> Value {
         "three": THREE_VERSION,
         "title": replay.title,
         "note": replay.note,
-        "units": {"time": TIME_UNIT, "angle": ANGLE_UNIT, "position": POSITION_UNIT, "tip_error": ERROR_UNIT},
+        "units": {"time": TIME_UNIT, "angle": ANGLE_UNIT, "rate": RATE_UNIT, "position": POSITION_UNIT, "tip_error": ERROR_UNIT},
         "phase_names": PHASES,
         "arm": {
             "dh": dh,
@@ -353,7 +359,7 @@ mod tests {
 
     #[test]
     fn thinning_keeps_the_display_rate_and_each_move_end() {
-        let frame = |t: f64| Frame { t, q: [t; 4], tip_desired: Vector3::zeros(), tip_error: 0.0 };
+        let frame = |t: f64| Frame { t, q: [t; 4], qd: [1.0; 4], tip_desired: Vector3::zeros(), tip_error: 0.0 };
         let mut out = Vec::new();
         thin((0..=105).map(|k| frame(k as f64 * 0.01)), &mut out);
         // Every second of 10 ms records, and the last (1.05 s) though only 10 ms after 1.04.

@@ -264,3 +264,36 @@ fn captures_castling_and_promotions_end_with_every_piece_in_its_place() {
     assert!(table.iter().any(|p| p["location"].as_str().unwrap().contains("graveyard")), "nothing was captured");
     assert_eq!(report["moves"].as_array().unwrap().len(), game["moves"].as_array().unwrap().len());
 }
+
+#[test]
+fn the_demo_replays_each_controller_where_its_csv_puts_the_tool() {
+    let test = "the_demo_replays_each_controller_where_its_csv_puts_the_tool";
+    if !browser_available(test) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    json_of(&chessarm(&["demo", "--out", out.to_str().unwrap()]));
+    let simulate = out.join("simulate");
+    for (run, name) in ["pd", "pid-plain", "pid"].iter().enumerate() {
+        // Every 37th row (1 ms steps): instants on and between the display frames.
+        let samples = tip_samples(&[simulate.join(format!("{name}.csv"))], 37, 5);
+        let times: Vec<f64> = samples.iter().map(|s| s.0).collect();
+        let report =
+            probe(&simulate.join("replay.html"), &artefact(&format!("replay-demo-{name}.png")), run, &times, 5.8);
+        assert_clean_console(&report);
+        assert_eq!(report["runs"].as_array().unwrap().len(), 3);
+        // The start-up jump from q = 0 included, the fastest motion of all (joint 3 turns
+        // 2.5 rad in a fraction of a second): the frames carry the rates as well as the angles.
+        let (worst, at) = worst_tool_error(&report, &samples);
+        assert!(worst < 0.5e-3, "{name}: tool {:.3} mm from the CSV's tip at t = {at} s", worst * 1e3);
+        eprintln!("demo replay {name}: worst tool-vs-CSV {:.4} mm (t = {at} s)", worst * 1e3);
+        let pawn = report["pieces"].as_array().unwrap().iter().find(|p| {
+            p["role"] == "pawn" && {
+                let p = common::numbers(&p["position"]);
+                (p[0] + 0.03).abs() < 0.01 && (p[1] - 0.30).abs() < 0.01
+            }
+        });
+        assert!(pawn.is_some(), "{name}: no pawn on d4 at the end: {}", report["pieces"]);
+    }
+}

@@ -3,10 +3,10 @@
 use crate::cli::{ControllerName, DemoArgs, GainArgs};
 use crate::commands::plan::{plan_scenario, write_plan};
 use crate::commands::simulate::{
-    ControllerRun, RunOptions, comparison_table, controller_specs, run_study, study_steps,
+    ControllerRun, RunOptions, TRANSIENT_S, comparison_table, controller_specs, max_tip_error_from, run_study,
+    study_steps,
 };
 use crate::config::Setup;
-use crate::print_json;
 use anyhow::Result;
 use chessarm_core::sim::Integrator;
 use serde_json::json;
@@ -40,14 +40,57 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     bar.set_message("simulating");
     let (runs, study) = run_study(setup, SCENARIO, &specs, &options, &args.out.join("simulate"), Some(&bar))?;
     bar.finish_and_clear();
-    crate::tell(&format!(
+    let heading = format!(
         "The report's study: {SCENARIO} (d2→d4), computed torque, plant = model, 1 kHz, start at rest at q = 0.\n"
-    ));
-    crate::tell(&comparison_table(&runs, true));
-    crate::tell(&format!("{}\n", conclusion(&runs)));
-    crate::tell(&format!("Plots and CSVs: {}/plan and {}/simulate\n", args.out.display(), args.out.display()));
-    print_json(&json!({ "plan_files": plan_files, "simulate": study }))?;
+    );
+    let out = args.out.display();
+    let conclusion = format!("{}\n", conclusion(&runs));
+    if crate::json_output() {
+        // Scripts get the JSON; the full comparison stays on the terminal.
+        crate::tell(&heading);
+        crate::tell(&comparison_table(&runs, true));
+        crate::tell(&conclusion);
+        crate::tell(&format!("Plots and CSVs: {out}/plan and {out}/simulate\n"));
+    }
+    let human = format!(
+        "{heading}{}{conclusion}\nWatch it:     {out}/simulate/replay.html (open in a browser; pick the controller under run)\n\
+         Plots:        {out}/simulate/tip_error.png, tracking_error.png, <controller>_joints.png, _torques.png; {out}/plan/*.png\n\
+         Numbers:      {out}/simulate/summary.json and <controller>.csv; {out}/plan/joint.csv\n\
+         (--json prints all of it as JSON)\n",
+        short_table(&runs)
+    );
+    crate::emit(&human, &json!({ "plan_files": plan_files, "simulate": study }))?;
     Ok(())
+}
+
+/// A length in mm with four decimals, and "< 0.0001" for what they would show as zero.
+fn millimetres(metres: f64) -> String {
+    if metres > 0.0 && metres < 0.5e-7 { "< 0.0001".into() } else { format!("{:.4}", metres * 1e3) }
+}
+
+/// The study at a glance: per controller the tool's error at the grip and release instants,
+/// its largest error after the start-up, and how often a motor saturated.
+fn short_table(runs: &[ControllerRun]) -> String {
+    let mut table = format!(
+        "{:<10} {:>14} {:>17} {:>20} {:>10}\n",
+        "control",
+        "at grip mm",
+        "at release mm",
+        format!("max after {TRANSIENT_S} s mm"),
+        "saturated"
+    );
+    for run in runs {
+        let at = |i: usize| run.summary.tip_error_at_marks.get(i).map_or("-".to_string(), |e| millimetres(*e));
+        table.push_str(&format!(
+            "{:<10} {:>14} {:>17} {:>20.4} {:>10}\n",
+            run.spec.name,
+            at(0),
+            at(1),
+            max_tip_error_from(run, TRANSIENT_S) * 1e3,
+            run.summary.saturated_samples
+        ));
+    }
+    table
 }
 
 /// Says, from the numbers, whether the report's conclusion (PD places pieces more precisely

@@ -6,7 +6,6 @@ use crate::commands::simulate::{RunOptions, run_controller};
 use crate::conditions::Study;
 use crate::config::Setup;
 use crate::one_line;
-use crate::print_json;
 use crate::resources::show;
 use anyhow::{Result, bail};
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
@@ -57,6 +56,7 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
         ControllerChoice::Both => &[("pd", false), ("pid", true)],
     };
     let mut designs = Vec::new();
+    let mut human = String::new();
     for &(name, pid) in controllers {
         let (gains, wn, zeta, ratio) = design(args, pid)?;
         let spec = ControllerSpec {
@@ -69,6 +69,7 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
         let shape = ResponseShape::of(zeta, ratio);
         let poles: Vec<[f64; 2]> = gains.closed_loop_poles(0).iter().map(|p| [p.re, p.im]).collect();
         let measured = if args.no_verify { Value::Null } else { verify(setup, args, &spec)? };
+        human.push_str(&design_table(name, &gains, (wn, zeta, ratio, pid), &shape, args, &measured));
         designs.push(json!({
             "controller": name,
             "wn_rad_s": wn,
@@ -84,8 +85,65 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
             "measured": measured,
         }));
     }
-    print_json(&json!({ "designs": designs }))?;
+    crate::emit(&human, &json!({ "designs": designs }))?;
     Ok(())
+}
+
+/// One design as a table for people: the gains and closed-loop poles of each joint, and the
+/// settling time and overshoot asked for, designed and measured in simulation.
+fn design_table(
+    name: &str,
+    gains: &Gains<4>,
+    (wn, zeta, ratio, pid): (f64, f64, f64, bool),
+    shape: &ResponseShape,
+    args: &GainsArgs,
+    measured: &Value,
+) -> String {
+    let integral = if pid { format!(", integral pole at {} × ζωn", show(ratio)) } else { String::new() };
+    let mut text = format!("{}: ωn = {wn:.4} rad/s, ζ = {zeta:.4}{integral}\n", name.to_uppercase());
+    let requested = match args.settling_time {
+        Some(t) => format!("{} s / {} %", show(t), show(args.overshoot)),
+        None => "-".into(),
+    };
+    text.push_str(&format!(
+        "{:>5} {:>10} {:>10} {:>10}  {:<40} {:>22} {:>22}\n",
+        "joint", "kp", "kd", "ki", "closed-loop poles (1/s)", "settling s asked/des./sim.", "overshoot % des./sim."
+    ));
+    let number = |v: &Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
+    for j in 0..4 {
+        let poles: Vec<String> = gains
+            .closed_loop_poles(j)
+            .iter()
+            .map(|p| {
+                let (re, im) = (p.re + 0.0, p.im + 0.0);
+                if im.abs() < 1e-9 { format!("{re:.3}") } else { format!("{re:.3}{:+.3}i", im) }
+            })
+            .collect();
+        let asked = args.settling_time.map_or("-".to_string(), |t| format!("{t:.3}"));
+        text.push_str(&format!(
+            "{:>5} {:>10.3} {:>10.3} {:>10.3}  {:<40} {:>22} {:>22}\n",
+            j + 1,
+            gains.kp[j],
+            gains.kd[j],
+            gains.ki[j],
+            poles.join(", "),
+            format!("{asked} / {:.3} / {}", shape.settling / wn, number(&measured["settling_time_s"][j])),
+            format!("{:.2} / {}", shape.overshoot_percent, number(&measured["overshoot_percent"][j])),
+        ));
+    }
+    if measured.is_null() {
+        text.push_str("(not simulated: --no-verify)\n");
+    } else {
+        text.push_str(&format!(
+            "asked {requested}; simulated from a {} rad error on every joint: worst settling {} s, worst overshoot {} %, {} saturated samples\n",
+            show(args.initial_error),
+            number(&measured["worst_settling_time_s"]),
+            number(&measured["worst_overshoot_percent"]),
+            measured["saturation_count"]
+        ));
+    }
+    text.push('\n');
+    text
 }
 
 /// Simulates the scenario from an initial error on every joint and measures each joint's

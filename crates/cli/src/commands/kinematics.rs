@@ -2,7 +2,6 @@
 
 use crate::cli::{FkArgs, IkArgs};
 use crate::config::Setup;
-use crate::print_json;
 use anyhow::{Result, bail};
 use chessarm_chess::board::parse_square;
 use chessarm_core::arm::kinematics::FrameChain;
@@ -45,7 +44,16 @@ pub fn fk(setup: &Setup, args: &FkArgs) -> Result<()> {
             })
         })
         .collect();
-    print_json(&json!({ "tip": [task.x, task.y, task.z], "pitch": task.w, "frames": frames }))?;
+    let mut human = format!(
+        "tip ({:.6}, {:.6}, {:.6}) m, tool pitch {:.6} rad\nframe origins (m):\n",
+        task.x, task.y, task.z, task.w
+    );
+    for i in 0..4 {
+        let o = chain.body_pose(i).translation.vector;
+        human.push_str(&format!("  frame{} ({:.6}, {:.6}, {:.6})\n", i + 1, o.x, o.y, o.z));
+    }
+    let human = human.replace("-0.000000", "0.000000");
+    crate::emit(&human, &json!({ "tip": [task.x, task.y, task.z], "pitch": task.w, "frames": frames }))?;
     Ok(())
 }
 
@@ -56,6 +64,14 @@ pub fn ik(setup: &Setup, args: &IkArgs) -> Result<()> {
         _ => bail!("give either --xyz or --square"),
     };
     let q = inverse_kinematics(&setup.arm, &target, args.pitch)?;
-    print_json(&json!({ "q": q.as_slice() }))?;
+    let human = format!(
+        "q = [{}] rad (elbow up, tool pitch {} rad) for the tip at ({:.6}, {:.6}, {:.6}) m\n",
+        q.iter().map(|v| format!("{:.6}", v + 0.0)).collect::<Vec<_>>().join(", "),
+        args.pitch,
+        target.x,
+        target.y,
+        target.z
+    );
+    crate::emit(&human.replace("-0.000000", "0.000000"), &json!({ "q": q.as_slice() }))?;
     Ok(())
 }

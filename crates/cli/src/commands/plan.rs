@@ -4,8 +4,7 @@ use crate::cli::PlanArgs;
 use crate::config::Setup;
 use crate::config::checked_limits;
 use crate::output::{ensure_dir, numbered, write_csv};
-use crate::plots::{Panel, Series, plot_panels};
-use crate::print_json;
+use crate::plots::{Panel, Series, Style, plot_panels};
 use anyhow::{Result, anyhow, bail};
 use chessarm_chess::motion::{PlannedMove, TimingMode, plan_move};
 use chessarm_chess::notation::{parse_fen, parse_move_list};
@@ -81,15 +80,29 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
     let peak = |f: fn(&JointSample) -> [f64; 4]| -> Vec<f64> {
         (0..4).map(|j| samples.iter().map(|s| f(s)[j].abs()).fold(0.0, f64::max)).collect()
     };
-    print_json(&json!({
-        "scenario": plan.name,
-        "duration_s": plan.path.duration(),
-        "dt_s": args.dt,
-        "samples": samples.len(),
-        "peak_joint_rate_rad_s": peak(|s| s.qd.into()),
-        "peak_joint_acceleration_rad_s2": peak(|s| s.qdd.into()),
-        "files": files,
-    }))?;
+    let peaks = |values: &[f64]| values.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(", ");
+    let human = format!(
+        "planned {}: {:.2} s, {} samples every {} s; peak joint rates [{}] rad/s, accelerations [{}] rad/s²\n{}",
+        plan.name,
+        plan.path.duration(),
+        samples.len(),
+        crate::resources::show(args.dt),
+        peaks(&peak(|s| s.qd.into())),
+        peaks(&peak(|s| s.qdd.into())),
+        crate::files_text(&files)
+    );
+    crate::emit(
+        &human,
+        &json!({
+            "scenario": plan.name,
+            "duration_s": plan.path.duration(),
+            "dt_s": args.dt,
+            "samples": samples.len(),
+            "peak_joint_rate_rad_s": peak(|s| s.qd.into()),
+            "peak_joint_acceleration_rad_s2": peak(|s| s.qdd.into()),
+            "files": files,
+        }),
+    )?;
     Ok(())
 }
 
@@ -175,9 +188,10 @@ fn plot_cartesian(path: &Path, plan: &Samples<'_>) -> Result<()> {
                 label: format!("{} {}", axis_names[axis], title),
                 points: plan.cartesian.iter().map(|s| (s.t, 100.0 * pick(s)[axis])).collect(),
                 color: axis,
-                dashed: false,
+                style: Style::Line,
             })
             .collect(),
+        ..Panel::default()
     };
     plot_panels(
         path,
@@ -200,9 +214,10 @@ fn plot_joint(path: &Path, plan: &Samples<'_>) -> Result<()> {
                 label: format!("θ{}", j + 1),
                 points: plan.joint.iter().map(|s| (s.t, pick(s)[j])).collect(),
                 color: j,
-                dashed: false,
+                style: Style::Line,
             })
             .collect(),
+        ..Panel::default()
     };
     plot_panels(
         path,
@@ -330,13 +345,31 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
     let name = format!("moves {moves}");
     files.extend(write_samples(&Samples { name: &name, cartesian: &cartesian, joint: &joint }, &args.out, args.xlsx)?);
     files.extend(phase_files);
-    print_json(&json!({
-        "moves": summaries,
-        "timing": match setup.timing { TimingMode::Optimal => "optimal", TimingMode::Lspb => "lspb" },
-        "duration_s": offset,
-        "dt_s": args.dt,
-        "files": files,
-    }))?;
+    let mut human = format!("{:>4} {:>8} {:>8} {:>10}  {}\n", "ply", "san", "uci", "time s", "longest limit");
+    for summary in &summaries {
+        let limit = &summary["longest_limit"];
+        human.push_str(&format!(
+            "{:>4} {:>8} {:>8} {:>10.3}  {}\n",
+            summary["ply"],
+            summary["san"].as_str().unwrap_or(""),
+            summary["uci"].as_str().unwrap_or(""),
+            summary["duration_s"].as_f64().unwrap_or(f64::NAN),
+            limit["limit"]
+                .as_str()
+                .map_or("-".to_string(), |l| format!("{l} for {:.3} s", limit["time_s"].as_f64().unwrap_or(f64::NAN)))
+        ));
+    }
+    human.push_str(&format!("{offset:.3} s in all\n{}", crate::files_text(&files)));
+    crate::emit(
+        &human,
+        &json!({
+            "moves": summaries,
+            "timing": match setup.timing { TimingMode::Optimal => "optimal", TimingMode::Lspb => "lspb" },
+            "duration_s": offset,
+            "dt_s": args.dt,
+            "files": files,
+        }),
+    )?;
     Ok(())
 }
 
@@ -359,12 +392,13 @@ fn plot_phase_plane(path: &Path, title: &str, planned: &PlannedMove) -> Result<(
         let top = planned_speed.iter().map(|p| p.1).fold(0.0, f64::max).max(1e-3);
         // Curves far above the motion say nothing; they are cut at 3× its top speed.
         let cap = 3.0 * top;
-        let mut series = vec![Series { label: "planned ṡ".into(), points: planned_speed, color: 3, dashed: false }];
+        let mut series =
+            vec![Series { label: "planned ṡ".into(), points: planned_speed, color: 3, style: Style::Line }];
         series.push(Series {
             label: "largest ṡ that can still stop (controllable set)".into(),
             points: timing.s.iter().zip(&timing.controllable).map(|(s, (_, hi))| (*s, speed(*hi).min(cap))).collect(),
             color: 7,
-            dashed: true,
+            style: Style::Dashed,
         });
         let mut families: Vec<String> = Vec::new();
         for name in &leg.names {
@@ -389,7 +423,7 @@ fn plot_phase_plane(path: &Path, title: &str, planned: &PlannedMove) -> Result<(
                 label: family.clone(),
                 points,
                 color: color % 3 + 4 * usize::from(color >= 3),
-                dashed: false,
+                style: Style::Line,
             });
         }
         let carrying = leg.names.iter().any(|n| n == "tool acceleration while carrying");
@@ -409,6 +443,7 @@ fn plot_phase_plane(path: &Path, title: &str, planned: &PlannedMove) -> Result<(
             ),
             y_label: "ṡ (m/s)".into(),
             series,
+            ..Panel::default()
         });
     }
     plot_panels(path, title, "path parameter s (m; arc length on lines)", &panels)

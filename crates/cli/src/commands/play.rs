@@ -5,8 +5,7 @@ use crate::commands::simulate::controller_specs;
 use crate::conditions::Study;
 use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json};
-use crate::plots::{Panel, Series, plot_panels};
-use crate::print_json;
+use crate::plots::{Level, Panel, Series, Style, plot_panels, tick};
 use crate::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list, read_game};
@@ -194,7 +193,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let wall_time_s = started.elapsed().as_secs_f64();
     let plot = args.out.join("tip_error.png");
     let placement_plot = args.out.join("placement.png");
-    plot_game(&plot, &placement_plot, &reports)?;
+    plot_game(&plot, &placement_plot, &reports, args.tolerance_mm)?;
     let dependence = machine_dependence(args);
     if !dependence.is_empty() {
         crate::tell(&format!("note: this game may differ on another machine: {}\n", dependence.join("; ")));
@@ -224,29 +223,39 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         runs: vec![replay_run(&settings_name, &reports, first_number)],
     };
     write_replay(&replay_path, &replay)?;
-    crate::tell(&format!(
-        "result {} ({}); {} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
-        result.result,
-        result.reason,
-        reports.len(),
-        game.robot_time(),
-        wall_time_s,
-        if game.fen_physical() == game.fen_rules() { "equals" } else { "DIFFERS FROM" },
-        game.misplaced().len()
-    ));
+    let mut human = String::new();
+    crate::tell_or_keep(
+        &format!(
+            "result {} ({}); {} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
+            result.result,
+            result.reason,
+            reports.len(),
+            game.robot_time(),
+            wall_time_s,
+            if game.fen_physical() == game.fen_rules() { "equals" } else { "DIFFERS FROM" },
+            game.misplaced().len()
+        ),
+        &mut human,
+    );
+    human.push_str(&format!("final position (FEN): {}\n", game.fen_physical()));
+    human.push_str(&format!("Watch it: {} (open in a browser)\n", replay_path.display()));
     let files: Vec<String> = [game_json_path, replay_path, plot, placement_plot, moves_dir]
         .iter()
         .map(|p| p.display().to_string())
         .collect();
-    print_json(&json!({
-        "result": result.result,
-        "result_reason": result.reason,
-        "plies": reports.len(),
-        "final_fen_rules": game.fen_rules(),
-        "final_fen_physical": game.fen_physical(),
-        "misplaced": game.misplaced().len(),
-        "files": files,
-    }))?;
+    human.push_str(&crate::files_text(&files));
+    crate::emit(
+        &human,
+        &json!({
+            "result": result.result,
+            "result_reason": result.reason,
+            "plies": reports.len(),
+            "final_fen_rules": game.fen_rules(),
+            "final_fen_physical": game.fen_physical(),
+            "misplaced": game.misplaced().len(),
+            "files": files,
+        }),
+    )?;
     Ok(())
 }
 
@@ -428,10 +437,10 @@ fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
     )
 }
 
-fn plot_game(path: &Path, placement_path: &Path, reports: &[MoveReport]) -> Result<()> {
+fn plot_game(path: &Path, placement_path: &Path, reports: &[MoveReport], tolerance_mm: f64) -> Result<()> {
     // Displayed in mm; game.json and the CSVs say mm too.
     let tip = Panel {
-        title: "tool-tip tracking error over the game (robot time)".into(),
+        title: "tool-tip tracking error over the game (robot time; log scale)".into(),
         y_label: "tip error (mm)".into(),
         series: vec![Series {
             label: "|tip − desired tip|".into(),
@@ -440,22 +449,27 @@ fn plot_game(path: &Path, placement_path: &Path, reports: &[MoveReport]) -> Resu
                 .flat_map(|r| r.records.iter().map(move |s| (r.start_time + s.t, (s.tip - s.tip_desired).norm() * 1e3)))
                 .collect(),
             color: 2,
-            dashed: false,
+            style: Style::Line,
         }],
+        log_y: true,
+        ..Panel::default()
     };
     let placement = Panel {
         title: "distance of each placed piece from its target".into(),
         y_label: "placement error (mm)".into(),
         series: vec![Series {
-            label: "worst task of the move".into(),
+            label: "worst task of the robot's move".into(),
             points: reports
                 .iter()
                 .filter(|r| r.mover == Mover::Robot)
                 .map(|r| (r.ply as f64, r.place_errors.iter().fold(0.0f64, |a, b| a.max(*b)) * 1e3))
                 .collect(),
             color: 0,
-            dashed: false,
+            style: Style::Points,
         }],
+        levels: vec![Level { value: tolerance_mm, label: format!("tolerance {} mm", tick(tolerance_mm)), color: 3 }],
+        integer_x: true,
+        ..Panel::default()
     };
     plot_panels(path, "Game: tool-tip tracking", "robot time (s)", &[tip])?;
     plot_panels(placement_path, "Game: piece placement", "ply", &[placement])

@@ -12,8 +12,7 @@ use crate::commands::tune::shard_range;
 use crate::conditions::{Study, Trial};
 use crate::config::Setup;
 use crate::output::{ensure_dir, remove_stale, write_atomic, write_json};
-use crate::plots::{Panel, Series, plot_panels};
-use crate::print_json;
+use crate::plots::{Panel, Series, Style, plot_panels};
 use anyhow::{Context, Result};
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
@@ -434,11 +433,11 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     });
     let json_path = args.out.join("robustness.json");
     write_json(&json_path, &summary)?;
-    crate::tell(&table(&stats, range.len(), args.tolerance_mm));
-    print_json(&json!({
-        "summary": summary,
-        "files": [csv_path.display().to_string(), plot_path.display().to_string(), json_path.display().to_string()],
-    }))?;
+    let mut human = String::new();
+    crate::tell_or_keep(&table(&stats, range.len(), args.tolerance_mm), &mut human);
+    let files = [csv_path.display().to_string(), plot_path.display().to_string(), json_path.display().to_string()];
+    human.push_str(&crate::files_text(&files));
+    crate::emit(&human, &json!({ "summary": summary, "files": files }))?;
     Ok(())
 }
 
@@ -479,7 +478,7 @@ fn draw_cdf(rows: &[TrialRow], specs: &[ControllerSpec], tolerance_mm: f64, path
                 label: spec.name.clone(),
                 points: errors.iter().enumerate().map(|(i, e)| (*e, (i + 1) as f64 / n)).collect(),
                 color: k,
-                dashed: false,
+                style: Style::Line,
             }
         })
         .collect();
@@ -487,9 +486,13 @@ fn draw_cdf(rows: &[TrialRow], specs: &[ControllerSpec], tolerance_mm: f64, path
         label: format!("tolerance {tolerance_mm} mm"),
         points: vec![(tolerance_mm, 0.0), (tolerance_mm, 1.0)],
         color: specs.len(),
-        dashed: true,
+        style: Style::Dashed,
     });
-    let panel =
-        Panel { title: "largest placement error per trial".into(), y_label: "fraction of trials".into(), series };
+    let panel = Panel {
+        title: "largest placement error per trial".into(),
+        y_label: "fraction of trials".into(),
+        series,
+        ..Panel::default()
+    };
     plot_panels(path, "Placement error distribution (CDF)", "placement error (mm)", &[panel])
 }

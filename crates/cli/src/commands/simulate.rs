@@ -5,16 +5,20 @@ use crate::commands::plan::{Plan, plan_scenario};
 use crate::conditions::{Study, Trial};
 use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
-use crate::plots::{Panel, Series, plot_panels};
-use crate::print_json;
+use crate::plots::{Corner, Level, Mark, Panel, Series, Style, plot_panels, tick};
+use crate::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
 use crate::resources::{show, show_list};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::pieces::PieceDimensions;
+use chessarm_chess::play::{DEFAULT_TOLERANCE, Handling, placed_position};
+use chessarm_chess::shakmaty::Chess;
+use chessarm_chess::table::{Location, Table};
 use chessarm_core::arm::dynamics::{DynamicsTerms, coriolis_torques, gravity_torques};
 use chessarm_core::arm::model::{JointVector, Payload};
 use chessarm_core::control::JointState;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::{Gains, REPORT_PD, REPORT_PID};
+use chessarm_core::nalgebra::Vector3;
 use chessarm_core::plan::path::{CartesianPath, GripperAction};
 use chessarm_core::sim::{
     Integrator, Observer, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate_sensed,
@@ -247,8 +251,38 @@ fn run_row(record: &StepRecord<4>) -> Vec<f64> {
     row
 }
 
-/// Writes `<name>.csv`, `<name>_joints.png` and `<name>_torques.png` for one run.
-pub fn write_run(run: &ControllerRun, out: &Path) -> Result<Vec<String>> {
+/// Stretches where `saturated(record)` holds, as time spans, each at least `min_width` s wide
+/// (so that a single saturated sample can be seen on a plot of the whole run).
+fn stretches(records: &[StepRecord<4>], saturated: impl Fn(&StepRecord<4>) -> bool, min_width: f64) -> Vec<(f64, f64)> {
+    let mut spans: Vec<(f64, f64)> = Vec::new();
+    let mut open: Option<f64> = None;
+    let mut last = 0.0;
+    for record in records {
+        match (saturated(record), open) {
+            (true, None) => open = Some(record.t),
+            (false, Some(start)) => {
+                spans.push((start, last));
+                open = None;
+            }
+            _ => {}
+        }
+        last = record.t;
+    }
+    if let Some(start) = open {
+        spans.push((start, last));
+    }
+    spans
+        .into_iter()
+        .map(|(a, b)| {
+            let grow = (min_width - (b - a)).max(0.0) / 2.0;
+            (a - grow, b + grow)
+        })
+        .collect()
+}
+
+/// Writes `<name>.csv`, `<name>_joints.png` and `<name>_torques.png` for one run: the torque
+/// plot has a panel per joint with its torque limits drawn and the stretches at a limit shaded.
+pub fn write_run(run: &ControllerRun, out: &Path, torque_limits: &[f64; 4]) -> Result<Vec<String>> {
     let name = &run.spec.name;
     let csv = out.join(format!("{name}.csv"));
     write_csv(&csv, &run_header(), run.records.iter().map(run_row))?;
@@ -263,38 +297,60 @@ pub fn write_run(run: &ControllerRun, out: &Path) -> Result<Vec<String>> {
                     label: format!("θ{} actual", j + 1),
                     points: run.records.iter().map(|r| (r.t, r.state.q[j])).collect(),
                     color: 2,
-                    dashed: false,
+                    style: Style::Line,
                 },
                 Series {
                     label: format!("θ{} desired", j + 1),
                     points: run.records.iter().map(|r| (r.t, r.reference.q[j])).collect(),
                     color: 0,
-                    dashed: true,
+                    style: Style::Dashed,
                 },
             ],
+            ..Panel::default()
         })
         .collect();
     plot_panels(&joints, &format!("{upper}: joint angles, actual and desired"), "time (s)", &panels)?;
     let torques = out.join(format!("{name}_torques.png"));
-    let panel = Panel {
-        title: "joint torques".into(),
-        y_label: "torque (N·m)".into(),
-        series: (0..4)
-            .map(|j| Series {
-                label: format!("τ{}", j + 1),
-                points: run.records.iter().map(|r| (r.t, r.torque[j])).collect(),
-                color: j,
-                dashed: false,
-            })
-            .collect(),
-    };
-    plot_panels(&torques, &format!("{upper}: joint torques"), "time (s)", &[panel])?;
+    let span = run.records.last().map_or(1.0, |r| r.t) - run.records.first().map_or(0.0, |r| r.t);
+    let panels: Vec<Panel> = (0..4)
+        .map(|j| {
+            let limit = torque_limits[j];
+            let saturated = stretches(&run.records, |r| r.torque[j].abs() >= limit * (1.0 - 1e-9), 0.004 * span);
+            let samples = run.summary.saturated_per_joint[j];
+            Panel {
+                title: format!(
+                    "joint {} torque τ{}; dashed: its ±{} N·m limits; shaded: at a limit ({samples} samples)",
+                    j + 1,
+                    j + 1,
+                    tick(limit)
+                ),
+                y_label: "torque (N·m)".into(),
+                series: vec![Series {
+                    label: format!("τ{}", j + 1),
+                    points: run.records.iter().map(|r| (r.t, r.torque[j])).collect(),
+                    color: j,
+                    style: Style::Line,
+                }],
+                levels: vec![
+                    Level { value: limit, label: String::new(), color: 5 },
+                    Level { value: -limit, label: String::new(), color: 5 },
+                ],
+                shaded_label: "at the limit".into(),
+                shaded: saturated,
+                legend: Corner::Hidden,
+                ..Panel::default()
+            }
+        })
+        .collect();
+    plot_panels(&torques, &format!("{upper}: joint torques"), "time (s)", &panels)?;
     Ok([csv, joints, torques].iter().map(|p| p.display().to_string()).collect())
 }
 
-/// Writes the comparison plots of several runs: joint tracking errors (report Figure 11) and
-/// the tool-tip error.
-pub fn write_comparison(runs: &[ControllerRun], out: &Path) -> Result<Vec<String>> {
+/// Writes the comparison plots of several runs: joint tracking errors (report Figure 11, on a
+/// log scale of |e| so that the start-up and the tracking after it both show) and the tool-tip
+/// error (the whole run, then from [`TRANSIENT_S`] on on a log scale), with the grip and
+/// release instants `events` (time, name) marked and each run's error there written beside them.
+pub fn write_comparison(runs: &[ControllerRun], events: &[(f64, &str)], out: &Path) -> Result<Vec<String>> {
     // Displayed in mrad and mm; the CSVs keep rad and m.
     let color_of = |name: &str| match name {
         "pd" => 2,
@@ -303,39 +359,73 @@ pub fn write_comparison(runs: &[ControllerRun], out: &Path) -> Result<Vec<String
         "adaptive" => 3,
         _ => 4,
     };
+    let plain_marks: Vec<Mark> = events.iter().map(|&(t, name)| Mark { x: t, label: name.into() }).collect();
     let errors = out.join("tracking_error.png");
     let panels: Vec<Panel> = (0..4)
         .map(|j| Panel {
-            title: format!("joint {} tracking error", j + 1),
-            y_label: "error (mrad)".into(),
+            title: format!("joint {} tracking error |θ desired − θ| (log scale)", j + 1),
+            y_label: "|error| (mrad)".into(),
             series: runs
                 .iter()
                 .map(|run| Series {
                     label: run.spec.name.to_uppercase(),
-                    points: run.records.iter().map(|r| (r.t, 1e3 * (r.reference.q[j] - r.state.q[j]))).collect(),
+                    points: run.records.iter().map(|r| (r.t, 1e3 * (r.reference.q[j] - r.state.q[j]).abs())).collect(),
                     color: color_of(&run.spec.name),
-                    dashed: false,
+                    style: Style::Line,
                 })
                 .collect(),
+            marks: plain_marks.clone(),
+            log_y: true,
+            ..Panel::default()
         })
         .collect();
     let names: Vec<String> = runs.iter().map(|run| run.spec.name.to_uppercase()).collect();
     plot_panels(&errors, &format!("Tracking error: {}", names.join(" vs ")), "time (s)", &panels)?;
     let tip = out.join("tip_error.png");
-    let panel = Panel {
-        title: "distance between the actual and the desired tool tip".into(),
+    let tip_series: Vec<Series> = runs
+        .iter()
+        .map(|run| Series {
+            label: run.spec.name.to_uppercase(),
+            points: run.records.iter().map(|r| (r.t, 1e3 * (r.tip - r.tip_desired).norm())).collect(),
+            color: color_of(&run.spec.name),
+            style: Style::Line,
+        })
+        .collect();
+    let labelled: Vec<Mark> = events
+        .iter()
+        .enumerate()
+        .map(|(i, &(t, name))| {
+            let values: Vec<String> = runs
+                .iter()
+                .filter_map(|run| {
+                    let e = run.summary.tip_error_at_marks.get(i)? * 1e3;
+                    Some(format!("{} {}", run.spec.name.to_uppercase(), tick(e)))
+                })
+                .collect();
+            Mark { x: t, label: format!("{name}: {} mm", values.join(", ")) }
+        })
+        .collect();
+    let end = runs.iter().filter_map(|r| r.records.last()).map(|r| r.t).fold(0.0, f64::max);
+    let whole = Panel {
+        title: "distance between the actual and the desired tool tip, whole run".into(),
         y_label: "tip error (mm)".into(),
-        series: runs
-            .iter()
-            .map(|run| Series {
-                label: run.spec.name.to_uppercase(),
-                points: run.records.iter().map(|r| (r.t, 1e3 * (r.tip - r.tip_desired).norm())).collect(),
-                color: color_of(&run.spec.name),
-                dashed: false,
-            })
-            .collect(),
+        series: tip_series.clone(),
+        marks: plain_marks,
+        ..Panel::default()
     };
-    plot_panels(&tip, "Tool-tip error", "time (s)", &[panel])?;
+    let after = Panel {
+        title: format!(
+            "the same from {TRANSIENT_S} s on (log scale), with the errors at the grip and release instants"
+        ),
+        y_label: "tip error (mm)".into(),
+        series: tip_series,
+        marks: labelled,
+        log_y: true,
+        x_range: (end > TRANSIENT_S).then_some((TRANSIENT_S, end)),
+        legend: Corner::LowerRight,
+        ..Panel::default()
+    };
+    plot_panels(&tip, "Tool-tip error", "time (s)", &[whole, after])?;
     Ok([errors, tip].iter().map(|p| p.display().to_string()).collect())
 }
 
@@ -429,12 +519,22 @@ pub fn run_study(
     remove_stale(&[out.join("summary.json")])?;
     let mut runs = Vec::new();
     let mut files = Vec::new();
+    let torque_limits: [f64; 4] = std::array::from_fn(|j| setup.arm.link(j).limits.torque);
     for spec in specs {
         let run = run_controller(setup, &plan, spec, options, progress)?;
-        files.extend(write_run(&run, out)?);
+        files.extend(write_run(&run, out, &torque_limits)?);
         runs.push(run);
     }
-    files.extend(write_comparison(&runs, out)?);
+    let events: Vec<(f64, &str)> = plan
+        .path
+        .events()
+        .iter()
+        .map(|e| (e.time, if e.action == GripperAction::Grip { "grip" } else { "release" }))
+        .collect();
+    files.extend(write_comparison(&runs, &events, out)?);
+    let replay_path = out.join("replay.html");
+    write_study_replay(&replay_path, setup, scenario, &plan, &runs, options)?;
+    files.push(replay_path.display().to_string());
     let summary = json!({
         "scenario": scenario,
         "dt_s": options.dt,
@@ -453,6 +553,93 @@ pub fn run_study(
     write_json(&summary_path, &summary)?;
     files.push(summary_path.display().to_string());
     Ok((runs, json!({ "summary": summary, "files": files })))
+}
+
+/// Writes the study's `replay.html`: one run per controller, the scenario's piece carried from
+/// its grip to its release (drawn with the tool even when the study's payload is 0 kg).
+fn write_study_replay(
+    path: &Path,
+    setup: &Setup,
+    scenario: &str,
+    plan: &Plan,
+    runs: &[ControllerRun],
+    options: &RunOptions,
+) -> Result<()> {
+    let table = Table::from_position(setup.board, &Chess::default());
+    let events = plan.path.events();
+    let grip = events.iter().find(|e| e.action == GripperAction::Grip).map(|e| e.time);
+    let release = events.iter().find(|e| e.action == GripperAction::Release).map(|e| e.time);
+    let moved = plan.placement.and_then(|(standing, target)| {
+        let from = table.pieces().iter().position(|p| (p.position - standing).norm() < 1e-9)?;
+        let square = setup.board.square_at(&Vector3::new(target.x, target.y, setup.board.surface_height))?.0;
+        Some((from, standing, Location::Square(square)))
+    });
+    let replay_runs = runs
+        .iter()
+        .map(|run| {
+            let mut frames = Vec::new();
+            thin(run.records.iter().map(|r| Frame::of(r.t, r)), &mut frames);
+            let handled =
+                match (moved, grip, release, run.summary.tip_at_marks.first(), run.summary.tip_at_marks.get(1)) {
+                    (
+                        Some((piece, standing, to)),
+                        Some(grip_time),
+                        Some(release_time),
+                        Some(at_grip),
+                        Some(at_release),
+                    ) => {
+                        vec![Handling {
+                            piece,
+                            from: table.pieces()[piece].location,
+                            to,
+                            grip_time,
+                            release_time,
+                            standing,
+                            placed: placed_position(at_grip, at_release, &standing),
+                            grip_tip: Some(*at_grip),
+                        }]
+                    }
+                    _ => Vec::new(),
+                };
+            let san = moved.map_or_else(|| scenario.to_string(), |(_, _, to)| to.to_string());
+            let moves = vec![ReplayMove {
+                ply: 1,
+                number: "1.".into(),
+                san,
+                uci: scenario.to_string(),
+                by: "robot",
+                start: 0.0,
+                end: run.summary.duration,
+            }];
+            ReplayRun { name: run.spec.name.clone(), frames, handled, moves }
+        })
+        .collect();
+    let names: Vec<String> = runs.iter().map(|r| r.spec.name.to_uppercase()).collect();
+    let start = match options.q0 {
+        Some(q0) => format!("starts at rest at q = {q0:?} rad, off the trajectory"),
+        None => "starts on the trajectory".into(),
+    };
+    let replay = Replay {
+        title: format!("chessarm: {scenario}, {}", names.join(" vs ")),
+        arm: &setup.arm,
+        board: &setup.board,
+        pieces: &setup.pieces,
+        table: &table,
+        tolerance: DEFAULT_TOLERANCE,
+        note: format!(
+            "payload {} kg (the pawn is drawn where the tool would carry it); the arm {start}; choose the controller under run",
+            options.payload_mass
+        ),
+        runs: replay_runs,
+    };
+    write_replay(path, &replay)
+}
+
+/// The `files` of a result, as strings.
+pub fn files_of(result: &Value) -> Vec<String> {
+    result["files"]
+        .as_array()
+        .map_or_else(Vec::new, |files| files.iter().filter_map(|f| f.as_str().map(String::from)).collect())
 }
 
 /// Steps one study takes per controller, for progress bars.
@@ -530,8 +717,10 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     let bar = crate::progress::bar(total, "simulating");
     let (runs, result) = run_study(setup, &args.scenario, &specs, &options, &args.out, Some(&bar))?;
     bar.finish_and_clear();
-    crate::tell(&comparison_table(&runs, args.q0.is_some()));
-    print_json(&result)?;
+    let mut human = String::new();
+    crate::tell_or_keep(&comparison_table(&runs, args.q0.is_some()), &mut human);
+    human.push_str(&crate::files_text(&files_of(&result)));
+    crate::emit(&human, &result)?;
     Ok(())
 }
 
@@ -563,6 +752,16 @@ pub fn dynamics(setup: &Setup, args: &DynamicsArgs) -> Result<()> {
         }
     }
     let rows: Vec<Vec<f64>> = (0..4).map(|r| (0..4).map(|c| terms.mass_matrix[(r, c)]).collect()).collect();
-    print_json(&json!({ "M": rows, "c": coriolis.as_slice(), "g": gravity.as_slice() }))?;
+    let line = |values: &[f64]| values.iter().map(|v| format!("{:>12.6}", v + 0.0)).collect::<Vec<_>>().join(" ");
+    let mut human = String::from("M(q) (kg·m²):\n");
+    for row in &rows {
+        human.push_str(&format!("  {}\n", line(row)));
+    }
+    human.push_str(&format!(
+        "C(q, q̇)·q̇ (N·m):\n  {}\ng(q) (N·m):\n  {}\n",
+        line(coriolis.as_slice()),
+        line(gravity.as_slice())
+    ));
+    crate::emit(&human, &json!({ "M": rows, "c": coriolis.as_slice(), "g": gravity.as_slice() }))?;
     Ok(())
 }

@@ -12,7 +12,6 @@ use crate::conditions::Trial;
 use crate::config::Setup;
 use crate::output::{ensure_dir, write_atomic};
 use crate::plots::{HeatMap, plot_heat_map};
-use crate::print_json;
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
@@ -446,26 +445,35 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
             crate::resources::show(options.tracking_from)
         ));
     }
-    crate::tell(&best_table(&best, args.metric));
+    let mut human = String::new();
+    crate::tell_or_keep(&best_table(&best, args.metric), &mut human);
     let failed = candidates.iter().filter(|c| c.status != "ok").count();
     let saturated = candidates.iter().filter(|c| c.status == "ok" && c.saturated_samples > 0).count();
-    print_json(&json!({
-        "candidates": candidates.len(),
-        "sweep_size": gains.len(),
-        "shard": args.shard.map(|(k, n)| format!("{k}/{n}")),
-        "failed": failed,
-        "saturated": saturated,
-        "wall_time_s": wall_time_s,
-        "candidates_per_second": candidates.len() as f64 / wall_time_s,
-        "metric": format!("{:?}", args.metric),
-        "tracking_metrics_from_s": options.tracking_from,
-        "best": best.iter().map(|c| json!({
-            "index": c.index, "kp": c.kp, "kd": c.kd, "ki": c.ki, "metric": c.metric(args.metric),
-            "max_tip_error_mm": c.max_tip_error_mm, "place_error_mm": c.place_error_mm,
-            "rms_joint_error_rad": c.rms_joint_error_rad, "peak_torque_nm": c.peak_torque_nm,
-        })).collect::<Vec<_>>(),
-        "files": [csv_path.display().to_string(), heat_map_path.display().to_string()],
-    }))?;
+    human.push_str(&format!(
+        "{} candidates ({failed} failed, {saturated} saturated a motor) in {wall_time_s:.2} s\n{}",
+        candidates.len(),
+        crate::files_text(&[csv_path.display().to_string(), heat_map_path.display().to_string()])
+    ));
+    crate::emit(
+        &human,
+        &json!({
+            "candidates": candidates.len(),
+            "sweep_size": gains.len(),
+            "shard": args.shard.map(|(k, n)| format!("{k}/{n}")),
+            "failed": failed,
+            "saturated": saturated,
+            "wall_time_s": wall_time_s,
+            "candidates_per_second": candidates.len() as f64 / wall_time_s,
+            "metric": format!("{:?}", args.metric),
+            "tracking_metrics_from_s": options.tracking_from,
+            "best": best.iter().map(|c| json!({
+                "index": c.index, "kp": c.kp, "kd": c.kd, "ki": c.ki, "metric": c.metric(args.metric),
+                "max_tip_error_mm": c.max_tip_error_mm, "place_error_mm": c.place_error_mm,
+                "rms_joint_error_rad": c.rms_joint_error_rad, "peak_torque_nm": c.peak_torque_nm,
+            })).collect::<Vec<_>>(),
+            "files": [csv_path.display().to_string(), heat_map_path.display().to_string()],
+        }),
+    )?;
     Ok(())
 }
 

@@ -5,8 +5,14 @@
 use serde_json::Value;
 use std::process::{Command, Output};
 
-/// Runs the `chessarm` binary with `args`.
+/// Runs the `chessarm` binary with `args` and `--json` (the machine-readable result, which
+/// these tests read; `--json` is global, so every command takes it).
 pub fn chessarm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).arg("--json").output().expect("the binary runs")
+}
+
+/// Runs the `chessarm` binary with `args` as typed: the summary for people on stdout.
+pub fn chessarm_human(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_chessarm")).args(args).output().expect("the binary runs")
 }
 
