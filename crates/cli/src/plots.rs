@@ -293,6 +293,7 @@ fn draw_panel(
 
 /// A heat map of `values[row][column]` over a grid of x (columns) and y (rows) values, with a
 /// colour bar; `None` cells (failed candidates) are grey, `marked` cells get a black frame.
+/// The grids are evenly spaced (`A..B:N`); the axes are in their values, with round ticks.
 #[derive(Debug)]
 pub struct HeatMap<'a> {
     pub title: &'a str,
@@ -303,6 +304,20 @@ pub struct HeatMap<'a> {
     pub y_values: &'a [f64],
     pub values: &'a [Vec<Option<f64>>],
     pub marked: Option<(usize, usize)>,
+    /// A warning written under the title (e.g. the best pick on the edge of the sweep).
+    pub note: Option<String>,
+}
+
+/// The values span decades: a log colour scale (all positive, largest ≥ 30 × smallest).
+pub fn spans_decades(low: f64, high: f64) -> bool {
+    low > 0.0 && high >= 30.0 * low
+}
+
+/// Half a grid step on each side of an evenly spaced grid: the cells' outer edges.
+fn cell_edges(values: &[f64]) -> (f64, f64, f64) {
+    let (first, last) = (values.first().copied().unwrap_or(0.0), values.last().copied().unwrap_or(1.0));
+    let step = if values.len() > 1 { (last - first) / (values.len() - 1) as f64 } else { first.abs().max(1.0) * 0.2 };
+    (first - step / 2.0, last + step / 2.0, step)
 }
 
 fn heat_color(fraction: f64) -> RGBColor {
@@ -326,91 +341,145 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
         Some(low) => (low, finite.iter().copied().fold(low, f64::max)),
         None => (0.0, 1.0),
     };
-    let span = if high > low { high - low } else { 1.0 };
+    // Colours by log10 of the value where it spans decades; the bar is drawn in that scale.
+    let log = spans_decades(low, high);
+    let scale = move |v: f64| if log { v.log10() } else { v };
+    let (scaled_low, scaled_high) = (scale(low), scale(high));
+    let span = if scaled_high > scaled_low { scaled_high - scaled_low } else { 1.0 };
+    let (x_low, x_high, x_step) = cell_edges(map.x_values);
+    let (y_low, y_high, y_step) = cell_edges(map.y_values);
+    let any_failed = map.values.iter().flatten().any(|v| v.is_none_or(|v| !v.is_finite()));
     render_atomic(path, |temporary| {
-        let root = BitMapBackend::new(temporary, (1000, 800)).into_drawing_area();
+        let root = BitMapBackend::new(temporary, (1000, 820)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
-        let (chart_area, bar_area) = root.split_horizontally(860);
-        let columns = map.x_values.len();
-        let rows = map.y_values.len();
+        let (top, rest) = root.split_vertically(if map.note.is_some() { 64 } else { 40 });
+        top.draw(&Text::new(
+            map.title.to_string(),
+            (500, 8),
+            ("sans-serif", 22).into_font().color(&BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(|e| anyhow!("{e}"))?;
+        if let Some(note) = &map.note {
+            let red = RGBColor(190, 20, 20);
+            top.draw(&Text::new(
+                note.clone(),
+                (500, 38),
+                ("sans-serif", 15).into_font().color(&red).pos(Pos::new(HPos::Center, VPos::Top)),
+            ))
+            .map_err(|e| anyhow!("{e}"))?;
+        }
+        let (chart_area, bar_area) = rest.split_horizontally(800);
         let mut chart = ChartBuilder::on(&chart_area)
-            .caption(map.title, ("sans-serif", 22))
             .margin(15)
             .x_label_area_size(50)
             .y_label_area_size(70)
-            // Cell i spans [i − ½, i + ½], so whole numbers are cell centres and carry the labels.
-            .build_cartesian_2d(-0.5..columns as f64 - 0.5, -0.5..rows as f64 - 0.5)
+            .build_cartesian_2d(x_low..x_high, y_low..y_high)
             .map_err(|e| anyhow!("{e}"))?;
-        let x_values = map.x_values.to_vec();
-        let y_values = map.y_values.to_vec();
         chart
             .configure_mesh()
             .disable_mesh()
             .x_desc(map.x_label)
             .y_desc(map.y_label)
-            .x_labels(columns.min(10))
-            .y_labels(rows.min(10))
-            .x_label_formatter(&|v| label_at(&x_values, *v))
-            .y_label_formatter(&|v| label_at(&y_values, *v))
+            .x_labels(10)
+            .y_labels(10)
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
             .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", 16))
             .draw()
             .map_err(|e| anyhow!("{e}"))?;
+        let centre = |row: usize, column: usize| (map.x_values[column], map.y_values[row]);
+        let cell = |(x, y): (f64, f64)| [(x - x_step / 2.0, y - y_step / 2.0), (x + x_step / 2.0, y + y_step / 2.0)];
         let cells = map.values.iter().enumerate().flat_map(|(row, line)| {
             line.iter().enumerate().map(move |(column, value)| {
                 let color = match value {
-                    Some(v) if v.is_finite() => heat_color((v - low) / span),
+                    Some(v) if v.is_finite() => heat_color((scale(*v) - scaled_low) / span),
                     _ => RGBColor(190, 190, 190),
                 };
-                let (x, y) = (column as f64, row as f64);
-                Rectangle::new([(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)], color.filled())
+                Rectangle::new(cell(centre(row, column)), color.filled())
             })
         });
         chart.draw_series(cells).map_err(|e| anyhow!("{e}"))?;
         if let Some((row, column)) = map.marked {
-            let (x, y) = (column as f64, row as f64);
-            let frame = [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)];
             chart
-                .draw_series(std::iter::once(Rectangle::new(frame, BLACK.stroke_width(3))))
+                .draw_series(std::iter::once(Rectangle::new(cell(centre(row, column)), BLACK.stroke_width(3))))
                 .map_err(|e| anyhow!("{e}"))?;
         }
-        // Colour bar.
+        // Colour bar, with round ticks of the value (decades on a log scale).
+        let (bar_area, key_area) = bar_area.split_vertically(700);
         let mut bar = ChartBuilder::on(&bar_area)
-            .margin_top(60)
-            .margin_bottom(65)
-            .margin_right(45)
-            .y_label_area_size(75)
-            .build_cartesian_2d(0.0..1.0, low..low + span)
+            .margin_top(20)
+            .margin_bottom(20)
+            .margin_left(10)
+            .margin_right(80)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..1.0, scaled_low..scaled_low + span)
             .map_err(|e| anyhow!("{e}"))?;
+        let decades = span;
         bar.configure_mesh()
             .disable_mesh()
             .disable_x_axis()
-            .y_desc(map.value_label)
-            .y_label_formatter(&|v| format!("{v:.4}"))
+            .y_desc(if log { format!("{} (log scale)", map.value_label) } else { map.value_label.to_string() })
+            .y_labels(8)
+            .y_label_formatter(&|v| {
+                if !log {
+                    tick(*v)
+                } else if decades >= 2.0 && (v - v.round()).abs() > 1e-6 {
+                    String::new()
+                } else {
+                    tick(10f64.powf(*v))
+                }
+            })
             .axis_desc_style(("sans-serif", 14))
             .label_style(("sans-serif", 13))
             .draw()
             .map_err(|e| anyhow!("{e}"))?;
         let steps = 100;
         bar.draw_series((0..steps).map(|k| {
-            let from = low + span * k as f64 / steps as f64;
-            let to = low + span * (k + 1) as f64 / steps as f64;
+            let from = scaled_low + span * k as f64 / steps as f64;
+            let to = scaled_low + span * (k + 1) as f64 / steps as f64;
             Rectangle::new([(0.0, from), (1.0, to)], heat_color(k as f64 / steps as f64).filled())
         }))
         .map_err(|e| anyhow!("{e}"))?;
+        let key = ("sans-serif", 13).into_font().color(&BLACK);
+        if any_failed {
+            key_area
+                .draw(&Rectangle::new([(10, 10), (30, 26)], RGBColor(190, 190, 190).filled()))
+                .map_err(|e| anyhow!("{e}"))?;
+            key_area.draw(&Text::new("failed", (36, 11), key.clone())).map_err(|e| anyhow!("{e}"))?;
+        }
+        if map.marked.is_some() {
+            key_area.draw(&Rectangle::new([(10, 36), (30, 52)], BLACK.stroke_width(3))).map_err(|e| anyhow!("{e}"))?;
+            key_area.draw(&Text::new("best pick", (36, 37), key)).map_err(|e| anyhow!("{e}"))?;
+        }
         root.present().map_err(|e| anyhow!("{e}"))?;
         Ok(())
     })
 }
 
-/// The grid value at a whole-number axis position (a cell centre), shortest form; blank elsewhere.
-fn label_at(values: &[f64], position: f64) -> String {
-    let nearest = position.round();
-    if (position - nearest).abs() > 1e-6 || nearest < 0.0 {
-        return String::new();
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_are_short_and_never_negative_zero() {
+        assert_eq!(tick(700.0), "700");
+        assert_eq!(tick(-0.0), "0");
+        assert_eq!(tick(-1e-17), "0");
+        assert_eq!(tick(0.1 + 0.2), "0.3");
+        assert_eq!(tick(12.5), "12.5");
+        assert_eq!(tick(36.578947), "36.58");
+        assert_eq!(tick(0.000_342_8), "0.0003428");
+        assert_eq!(tick(9.2e-6), "9.2e-6");
+        assert_eq!(tick(2.5e7), "2.5e7");
+        assert_eq!(tick(-250.0), "-250");
     }
-    values.get(nearest as usize).map_or(String::new(), |v| {
-        let text = format!("{v:.3}");
-        text.trim_end_matches('0').trim_end_matches('.').to_string()
-    })
+
+    #[test]
+    fn a_log_colour_scale_only_where_the_values_span_decades() {
+        assert!(spans_decades(0.009, 220.0));
+        assert!(!spans_decades(1.0, 20.0));
+        assert!(!spans_decades(0.0, 220.0));
+        assert!(!spans_decades(-1.0, 220.0));
+    }
 }

@@ -526,3 +526,63 @@ fn values_that_look_like_flags_and_help_output_are_handled() {
     assert_eq!(output.status.code(), Some(2));
     assert_eq!(with_closed_stdout(&["--help"]).status.code(), Some(0));
 }
+
+#[test]
+fn results_are_for_people_unless_json_is_asked_for() {
+    let human =
+        common::chessarm_human(&["gains", "--settling-time", "0.3", "--overshoot", "5", "--controller", "both"]);
+    assert!(human.status.success());
+    let text = String::from_utf8(human.stdout).unwrap();
+    assert!(serde_json::from_str::<serde_json::Value>(&text).is_err(), "JSON without --json: {text}");
+    // A header and four joint rows per controller, with what was promised and measured.
+    for name in ["PD:", "PID:"] {
+        assert!(text.contains(name), "{text}");
+    }
+    let rows: Vec<&str> =
+        text.lines().filter(|l| l.trim_start().chars().next().is_some_and(|c| c.is_ascii_digit())).collect();
+    assert_eq!(rows.len(), 8, "{text}");
+    assert!(rows.iter().all(|r| r.matches(" / ").count() >= 3), "{text}");
+    assert!(text.contains("closed-loop poles") && text.contains("worst settling"), "{text}");
+    let json = common::json_of(&common::chessarm(&[
+        "gains",
+        "--settling-time",
+        "0.3",
+        "--overshoot",
+        "5",
+        "--controller",
+        "both",
+    ]));
+    assert_eq!(json["designs"].as_array().unwrap().len(), 2);
+    // Small commands too: fk prints the tip and frames as text, JSON with --json.
+    let fk = common::chessarm_human(&["fk", "--q", "0,0,0,0"]);
+    let text = String::from_utf8(fk.stdout).unwrap();
+    assert!(text.starts_with("tip (") && text.contains("frame4") && !text.contains("-0.000000"), "{text}");
+    let json = common::json_of(&common::chessarm(&["fk", "--q", "0,0,0,0"]));
+    assert_eq!(json["frames"].as_array().unwrap().len(), 4);
+}
+
+#[test]
+fn a_best_pick_on_the_edge_of_the_sweep_is_called_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("tune");
+    // Stiffer is better here up to far beyond 300: the best lies at the largest kp swept.
+    let output =
+        common::chessarm_human(&["tune", "--kp", "100..300:3", "--kd", "20..40:2", "--out", out.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let text = String::from_utf8(output.stdout).unwrap();
+    assert!(text.contains("warning: the best pick") && text.contains("kp at its largest (--kp)"), "{text}");
+    // From rest at q = 0 the best tracking after the start-up is inside (kp 300, kd 40): no warning.
+    let output = common::chessarm_human(&[
+        "tune",
+        "--kp",
+        "100..500:5",
+        "--kd",
+        "20..50:4",
+        "--q0",
+        "0,0,0,0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8(output.stdout).unwrap();
+    assert!(text.contains("300.000") && !text.contains("warning"), "{text}");
+}

@@ -123,7 +123,19 @@ fn a_game_against_stockfish() {
     let dir = tempfile::tempdir().unwrap();
     let game = play(
         dir.path(),
-        &["--engine", stockfish.to_str().unwrap(), "--robot", "white", "--plies", "20", "--movetime", "20"],
+        // A generous start-up timeout: the other tests (a browser among them) load this machine.
+        &[
+            "--engine",
+            stockfish.to_str().unwrap(),
+            "--robot",
+            "white",
+            "--plies",
+            "20",
+            "--movetime",
+            "20",
+            "--engine-timeout",
+            "60000",
+        ],
     );
     assert!(game["moves"].as_array().unwrap().len() >= 10);
 }

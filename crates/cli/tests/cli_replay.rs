@@ -297,3 +297,60 @@ fn the_demo_replays_each_controller_where_its_csv_puts_the_tool() {
         assert!(pawn.is_some(), "{name}: no pawn on d4 at the end: {}", report["pieces"]);
     }
 }
+
+/// The data embedded in a replay page.
+fn replay_data(html: &Path) -> Value {
+    let page = std::fs::read_to_string(html).unwrap();
+    let start = page.find(r#"<script type="application/json" id="chessarm-data">"#).unwrap();
+    let text = &page[start..];
+    let text = &text[text.find('>').unwrap() + 1..text.find("</script>").unwrap()];
+    serde_json::from_str(text).unwrap()
+}
+
+#[test]
+fn a_whole_game_s_replay_stays_small_and_at_most_50_hz() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let pgn = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures/kasparov_topalov_1999.pgn");
+    let game = json_of(&chessarm(&["play", pgn.to_str().unwrap(), "--out", out.to_str().unwrap()]));
+    assert_eq!(game["plies"], 87);
+    let html = out.join("replay.html");
+    let size = std::fs::metadata(&html).unwrap().len();
+    // The issue's budget: an 80-ply game in at most 3 MB, three.js (751 kB) included.
+    assert!(size < 3_000_000, "replay.html of 87 plies is {size} bytes");
+    eprintln!("replay.html of 87 plies: {size} bytes");
+    let data = replay_data(&html);
+    let run = &data["runs"][0];
+    let unit = data["units"]["time"].as_f64().unwrap();
+    let mut t = 0i64;
+    let times: Vec<f64> = run["frames"]["t"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| {
+            t += d.as_i64().unwrap();
+            t as f64 * unit
+        })
+        .collect();
+    let moves = run["moves"].as_array().unwrap();
+    assert_eq!(moves.len(), 87);
+    let ends: Vec<f64> = moves.iter().map(|m| m["end"].as_f64().unwrap()).collect();
+    // Frames 20 ms apart at least, but where a move ends: its last record (within one record
+    // period, 10 ms, of its end) is kept.
+    for pair in times.windows(2) {
+        let gap = pair[1] - pair[0];
+        let at_an_end = ends.iter().any(|e| (e - pair[1]).abs() < 0.011 || (e - pair[0]).abs() < 0.011);
+        assert!(gap > 0.0 && (gap >= 0.02 - 1e-3 || at_an_end), "frames {pair:?} {gap} s apart");
+    }
+    // Every channel has one value per frame.
+    for channel in ["q", "qd", "tip_desired"] {
+        for values in run["frames"][channel].as_array().unwrap() {
+            assert_eq!(values.as_array().unwrap().len(), times.len(), "{channel}");
+        }
+    }
+    assert_eq!(run["frames"]["tip_error"].as_array().unwrap().len(), times.len());
+    // The last frame is the end of the game's robot time.
+    let total = std::fs::read_to_string(out.join("game.json")).unwrap();
+    let total: Value = serde_json::from_str(&total).unwrap();
+    assert!((times.last().unwrap() - total["total_robot_time_s"].as_f64().unwrap()).abs() < 1e-3);
+}

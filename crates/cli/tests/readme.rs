@@ -162,7 +162,8 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             let study: Value =
                 serde_json::from_slice(&std::fs::read(dir.join("out/robustness/robustness.json")).unwrap()).unwrap();
             let pd = &study["controllers"].as_array().unwrap().iter().find(|c| c["controller"] == "pd").unwrap();
-            assert_eq!(pd["replay_worst_trial"].as_str().unwrap(), format!("chessarm {}", args.join(" ")));
+            let typed: Vec<&str> = args.iter().map(String::as_str).filter(|a| *a != "--json").collect();
+            assert_eq!(pd["replay_worst_trial"].as_str().unwrap(), format!("chessarm {}", typed.join(" ")));
             assert_eq!(json["summary"]["controllers"][0]["placement_error_mm"], pd["place_error_mm"]["max"]);
         }
         Some("play") if args.iter().any(|a| a == "--game") => {

@@ -5,7 +5,7 @@ use crate::commands::simulate::controller_specs;
 use crate::conditions::Study;
 use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json};
-use crate::plots::{Level, Panel, Series, Style, plot_panels, tick};
+use crate::plots::{Corner, Level, Panel, Series, Style, plot_panels, tick};
 use crate::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list, read_game};
@@ -455,7 +455,10 @@ fn plot_game(path: &Path, placement_path: &Path, reports: &[MoveReport], toleran
         ..Panel::default()
     };
     let placement = Panel {
-        title: "distance of each placed piece from its target".into(),
+        title: format!(
+            "distance of each placed piece from its target: a point per robot move (its worst task), dashed the {} mm tolerance",
+            tick(tolerance_mm)
+        ),
         y_label: "placement error (mm)".into(),
         series: vec![Series {
             label: "worst task of the robot's move".into(),
@@ -469,6 +472,7 @@ fn plot_game(path: &Path, placement_path: &Path, reports: &[MoveReport], toleran
         }],
         levels: vec![Level { value: tolerance_mm, label: format!("tolerance {} mm", tick(tolerance_mm)), color: 3 }],
         integer_x: true,
+        legend: Corner::Hidden,
         ..Panel::default()
     };
     plot_panels(path, "Game: tool-tip tracking", "robot time (s)", &[tip])?;

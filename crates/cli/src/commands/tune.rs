@@ -11,7 +11,7 @@ use crate::commands::simulate::{TRANSIENT_S, pawn_events};
 use crate::conditions::Trial;
 use crate::config::Setup;
 use crate::output::{ensure_dir, write_atomic};
-use crate::plots::{HeatMap, plot_heat_map};
+use crate::plots::{HeatMap, plot_heat_map, tick};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
@@ -447,6 +447,9 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     }
     let mut human = String::new();
     crate::tell_or_keep(&best_table(&best, args.metric), &mut human);
+    if let Some(warning) = edge_warning(args, best.first().copied()) {
+        crate::tell_or_keep(&format!("warning: {warning}\n"), &mut human);
+    }
     let failed = candidates.iter().filter(|c| c.status != "ok").count();
     let saturated = candidates.iter().filter(|c| c.status == "ok" && c.saturated_samples > 0).count();
     human.push_str(&format!(
@@ -540,6 +543,43 @@ fn draw_heat_map(args: &TuneArgs, candidates: &[Candidate], path: &std::path::Pa
             y_values: &kd_values,
             values: &cells,
             marked: best.map(|(_, cell)| cell),
+            note: edge_warning(
+                args,
+                candidates
+                    .iter()
+                    .filter(|c| c.respects_limits())
+                    .min_by(|a, b| a.metric(args.metric).total_cmp(&b.metric(args.metric)).then(a.index.cmp(&b.index))),
+            ),
         },
     )
+}
+
+/// A warning when the best pick lies on the edge of the swept range of a gain (one swept over
+/// more than one value): the optimum may lie beyond it.
+pub fn edge_warning(args: &TuneArgs, best: Option<&Candidate>) -> Option<String> {
+    let best = best?;
+    let per_cell = args.ki.map_or(1, |r| r.count);
+    let kd_count = args.kd.count;
+    let cell = best.index / per_cell;
+    let axes = [
+        ("kp", "--kp", cell / kd_count, args.kp.count),
+        ("kd", "--kd", cell % kd_count, kd_count),
+        ("ki", "--ki", best.index % per_cell, per_cell),
+    ];
+    let edges: Vec<String> = axes
+        .iter()
+        .filter(|(_, _, index, count)| *count > 1 && (*index == 0 || index + 1 == *count))
+        .map(|(name, flag, index, _)| {
+            format!("{name} at its {} ({flag})", if *index == 0 { "smallest" } else { "largest" })
+        })
+        .collect();
+    (!edges.is_empty()).then(|| {
+        format!(
+            "the best pick (kp {}, kd {}{}) lies on the edge of the sweep: {}; widen the range",
+            tick(best.kp),
+            tick(best.kd),
+            if per_cell > 1 { format!(", ki {}", tick(best.ki)) } else { String::new() },
+            edges.join(", ")
+        )
+    })
 }
