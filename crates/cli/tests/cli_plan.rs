@@ -274,3 +274,46 @@ fn every_urdf_link_has_a_body_that_a_real_parser_reads() {
     assert!(!urdf.contains(" -0 ") && !urdf.contains("\"-0 ") && !urdf.contains(" -0\""));
     assert_eq!(robot.joints.len(), 5);
 }
+
+/// The Python with MuJoCo that CI installs (`CHESSARM_PYTHON`), or a `python3` that has it.
+fn python_with_mujoco() -> Option<String> {
+    let candidates = std::env::var("CHESSARM_PYTHON").into_iter().chain(["python3".to_string()]);
+    candidates.into_iter().find(|python| {
+        std::process::Command::new(python).args(["-c", "import mujoco"]).output().is_ok_and(|o| o.status.success())
+    })
+}
+
+#[test]
+fn mujoco_reads_the_urdf_with_its_bodies_and_the_same_kinematics_and_dynamics() {
+    let Some(python) = python_with_mujoco() else {
+        assert!(std::env::var("CI").as_deref() != Ok("true"), "CI must install mujoco (CHESSARM_PYTHON)");
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "test mujoco_reads_the_urdf_with_its_bodies_and_the_same_kinematics_and_dynamics ... SKIPPED \
+             (no Python with mujoco; CI installs it and runs it)"
+        );
+        return;
+    };
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mujoco/check_urdf.py");
+    let output = std::process::Command::new(&python).arg(&script).arg(env!("CARGO_BIN_EXE_chessarm")).output().unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    eprintln!("mujoco: {report}");
+    // MuJoCo keeps the tool as a body of its own (not fused into link4) and every body has
+    // its visual and collision geometry.
+    let bodies: Vec<&str> = report["bodies"].as_array().unwrap().iter().map(|b| b.as_str().unwrap()).collect();
+    assert_eq!(bodies, ["world", "base_link", "link1", "link2", "link3", "link4", "tool"]);
+    for body in &bodies[1..] {
+        assert!(report["geoms_per_body"][body].as_i64().unwrap() >= 2, "{body} has no geometry in MuJoCo: {report}");
+    }
+    assert_eq!(report["njnt"], 4);
+    assert_eq!(common::numbers(&report["gravity"]), [0.0, 0.0, -9.8]);
+    // FK and the dynamics agree: the URDF's numbers are written in full (shortest round-trip
+    // decimals), so only the Euler-angle conversions round (≈1e-16 rad); the tool's trace of
+    // mass (1e-9 kg at < 1 m) changes M by < 1e-9 kg·m² and g by < 1e-8 N·m.
+    let worst = &report["worst"];
+    assert!(worst["tool_m"].as_f64().unwrap() < 1e-9, "{report}");
+    assert!(worst["mass_matrix"].as_f64().unwrap() < 1e-8, "{report}");
+    assert!(worst["gravity_nm"].as_f64().unwrap() < 2e-8, "{report}");
+}
