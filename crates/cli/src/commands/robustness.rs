@@ -435,6 +435,14 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     write_json(&json_path, &summary)?;
     let mut human = String::new();
     crate::tell_or_keep(&table(&stats, range.len(), args.tolerance_mm), &mut human);
+    for s in &stats {
+        if let Some(command) = s["replay_worst_trial"].as_str() {
+            human.push_str(&format!(
+                "{}'s worst trial, replayed (with its replay.html): {command}\n",
+                s["controller"].as_str().unwrap_or("?")
+            ));
+        }
+    }
     let files = [csv_path.display().to_string(), plot_path.display().to_string(), json_path.display().to_string()];
     human.push_str(&crate::files_text(&files));
     crate::emit(&human, &json!({ "summary": summary, "files": files }))?;
