@@ -270,6 +270,12 @@ impl Game {
         self.tool
     }
 
+    /// The arm's state now: at rest at the home pose before the first robot move, then the
+    /// simulated state at the end of the last one.
+    pub fn state(&self) -> JointState<4> {
+        self.state
+    }
+
     /// Total robot time so far, s.
     pub fn robot_time(&self) -> f64 {
         self.robot_time

@@ -160,24 +160,41 @@ fn draw_panel(
     panel: &Panel,
     x_label: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    // On a log scale the values drawn are log10(y); labels show y.
-    let shown = |y: f64| if panel.log_y { if y > 0.0 { y.log10() } else { f64::NAN } } else { y };
     let inside = |x: f64| panel.x_range.is_none_or(|(a, b)| x >= a && x <= b);
-    let series: Vec<Vec<(f64, f64)>> = panel
+    let positive = panel.series.iter().flat_map(|s| s.points.iter()).filter(|p| inside(p.0) && p.1 > 0.0);
+    let (smallest, largest) = positive.fold((f64::INFINITY, 0.0f64), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
+    // A log scale where the values span two decades or more (else the linear one reads
+    // better); on it the values drawn are log10(y), the labels show y, and at most six decades
+    // under the largest value are shown (below that is rounding): smaller values are left out.
+    let log = panel.log_y && largest >= 100.0 * smallest;
+    let floor = largest.log10() - 6.0;
+    let shown = |y: f64| if log { if y > 0.0 && y.log10() >= floor { y.log10() } else { f64::NAN } } else { y };
+    // Each series as runs of drawable points: a left-out value breaks the line.
+    let series: Vec<Vec<Vec<(f64, f64)>>> = panel
         .series
         .iter()
         .map(|s| {
-            s.points.iter().filter(|p| inside(p.0)).map(|&(x, y)| (x, shown(y))).filter(|p| p.1.is_finite()).collect()
+            let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+            for &(x, y) in s.points.iter().filter(|p| inside(p.0)) {
+                let y = shown(y);
+                if y.is_finite() {
+                    if let Some(run) = runs.last_mut() {
+                        run.push((x, y));
+                    }
+                } else if runs.last().is_some_and(|run| !run.is_empty()) {
+                    runs.push(Vec::new());
+                }
+            }
+            runs
         })
         .collect();
+    let all = || series.iter().flatten().flatten();
     let (x_low, x_high) = match panel.x_range {
         Some(range) => range,
-        None => range_of(series.iter().flatten().map(|p| p.0)),
+        None => range_of(all().map(|p| p.0)),
     };
     let levels = panel.levels.iter().map(|l| shown(l.value));
-    let (y_low, y_high) = range_of(series.iter().flatten().map(|p| p.1).chain(levels));
-    // A log scale shows at most six decades under the largest value: below that is rounding.
-    let y_low = if panel.log_y { y_low.max(y_high - 6.0) } else { y_low };
+    let (y_low, y_high) = range_of(all().map(|p| p.1).chain(levels));
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, ("sans-serif", 20))
         .margin(10)
@@ -185,7 +202,6 @@ fn draw_panel(
         .x_label_area_size(40)
         .y_label_area_size(80)
         .build_cartesian_2d(x_low..x_high, y_low..y_high)?;
-    let log = panel.log_y;
     let integer_x = panel.integer_x;
     let x_format = move |x: &f64| {
         if integer_x {
@@ -194,13 +210,15 @@ fn draw_panel(
             tick(*x)
         }
     };
-    let decades = (y_high - y_low).abs();
+    // On a log scale (two decades or more) only the decades are labelled.
     let y_format = move |y: &f64| {
         if !log {
-            return tick(*y);
+            tick(*y)
+        } else if (y - y.round()).abs() > 1e-6 {
+            String::new()
+        } else {
+            tick(10f64.powf(*y))
         }
-        // Decades only when there are several; otherwise every tick.
-        if decades >= 2.0 && (y - y.round()).abs() > 1e-6 { String::new() } else { tick(10f64.powf(*y)) }
     };
     let x_ticks = if integer_x { ((x_high - x_low).round() as usize + 1).clamp(2, 20) } else { 10 };
     chart
@@ -234,13 +252,26 @@ fn draw_panel(
             .label(level.label.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
     }
-    for (series, points) in panel.series.iter().zip(series) {
+    for (series, runs) in panel.series.iter().zip(series) {
         let color = PALETTE[series.color % PALETTE.len()];
         let style = color.stroke_width(2);
+        let mut runs: Vec<Vec<(f64, f64)>> = runs.into_iter().filter(|run| !run.is_empty()).collect();
+        if runs.is_empty() {
+            continue;
+        }
+        // Every run but the first, then the first, which carries the legend entry.
+        let first = runs.remove(0);
+        for points in runs {
+            match series.style {
+                Style::Dashed => chart.draw_series(DashedLineSeries::new(points, 8, 5, style))?,
+                Style::Line => chart.draw_series(LineSeries::new(points, style))?,
+                Style::Points => chart.draw_series(points.into_iter().map(|p| Circle::new(p, 4, color.filled())))?,
+            };
+        }
         let annotation = match series.style {
-            Style::Dashed => chart.draw_series(DashedLineSeries::new(points, 8, 5, style))?,
-            Style::Line => chart.draw_series(LineSeries::new(points, style))?,
-            Style::Points => chart.draw_series(points.into_iter().map(|p| Circle::new(p, 4, color.filled())))?,
+            Style::Dashed => chart.draw_series(DashedLineSeries::new(first, 8, 5, style))?,
+            Style::Line => chart.draw_series(LineSeries::new(first, style))?,
+            Style::Points => chart.draw_series(first.into_iter().map(|p| Circle::new(p, 4, color.filled())))?,
         };
         let points_only = series.style == Style::Points;
         annotation.label(series.label.clone()).legend(
@@ -270,7 +301,7 @@ fn draw_panel(
         let pixels = chart.plotting_area().strip_coord_spec();
         let (offset_x, offset_y) = pixels.get_base_pixel();
         let local = |x: i32, y: i32| (x - offset_x, y - offset_y);
-        pixels.draw(&Rectangle::new([local(left, py - 2), local(right, py + 17)], WHITE.mix(0.85).filled()))?;
+        pixels.draw(&Rectangle::new([local(left, py - 2), local(right, py + 17)], WHITE.mix(0.6).filled()))?;
         let text_x = if right_half { right - 4 } else { left + 4 };
         pixels.draw(&Text::new(mark.label.clone(), local(text_x, py), style))?;
     }
@@ -308,9 +339,17 @@ pub struct HeatMap<'a> {
     pub note: Option<String>,
 }
 
-/// The values span decades: a log colour scale (all positive, largest ≥ 30 × smallest).
+/// The values span decades: a log colour scale (all positive, largest ≥ 100 × smallest, so
+/// that its labels, the decades, are at least three).
 pub fn spans_decades(low: f64, high: f64) -> bool {
-    low > 0.0 && high >= 30.0 * low
+    low > 0.0 && high >= 100.0 * low
+}
+
+/// Whether `v` lies within the swept values (to rounding).
+fn within(values: &[f64], v: f64) -> bool {
+    let (first, last) = (values.first().copied().unwrap_or(0.0), values.last().copied().unwrap_or(0.0));
+    let slack = 1e-9 * (last - first).abs().max(first.abs()).max(1e-300);
+    v >= first.min(last) - slack && v <= first.max(last) + slack
 }
 
 /// Half a grid step on each side of an evenly spaced grid: the cells' outer edges.
@@ -382,8 +421,9 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
             .y_desc(map.y_label)
             .x_labels(10)
             .y_labels(10)
-            .x_label_formatter(&|v| tick(*v))
-            .y_label_formatter(&|v| tick(*v))
+            // Ticks only over the swept values, not the half cells beyond them.
+            .x_label_formatter(&|v| if within(map.x_values, *v) { tick(*v) } else { String::new() })
+            .y_label_formatter(&|v| if within(map.y_values, *v) { tick(*v) } else { String::new() })
             .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", 16))
             .draw()
@@ -415,7 +455,6 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
             .y_label_area_size(70)
             .build_cartesian_2d(0.0..1.0, scaled_low..scaled_low + span)
             .map_err(|e| anyhow!("{e}"))?;
-        let decades = span;
         bar.configure_mesh()
             .disable_mesh()
             .disable_x_axis()
@@ -424,7 +463,7 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
             .y_label_formatter(&|v| {
                 if !log {
                     tick(*v)
-                } else if decades >= 2.0 && (v - v.round()).abs() > 1e-6 {
+                } else if (v - v.round()).abs() > 1e-6 {
                     String::new()
                 } else {
                     tick(10f64.powf(*v))
@@ -479,6 +518,7 @@ mod tests {
     fn a_log_colour_scale_only_where_the_values_span_decades() {
         assert!(spans_decades(0.009, 220.0));
         assert!(!spans_decades(1.0, 20.0));
+        assert!(!spans_decades(1.0, 68.0));
         assert!(!spans_decades(0.0, 220.0));
         assert!(!spans_decades(-1.0, 220.0));
     }

@@ -204,8 +204,8 @@ fn the_readme_game_replays_in_a_browser_where_the_simulation_put_everything() {
         .filter(|p| p.extension().is_some_and(|e| e == "csv"))
         .collect();
     csvs.sort();
-    // Every 7th row (70 ms): instants on the display frames (every 20 ms) and between them.
-    let samples = tip_samples(&csvs, 7, 3);
+    // Every row (10 ms): instants on the display frames (every 20 ms) and between them.
+    let samples = tip_samples(&csvs, 1, 0);
     assert!(samples.len() > 100);
     let times: Vec<f64> = samples.iter().map(|s| s.0).collect();
     let screenshot = artefact("replay-play.png");
@@ -227,6 +227,7 @@ fn the_readme_game_replays_in_a_browser_where_the_simulation_put_everything() {
     // At the end every piece stands where game.json's final table says (to the µm the
     // replay's data are rounded to).
     assert_final_table(&report, &game);
+    assert_handlings_and_steps(&report);
     assert_picture_shows_the_scene(&screenshot, &report);
     assert!(report["samples"].as_array().unwrap().iter().any(|s| s["phase"] == "carrying"));
 }
@@ -246,6 +247,49 @@ fn assert_final_table(report: &Value, game: &Value) {
     }
 }
 
+/// Every moved piece stood where it was before its grip and where it was put down after its
+/// release, seeking forwards and backwards; shift+arrows step through every ply in order.
+fn assert_handlings_and_steps(report: &Value) {
+    let handled = report["handled"].as_array().unwrap();
+    assert!(!handled.is_empty());
+    for pass in ["forwards", "backwards"] {
+        for (seen, h) in report[pass].as_array().unwrap().iter().zip(handled) {
+            // (A hand move at t = 0 has no "before" on the timeline.)
+            let checks: &[(&str, &str)] = if h["grip_t"].as_f64().unwrap() < 1e-3 {
+                &[("after", "placed")]
+            } else {
+                &[("before", "standing"), ("after", "placed")]
+            };
+            for &(when, key) in checks {
+                let p = common::numbers(&seen[when]);
+                let q = common::numbers(&h[key]);
+                let off = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
+                assert!(
+                    off < 1e-9 && p[2].abs() < 1e-12,
+                    "{pass}: piece {} {when} {}: {p:?} vs {q:?}",
+                    h["piece"],
+                    h["to"]
+                );
+            }
+        }
+    }
+    let plies: Vec<i64> = report["moves"].as_array().unwrap().iter().map(|m| m["ply"].as_i64().unwrap()).collect();
+    let down: Vec<i64> = report["down"].as_array().unwrap().iter().filter_map(Value::as_i64).collect();
+    let last = *plies.last().unwrap();
+    // At t = 0 the current move is the last one that starts then (a hand move at t = 0 is
+    // done: the arm's move after it is under way).
+    let moves = report["moves"].as_array().unwrap();
+    let start = moves[0]["start"].as_f64().unwrap();
+    let first = moves.iter().filter(|m| m["start"].as_f64().unwrap() <= start + 1e-9).count() - 1;
+    let expected: Vec<i64> = plies[first..].iter().copied().chain([last, last]).chain(vec![last; first]).collect();
+    assert_eq!(down, expected, "the current move at t = 0, then shift+→ past the last");
+    let up: Vec<i64> = report["up"].as_array().unwrap().iter().filter_map(Value::as_i64).collect();
+    let mut back: Vec<i64> = plies.iter().rev().skip(1).copied().collect();
+    back.push(plies[0]);
+    back.push(plies[0]);
+    assert_eq!(up, back, "shift+← from the last move");
+}
+
 #[test]
 fn captures_castling_and_promotions_end_with_every_piece_in_its_place() {
     let test = "captures_castling_and_promotions_end_with_every_piece_in_its_place";
@@ -260,6 +304,7 @@ fn captures_castling_and_promotions_end_with_every_piece_in_its_place() {
     let report = probe(&out.join("replay.html"), &artefact("replay-special-moves.png"), 0, &[], 1.0);
     assert_clean_console(&report);
     assert_final_table(&report, &game);
+    assert_handlings_and_steps(&report);
     let table = game["final_table"].as_array().unwrap();
     assert!(table.iter().any(|p| p["location"].as_str().unwrap().contains("graveyard")), "nothing was captured");
     assert_eq!(report["moves"].as_array().unwrap().len(), game["moves"].as_array().unwrap().len());
@@ -276,8 +321,8 @@ fn the_demo_replays_each_controller_where_its_csv_puts_the_tool() {
     json_of(&chessarm(&["demo", "--out", out.to_str().unwrap()]));
     let simulate = out.join("simulate");
     for (run, name) in ["pd", "pid-plain", "pid"].iter().enumerate() {
-        // Every 37th row (1 ms steps): instants on and between the display frames.
-        let samples = tip_samples(&[simulate.join(format!("{name}.csv"))], 37, 5);
+        // Every third row (1 ms steps): instants on and between the display frames.
+        let samples = tip_samples(&[simulate.join(format!("{name}.csv"))], 3, 1);
         let times: Vec<f64> = samples.iter().map(|s| s.0).collect();
         let report =
             probe(&simulate.join("replay.html"), &artefact(&format!("replay-demo-{name}.png")), run, &times, 5.8);
@@ -353,4 +398,36 @@ fn a_whole_game_s_replay_stays_small_and_at_most_50_hz() {
     let total = std::fs::read_to_string(out.join("game.json")).unwrap();
     let total: Value = serde_json::from_str(&total).unwrap();
     assert!((times.last().unwrap() - total["total_robot_time_s"].as_f64().unwrap()).abs() < 1e-3);
+}
+
+#[test]
+fn the_opponent_s_hand_moves_count_to_the_last_ply_and_a_page_without_robot_moves_shows_the_arm() {
+    let test = "the_opponent_s_hand_moves_count_to_the_last_ply_and_a_page_without_robot_moves_shows_the_arm";
+    if !browser_available(test) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    // The arm plays black: the last ply, White's, is the hand's, after the last robot frame.
+    let out = dir.path().join("black");
+    let pgn = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures/special_moves.pgn");
+    json_of(&chessarm(&["play", pgn.to_str().unwrap(), "--robot", "black", "--out", out.to_str().unwrap()]));
+    let game: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let report = probe(&out.join("replay.html"), &artefact("replay-robot-black.png"), 0, &[], 3.0);
+    assert_clean_console(&report);
+    assert_final_table(&report, &game);
+    assert_handlings_and_steps(&report);
+    // A FEN start with Black to move, one move by the hand: no robot frame but the home pose.
+    let out = dir.path().join("hand");
+    let fen = "rnbqkbnr/pppppppp/8/8/4P3/8/PPPP1PPP/RNBQKBNR b KQkq - 0 1";
+    json_of(&chessarm(&["play", "--moves", "e5", "--fen", fen, "--robot", "white", "--out", out.to_str().unwrap()]));
+    let game: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let report = probe(&out.join("replay.html"), &artefact("replay-hand-only.png"), 0, &[0.0], 0.0);
+    assert_clean_console(&report);
+    assert_final_table(&report, &game);
+    let tool = common::numbers(&report["samples"][0]["tool"]);
+    assert!(tool.iter().all(|v| v.is_finite()) && tool[2] > 0.1, "no arm drawn: {tool:?}");
+    assert_eq!(report["moves"][0]["ply"], 1);
+    let html = std::fs::read_to_string(out.join("replay.html")).unwrap();
+    assert!(html.contains(r#""number":"1...""#), "Black's first move is numbered 1...");
+    assert_picture_shows_the_scene(&artefact("replay-hand-only.png"), &report);
 }

@@ -65,7 +65,7 @@ pub fn ik(setup: &Setup, args: &IkArgs) -> Result<()> {
     };
     let q = inverse_kinematics(&setup.arm, &target, args.pitch)?;
     let human = format!(
-        "q = [{}] rad (elbow up, tool pitch {} rad) for the tip at ({:.6}, {:.6}, {:.6}) m\n",
+        "q = [{}] rad (elbow up, tool pitch {:.6} rad) for the tip at ({:.6}, {:.6}, {:.6}) m\n",
         q.iter().map(|v| format!("{:.6}", v + 0.0)).collect::<Vec<_>>().join(", "),
         args.pitch,
         target.x,

@@ -350,7 +350,7 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         let limit = &summary["longest_limit"];
         human.push_str(&format!(
             "{:>4} {:>8} {:>8} {:>10.3}  {}\n",
-            summary["ply"],
+            summary["ply"].as_u64().unwrap_or(0),
             summary["san"].as_str().unwrap_or(""),
             summary["uci"].as_str().unwrap_or(""),
             summary["duration_s"].as_f64().unwrap_or(f64::NAN),

@@ -157,6 +157,13 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let first_number = (start.fullmoves().get(), start.turn());
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
     let start_table = game.table().clone();
+    let start_pose = Frame {
+        t: 0.0,
+        q: game.state().q.into(),
+        qd: game.state().qd.into(),
+        tip_desired: game.tool(),
+        tip_error: 0.0,
+    };
     let bar = crate::progress::bar(total as u64, "playing");
     let header = format!(
         "{:>4} {:>8} {:>6} {:<18} {:>8} {:>12} {:>22}",
@@ -220,7 +227,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             game.robot_time(),
             game.misplaced().len()
         ),
-        runs: vec![replay_run(&settings_name, &reports, first_number)],
+        runs: vec![replay_run(&settings_name, &reports, first_number, start_pose)],
     };
     write_replay(&replay_path, &replay)?;
     let mut human = String::new();
@@ -393,15 +400,22 @@ fn game_json(
     })
 }
 
-/// The game as the replay shows it: every robot move's recorded steps at the display rate,
-/// every piece moved, every move on the timeline. `first` is the start position's move number
-/// and side to move.
-fn replay_run(name: &str, reports: &[MoveReport], first: (u32, Color)) -> ReplayRun {
-    let mut frames = Vec::new();
+/// The game as the replay shows it: the arm at rest at `start` (its home pose at t = 0), then
+/// every robot move's recorded steps at the display rate and its simulated end state at its
+/// end, every piece moved, every move on the timeline. `first` is the start position's move
+/// number and side to move.
+fn replay_run(name: &str, reports: &[MoveReport], first: (u32, Color), start: Frame) -> ReplayRun {
+    let mut frames = vec![start];
     let mut moves = Vec::with_capacity(reports.len());
     let (mut number, mut turn) = first;
     for report in reports {
-        thin(report.records.iter().map(|r| Frame::of(report.start_time + r.t, r)), &mut frames);
+        let end = report.summary.as_ref().zip(report.records.last()).map(|(summary, last)| Frame {
+            t: report.start_time + summary.duration,
+            q: summary.final_state.q.into(),
+            qd: summary.final_state.qd.into(),
+            ..Frame::of(report.start_time + summary.duration, last)
+        });
+        thin(report.records.iter().map(|r| Frame::of(report.start_time + r.t, r)).chain(end), &mut frames);
         moves.push(ReplayMove {
             ply: report.ply,
             number: format!("{number}{}", if turn == Color::White { "." } else { "..." }),

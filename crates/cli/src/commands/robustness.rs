@@ -464,7 +464,7 @@ fn table(stats: &[serde_json::Value], trials: usize, tolerance_mm: f64) -> Strin
             number(&s["place_error_mm"]["p95"]),
             number(&s["place_error_mm"]["max"]),
             number(&s["peak_torque_nm"]),
-            s["trials_with_saturation"],
+            s["trials_with_saturation"].as_u64().map_or("-".to_string(), |n| n.to_string()),
         ));
     }
     text

@@ -762,6 +762,7 @@ pub fn dynamics(setup: &Setup, args: &DynamicsArgs) -> Result<()> {
         line(coriolis.as_slice()),
         line(gravity.as_slice())
     ));
+    let human = human.replace("-0.000000", " 0.000000");
     crate::emit(&human, &json!({ "M": rows, "c": coriolis.as_slice(), "g": gravity.as_slice() }))?;
     Ok(())
 }

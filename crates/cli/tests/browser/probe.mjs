@@ -39,9 +39,22 @@ try {
     const api = window.chessarm;
     api.selectRun(run);
     const samples = times.map((t) => { api.seek(t); return { t, tool: api.toolPosition(), phase: api.phase(), ply: api.currentMove() }; });
+    // Each moved piece just before its grip and just after its release, forwards through the
+    // game and then backwards: where it stood and where it was put down.
+    const handled = api.handled();
+    const at = (h, t) => { api.seek(t); return api.pieces()[h.piece].position; };
+    const visit = (list) => list.map((h) => ({ piece: h.piece, before: at(h, h.grip_t - 1e-3), after: at(h, h.release_t + 1e-3) }));
+    const forwards = visit(handled);
+    const backwards = visit([...handled].reverse()).reverse();
+    // Stepping through the moves with shift+arrows, down and up: the ply each step lands on.
+    api.seek(0);
+    const down = [api.stepMove(0)];
+    for (let i = 0; i < api.moves().length + 1; i++) down.push(api.stepMove(1));
+    const up = [];
+    for (let i = 0; i < api.moves().length + 1; i++) up.push(api.stepMove(-1));
     api.seek(api.duration());
     return { runs: api.runs(), webgl: api.webgl, three: api.three, duration: api.duration(), samples,
-      pieces: api.pieces(), moves: api.moves() };
+      pieces: api.pieces(), moves: api.moves(), handled, forwards, backwards, down, up };
   }, { run, times });
   // The screenshot: the player's view at the given instant, rendered, with the points to look at.
   const view = await page.evaluate((t) => {
