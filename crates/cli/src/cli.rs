@@ -269,8 +269,9 @@ pub struct PlayArgs {
     /// depend on the machine's speed (game.json says so).
     #[arg(long, value_name = "MS")]
     pub builtin_movetime: Option<u64>,
-    /// How long to wait for a UCI engine beyond its thinking time, ms.
-    #[arg(long, default_value_t = 5000)]
+    /// How long to wait for a UCI engine beyond its thinking time, ms (30 s: Stockfish's start,
+    /// which loads its network, took more than 5 s on a busy 2-core machine).
+    #[arg(long, default_value_t = 30_000)]
     pub engine_timeout: u64,
     /// Search depth of the built-in engine, plies (1–10: each ply more multiplies the search
     /// time by ~4; depth 7 takes ~1 s a middlegame move here).
