@@ -358,6 +358,27 @@ mod tests {
     }
 
     #[test]
+    fn the_vendored_three_js_is_the_release_its_readme_names() {
+        // The hashes in assets/three/README.md, recomputed (coreutils' sha256sum).
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/three");
+        let readme = std::fs::read_to_string(dir.join("README.md")).unwrap_or_default();
+        assert!(readme.contains(&format!("**{THREE_VERSION}**")), "README names another version");
+        for file in ["three.core.min.js", "three.module.min.js", "LICENSE"] {
+            let output = std::process::Command::new("sha256sum").arg(dir.join(file)).output();
+            let Ok(output) = output else { panic!("sha256sum is part of coreutils") };
+            let text = String::from_utf8_lossy(&output.stdout);
+            let hash = text.split_whitespace().next().unwrap_or_default();
+            assert!(hash.len() == 64 && readme.contains(&format!("| `{file}` | `{hash}` |")), "{file}: {hash}");
+        }
+        let revision = THREE_VERSION.split('.').nth(1).unwrap_or_default();
+        // Minified: `const t="185"` … `t as REVISION`.
+        assert!(
+            THREE_CORE.contains(&format!("const t=\"{revision}\"")) && THREE_CORE.contains("t as REVISION"),
+            "three.core is not r{revision}"
+        );
+    }
+
+    #[test]
     fn thinning_keeps_the_display_rate_and_each_move_end() {
         let frame = |t: f64| Frame { t, q: [t; 4], qd: [1.0; 4], tip_desired: Vector3::zeros(), tip_error: 0.0 };
         let mut out = Vec::new();
