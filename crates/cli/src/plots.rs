@@ -138,6 +138,18 @@ pub fn tick(value: f64) -> String {
     if text == "-0" { "0".into() } else { text }
 }
 
+/// The label of an axis position: its value, or on a log scale (positions are log10 of the
+/// value) the value at whole decades only.
+fn scale_tick(position: f64, log: bool) -> String {
+    if !log {
+        tick(position)
+    } else if (position - position.round()).abs() > 1e-6 {
+        String::new()
+    } else {
+        tick(10f64.powf(position))
+    }
+}
+
 /// Draws `panels` stacked vertically over a shared x axis into the PNG at `path`.
 pub fn plot_panels(path: &Path, title: &str, x_label: &str, panels: &[Panel]) -> Result<()> {
     register_font();
@@ -210,16 +222,7 @@ fn draw_panel(
             tick(*x)
         }
     };
-    // On a log scale (two decades or more) only the decades are labelled.
-    let y_format = move |y: &f64| {
-        if !log {
-            tick(*y)
-        } else if (y - y.round()).abs() > 1e-6 {
-            String::new()
-        } else {
-            tick(10f64.powf(*y))
-        }
-    };
+    let y_format = move |y: &f64| scale_tick(*y, log);
     let x_ticks = if integer_x { ((x_high - x_low).round() as usize + 1).clamp(2, 20) } else { 10 };
     chart
         .configure_mesh()
@@ -460,15 +463,7 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
             .disable_x_axis()
             .y_desc(if log { format!("{} (log scale)", map.value_label) } else { map.value_label.to_string() })
             .y_labels(8)
-            .y_label_formatter(&|v| {
-                if !log {
-                    tick(*v)
-                } else if (v - v.round()).abs() > 1e-6 {
-                    String::new()
-                } else {
-                    tick(10f64.powf(*v))
-                }
-            })
+            .y_label_formatter(&|v| scale_tick(*v, log))
             .axis_desc_style(("sans-serif", 14))
             .label_style(("sans-serif", 13))
             .draw()
