@@ -179,3 +179,57 @@ fn share_unescaped(text: &str) -> Result<f64, String> {
     let value = finite_unescaped(text)?;
     if value > 0.0 && value <= 1.0 { Ok(value) } else { Err(format!("'{text}' must lie in (0, 1]")) }
 }
+
+/// The shard to run: `--shard K/N` as given, or with `--shard-from-env` the batch scheduler's
+/// array index from `env` (Slurm: `SLURM_ARRAY_TASK_ID` − `SLURM_ARRAY_TASK_MIN` (default 0) + 1
+/// of `SLURM_ARRAY_TASK_COUNT`; Kubernetes: `JOB_COMPLETION_INDEX` + 1 of `--shards`).
+///
+/// # Errors
+///
+/// Both `--shard` and `--shard-from-env`, `--shards` without it, no scheduler variable, a
+/// variable that is not a whole number, or an index outside `1..=N`; each names the flag or
+/// variable and the value as set.
+pub fn resolve_shard(
+    given: Option<(usize, usize)>,
+    batch: &crate::cli::BatchArgs,
+    env: impl Fn(&str) -> Option<String>,
+) -> Result<Option<(usize, usize)>, String> {
+    if !batch.shard_from_env {
+        if let Some(n) = batch.shards {
+            return Err(format!("--shards {n} goes with --shard-from-env"));
+        }
+        return Ok(given);
+    }
+    if let Some((k, n)) = given {
+        return Err(format!("--shard {k}/{n} and --shard-from-env both choose the shard: give one"));
+    }
+    let number = |name: &str| -> Result<Option<usize>, String> {
+        env(name)
+            .map(|text| {
+                text.trim()
+                    .parse::<usize>()
+                    .map_err(|_| format!("{name}={} is not a whole number", crate::escape_controls(&text)))
+            })
+            .transpose()
+    };
+    let (k, n, from) = if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+        let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+        let count = number("SLURM_ARRAY_TASK_COUNT")?
+            .ok_or("--shard-from-env: SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?;
+        if id < min {
+            return Err(format!("SLURM_ARRAY_TASK_ID={id} is below SLURM_ARRAY_TASK_MIN={min}"));
+        }
+        (id - min + 1, count, format!("SLURM_ARRAY_TASK_ID={id} (from {min}) of SLURM_ARRAY_TASK_COUNT={count}"))
+    } else if let Some(index) = number("JOB_COMPLETION_INDEX")? {
+        let n = batch
+            .shards
+            .ok_or("--shard-from-env with JOB_COMPLETION_INDEX needs --shards N (the Job's completions)")?;
+        (index + 1, n, format!("JOB_COMPLETION_INDEX={index} of --shards {n}"))
+    } else {
+        return Err("--shard-from-env: neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set".into());
+    };
+    if n == 0 || k == 0 || k > n {
+        return Err(format!("--shard-from-env: {from} gives shard {k}/{n}, outside 1..={n}"));
+    }
+    Ok(Some((k, n)))
+}

@@ -23,6 +23,19 @@ pub struct Cli {
     pub command: Option<Command>,
 }
 
+/// The shard from a batch scheduler's environment instead of `--shard`.
+#[derive(Debug, Clone, Default, Args)]
+pub struct BatchArgs {
+    /// Take the shard from a batch array job: Slurm's SLURM_ARRAY_TASK_ID (counted from
+    /// SLURM_ARRAY_TASK_MIN, default 0) of SLURM_ARRAY_TASK_COUNT, or Kubernetes' 0-based
+    /// JOB_COMPLETION_INDEX of --shards N.
+    #[arg(long)]
+    pub shard_from_env: bool,
+    /// The number of shards with --shard-from-env under Kubernetes (its Job's completions).
+    #[arg(long, value_name = "N")]
+    pub shards: Option<usize>,
+}
+
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Print the arm and board setup as TOML (the report's arm unless --arm is given).
@@ -122,6 +135,8 @@ pub struct RobustnessArgs {
     /// Run only slice K of N (1-based) of the trials; the slices' CSVs concatenate to the whole.
     #[arg(long, value_parser = args::shard)]
     pub shard: Option<(usize, usize)>,
+    #[command(flatten)]
+    pub batch: BatchArgs,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -399,6 +414,8 @@ pub struct TuneArgs {
     /// Run only slice K of N (1-based), e.g. 2/8; the slices' CSVs concatenate to the full sweep.
     #[arg(long, value_parser = args::shard)]
     pub shard: Option<(usize, usize)>,
+    #[command(flatten)]
+    pub batch: BatchArgs,
     /// Integrator of the plant.
     #[arg(long, value_enum, default_value_t)]
     pub integrator: IntegratorChoice,

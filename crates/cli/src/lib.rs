@@ -64,9 +64,17 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Dynamics(args)) => commands::simulate::dynamics(&setup, &args),
         Some(Command::Simulate(args)) => commands::simulate::run(&setup, &args),
         Some(Command::Gains(args)) => commands::gains::run(&setup, &args),
-        Some(Command::Tune(args)) => commands::tune::run(&setup, &args),
+        Some(Command::Tune(mut args)) => {
+            args.shard = args::resolve_shard(args.shard, &args.batch, |name| std::env::var(name).ok())
+                .map_err(anyhow::Error::msg)?;
+            commands::tune::run(&setup, &args)
+        }
         Some(Command::Play(args)) => commands::play::run(&setup, &args),
-        Some(Command::Robustness(args)) => commands::robustness::run(&setup, &args),
+        Some(Command::Robustness(mut args)) => {
+            args.shard = args::resolve_shard(args.shard, &args.batch, |name| std::env::var(name).ok())
+                .map_err(anyhow::Error::msg)?;
+            commands::robustness::run(&setup, &args)
+        }
         Some(Command::Arm) => print_text(&setup.to_toml()?),
         Some(Command::Fk(args)) => commands::kinematics::fk(&setup, &args),
         Some(Command::Ik(args)) => commands::kinematics::ik(&setup, &args),

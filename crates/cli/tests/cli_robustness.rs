@@ -313,3 +313,28 @@ fn friction_is_unknown_to_the_controller_unless_told() {
     assert!(told < unknown, "coulomb: told {told} mm, unknown {unknown} mm");
     // Measured: 1.48 against 4.56 mm.
 }
+
+#[test]
+fn a_kubernetes_index_picks_the_same_trials_as_the_shard_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str], index: Option<&str>| {
+        let out = dir.path().join(name);
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"));
+        for variable in
+            ["SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_MIN", "SLURM_ARRAY_TASK_COUNT", "JOB_COMPLETION_INDEX"]
+        {
+            command.env_remove(variable);
+        }
+        if let Some(index) = index {
+            command.env("JOB_COMPLETION_INDEX", index);
+        }
+        let args = ["robustness", "--trials", "4", "--sensors", "hobby", "--controller", "pd", "--threads", "1"];
+        let output = command.args(args).args(["--out", out.to_str().unwrap(), "--json"]).args(extra).output().unwrap();
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        std::fs::read_to_string(out.join("robustness.csv")).unwrap()
+    };
+    let given = run("given", &["--shard", "2/2"], None);
+    let from_env = run("env", &["--shard-from-env", "--shards", "2"], Some("1"));
+    assert_eq!(from_env, given);
+    assert_eq!(given.lines().count(), 2, "trials 3 and 4 of 4, no header: {given}");
+}

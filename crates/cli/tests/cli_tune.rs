@@ -201,3 +201,126 @@ fn a_sweep_over_a_game_counts_misplaced_pieces() {
     assert_eq!(result["best"][0]["kp"].as_f64(), Some(900.0));
     assert!(result["best"][0]["metric"].as_f64().unwrap() < 5.0);
 }
+
+/// Runs chessarm with `args` and `env` set (and the schedulers' variables cleared otherwise).
+fn with_env(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"));
+    for name in ["SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_MIN", "SLURM_ARRAY_TASK_COUNT", "JOB_COMPLETION_INDEX"] {
+        command.env_remove(name);
+    }
+    command.args(args).arg("--json").envs(env.iter().copied()).output().unwrap()
+}
+
+#[test]
+fn batch_schedulers_choose_the_shard_from_their_environment() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = ["tune", "--kp", "200..800:3", "--kd", "15..35:2", "--threads", "1"];
+    let run = |name: &str, extra: &[&str], env: &[(&str, &str)]| {
+        let out = dir.path().join(name);
+        let mut args = sweep.to_vec();
+        args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        json_of(&with_env(&args, env));
+        std::fs::read_to_string(out.join("tune.csv")).unwrap()
+    };
+    let full = run("full", &[], &[]);
+    // Slurm: an array 5-7 (MIN 5, COUNT 3); task 6 is shard 2/3.
+    let slurm: Vec<String> = ["5", "6", "7"]
+        .iter()
+        .map(|id| {
+            let env = [("SLURM_ARRAY_TASK_ID", *id), ("SLURM_ARRAY_TASK_MIN", "5"), ("SLURM_ARRAY_TASK_COUNT", "3")];
+            run(&format!("slurm-{id}"), &["--shard-from-env"], &env)
+        })
+        .collect();
+    assert_eq!(slurm[1], run("given", &["--shard", "2/3"], &[]));
+    assert_eq!(slurm.concat(), full);
+    // Kubernetes: 0-based JOB_COMPLETION_INDEX of --shards 2.
+    let k8s: String = ["0", "1"]
+        .iter()
+        .map(|i| run(&format!("k8s-{i}"), &["--shard-from-env", "--shards", "2"], &[("JOB_COMPLETION_INDEX", *i)]))
+        .collect();
+    assert_eq!(k8s, full);
+    // Mistakes name the flag or the variable and the value.
+    let out = dir.path().join("bad");
+    let out = out.to_str().unwrap();
+    let tune = |extra: &[&str], env: &[(&str, &str)]| {
+        let mut args = sweep.to_vec();
+        args.extend_from_slice(&["--out", out]);
+        args.extend_from_slice(extra);
+        with_env(&args, env)
+    };
+    assert_one_line_error(&tune(&["--shard-from-env"], &[]), &["neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX"]);
+    assert_one_line_error(&tune(&["--shards", "4"], &[]), &["--shards 4 goes with --shard-from-env"]);
+    assert_one_line_error(
+        &tune(&["--shard-from-env", "--shard", "1/2"], &[("JOB_COMPLETION_INDEX", "0")]),
+        &["--shard 1/2 and --shard-from-env"],
+    );
+    assert_one_line_error(
+        &tune(&["--shard-from-env"], &[("JOB_COMPLETION_INDEX", "1")]),
+        &["JOB_COMPLETION_INDEX needs --shards N"],
+    );
+    assert_one_line_error(
+        &tune(&["--shard-from-env", "--shards", "2"], &[("JOB_COMPLETION_INDEX", "2")]),
+        &["JOB_COMPLETION_INDEX=2 of --shards 2 gives shard 3/2"],
+    );
+    assert_one_line_error(
+        &tune(&["--shard-from-env"], &[("SLURM_ARRAY_TASK_ID", "x1"), ("SLURM_ARRAY_TASK_COUNT", "2")]),
+        &["SLURM_ARRAY_TASK_ID=x1 is not a whole number"],
+    );
+    assert_one_line_error(
+        &tune(&["--shard-from-env"], &[("SLURM_ARRAY_TASK_ID", "1")]),
+        &["SLURM_ARRAY_TASK_COUNT is not"],
+    );
+}
+
+#[test]
+fn the_deploy_scripts_run_their_shards_and_merge_to_the_full_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let sweep = "--kp 200..800:3 --kd 15..35:2";
+    let full = dir.path().join("full");
+    json_of(&chessarm(&["tune", "--kp", "200..800:3", "--kd", "15..35:2", "--out", full.to_str().unwrap()]));
+    let full = std::fs::read_to_string(full.join("tune.csv")).unwrap();
+    // The Slurm array script, as three array tasks 0-2, then the merge its header gives.
+    let out = dir.path().join("slurm");
+    let mut merged = String::new();
+    for id in 0..3 {
+        let status = std::process::Command::new("bash")
+            .arg(root.join("deploy/slurm-tune.sh"))
+            .env("CHESSARM", env!("CARGO_BIN_EXE_chessarm"))
+            .env("CHESSARM_SWEEP", sweep)
+            .env("CHESSARM_OUT", &out)
+            .env("SLURM_ARRAY_TASK_ID", id.to_string())
+            .env("SLURM_ARRAY_TASK_COUNT", "3")
+            .env_remove("SLURM_ARRAY_TASK_MIN")
+            .output()
+            .unwrap();
+        assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+        merged.push_str(&std::fs::read_to_string(out.join(format!("shard-{id}/tune.csv"))).unwrap());
+    }
+    assert_eq!(merged, full);
+    // The Kubernetes Indexed Job: its container's command line, with the index set, for each
+    // of its completions (the sweep made small and the folder a temporary one).
+    let manifest = std::fs::read_to_string(root.join("deploy/k8s-tune-job.yaml")).unwrap();
+    assert!(manifest.contains("completionMode: Indexed"));
+    let completions: usize =
+        manifest.lines().find_map(|l| l.trim().strip_prefix("completions: ")).and_then(|n| n.parse().ok()).unwrap();
+    let line = manifest.lines().map(str::trim).find(|l| l.starts_with("- chessarm tune")).unwrap();
+    assert!(line.contains(&format!("--shards {completions}")), "--shards must equal completions: {line}");
+    let line = line
+        .trim_start_matches("- ")
+        .replacen("chessarm", env!("CARGO_BIN_EXE_chessarm"), 1)
+        .replace("--kp 25..2000:100 --kd 2..80:100", "--kp 200..800:3 --kd 15..35:2")
+        .replace("/results", dir.path().join("k8s").to_str().unwrap());
+    let mut merged = String::new();
+    for index in 0..completions {
+        let status = std::process::Command::new("sh")
+            .args(["-c", &line])
+            .env("JOB_COMPLETION_INDEX", index.to_string())
+            .output()
+            .unwrap();
+        assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+        merged.push_str(&std::fs::read_to_string(dir.path().join(format!("k8s/shard-{index}/tune.csv"))).unwrap());
+    }
+    assert_eq!(merged, full);
+}
