@@ -154,10 +154,6 @@ fn micro(value: f64) -> f64 {
     (value * 1e6).round() / 1e6 + 0.0
 }
 
-fn location_name(location: Location) -> String {
-    location.to_string()
-}
-
 /// The phase of each frame, run-length encoded as `[time, code]`: from the desired tool
 /// velocity and whether a piece is gripped.
 fn phases(run: &ReplayRun) -> Vec<[f64; 2]> {
@@ -215,8 +211,8 @@ fn run_json(run: &ReplayRun, table: &Table, tolerance: f64) -> Value {
             let error = (h.placed - target).norm();
             json!({
                 "piece": h.piece,
-                "from": location_name(h.from),
-                "to": location_name(h.to),
+                "from": h.from.to_string(),
+                "to": h.to.to_string(),
                 "grip_t": micro(h.grip_time),
                 "release_t": micro(h.release_time),
                 "standing": [micro(h.standing.x), micro(h.standing.y)],
@@ -266,7 +262,7 @@ pub fn replay_json(replay: &Replay<'_>) -> Value {
     let slots: Vec<Value> = Location::off_board()
         .map(|l| {
             let p = replay.table.nominal_position(l);
-            json!([location_name(l), micro(p.x), micro(p.y)])
+            json!([l.to_string(), micro(p.x), micro(p.y)])
         })
         .collect();
     let pieces: serde_json::Map<String, Value> = replay
@@ -288,7 +284,7 @@ pub fn replay_json(replay: &Replay<'_>) -> Value {
             json!({
                 "color": side(p.piece.color),
                 "role": role_name(p.piece.role),
-                "location": location_name(p.location),
+                "location": p.location.to_string(),
                 "xy": [micro(p.position.x), micro(p.position.y)],
             })
         })

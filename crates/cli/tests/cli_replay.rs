@@ -47,6 +47,15 @@ fn artefact(name: &str) -> PathBuf {
     dir.join(name)
 }
 
+/// Plays `args` into `out` and returns its game.json.
+fn played(out: &Path, args: &[&str]) -> Value {
+    let mut all = vec!["play"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--out", out.to_str().unwrap()]);
+    json_of(&chessarm(&all));
+    serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap()
+}
+
 /// Opens `html` in the browser: the page's report (see probe.mjs).
 fn probe(html: &Path, screenshot: &Path, run: usize, times: &[f64], shot_at: f64) -> Value {
     let times: Vec<String> = times.iter().map(|t| format!("{t}")).collect();
@@ -196,8 +205,7 @@ fn the_readme_game_replays_in_a_browser_where_the_simulation_put_everything() {
     }
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    json_of(&chessarm(&["play", "--moves", "e4 e5 Nf3 Nc6 Bb5", "--out", out.to_str().unwrap()]));
-    let game: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let game = played(&out, &["--moves", "e4 e5 Nf3 Nc6 Bb5"]);
     let mut csvs: Vec<PathBuf> = std::fs::read_dir(out.join("moves"))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -299,8 +307,7 @@ fn captures_castling_and_promotions_end_with_every_piece_in_its_place() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let pgn = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures/special_moves.pgn");
-    json_of(&chessarm(&["play", pgn.to_str().unwrap(), "--out", out.to_str().unwrap()]));
-    let game: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let game = played(&out, &[pgn.to_str().unwrap()]);
     let report = probe(&out.join("replay.html"), &artefact("replay-special-moves.png"), 0, &[], 1.0);
     assert_clean_console(&report);
     assert_final_table(&report, &game);
@@ -410,8 +417,7 @@ fn the_opponent_s_hand_moves_count_to_the_last_ply_and_a_page_without_robot_move
     // The arm plays black: the last ply, White's, is the hand's, after the last robot frame.
     let out = dir.path().join("black");
     let pgn = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures/special_moves.pgn");
-    json_of(&chessarm(&["play", pgn.to_str().unwrap(), "--robot", "black", "--out", out.to_str().unwrap()]));
-    let game: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let game = played(&out, &[pgn.to_str().unwrap(), "--robot", "black"]);
     let report = probe(&out.join("replay.html"), &artefact("replay-robot-black.png"), 0, &[], 3.0);
     assert_clean_console(&report);
     assert_final_table(&report, &game);
@@ -419,8 +425,7 @@ fn the_opponent_s_hand_moves_count_to_the_last_ply_and_a_page_without_robot_move
     // A FEN start with Black to move, one move by the hand: no robot frame but the home pose.
     let out = dir.path().join("hand");
     let fen = "rnbqkbnr/pppppppp/8/8/4P3/8/PPPP1PPP/RNBQKBNR b KQkq - 0 1";
-    json_of(&chessarm(&["play", "--moves", "e5", "--fen", fen, "--robot", "white", "--out", out.to_str().unwrap()]));
-    let game: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let game = played(&out, &["--moves", "e5", "--fen", fen, "--robot", "white"]);
     let report = probe(&out.join("replay.html"), &artefact("replay-hand-only.png"), 0, &[0.0], 0.0);
     assert_clean_console(&report);
     assert_final_table(&report, &game);
