@@ -110,6 +110,22 @@ pub struct PlannedMove {
 }
 
 impl PlannedMove {
+    /// The gripper's commands: per task a grip at its grip time and a release at its release
+    /// time, s from the move's start.
+    pub fn gripper_commands(&self) -> Vec<chessarm_core::plan::hardware::GripperCommand> {
+        use chessarm_core::plan::hardware::GripperCommand;
+        use chessarm_core::plan::path::GripperAction;
+        self.tasks
+            .iter()
+            .flat_map(|task| {
+                [
+                    GripperCommand { time: task.plan.grip_time, action: GripperAction::Grip },
+                    GripperCommand { time: task.plan.release_time, action: GripperAction::Release },
+                ]
+            })
+            .collect()
+    }
+
     /// The limit that was binding longest, with its time (s).
     pub fn longest_limit(&self) -> Option<(&str, f64)> {
         self.limit_times

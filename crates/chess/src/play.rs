@@ -18,6 +18,7 @@ use chessarm_core::control::JointState;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
 use chessarm_core::nalgebra::{Rotation2, Vector2, Vector3};
+use chessarm_core::plan::hardware::{ExportError, GripperCommand, HardwarePoint, hardware_points};
 use chessarm_core::plan::trajectory::{PlanError, ToolMotion};
 use chessarm_core::sense::{Conditions, Feedback, SenseError};
 use chessarm_core::sim::{
@@ -59,6 +60,17 @@ pub struct PlaySettings {
     pub integrator: Integrator,
     /// Keep every n-th simulation step in the move reports (0: keep none).
     pub record_every: usize,
+    /// Sample every robot move's planned motion for hardware at this rate, Hz (`None`: not).
+    pub export_rate: Option<f64>,
+}
+
+/// A robot move's planned motion for hardware ([`chessarm_core::plan::hardware`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HardwareExport {
+    pub points: Vec<HardwarePoint>,
+    pub commands: Vec<GripperCommand>,
+    /// Per grip, in order: the piece and where it goes ("white pawn from e2 to e4").
+    pub grips: Vec<String>,
 }
 
 impl PlaySettings {
@@ -83,6 +95,7 @@ impl PlaySettings {
             control_period: 1e-3,
             integrator: Integrator::default(),
             record_every: 10,
+            export_rate: None,
         }
     }
 }
@@ -94,6 +107,8 @@ pub enum PlayError {
     Task(#[from] TaskError),
     #[error("move {mv}: {source}")]
     Plan { mv: String, source: PlanError },
+    #[error("move {mv}: the hardware trajectory: {source}")]
+    Export { mv: String, source: ExportError },
     #[error("move {mv}: {source}")]
     Simulation { mv: String, source: SimError },
     #[error("move {mv}: {source}")]
@@ -154,6 +169,8 @@ pub struct MoveReport {
     pub slowdowns: usize,
     /// Every piece the move moved, in the order moved.
     pub handled: Vec<Handling>,
+    /// The planned motion for hardware (robot moves, when [`PlaySettings::export_rate`] is set).
+    pub hardware: Option<HardwareExport>,
 }
 
 /// One piece moved by a move: carried by the arm from its grip to its release, or put on its
@@ -317,6 +334,7 @@ impl Game {
             place_errors: Vec::new(),
             new_misplaced: Vec::new(),
             records: Vec::new(),
+            hardware: None,
             summary: None,
             start_time: self.robot_time,
             planned_duration: 0.0,
@@ -394,6 +412,13 @@ impl Game {
         report.phases = *phases;
         report.longest_limit = plan.longest_limit().map(|(n, t)| (n.to_string(), t));
         report.slowdowns = plan.slowdowns;
+        if let Some(rate) = settings.export_rate {
+            let commands = plan.gripper_commands();
+            let points = hardware_points(&self.arm, motion, &commands, TOOL_DOWN, rate)
+                .map_err(|source| PlayError::Export { mv: name.to_string(), source })?;
+            let grips = planned.iter().map(|step| step.task.to_string()).collect();
+            report.hardware = Some(HardwareExport { points, commands, grips });
+        }
         let mut events = Vec::with_capacity(2 * planned.len());
         let mut marks = Vec::with_capacity(2 * planned.len());
         for step in planned {

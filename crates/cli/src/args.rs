@@ -42,6 +42,13 @@ fn positive_unescaped(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A sample rate in (0, 10 000] Hz for `--export-rate`.
+fn export_rate_unescaped(text: &str) -> Result<f64, String> {
+    let value = positive_unescaped(text)?;
+    let most = chessarm_core::plan::hardware::MAX_EXPORT_RATE;
+    if value > most { Err(format!("{value} Hz is above the highest export rate, {most} Hz")) } else { Ok(value) }
+}
+
 /// A finite number.
 fn finite_unescaped(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
@@ -164,6 +171,7 @@ escaped! {
     three => three_unescaped -> [f64; 3];
     non_negative => non_negative_unescaped -> f64;
     positive => positive_unescaped -> f64;
+    export_rate => export_rate_unescaped -> f64;
     finite => finite_unescaped -> f64;
     gain => gain_unescaped -> [f64; 4];
     range => range_unescaped -> GainRange;

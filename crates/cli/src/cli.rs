@@ -15,6 +15,10 @@ pub struct Cli {
     /// Setup file (TOML) describing the arm and the board; `chessarm arm` prints the default.
     #[arg(long, global = true, value_name = "FILE")]
     pub arm: Option<PathBuf>,
+    /// The arm from a URDF file instead (a base yaw and three parallel pitch joints, then a
+    /// fixed tool link at the tool tip); the board and the rest come from --arm or the defaults.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub urdf: Option<PathBuf>,
     /// Print the result as one line of JSON on standard output (for scripts) instead of a
     /// summary for people; tables and progress then go to standard error.
     #[arg(long, global = true)]
@@ -317,6 +321,10 @@ pub struct PlayArgs {
     /// Output folder.
     #[arg(long, default_value = "out/play")]
     pub out: PathBuf,
+    /// Sample rate of the planned joint trajectories written for hardware (`hardware/`: ROS 2
+    /// JointTrajectory JSON and CSV with the gripper's state), Hz.
+    #[arg(long, value_name = "HZ", default_value_t = 100.0, value_parser = args::export_rate, allow_hyphen_values = true)]
+    pub export_rate: f64,
 }
 
 #[derive(Debug, Args)]
@@ -610,4 +618,8 @@ pub struct PlanArgs {
     /// Also write joint.xlsx (the report exported a spreadsheet).
     #[arg(long)]
     pub xlsx: bool,
+    /// Sample rate of the planned joint trajectories written for hardware (`hardware/`: ROS 2
+    /// JointTrajectory JSON and CSV with the gripper's state), Hz.
+    #[arg(long, value_name = "HZ", default_value_t = 100.0, value_parser = args::export_rate, allow_hyphen_values = true)]
+    pub export_rate: f64,
 }

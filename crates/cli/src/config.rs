@@ -272,6 +272,10 @@ pub struct Setup {
     pub uncertainty: Option<UncertaintyFile>,
     /// The file this setup was read from (`None`: the built-in setup).
     pub path: Option<std::path::PathBuf>,
+    /// The URDF file the arm was read from (`--urdf`), if any.
+    pub urdf_path: Option<std::path::PathBuf>,
+    /// The joints' names (the URDF's, or `joint1`…`joint4`), for exports.
+    pub joint_names: [String; 4],
     /// The motion limits (`[motion]`, `[gripper]`, then the motion flags).
     pub motion: MotionLimits,
     /// How robot moves are timed (set by `--timing`; the file does not say).
@@ -287,10 +291,17 @@ impl Default for Setup {
             sensor_profiles: BTreeMap::new(),
             uncertainty: None,
             path: None,
+            urdf_path: None,
+            joint_names: default_joint_names(),
             motion: MotionLimits::default(),
             timing: TimingMode::default(),
         }
     }
+}
+
+/// `joint1`…`joint4`, the names `chessarm urdf` gives the joints.
+pub fn default_joint_names() -> [String; 4] {
+    std::array::from_fn(|i| format!("joint{}", i + 1))
 }
 
 impl Setup {
@@ -440,6 +451,8 @@ impl SetupFile {
             sensor_profiles: self.sensors.clone(),
             uncertainty: self.uncertainty.clone(),
             path: None,
+            urdf_path: None,
+            joint_names: default_joint_names(),
             motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
             timing: TimingMode::default(),
         })

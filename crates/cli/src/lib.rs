@@ -6,12 +6,14 @@ pub mod cli;
 pub mod commands;
 pub mod conditions;
 pub mod config;
+pub mod hardware;
 pub mod output;
 pub mod plots;
 pub mod progress;
 pub mod replay;
 pub mod resources;
 pub mod urdf;
+pub mod urdf_import;
 
 use anyhow::Result;
 use cli::{Cli, Command};
@@ -57,7 +59,11 @@ pub fn files_text(files: &[String]) -> String {
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     let _ = JSON_OUTPUT.set(cli.json);
-    let setup = Setup::load(cli.arm.as_deref())?;
+    let mut setup = Setup::load(cli.arm.as_deref())?;
+    if let Some(path) = &cli.urdf {
+        (setup.arm, setup.joint_names) = urdf_import::load(path)?;
+        setup.urdf_path = Some(path.clone());
+    }
     match cli.command {
         None => commands::demo::run(&setup, &cli::DemoArgs { out: "out".into() }),
         Some(Command::Demo(args)) => commands::demo::run(&setup, &args),
@@ -78,7 +84,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Arm) => print_text(&setup.to_toml()?),
         Some(Command::Fk(args)) => commands::kinematics::fk(&setup, &args),
         Some(Command::Ik(args)) => commands::kinematics::ik(&setup, &args),
-        Some(Command::Urdf) => print_text(&urdf::to_urdf(&setup.arm, "chessarm")),
+        Some(Command::Urdf) => print_text(&urdf::to_urdf(&setup.arm, "chessarm", &setup.joint_names)),
         Some(Command::Plan(args)) => commands::plan::run(&setup, &args),
     }
 }

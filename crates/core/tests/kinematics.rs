@@ -257,3 +257,72 @@ fn shifted_joint_trig_agrees_with_sin_cos() {
         assert!((tip - FrameChain::new(&model, &(base + delta)).tip()).norm() < 1e-15, "step {step}");
     }
 }
+
+/// An arm of the family with every freedom the IK allows: a shoulder beside the base axis,
+/// frame 1 up or down, offsets along the pitch axes, reversed pitch axes, angle offsets, a
+/// twisted tool frame, and unlimited joints (the limits are not what is tested here).
+fn offset_arm(seed: &[f64; 12], down: bool, reversed: [bool; 2]) -> chessarm_core::arm::model::ArmModel<4> {
+    use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, JointLimits, Link};
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let base = report_arm();
+    let alpha = |r: bool| if r { PI } else { 0.0 };
+    let dh = [
+        DhParameters {
+            a: 0.03 * seed[0].abs(),
+            alpha: if down { -FRAC_PI_2 } else { FRAC_PI_2 },
+            d: 0.2,
+            theta_offset: seed[1],
+        },
+        DhParameters { a: 0.3, alpha: alpha(reversed[0]), d: 0.04 * seed[2], theta_offset: seed[3] },
+        DhParameters { a: 0.28, alpha: alpha(reversed[1]), d: 0.04 * seed[4], theta_offset: seed[5] },
+        DhParameters { a: 0.1, alpha: seed[6], d: 0.04 * seed[7], theta_offset: seed[8] },
+    ];
+    let links: [Link; 4] = std::array::from_fn(|i| Link {
+        dh: dh[i],
+        limits: JointLimits { lower: -10.0, upper: 10.0, ..base.link(i).limits },
+        friction: Friction::default(),
+        ..*base.link(i)
+    });
+    ArmModel::new(links, base.gravity()).unwrap()
+}
+
+proptest! {
+    #[test]
+    fn fk_of_ik_on_arms_with_offsets(
+        seed in proptest::array::uniform12(-1.0f64..1.0), down: bool, reversed: [bool; 2],
+        radial in 0.15f64..0.6, angle in -3.1f64..3.1, height in -0.1f64..0.4, pitch in -2.0f64..0.0,
+    ) {
+        let model = offset_arm(&seed, down, reversed);
+        let target = Vector3::new(radial * angle.cos(), radial * angle.sin(), height);
+        if let Ok(q) = inverse_kinematics(&model, &target, pitch) {
+            let reached = tool_point(&model, &q);
+            prop_assert!((reached.xyz() - target).norm() < 1e-9, "{} vs {}", reached.xyz(), target);
+            prop_assert!(wrap_angle(reached.w - pitch).abs() < 1e-12);
+            // The pitch is the elevation of the tool's x axis (from the last pitch axis to the tip).
+            let chain = FrameChain::new(&model, &q);
+            let tool_x = chain.body_pose(3).rotation.matrix().column(0).into_owned();
+            prop_assert!((tool_x.z - pitch.sin()).abs() < 1e-12);
+            prop_assert!((tool_x.xy().norm() - pitch.cos().abs()).abs() < 1e-9);
+            // The task Jacobian's pitch row is that pitch's derivative.
+            let jacobian = task_jacobian(&model, &q);
+            for j in 0..4 {
+                let mut step = JointVector::<4>::zeros();
+                step[j] = FD_STEP;
+                let numeric = (tool_point(&model, &(q + step)) - tool_point(&model, &(q - step))) / (2.0 * FD_STEP);
+                prop_assert!((jacobian.column(j) - numeric).norm() < FD_TOLERANCE, "column {}", j);
+            }
+        } else {
+            // Only for want of reach: every radial of 0.15–0.6 m clears the sideways offset.
+            let error = inverse_kinematics(&model, &target, pitch).unwrap_err();
+            prop_assert!(matches!(error, IkError::OutOfReach { .. }), "{error}");
+        }
+    }
+}
+
+#[test]
+fn a_target_within_the_sideways_offset_is_refused_by_name() {
+    let model = offset_arm(&[0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0], false, [false, false]);
+    let error = inverse_kinematics(&model, &Vector3::new(0.05, 0.05, 0.1), TOOL_DOWN).unwrap_err();
+    assert!(matches!(error, IkError::InsideOffset { .. }), "{error}");
+    assert!(error.to_string().contains("sideways offset of 0.1200 m"), "{error}");
+}

@@ -3,7 +3,8 @@
 use crate::cli::PlanArgs;
 use crate::config::Setup;
 use crate::config::checked_limits;
-use crate::output::{ensure_dir, numbered, write_csv};
+use crate::hardware::MoveLabel;
+use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, write_csv};
 use crate::plots::{Panel, Series, Style, plot_panels};
 use anyhow::{Result, anyhow, bail};
 use chessarm_chess::motion::{PlannedMove, TimingMode, plan_move};
@@ -17,6 +18,7 @@ use chessarm_chess::table::Table;
 use chessarm_chess::tasks::classify;
 use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::nalgebra::Vector2;
+use chessarm_core::plan::hardware::{GripperCommand, hardware_points};
 use chessarm_core::plan::path::sample_times;
 use chessarm_core::plan::path::{CartesianPath, CartesianSample};
 use chessarm_core::plan::topp::limit_curve;
@@ -75,7 +77,13 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
     }
     let cause = format!("--dt {}", crate::resources::show(args.dt));
     let plan = plan_scenario(setup, &args.scenario, args.dt, &cause)?;
-    let files = write_plan(&plan, &args.out, args.xlsx)?;
+    let mut files = write_plan(&plan, &args.out, args.xlsx)?;
+    let hardware = hardware_dir(&args.out)?;
+    let commands: Vec<GripperCommand> =
+        plan.path.events().iter().map(|e| GripperCommand { time: e.time, action: e.action }).collect();
+    let grips = vec![format!("the {} scenario's piece", plan.name); commands.len() / 2];
+    let label = MoveLabel { ply: 1, san: &plan.name, uci: "", grips };
+    files.extend(write_hardware(setup, &hardware, "scenario", &plan.path, &commands, &label, args.export_rate)?);
     let samples = plan.joint.samples();
     let peak = |f: fn(&JointSample) -> [f64; 4]| -> Vec<f64> {
         (0..4).map(|j| samples.iter().map(|s| f(s)[j].abs()).fold(0.0, f64::max)).collect()
@@ -290,6 +298,7 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
     let mut summaries = Vec::new();
     let mut files = Vec::new();
     let mut phase_files = Vec::new();
+    let hardware = hardware_dir(&args.out)?;
     for (index, mv) in record.moves.iter().enumerate() {
         let san = SanPlus::from_move(position.clone(), *mv).to_string();
         let uci = UciMove::from_move(*mv, CastlingMode::Standard).to_string();
@@ -303,6 +312,10 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
             .extend(sample_times(duration, args.dt)?.map(|t| CartesianSample { t: t + offset, ..motion.sample(t) }));
         joint.extend(sampled.samples().iter().map(|s| JointSample { t: s.t + offset, ..*s }));
         let name = format!("{:03}-{uci}", index + 1);
+        let grips = planned.tasks.iter().map(|t| t.task.to_string()).collect();
+        let label = MoveLabel { ply: index + 1, san: &san, uci: &uci, grips };
+        let commands = planned.gripper_commands();
+        files.extend(write_hardware(setup, &hardware, &name, motion, &commands, &label, args.export_rate)?);
         if !planned.legs.is_empty() {
             let png = args.out.join(format!("phase-{name}.png"));
             plot_phase_plane(&png, &format!("Phase plane of {san} ({uci}): why it takes {duration:.2} s"), &planned)?;
@@ -371,6 +384,32 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         }),
     )?;
     Ok(())
+}
+
+/// `<out>/hardware`, made, with an earlier run's files there removed (only those chessarm
+/// listed; another file named like one of its own is an error).
+fn hardware_dir(out: &Path) -> Result<std::path::PathBuf> {
+    let dir = out.join("hardware");
+    remove_listed_in(&dir)?;
+    refuse_unlisted(&dir, |name| name.ends_with(".csv") || name.ends_with(".json"))?;
+    ensure_dir(&dir)?;
+    Ok(dir)
+}
+
+/// Samples `motion` for hardware at `rate` Hz and writes `<dir>/<stem>.json` and `.csv`.
+fn write_hardware(
+    setup: &Setup,
+    dir: &Path,
+    stem: &str,
+    motion: &impl ToolMotion,
+    commands: &[GripperCommand],
+    label: &MoveLabel<'_>,
+    rate: f64,
+) -> Result<Vec<String>> {
+    let points = hardware_points(&setup.arm, motion, commands, TOOL_DOWN, rate).map_err(|e| {
+        anyhow!("{}: the hardware trajectory: {e}", if label.uci.is_empty() { label.san } else { label.uci })
+    })?;
+    crate::hardware::write_move(dir, stem, &setup.joint_names, &points, commands, label, rate)
 }
 
 /// The control period moves are planned for, s (as `play` simulates them).

@@ -4,6 +4,7 @@ use crate::cli::{PlayArgs, RobotSide};
 use crate::commands::simulate::controller_specs;
 use crate::conditions::Study;
 use crate::config::Setup;
+use crate::hardware::MoveLabel;
 use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json};
 use crate::plots::{Corner, Level, Panel, Series, Style, plot_panels, tick};
 use crate::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
@@ -118,6 +119,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     settings.pieces = setup.pieces;
     settings.limits = setup.motion;
     settings.timing = setup.timing;
+    settings.export_rate = Some(args.export_rate);
     settings.controller_knows_payload = args.controller_knows_payload;
     settings.integrator = args.integrator.integrator();
     settings.tolerance = args.tolerance_mm / 1e3;
@@ -145,14 +147,20 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     crate::resources::ensure_fits(&cause, "plies", plies, BYTES_PER_PLY)?;
     ensure_dir(&args.out)?;
     let moves_dir = args.out.join("moves");
+    let hardware_dir = args.out.join("hardware");
     // Results of an earlier game in the same folder must not pass for this one's; only files
     // an earlier chessarm run wrote (and listed) are removed.
     remove_stale(&[args.out.join("game.json")])?;
     remove_listed_in(&moves_dir)?;
     // Move CSVs are named NNN-<uci>.csv: any such file that is not chessarm's is refused now.
-    refuse_unlisted(&moves_dir, |name| {
-        name.ends_with(".csv") && name.len() > 4 && name.as_bytes()[..3].iter().all(u8::is_ascii_digit)
-    })?;
+    let numbered_file = |name: &str, extensions: &[&str]| {
+        extensions.iter().any(|e| name.ends_with(e))
+            && name.len() > 4
+            && name.as_bytes()[..3].iter().all(u8::is_ascii_digit)
+    };
+    refuse_unlisted(&moves_dir, |name| numbered_file(name, &[".csv"]))?;
+    remove_listed_in(&hardware_dir)?;
+    refuse_unlisted(&hardware_dir, |name| numbered_file(name, &[".csv", ".json"]))?;
     let started = Instant::now();
     let first_number = (start.fullmoves().get(), start.turn());
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
@@ -185,13 +193,27 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             }
         };
         let mover = if robot_moves(args.robot, turn) { Mover::Robot } else { Mover::Opponent };
-        let report = game.play(&mv, mover)?;
+        let mut report = game.play(&mv, mover)?;
         if reports.is_empty() {
             say(&bar, header.clone());
         }
         say(&bar, move_line(&report));
         if report.mover == Mover::Robot {
             write_move_csv(&moves_dir, &report)?;
+        }
+        if let Some(hardware) = report.hardware.take() {
+            ensure_dir(&hardware_dir)?;
+            let label =
+                MoveLabel { ply: report.ply, san: &report.san, uci: &report.uci, grips: hardware.grips.clone() };
+            crate::hardware::write_move(
+                &hardware_dir,
+                &format!("{:03}-{}", report.ply, report.uci),
+                &setup.joint_names,
+                &hardware.points,
+                &hardware.commands,
+                &label,
+                args.export_rate,
+            )?;
         }
         bar.inc(1);
         reports.push(report);
@@ -246,10 +268,11 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     );
     human.push_str(&format!("final position (FEN): {}\n", game.fen_physical()));
     human.push_str(&format!("Watch it: {} (open in a browser)\n", replay_path.display()));
-    let files: Vec<String> = [game_json_path, replay_path, plot, placement_plot, moves_dir]
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect();
+    let mut written = vec![game_json_path, replay_path, plot, placement_plot, moves_dir];
+    if hardware_dir.is_dir() {
+        written.push(hardware_dir);
+    }
+    let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     human.push_str(&crate::files_text(&files));
     crate::emit(
         &human,

@@ -400,7 +400,10 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let knows = if args.controller_knows_payload { " --controller-knows-payload" } else { "" };
     // The replay names the setup file, and takes the model errors from its [uncertainty] table
     // when they came from there.
-    let arm = setup.path.as_ref().map_or(String::new(), |p| format!("--arm {} ", p.display()));
+    let mut arm = setup.path.as_ref().map_or(String::new(), |p| format!("--arm {} ", p.display()));
+    if let Some(path) = &setup.urdf_path {
+        arm.push_str(&format!("--urdf {} ", path.display()));
+    }
     let from_setup = match (&args.conditions.uncertainty, &setup.path, &setup.uncertainty) {
         (None, Some(path), Some(_)) => format!(" --uncertainty {}", path.display()),
         _ => String::new(),

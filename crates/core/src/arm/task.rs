@@ -1,17 +1,20 @@
 //! Task space of the 4-DOF chess arm: tool-tip position (x, y, z) in m and tool pitch in rad,
 //! its Jacobian, and the closed-form inverse kinematics (report section "Inverse Kinematics",
-//! with ERRATA items 1–3 fixed).
+//! with ERRATA items 1–3 fixed, extended to offsets).
 //!
 //! The arm must be of the yaw + three-pitch family: joint 1 turns about the vertical base axis
-//! (`a1 = 0`, `α1 = +90°`, `d1 = l1`), joints 2–4 are parallel horizontal axes (`α = 0`,
-//! `d = 0`) with link lengths `l2, l3, l4`, and no angle offsets. The tool pitch is the angle of
-//! the tool's x axis above the horizontal: `pitch = q2 + q3 + q4`; the tool points straight down
-//! at `pitch = −π/2` ([`TOOL_DOWN`]).
+//! (`α1 = ±90°`, any `a1 ≥ 0`, `d1`, offset), joints 2–4 turn about parallel horizontal axes
+//! (`α2, α3 ∈ {0, π}`; any `a`, `d`, angle offsets; `α4` is free, it only turns the tool frame
+//! about its x axis). The tool pitch is the angle of the tool's x axis (from the last pitch
+//! axis to the tip) above the horizontal: `pitch = e·Σ_{k=2..4} σ_k (q_k + o_k)` with
+//! `e = sin α1` and `σ_k = ±1` the direction of joint k's axis along frame 1's z; for the
+//! report's arm (`e = σ = 1`, no offsets) `pitch = q2 + q3 + q4`, and the tool points straight
+//! down at `pitch = −π/2` ([`TOOL_DOWN`]).
 
 use super::kinematics::{ChainVelocities, FrameChain};
 use super::model::{ArmModel, JointVector};
 use nalgebra::{Matrix4, RowVector4, Vector3, Vector4};
-use std::f64::consts::FRAC_PI_2;
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Tool pitch with the gripper pointing straight down, rad.
 pub const TOOL_DOWN: f64 = -FRAC_PI_2;
@@ -19,17 +22,36 @@ pub const TOOL_DOWN: f64 = -FRAC_PI_2;
 /// Task-space coordinates `(x, y, z, pitch)`: m, m, m, rad.
 pub type TaskVector = Vector4<f64>;
 
-/// Link lengths of a yaw + three-pitch arm, m.
+/// How close (rad) a twist must be to the family's `±90°` or `0, π` to count as it.
+const TWIST_TOLERANCE: f64 = 1e-12;
+
+/// The geometry of a yaw + three-pitch arm, from its DH parameters.
+///
+/// In frame 1 (after the yaw) the pitch joints form a planar chain in the plane through frame
+/// 1's origin normal to its z axis, shifted `lateral` m along that z; the tip lies at
+/// `(a1 + X) u(θ) + e·lateral·v(θ) + (d1 + e·Y) ẑ` with `θ = q1 + o1`, `u = (cos θ, sin θ, 0)`,
+/// `v = (sin θ, −cos θ, 0)`, and `(X, Y) = Σ_k a_k (cos ψ_k, sin ψ_k)`,
+/// `ψ_k = Σ_{j≤k} σ_j (q_j + o_j)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlanarGeometry {
-    /// Shoulder height above the base.
+    /// Height of frame 1's origin (the shoulder) above the base, m (`d1`).
     pub l1: f64,
-    /// Upper arm.
+    /// Upper arm, m (`a2`).
     pub l2: f64,
-    /// Forearm.
+    /// Forearm, m (`a3`).
     pub l3: f64,
-    /// Wrist to tool tip.
+    /// Last pitch axis to tool tip, m (`a4`).
     pub l4: f64,
+    /// Horizontal distance of the shoulder axis from the base axis, m (`a1`).
+    pub shoulder_offset: f64,
+    /// Offset of the pitch plane along frame 1's z, m (`Σ σ_k d_k`, k = 2..4).
+    pub lateral: f64,
+    /// `sin α1`: +1 when frame 1's y points up, −1 when down.
+    pub up: f64,
+    /// Joint angle offsets `o1..o4`, rad.
+    pub offsets: [f64; 4],
+    /// `σ2..σ4`: +1 where the joint's axis points along frame 1's z, −1 against it.
+    pub signs: [f64; 3],
 }
 
 /// Why inverse kinematics has no solution.
@@ -39,6 +61,11 @@ pub enum IkError {
     NotFinite { target: [f64; 3] },
     #[error("target {} lies on the base axis (x = y = 0), where the base angle is undefined", show(.target))]
     OnBaseAxis { target: [f64; 3] },
+    #[error(
+        "target {} lies {} m from the base axis, within the arm's sideways offset of {} m, which no base angle reaches",
+        show(.target), metres(*.distance), metres(*.offset)
+    )]
+    InsideOffset { target: [f64; 3], distance: f64, offset: f64 },
     #[error("target {} is out of reach: {}", show(.target), reach_problem(*.needed, *.min, *.max))]
     OutOfReach { target: [f64; 3], needed: f64, min: f64, max: f64 },
     #[error(
@@ -81,59 +108,89 @@ fn metres(value: f64) -> String {
 }
 
 impl PlanarGeometry {
-    /// Extracts `l1..l4` from a model, or says which DH parameter breaks the arm family.
+    /// Reads the geometry from a model, or says which DH parameter breaks the arm family.
     pub fn of(model: &ArmModel<4>) -> Result<Self, IkError> {
         let links = model.links();
-        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
-        if !close(links[0].dh.a, 0.0) || !close(links[0].dh.alpha, FRAC_PI_2) {
+        let (sin1, cos1) = model.twist_trig(0);
+        if cos1.abs() > TWIST_TOLERANCE {
             return Err(IkError::UnsupportedModel(format!(
-                "link 1 needs a = 0 and alpha = +90°, has a = {} m, alpha = {} rad",
-                links[0].dh.a, links[0].dh.alpha
+                "link 1 needs alpha = ±90° (a vertical base axis, horizontal pitch axes), has alpha = {} rad",
+                links[0].dh.alpha
             )));
         }
-        for (i, link) in links.iter().enumerate() {
-            if !close(link.dh.theta_offset, 0.0) {
+        let mut signs = [1.0; 3];
+        for i in 1..3 {
+            let (sin, cos) = model.twist_trig(i);
+            if sin.abs() > TWIST_TOLERANCE {
                 return Err(IkError::UnsupportedModel(format!(
-                    "link {} has theta_offset = {} rad, needs 0",
+                    "link {} needs alpha = 0 or 180° (joint {}'s axis parallel to joint {}'s), has alpha = {} rad",
                     i + 1,
-                    link.dh.theta_offset
+                    i + 2,
+                    i + 1,
+                    links[i].dh.alpha
                 )));
             }
-            if i > 0 && (!close(link.dh.alpha, 0.0) || !close(link.dh.d, 0.0)) {
-                return Err(IkError::UnsupportedModel(format!(
-                    "link {} needs alpha = 0 and d = 0, has alpha = {} rad, d = {} m",
-                    i + 1,
-                    link.dh.alpha,
-                    link.dh.d
-                )));
-            }
+            signs[i] = signs[i - 1] * cos.signum();
         }
-        Ok(Self { l1: links[0].dh.d, l2: links[1].dh.a, l3: links[2].dh.a, l4: links[3].dh.a })
+        let lateral = (1..4).map(|k| signs[k - 1] * links[k].dh.d).sum();
+        Ok(Self {
+            l1: links[0].dh.d,
+            l2: links[1].dh.a,
+            l3: links[2].dh.a,
+            l4: links[3].dh.a,
+            shoulder_offset: links[0].dh.a,
+            lateral,
+            up: sin1.signum(),
+            offsets: links.map(|link| link.dh.theta_offset),
+            signs,
+        })
     }
 
     /// Shortest and longest shoulder-to-wrist distance, m.
     pub fn wrist_reach(&self) -> (f64, f64) {
         ((self.l2 - self.l3).abs(), self.l2 + self.l3)
     }
+
+    /// Tool pitch above the horizontal for joint angles `q`, rad: `e·Σ σ_k (q_k + o_k)`.
+    pub fn pitch(&self, q: &JointVector<4>) -> f64 {
+        let [_, o2, o3, o4] = self.offsets;
+        let [s2, s3, s4] = self.signs;
+        self.up * (s2 * (q[1] + o2) + s3 * (q[2] + o3) + s4 * (q[3] + o4))
+    }
+
+    /// `∂pitch/∂q`: `e·[0, σ2, σ3, σ4]`.
+    fn pitch_row(&self) -> RowVector4<f64> {
+        let [s2, s3, s4] = self.signs;
+        RowVector4::new(0.0, s2, s3, s4) * self.up
+    }
 }
 
 /// Tool-tip position (m) and pitch (rad) for joint angles `q`.
 pub fn tool_point(model: &ArmModel<4>, q: &JointVector<4>) -> TaskVector {
     let tip = FrameChain::new(model, q).tip();
-    TaskVector::new(tip.x, tip.y, tip.z, tool_pitch(q))
+    TaskVector::new(tip.x, tip.y, tip.z, tool_pitch(model, q))
 }
 
-/// Tool pitch above the horizontal, rad: `q2 + q3 + q4`.
-pub fn tool_pitch(q: &JointVector<4>) -> f64 {
-    q[1] + q[2] + q[3]
+/// Tool pitch above the horizontal, rad ([`PlanarGeometry::pitch`]; `q2 + q3 + q4` for the
+/// report's arm). For an arm outside the family, the plain sum `Σ_{k=2..4} (q_k + o_k)`.
+pub fn tool_pitch(model: &ArmModel<4>, q: &JointVector<4>) -> f64 {
+    match PlanarGeometry::of(model) {
+        Ok(geometry) => geometry.pitch(q),
+        Err(_) => (1..4).map(|k| q[k] + model.link(k).dh.theta_offset).sum(),
+    }
+}
+
+/// `∂pitch/∂q` of [`tool_pitch`].
+fn pitch_row(model: &ArmModel<4>) -> RowVector4<f64> {
+    PlanarGeometry::of(model).map_or(RowVector4::new(0.0, 1.0, 1.0, 1.0), |geometry| geometry.pitch_row())
 }
 
 /// Task Jacobian `J(q)` with `[ẋ ẏ ż pitch˙]ᵀ = J q̇`: the tip's linear geometric Jacobian
-/// over the pitch row `[0 1 1 1]`.
+/// over the pitch row `e·[0 σ2 σ3 σ4]` (`[0 1 1 1]` for the report's arm).
 pub fn task_jacobian(model: &ArmModel<4>, q: &JointVector<4>) -> Matrix4<f64> {
     let chain = FrameChain::new(model, q);
     let (linear, _) = chain.point_jacobian(&chain.tip(), 3);
-    stack_task_rows(&linear, RowVector4::new(0.0, 1.0, 1.0, 1.0))
+    stack_task_rows(&linear, pitch_row(model))
 }
 
 /// `J̇(q, q̇)`, the time derivative of [`task_jacobian`] along `q̇`, analytic (no finite
@@ -158,11 +215,16 @@ const REACH_ROUNDING: f64 = 64.0 * f64::EPSILON;
 /// Closed-form inverse kinematics, elbow up, for the tool tip at `target` (m, base frame) with
 /// the given tool `pitch` (rad; [`TOOL_DOWN`] to grip pieces).
 ///
-/// With `θ = atan2(y, x)`, `p = √(x² + y²)`, the wrist sits at `p_w = p − l4 cos(pitch)`,
-/// `z_w = z − l4 sin(pitch)`. With `d = √(p_w² + (z_w − l1)²)` and `w = atan2(z_w − l1, p_w)`:
-/// `θ1 = θ`, `θ2 = w + acos((l2² + d² − l3²)/(2 l2 d))` (ERRATA 1, 2),
-/// forearm angle `φ = atan2(z_w − l1 − l2 sin θ2, p_w − l2 cos θ2)` (ERRATA 3),
-/// `θ3 = φ − θ2`, `θ4 = pitch − φ`. Checked against the joint limits.
+/// With `r = √(x² + y²)` and the sideways offset `s` ([`PlanarGeometry::lateral`]), the pitch
+/// plane lies `R = √(r² − s²)` m out along `u(θ)` with `θ = atan2(y, x) + atan2(e·s, R)`, so
+/// `q1 = θ − o1`. In that plane, with `X = R − a1`, `H = z − d1` (height above the shoulder):
+/// the wrist sits at `X_w = X − l4 cos(pitch)`, `H_w = H − l4 sin(pitch)`. With
+/// `d = √(X_w² + H_w²)` and `w = atan2(H_w, X_w)`: shoulder elevation
+/// `β2 = w + acos((l2² + d² − l3²)/(2 l2 d))` (ERRATA 1, 2), forearm elevation
+/// `β3 = atan2(H_w − l2 sin β2, X_w − l2 cos β2)` (ERRATA 3), `β4 = pitch`. The joint angles
+/// follow from `ψ_k = e·β_k`: `q2 = σ2 ψ2 − o2`, `q3 = σ3 (ψ3 − ψ2) − o3`,
+/// `q4 = σ4 (ψ4 − ψ3) − o4`; for the report's arm `θ2 = β2`, `θ3 = β3 − β2`, `θ4 = pitch − β3`.
+/// Checked against the joint limits.
 pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64) -> Result<JointVector<4>, IkError> {
     let geometry = PlanarGeometry::of(model)?;
     let shown = [target.x, target.y, target.z];
@@ -173,9 +235,17 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
     if radial < 1e-9 {
         return Err(IkError::OnBaseAxis { target: shown });
     }
-    let PlanarGeometry { l1, l2, l3, l4 } = geometry;
+    let PlanarGeometry { l1, l2, l3, l4, shoulder_offset, lateral, up, offsets, signs } = geometry;
+    // In the plane: how far out along u(θ) (the report's arm: `radial` itself).
+    let plane_radial = if lateral == 0.0 {
+        radial
+    } else if radial > lateral.abs() + 1e-9 {
+        (radial * radial - lateral * lateral).sqrt()
+    } else {
+        return Err(IkError::InsideOffset { target: shown, distance: radial, offset: lateral.abs() });
+    };
     let (sin_pitch, cos_pitch) = pitch.sin_cos();
-    let wrist_radial = radial - l4 * cos_pitch;
+    let wrist_radial = plane_radial - shoulder_offset - l4 * cos_pitch;
     let wrist_height = target.z - l4 * sin_pitch - l1;
     let distance = wrist_radial.hypot(wrist_height);
     let (min, max) = geometry.wrist_reach();
@@ -188,10 +258,23 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
     if !(distance >= min - slack && distance <= max + slack && cos_elbow.is_finite()) {
         return Err(IkError::OutOfReach { target: shown, needed: distance, min, max });
     }
-    let base = target.y.atan2(target.x);
+    let mut base = target.y.atan2(target.x);
+    if lateral != 0.0 {
+        base += (up * lateral).atan2(plane_radial);
+    }
     let shoulder = wrist_height.atan2(wrist_radial) + cos_elbow.acos();
     let forearm = (wrist_height - l2 * shoulder.sin()).atan2(wrist_radial - l2 * shoulder.cos());
-    let q = JointVector::<4>::new(base, shoulder, wrap_angle(forearm - shoulder), wrap_angle(pitch - forearm));
+    let [o1, o2, o3, o4] = offsets;
+    let [s2, s3, s4] = signs;
+    // `up·β = ψ`; for the report's arm every factor is 1 and every offset 0, which leaves the
+    // angles bit for bit as the report's formulas give them.
+    let (shoulder, forearm, tool) = (up * shoulder, up * forearm, up * pitch);
+    let q = JointVector::<4>::new(
+        principal(base - o1),
+        principal(s2 * shoulder - o2),
+        wrap_angle(s3 * (forearm - shoulder) - o3),
+        wrap_angle(s4 * (tool - forearm) - o4),
+    );
     match model.first_limit_violation(&q) {
         Some((joint, value, lower, upper)) => {
             Err(IkError::JointLimit { target: shown, joint: joint + 1, value, lower, upper })
@@ -200,9 +283,14 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
     }
 }
 
+/// `angle` itself when already in `(−π, π]`, else [`wrap_angle`] of it.
+fn principal(angle: f64) -> f64 {
+    if angle > -PI && angle <= PI { angle } else { wrap_angle(angle) }
+}
+
 /// The same angle in `(−π, π]`, rad.
 pub fn wrap_angle(angle: f64) -> f64 {
-    use std::f64::consts::{PI, TAU};
+    use std::f64::consts::TAU;
     let wrapped = (angle + PI).rem_euclid(TAU) - PI;
     if wrapped <= -PI { wrapped + TAU } else { wrapped }
 }

@@ -3,6 +3,7 @@
 
 pub mod constraints;
 pub mod geometric;
+pub mod hardware;
 pub mod optimal;
 pub mod path;
 pub mod profile;

@@ -1,0 +1,116 @@
+//! Trajectories for real hardware (`hardware/` of `play` and `plan`): per robot move, the
+//! *planned* joint motion at `--export-rate` Hz with the gripper's commands, in two layouts.
+//!
+//! - `NNN-<uci>.json`: `{"trajectory": …, "gripper": […], "move": {…}, "rate_hz": …}` where
+//!   `trajectory` has exactly the fields of ROS 2's `trajectory_msgs/msg/JointTrajectory`
+//!   (`header`, `joint_names`, `points[]` with `positions` rad, `velocities` rad/s,
+//!   `accelerations` rad/s², `effort` (empty), `time_from_start` {`sec`, `nanosec`}), so
+//!   `rosidl_runtime_py.set_message_fields(JointTrajectory(), data["trajectory"])` fills the
+//!   message; `gripper` lists the commands (`close`/`open`, the instant, the piece and where).
+//! - `NNN-<uci>.csv`: `t` s, `q1..q4` rad, `qd1..qd4` rad/s, `qdd1..qdd4` rad/s², `gripper`
+//!   (`open`/`closed`), `piece` (the piece held, empty when open): one row per sample, to stream
+//!   to servos row by row at the times in `t`.
+//!
+//! Times are from the move's start; each move starts where the previous one ended, at rest.
+
+use crate::output::{numbered, write_atomic};
+use anyhow::{Context, Result};
+use chessarm_core::plan::hardware::{GripperCommand, HardwarePoint};
+use chessarm_core::plan::path::GripperAction;
+use serde_json::{Value, json};
+use std::path::Path;
+
+/// ROS 2's `builtin_interfaces/Duration` of `t` s: whole seconds and nanoseconds.
+pub fn ros_duration(t: f64) -> Value {
+    let total = (t * 1e9).round() as i64;
+    json!({"sec": total.div_euclid(1_000_000_000), "nanosec": total.rem_euclid(1_000_000_000)})
+}
+
+/// `v` with a negative zero made zero (no "-0.0" in the files).
+fn plain(v: f64) -> f64 {
+    v + 0.0
+}
+
+/// What one move's export says about the move.
+#[derive(Debug, Clone)]
+pub struct MoveLabel<'a> {
+    pub ply: usize,
+    pub san: &'a str,
+    pub uci: &'a str,
+    /// Per grip, in order: the piece and where it goes ("white pawn from e2 to e4").
+    pub grips: Vec<String>,
+}
+
+/// Writes `<dir>/<stem>.json` and `<dir>/<stem>.csv`; returns their paths.
+pub fn write_move(
+    dir: &Path,
+    stem: &str,
+    joint_names: &[String; 4],
+    points: &[HardwarePoint],
+    commands: &[GripperCommand],
+    label: &MoveLabel<'_>,
+    rate: f64,
+) -> Result<Vec<String>> {
+    let json_path = dir.join(format!("{stem}.json"));
+    let csv_path = dir.join(format!("{stem}.csv"));
+    let mut grips: usize = 0;
+    let gripper: Vec<Value> = commands
+        .iter()
+        .map(|command| {
+            let close = command.action == GripperAction::Grip;
+            let piece =
+                label.grips.get(if close { grips } else { grips.saturating_sub(1) }).cloned().unwrap_or_default();
+            if close {
+                grips += 1;
+            }
+            json!({
+                "time_from_start": ros_duration(command.time),
+                "t": command.time,
+                "command": if close { "close" } else { "open" },
+                "piece": piece,
+            })
+        })
+        .collect();
+    let value = json!({
+        "trajectory": {
+            "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "base_link"},
+            "joint_names": joint_names,
+            "points": points.iter().map(|p| json!({
+                "positions": p.q.map(plain).as_slice(),
+                "velocities": p.qd.map(plain).as_slice(),
+                "accelerations": p.qdd.map(plain).as_slice(),
+                "effort": [],
+                "time_from_start": ros_duration(p.t),
+            })).collect::<Vec<_>>(),
+        },
+        "gripper": gripper,
+        "move": {"ply": label.ply, "san": label.san, "uci": label.uci},
+        "rate_hz": rate,
+        "units": {"positions": "rad", "velocities": "rad/s", "accelerations": "rad/s^2", "t": "s"},
+    });
+    // One line: a game's moves at 100 Hz would be megabytes of indentation.
+    write_atomic(&json_path, |out| {
+        serde_json::to_writer(&mut *out, &value)?;
+        writeln!(out)?;
+        Ok(())
+    })?;
+    write_atomic(&csv_path, |out| {
+        let mut writer = csv::Writer::from_writer(out);
+        let mut header = vec!["t".to_string()];
+        header.extend(numbered("q", 4).chain(numbered("qd", 4)).chain(numbered("qdd", 4)));
+        header.extend(["gripper".to_string(), "piece".to_string()]);
+        writer.write_record(&header)?;
+        for point in points {
+            let mut row: Vec<String> = vec![format!("{:?}", point.t)];
+            row.extend(
+                point.q.iter().chain(point.qd.iter()).chain(point.qdd.iter()).map(|v| format!("{:?}", plain(*v))),
+            );
+            row.push(if point.gripper_closed { "closed" } else { "open" }.to_string());
+            row.push(point.grip.and_then(|g| label.grips.get(g)).cloned().unwrap_or_default());
+            writer.write_record(&row)?;
+        }
+        writer.flush().context("cannot write the CSV")?;
+        Ok(())
+    })?;
+    Ok(vec![json_path.display().to_string(), csv_path.display().to_string()])
+}

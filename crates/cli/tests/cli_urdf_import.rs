@@ -1,0 +1,353 @@
+//! `--urdf FILE`: the user's own arm from URDF. The export → import round trip gives the same
+//! dynamics; a hand-written arm with joint origins that are not DH-aligned gives the FK and
+//! dynamics of an independent computation straight from the URDF's frames (parsed by urdf-rs,
+//! not by chessarm); everything outside the supported shape is an error naming the element.
+
+#![allow(clippy::unwrap_used, clippy::needless_range_loop)] // tests; index loops read as the formulas
+
+mod common;
+
+use chessarm_core::nalgebra::{Matrix3, Matrix4, Rotation3, Vector3, Vector4};
+use common::{assert_one_line_error, chessarm, json_of, numbers};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/offset-arm.urdf");
+
+/// Seeded joint states spread over the joints' ranges (a small LCG: reproducible, no crate).
+fn states(count: usize, seed: u64) -> Vec<([f64; 4], [f64; 4])> {
+    let mut state = seed;
+    let mut next = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    (0..count).map(|_| (std::array::from_fn(|_| 2.5 * next()), std::array::from_fn(|_| 2.0 * next()))).collect()
+}
+
+fn list(values: &[f64; 4]) -> String {
+    values.map(|v| format!("{v:e}")).join(",")
+}
+
+/// `dynamics` and `fk` of the arm `arm_args` at `(q, q̇)`: M, C·q̇, g and the tip.
+fn chessarm_terms(
+    arm_args: &[&str],
+    q: &[f64; 4],
+    qd: &[f64; 4],
+) -> (Matrix4<f64>, Vector4<f64>, Vector4<f64>, Vector3<f64>) {
+    let (q, qd) = (list(q), list(qd));
+    let mut args = arm_args.to_vec();
+    args.extend(["dynamics", "--q", &q, "--qd", &qd]);
+    let dynamics = json_of(&chessarm(&args));
+    let mut args = arm_args.to_vec();
+    args.extend(["fk", "--q", &q]);
+    let fk = json_of(&chessarm(&args));
+    let rows: Vec<Vec<f64>> = dynamics["M"].as_array().unwrap().iter().map(numbers).collect();
+    let mass = Matrix4::from_fn(|i, j| rows[i][j]);
+    let vector = |value: &Value| Vector4::from_vec(numbers(value));
+    (mass, vector(&dynamics["c"]), vector(&dynamics["g"]), Vector3::from_vec(numbers(&fk["tip"])))
+}
+
+fn max_abs<const R: usize, const C: usize>(m: &chessarm_core::nalgebra::SMatrix<f64, R, C>) -> f64 {
+    m.abs().max()
+}
+
+#[test]
+fn urdf_export_then_import_gives_the_same_dynamics() {
+    let dir = tempfile::tempdir().unwrap();
+    // The report's arm, and an asymmetric one: offsets along every axis, angle offsets, a
+    // shoulder beside the base axis, a downward-pointing frame 1, motors and friction.
+    let asymmetric = dir.path().join("asymmetric.toml");
+    std::fs::write(
+        &asymmetric,
+        "gravity = [0.0, 0.0, -9.81]\n\
+         [[links]]\na = 0.02\nalpha = -1.5707963267948966\nd = 0.2\ntheta_offset = 0.3\nmotor_mass = 0.0\nviscous = 0.1\n\
+         [[links]]\na = 0.28\nd = 0.03\ntheta_offset = -0.2\nmotor_mass = 0.25\ncom = [-0.12, 0.01, 0.02]\n\
+         [[links]]\na = 0.31\nalpha = 3.141592653589793\nd = -0.01\ntheta_offset = 0.4\nmotor_mass = 0.15\ncoulomb = 0.02\n\
+         [[links]]\na = 0.1\nalpha = 0.3\nd = 0.015\ntheta_offset = 0.1\nmotor_mass = 0.05\n",
+    )
+    .unwrap();
+    for (name, arm_args) in [("report", vec![]), ("asymmetric", vec!["--arm", asymmetric.to_str().unwrap()])] {
+        let mut args = arm_args.clone();
+        args.push("urdf");
+        let output = chessarm(&args);
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        let urdf = dir.path().join(format!("{name}.urdf"));
+        std::fs::write(&urdf, &output.stdout).unwrap();
+        let imported = vec!["--urdf", urdf.to_str().unwrap()];
+        for (q, qd) in states(12, 7) {
+            let (m0, c0, g0, tip0) = chessarm_terms(&arm_args, &q, &qd);
+            let (m1, c1, g1, tip1) = chessarm_terms(&imported, &q, &qd);
+            // Both sides are the same arithmetic on parameters that went through 17-digit text
+            // and an Euler-angle round trip: agreement to rounding, far inside 1e-12.
+            assert!(max_abs(&(m0 - m1)) < 1e-12, "{name} M at q = {q:?}: {m0} vs {m1}");
+            assert!(max_abs(&(c0 - c1)) < 1e-12, "{name} C·q̇ at {q:?}, {qd:?}: {c0} vs {c1}");
+            assert!(max_abs(&(g0 - g1)) < 1e-12, "{name} g at {q:?}: {g0} vs {g1}");
+            assert!((tip0 - tip1).norm() < 1e-12, "{name} tip at {q:?}: {tip0} vs {tip1}");
+        }
+    }
+}
+
+/// A rigid body of the independent model: mass, COM and inertia in the frame of the joint that
+/// moves it.
+struct Body {
+    joint: usize,
+    mass: f64,
+    com: Vector3<f64>,
+    inertia: Matrix3<f64>,
+}
+
+/// The fixture's chain as urdf-rs reads it: per moving joint its origin, axis; the bodies; the
+/// tool offset — composed straight from the URDF (no DH anywhere).
+struct Independent {
+    /// Per moving joint: the fixed transforms from the previous moving joint's frame to it.
+    origins: Vec<(Rotation3<f64>, Vector3<f64>)>,
+    axes: Vec<Vector3<f64>>,
+    bodies: Vec<Body>,
+    tool: Vector3<f64>,
+}
+
+fn pose_of(pose: &urdf_rs::Pose) -> (Rotation3<f64>, Vector3<f64>) {
+    let [r, p, y] = [pose.rpy[0], pose.rpy[1], pose.rpy[2]];
+    (Rotation3::from_euler_angles(r, p, y), Vector3::new(pose.xyz[0], pose.xyz[1], pose.xyz[2]))
+}
+
+fn independent(path: &Path) -> Independent {
+    let robot = urdf_rs::read_file(path).unwrap();
+    let link = |name: &str| robot.links.iter().find(|l| l.name == name).unwrap();
+    let mut origins = Vec::new();
+    let mut axes = Vec::new();
+    let mut bodies = Vec::new();
+    // Pose of the current link in the last moving joint's frame.
+    let (mut rotation, mut translation) = (Rotation3::identity(), Vector3::zeros());
+    let mut current = "base_link".to_string();
+    while let Some(joint) = robot.joints.iter().find(|j| j.parent.link == current) {
+        let (r, t) = pose_of(&joint.origin);
+        let (r, t) = (rotation * r, rotation * t + translation);
+        let moving = matches!(joint.joint_type, urdf_rs::JointType::Revolute);
+        if moving {
+            origins.push((r, t));
+            axes.push(Vector3::new(joint.axis.xyz[0], joint.axis.xyz[1], joint.axis.xyz[2]));
+            (rotation, translation) = (Rotation3::identity(), Vector3::zeros());
+        } else {
+            (rotation, translation) = (r, t);
+        }
+        current = joint.child.link.clone();
+        let inertial = &link(&current).inertial;
+        if !origins.is_empty() && inertial.mass.value > 0.0 {
+            let (ri, ti) = pose_of(&inertial.origin);
+            let i = &inertial.inertia;
+            let tensor = Matrix3::new(i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz);
+            let turn = rotation * ri;
+            bodies.push(Body {
+                joint: origins.len() - 1,
+                mass: inertial.mass.value,
+                com: rotation * ti + translation,
+                inertia: turn.matrix() * tensor * turn.matrix().transpose(),
+            });
+        }
+    }
+    assert_eq!(origins.len(), 4);
+    Independent { origins, axes, bodies, tool: translation }
+}
+
+impl Independent {
+    /// Joint frames (rotation, origin) in the base frame at `q`.
+    fn frames(&self, q: &[f64; 4]) -> Vec<(Rotation3<f64>, Vector3<f64>)> {
+        let mut frames: Vec<(Rotation3<f64>, Vector3<f64>)> = Vec::new();
+        let (mut rotation, mut translation) = (Rotation3::identity(), Vector3::zeros());
+        for k in 0..4 {
+            let (r, t) = &self.origins[k];
+            translation += rotation * t;
+            rotation = rotation
+                * r
+                * Rotation3::from_axis_angle(&chessarm_core::nalgebra::Unit::new_normalize(self.axes[k]), q[k]);
+            frames.push((rotation, translation));
+        }
+        frames
+    }
+
+    fn tip(&self, q: &[f64; 4]) -> Vector3<f64> {
+        let (rotation, translation) = self.frames(q)[3];
+        rotation * self.tool + translation
+    }
+
+    /// `M(q) = Σ_b m Jvᵀ Jv + Jωᵀ (R I Rᵀ) Jω` and `g(q) = −Σ_b m Jvᵀ g⃗`, with the columns of
+    /// joint j ≤ b's joint `Jv_j = u_j × (c − p_j)`, `Jω_j = u_j`.
+    fn mass_and_gravity(&self, q: &[f64; 4], gravity: &Vector3<f64>) -> (Matrix4<f64>, Vector4<f64>) {
+        let frames = self.frames(q);
+        let world_axes: Vec<Vector3<f64>> = (0..4).map(|k| frames[k].0 * self.axes[k].normalize()).collect();
+        let mut mass = Matrix4::zeros();
+        let mut torque = Vector4::zeros();
+        for body in &self.bodies {
+            let (rotation, origin) = frames[body.joint];
+            let com = rotation * body.com + origin;
+            let inertia = rotation.matrix() * body.inertia * rotation.matrix().transpose();
+            let mut linear = chessarm_core::nalgebra::Matrix3x4::zeros();
+            let mut angular = chessarm_core::nalgebra::Matrix3x4::zeros();
+            for j in 0..=body.joint {
+                linear.set_column(j, &world_axes[j].cross(&(com - frames[j].1)));
+                angular.set_column(j, &world_axes[j]);
+            }
+            mass += linear.transpose() * linear * body.mass + angular.transpose() * inertia * angular;
+            torque -= linear.transpose() * gravity * body.mass;
+        }
+        (mass, torque)
+    }
+}
+
+#[test]
+fn a_hand_written_urdf_arm_gives_the_independent_fk_and_dynamics() {
+    let model = independent(Path::new(FIXTURE));
+    let gravity = Vector3::new(0.0, 0.0, -9.8);
+    let arm = ["--urdf", FIXTURE];
+    for (q, qd) in states(16, 11) {
+        let (mass, coriolis, g, tip) = chessarm_terms(&arm, &q, &qd);
+        let (expected_mass, expected_g) = model.mass_and_gravity(&q, &gravity);
+        // Two formulations of the same rigid bodies (DH recursion vs URDF frames with geometric
+        // Jacobians): equal to rounding, here ~1e-17; 1e-12 leaves room for the import's
+        // snapping of the axes, which rounds at 1e-16 for this file.
+        assert!((model.tip(&q) - tip).norm() < 1e-12, "tip at q = {q:?}: {} vs {tip}", model.tip(&q));
+        assert!(max_abs(&(expected_mass - mass)) < 1e-12, "M at q = {q:?}:\n{expected_mass} vs\n{mass}");
+        assert!(max_abs(&(expected_g - g)) < 1e-12, "g at q = {q:?}: {expected_g} vs {g}");
+        // C(q, q̇)·q̇ from the Christoffel symbols of the independent M by central differences:
+        // `(C q̇)_i = Σ_jk (∂M_ij/∂q_k − ½ ∂M_jk/∂q_i) q̇_j q̇_k`. Step 1e-5 rad: truncation
+        // ~1e-10 · |∂³M|, rounding ~1e-16/1e-5; 1e-8 N·m is far above both, far below any term.
+        let step = 1e-5;
+        let derivative = |k: usize| {
+            let (mut plus, mut minus) = (q, q);
+            plus[k] += step;
+            minus[k] -= step;
+            (model.mass_and_gravity(&plus, &gravity).0 - model.mass_and_gravity(&minus, &gravity).0) / (2.0 * step)
+        };
+        let dm: Vec<Matrix4<f64>> = (0..4).map(derivative).collect();
+        let v = Vector4::from(qd);
+        let mut expected_c = Vector4::zeros();
+        for i in 0..4 {
+            for j in 0..4 {
+                for k in 0..4 {
+                    expected_c[i] += (dm[k][(i, j)] - 0.5 * dm[i][(j, k)]) * v[j] * v[k];
+                }
+            }
+        }
+        assert!(max_abs(&(expected_c - coriolis)) < 1e-8, "C·q̇ at {q:?}, {qd:?}: {expected_c} vs {coriolis}");
+    }
+}
+
+#[test]
+fn a_urdf_arm_reaches_every_square_and_plays_a_move() {
+    // FK(IK(x)) = x over the board for the fixture's offset geometry (its pitch plane lies 79 mm
+    // beside the base axis, frame 1 points down, the elbow axis is reversed).
+    for file in ['a', 'd', 'h'] {
+        for rank in ['1', '4', '8'] {
+            let square = format!("{file}{rank}");
+            let ik = json_of(&chessarm(&["--urdf", FIXTURE, "ik", "--square", &square, "--height", "0.03"]));
+            let q = numbers(&ik["q"]);
+            let q = list(&[q[0], q[1], q[2], q[3]]);
+            let fk = json_of(&chessarm(&["--urdf", FIXTURE, "fk", "--q", &q]));
+            let tip = numbers(&fk["tip"]);
+            let f = f64::from(file as u8 - b'a');
+            let r = f64::from(rank as u8 - b'1');
+            let expected = [(f - 3.5) * 0.06, 0.33 + (r - 3.5) * 0.06, 0.03];
+            for (axis, (got, want)) in tip.iter().zip(expected).enumerate() {
+                assert!((got - want).abs() < 1e-12, "{square} axis {axis}: {got} vs {want}");
+            }
+            assert!((fk["pitch"].as_f64().unwrap() + std::f64::consts::FRAC_PI_2).abs() < 1e-12, "{square}: {fk}");
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("play");
+    let report = json_of(&chessarm(&["--urdf", FIXTURE, "play", "--moves", "e4", "--out", out.to_str().unwrap()]));
+    assert_eq!(report["misplaced"].as_u64(), Some(0), "{report}");
+}
+
+/// Writes `text` as a URDF in `dir` and runs `chessarm --urdf it fk`.
+fn import(dir: &Path, name: &str, text: &str) -> std::process::Output {
+    let path: PathBuf = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    chessarm(&["--urdf", path.to_str().unwrap(), "fk", "--q", "0,0,0,0"])
+}
+
+#[test]
+fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = std::fs::read_to_string(FIXTURE).unwrap();
+    let edit = |from: &str, to: &str| {
+        assert!(fixture.contains(from), "{from}");
+        fixture.replacen(from, to, 1)
+    };
+    let line_of = |needle: &str| fixture[..fixture.find(needle).unwrap()].matches('\n').count() + 1;
+    let elbow_line = format!("line {}", line_of(r#"<joint name="elbow""#));
+    let cases: Vec<(&str, String, Vec<String>)> = vec![
+        (
+            "prismatic",
+            edit(r#"<joint name="elbow" type="revolute">"#, r#"<joint name="elbow" type="prismatic">"#),
+            vec![elbow_line.clone(), "elbow".into(), "prismatic".into(), "revolute joints only".into()],
+        ),
+        (
+            "wrist roll",
+            edit(
+                "<origin xyz=\"0.32 -0.015 -0.01\" rpy=\"0 0.6 0\"/>\n    <axis xyz=\"0 1 0\"/>",
+                "<origin xyz=\"0.32 -0.015 -0.01\" rpy=\"0 0.6 0\"/>\n    <axis xyz=\"1 0 0\"/>",
+            ),
+            vec!["joint 'wrist'".into(), "not parallel to joint 'shoulder'".into(), "wrist roll".into()],
+        ),
+        (
+            "branching tree",
+            edit(
+                "  <link name=\"tool\"/>",
+                "  <link name=\"tool\"/>\n  <link name=\"camera\"/>\n  <joint name=\"camera_mount\" type=\"fixed\"><parent link=\"forearm\"/><child link=\"camera\"/></joint>",
+            ),
+            vec!["link 'forearm' has 2 child joints".into(), "'wrist', 'camera_mount'".into(), "branching".into()],
+        ),
+        (
+            "missing inertial",
+            edit(
+                "  <link name=\"forearm\">\n    <inertial>\n      <origin xyz=\"0.16 -0.01 0.0\" rpy=\"0.2 0 0.1\"/>\n      <mass value=\"0.45\"/>\n      <inertia ixx=\"0.0003\" ixy=\"-0.00002\" ixz=\"0\" iyy=\"0.0052\" iyz=\"0\" izz=\"0.005\"/>\n    </inertial>\n  </link>",
+                "  <link name=\"forearm\"/>",
+            ),
+            vec!["<link name=\"forearm\">".into(), "no <inertial>".into(), "moved by joint 'elbow'".into()],
+        ),
+        (
+            "tilted base",
+            edit(r#"<origin xyz="0 0 0.04" rpy="0 0 0.25"/>"#, r#"<origin xyz="0 0 0.04" rpy="0.2 0 0.25"/>"#),
+            vec!["joint 'waist'".into(), "base yaw".into()],
+        ),
+        (
+            "no tool",
+            edit(
+                "  <joint name=\"tool_flange\" type=\"fixed\">",
+                "  <joint name=\"tool_flange\" type=\"fixed\">\n    <!-- cut -->",
+            )
+            .split("  <joint name=\"tool_flange\"")
+            .next()
+            .unwrap()
+            .to_string()
+                + "</robot>\n",
+            vec!["ends at link 'wrist_link'".into(), "fixed joint to a tool link".into()],
+        ),
+        (
+            "three joints",
+            edit(r#"<joint name="waist" type="revolute">"#, r#"<joint name="waist" type="fixed">"#),
+            vec!["3 moving joints".into(), "base_link → pedestal → turret".into()],
+        ),
+        (
+            "not a number",
+            edit(r#"effort="30""#, r#"effort="thirty""#),
+            vec![
+                format!("line {}", line_of(r#"effort="30""#)),
+                r#"effort="thirty""#.into(),
+                "not a finite number".into(),
+            ],
+        ),
+        ("not XML", edit("</robot>", "</robt>"), vec!["not valid XML".into()]),
+    ];
+    for (case, text, needles) in cases {
+        let output = import(dir.path(), "bad.urdf", &text);
+        let mut needles: Vec<&str> = needles.iter().map(String::as_str).collect();
+        needles.push("bad.urdf");
+        eprintln!("{case}: {}", String::from_utf8_lossy(&output.stderr).trim_end());
+        assert_one_line_error(&output, &needles);
+    }
+    let missing = chessarm(&["--urdf", "no/such.urdf", "fk", "--q", "0,0,0,0"]);
+    assert_one_line_error(&missing, &["cannot read URDF file no/such.urdf"]);
+}
