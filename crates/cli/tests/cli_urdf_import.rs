@@ -12,7 +12,7 @@ use common::{assert_one_line_error, chessarm, json_of, numbers};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/offset-arm.urdf");
+const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
 
 /// Seeded joint states spread over the joints' ranges (a small LCG: reproducible, no crate).
 fn states(count: usize, seed: u64) -> Vec<([f64; 4], [f64; 4])> {

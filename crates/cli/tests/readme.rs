@@ -101,6 +101,13 @@ fn every_readme_example_runs_and_keeps_its_promises() {
     for (name, text) in &files {
         std::fs::write(dir.path().join(name), text).unwrap();
     }
+    // The repository's examples/ folder, which the README's examples name.
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    std::fs::create_dir(dir.path().join("examples")).unwrap();
+    for entry in std::fs::read_dir(&examples).unwrap() {
+        let entry = entry.unwrap();
+        std::fs::copy(entry.path(), dir.path().join("examples").join(entry.file_name())).unwrap();
+    }
     for command in &commands {
         let args: Vec<String> = words(command).into_iter().skip(3).skip_while(|w| w == "--").collect();
         if let Some(engine) = args.iter().skip_while(|a| *a != "--engine").nth(1)
@@ -140,7 +147,16 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             assert!(dir.join("out/simulate/summary.json").exists() && dir.join("out/plan/joint.csv").exists());
             assert!(dir.join("out/simulate/replay.html").exists());
         }
+        Some("plan") if args.iter().any(|a| a == "--export-rate") => {
+            for stem in ["001-e2e4", "002-d7d5", "003-e4d5"] {
+                assert!(dir.join(format!("out/plan/hardware/{stem}.json")).exists(), "{stem}");
+                assert!(dir.join(format!("out/plan/hardware/{stem}.csv")).exists(), "{stem}");
+            }
+        }
         Some("plan") => assert!(dir.join("out/plan/joint.xlsx").exists()),
+        Some("--urdf") if args.get(2).map(String::as_str) == Some("arm") => {
+            assert!(terminal.contains("alpha = -1.5707963267948966"), "{terminal}");
+        }
         Some("tune") if args.iter().any(|a| a == "--q0") => {
             // The start-up jump no longer makes every candidate score the same.
             let csv = std::fs::read_to_string(dir.join("out/tune/tune.csv")).unwrap();
