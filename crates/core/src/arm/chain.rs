@@ -28,6 +28,9 @@ use std::f64::consts::{FRAC_PI_2, PI};
 /// exports round angles (π/2 written as 1.5708 is 3.7·10⁻⁶ off). Axes within it are made exact.
 pub const AXIS_TOLERANCE: f64 = 1e-5;
 
+/// How far (m) the base axis may pass from the base origin and count as through it.
+const BASE_AXIS_TOLERANCE: f64 = 1e-6;
+
 /// How close (m) two lines or points must be to count as meeting.
 const LENGTH_TOLERANCE: f64 = 1e-9;
 
@@ -116,13 +119,17 @@ pub fn model_from_chain(chain: &SerialChain) -> Result<ArmModel<4>, ChainError> 
             ),
         ));
     }
-    if points[0].xy().norm() > LENGTH_TOLERANCE {
+    // CAD rounding of the frames above the base (π/2 as 1.5708) moves the axis by ~1e-7 m
+    // per 0.1 m of offset: a micrometre is rounding, anything more a real offset.
+    if points[0].xy().norm() > BASE_AXIS_TOLERANCE {
         return Err(shape(
             first,
             format!(
-                "its axis passes {} m from the base origin; the base frame must have the yaw axis at x = y = 0 \
-                 (move the base link's origin onto it)",
-                show(&Vector3::new(points[0].x, points[0].y, 0.0))
+                "its axis passes {:.3e} m from the base origin (at x = {:.3e}, y = {:.3e} m); the base frame must \
+                 have the yaw axis at x = y = 0 (move the base link's origin onto it)",
+                points[0].xy().norm(),
+                points[0].x,
+                points[0].y
             ),
         ));
     }

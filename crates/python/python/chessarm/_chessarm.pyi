@@ -1,0 +1,61 @@
+"""Type stubs of the compiled part of chessarm (``chessarm._chessarm``)."""
+
+from os import PathLike
+from typing import List, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ArrayLike = Union[npt.ArrayLike, Sequence[float], Sequence[Sequence[float]]]
+"""One joint state, shape (4,), or many, shape (n, 4)."""
+
+class Error(Exception):
+    """Every error of chessarm's own (not a wrong argument, which is ValueError)."""
+
+class ModelError(Error):
+    """A setup file or URDF that chessarm cannot use."""
+
+class UnreachableError(Error):
+    """Inverse kinematics has no solution (reach or joint limits)."""
+
+class DynamicsError(Error):
+    """A dynamics computation failed (e.g. M(q) not positive definite)."""
+
+class Arm:
+    """A 4-DOF arm (base yaw, three pitch joints) in standard DH with its links' masses."""
+
+    @staticmethod
+    def default() -> "Arm":
+        """The report's arm (the CLI's default)."""
+    @staticmethod
+    def from_file(path: Union[str, "PathLike[str]"]) -> "Arm":
+        """The arm of a setup file (TOML), as ``chessarm --arm FILE``."""
+    @staticmethod
+    def from_urdf(path: Union[str, "PathLike[str]"]) -> "Arm":
+        """The arm of a URDF file, as ``chessarm --urdf FILE``."""
+    @property
+    def joint_names(self) -> List[str]: ...
+    @property
+    def dh(self) -> npt.NDArray[np.float64]:
+        """Rows (a m, alpha rad, d m, theta_offset rad), one per joint: shape (4, 4)."""
+    def to_urdf(self) -> str: ...
+    def fk(self, q: ArrayLike) -> npt.NDArray[np.float64]:
+        """Tool-frame pose, 4×4 homogeneous (m): shape (4, 4), or (n, 4, 4) for n states."""
+    def tool_point(self, q: ArrayLike) -> npt.NDArray[np.float64]:
+        """(x, y, z, pitch) in m and rad: shape (4,) or (n, 4)."""
+    def jacobian(self, q: ArrayLike) -> npt.NDArray[np.float64]:
+        """Tool-tip geometric Jacobian (v; ω) in the base frame: shape (6, 4) or (n, 6, 4)."""
+    def ik(self, xyz: Sequence[float], pitch: float = ...) -> npt.NDArray[np.float64]:
+        """Joint angles (rad) putting the tool tip at xyz (m) with pitch (rad, default −π/2)."""
+    def mass_matrix(self, q: ArrayLike) -> npt.NDArray[np.float64]:
+        """M(q), kg·m²: shape (4, 4) or (n, 4, 4)."""
+    def rnea(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> npt.NDArray[np.float64]:
+        """τ = M(q) a + C(q, v) v + g(q), N·m: shape (4,) or (n, 4)."""
+    def aba(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike) -> npt.NDArray[np.float64]:
+        """a = M(q)⁻¹ (τ + τ_friction − C(q, v) v − g(q)), rad/s²: shape (4,) or (n, 4)."""
+    def gravity(self, q: ArrayLike) -> npt.NDArray[np.float64]:
+        """g(q), N·m: shape (4,) or (n, 4)."""
+    def coriolis(self, q: ArrayLike, v: ArrayLike) -> npt.NDArray[np.float64]:
+        """C(q, v), N·m·s/rad: shape (4, 4) or (n, 4, 4)."""

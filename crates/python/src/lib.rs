@@ -1,0 +1,297 @@
+//! `chessarm._chessarm`: the compiled part of the Python package `chessarm`.
+//!
+//! A thin layer: every number comes from `chessarm-core` (and the CLI library's setup-file and
+//! URDF readers), so Python sees what the `chessarm` command prints. Arrays are NumPy `float64`
+//! in SI units (rad, rad/s, rad/s², N·m, m). A function of a state takes one state (shape
+//! `(4,)`) or many (shape `(n, 4)`, one per row); many states are computed in Rust with the
+//! GIL released.
+
+use chessarm::config::Setup;
+use chessarm_core::arm::dynamics::{forward_dynamics, gravity_torques, inverse_dynamics, mass_matrix};
+use chessarm_core::arm::kinematics::FrameChain;
+use chessarm_core::arm::lagrange::coriolis_matrix;
+use chessarm_core::arm::model::{ArmModel, JointVector};
+use chessarm_core::arm::task::{TOOL_DOWN, inverse_kinematics, tool_point};
+use chessarm_core::nalgebra::Vector3;
+use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyException, PyValueError};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+pyo3::create_exception!(chessarm, Error, PyException, "Every error of chessarm's own (not a wrong argument).");
+pyo3::create_exception!(chessarm, ModelError, Error, "A setup file or URDF that chessarm cannot use.");
+pyo3::create_exception!(chessarm, UnreachableError, Error, "Inverse kinematics has no solution (reach or limits).");
+pyo3::create_exception!(
+    chessarm,
+    DynamicsError,
+    Error,
+    "A dynamics computation failed (e.g. M(q) not positive definite)."
+);
+
+/// The message of an error and its causes on one line, as the CLI prints it.
+fn message(error: &anyhow::Error) -> String {
+    error.chain().map(ToString::to_string).collect::<Vec<_>>().join(": ")
+}
+
+/// Joint states from an argument: one (`(4,)`) or many (`(n, 4)`).
+struct States {
+    rows: Vec<[f64; 4]>,
+    single: bool,
+}
+
+fn states(name: &str, array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyResult<States> {
+    let shape = array.shape().to_vec();
+    let view = array.as_array();
+    let rows: Vec<[f64; 4]> = match shape.as_slice() {
+        [4] => vec![std::array::from_fn(|j| view[[j]])],
+        [_, 4] => (0..shape[0]).map(|i| std::array::from_fn(|j| view[[i, j]])).collect(),
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "{name}: shape {shape:?}; a joint state has shape (4,), many states (n, 4)"
+            )));
+        }
+    };
+    if let Some((i, row)) = rows.iter().enumerate().find(|(_, row)| row.iter().any(|v| !v.is_finite())) {
+        return Err(PyValueError::new_err(format!("{name}[{i}] = {row:?} is not finite")));
+    }
+    Ok(States { rows, single: shape.len() == 1 })
+}
+
+/// The arguments' states, all one or all many of the same count.
+fn matched(arguments: &[(&str, &PyArrayLikeDyn<'_, f64, AllowTypeChange>)]) -> PyResult<(Vec<Vec<[f64; 4]>>, bool)> {
+    let mut all = Vec::new();
+    let mut single = None;
+    let mut count = None;
+    for (name, array) in arguments {
+        let given = states(name, array)?;
+        if single.is_some_and(|s| s != given.single) || count.is_some_and(|c| c != given.rows.len()) {
+            return Err(PyValueError::new_err(format!(
+                "{name}: {} state(s) where {} has {}: give every argument the same shape",
+                given.rows.len(),
+                arguments[0].0,
+                count.unwrap_or(0)
+            )));
+        }
+        single = Some(given.single);
+        count = Some(given.rows.len());
+        all.push(given.rows);
+    }
+    Ok((all, single.unwrap_or(true)))
+}
+
+/// An array of `shape` per state (stacked along a first axis unless `single`).
+fn output<'py>(
+    py: Python<'py>,
+    values: Vec<f64>,
+    count: usize,
+    shape: &[usize],
+    single: bool,
+) -> Bound<'py, PyArrayDyn<f64>> {
+    let mut full = if single { Vec::new() } else { vec![count] };
+    full.extend_from_slice(shape);
+    ArrayD::from_shape_vec(IxDyn(&full), values).expect("the values fill the shape").into_pyarray(py)
+}
+
+/// A 4-DOF arm: base yaw and three pitch joints, in standard DH, with its links' masses.
+#[pyclass(module = "chessarm", frozen)]
+struct Arm {
+    model: ArmModel<4>,
+    joint_names: [String; 4],
+}
+
+impl Arm {
+    /// `f(states…) → values` over every state, without the GIL; one state's values have `shape`.
+    fn map<'py>(
+        &self,
+        py: Python<'py>,
+        arguments: &[(&str, &PyArrayLikeDyn<'_, f64, AllowTypeChange>)],
+        shape: &[usize],
+        f: impl Fn(&ArmModel<4>, &[JointVector<4>]) -> Result<Vec<f64>, String> + Send + Sync,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let (all, single) = matched(arguments)?;
+        let count = all[0].len();
+        let model = self.model;
+        let values = py
+            .detach(|| {
+                let mut values = Vec::with_capacity(count * shape.iter().product::<usize>());
+                let mut state = Vec::with_capacity(all.len());
+                for i in 0..count {
+                    state.clear();
+                    state.extend(all.iter().map(|rows| JointVector::<4>::from(rows[i])));
+                    values
+                        .extend(f(&model, &state).map_err(|e| if count > 1 { format!("state {i}: {e}") } else { e })?);
+                }
+                Ok::<_, String>(values)
+            })
+            .map_err(DynamicsError::new_err)?;
+        Ok(output(py, values, count, shape, single))
+    }
+}
+
+#[pymethods]
+impl Arm {
+    /// The report's arm (the CLI's default).
+    #[staticmethod]
+    fn default() -> Self {
+        let setup = Setup::default();
+        Self { model: setup.arm, joint_names: setup.joint_names }
+    }
+
+    /// The arm of a setup file (TOML, as `chessarm --arm FILE`).
+    #[staticmethod]
+    fn from_file(path: PathBuf) -> PyResult<Self> {
+        let setup = Setup::load(Some(&path)).map_err(|e| ModelError::new_err(message(&e)))?;
+        Ok(Self { model: setup.arm, joint_names: setup.joint_names })
+    }
+
+    /// The arm of a URDF file (as `chessarm --urdf FILE`).
+    #[staticmethod]
+    fn from_urdf(path: PathBuf) -> PyResult<Self> {
+        let (model, joint_names) = chessarm::urdf_import::load(&path).map_err(|e| ModelError::new_err(message(&e)))?;
+        Ok(Self { model, joint_names })
+    }
+
+    /// The joints' names (the URDF's, or joint1…joint4).
+    #[getter]
+    fn joint_names(&self) -> Vec<String> {
+        self.joint_names.to_vec()
+    }
+
+    /// Standard DH parameters per joint: rows (a m, alpha rad, d m, theta_offset rad).
+    #[getter]
+    fn dh<'py>(&self, py: Python<'py>) -> Bound<'py, PyArrayDyn<f64>> {
+        let values = self.model.links().iter().flat_map(|l| [l.dh.a, l.dh.alpha, l.dh.d, l.dh.theta_offset]).collect();
+        output(py, values, 4, &[4], false)
+    }
+
+    /// The arm as URDF text (as `chessarm urdf`).
+    fn to_urdf(&self) -> String {
+        chessarm::urdf::to_urdf(&self.model, "chessarm", &self.joint_names)
+    }
+
+    /// Pose of the tool frame (origin at the tool tip): a 4×4 homogeneous transform, m.
+    fn fk<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q)], &[4, 4], |model, s| {
+            let pose = FrameChain::new(model, &s[0]).body_pose(3).to_homogeneous();
+            Ok((0..4).flat_map(|r| (0..4).map(move |c| pose[(r, c)])).collect())
+        })
+    }
+
+    /// Tool tip and pitch `(x, y, z, pitch)`: m and rad (−π/2: pointing down).
+    fn tool_point<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q)], &[4], |model, s| Ok(tool_point(model, &s[0]).as_slice().to_vec()))
+    }
+
+    /// Geometric Jacobian of the tool tip, 6×4: rows vx, vy, vz, ωx, ωy, ωz in the base frame
+    /// (Pinocchio's LOCAL_WORLD_ALIGNED).
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q)], &[6, 4], |model, s| {
+            let chain = FrameChain::new(model, &s[0]);
+            let (linear, angular) = chain.point_jacobian(&chain.tip(), 3);
+            let mut values = Vec::with_capacity(24);
+            for r in 0..6 {
+                values.extend((0..4).map(|c| if r < 3 { linear[(r, c)] } else { angular[(r - 3, c)] }));
+            }
+            Ok(values)
+        })
+    }
+
+    /// Closed-form inverse kinematics (elbow up) for the tool tip at `xyz` (m) with `pitch`
+    /// (rad): the joint angles, rad. Raises `UnreachableError` with the reason.
+    #[pyo3(signature = (xyz, pitch = TOOL_DOWN))]
+    fn ik<'py>(&self, py: Python<'py>, xyz: [f64; 3], pitch: f64) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        let q = inverse_kinematics(&self.model, &Vector3::from(xyz), pitch)
+            .map_err(|e| UnreachableError::new_err(e.to_string()))?;
+        Ok(output(py, q.as_slice().to_vec(), 1, &[4], true))
+    }
+
+    /// Joint-space mass matrix M(q), kg·m².
+    fn mass_matrix<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q)], &[4, 4], |model, s| Ok(mass_matrix(model, &s[0]).transpose().as_slice().to_vec()))
+    }
+
+    /// Inverse dynamics (recursive Newton–Euler): τ = M(q) a + C(q, v) v + g(q), N·m.
+    fn rnea<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        a: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q), ("v", &v), ("a", &a)], &[4], |model, s| {
+            Ok(inverse_dynamics(model, &s[0], &s[1], &s[2]).as_slice().to_vec())
+        })
+    }
+
+    /// Forward dynamics: a = M(q)⁻¹ (τ + τ_friction − C(q, v) v − g(q)), rad/s².
+    fn aba<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        tau: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q), ("v", &v), ("tau", &tau)], &[4], |model, s| {
+            forward_dynamics(model, &s[0], &s[1], &s[2]).map(|a| a.as_slice().to_vec()).map_err(|e| e.to_string())
+        })
+    }
+
+    /// Gravity torques g(q), N·m.
+    fn gravity<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q)], &[4], |model, s| Ok(gravity_torques(model, &s[0]).as_slice().to_vec()))
+    }
+
+    /// Coriolis matrix C(q, v) (Christoffel symbols; Ṁ − 2C skew-symmetric), N·m·s/rad.
+    fn coriolis<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q), ("v", &v)], &[4, 4], |model, s| {
+            Ok(coriolis_matrix(model, &s[0], &s[1]).transpose().as_slice().to_vec())
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        let links = self.model.links();
+        format!(
+            "Arm(joints={:?}, a=[{}], d=[{}] m)",
+            self.joint_names,
+            links.iter().map(|l| format!("{:.4}", l.dh.a)).collect::<Vec<_>>().join(", "),
+            links.iter().map(|l| format!("{:.4}", l.dh.d)).collect::<Vec<_>>().join(", ")
+        )
+    }
+}
+
+#[pymodule]
+fn _chessarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Arm>()?;
+    m.add("Error", m.py().get_type::<Error>())?;
+    m.add("ModelError", m.py().get_type::<ModelError>())?;
+    m.add("UnreachableError", m.py().get_type::<UnreachableError>())?;
+    m.add("DynamicsError", m.py().get_type::<DynamicsError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
