@@ -42,11 +42,19 @@ fn positive_unescaped(text: &str) -> Result<f64, String> {
     }
 }
 
-/// A sample rate in (0, 10 000] Hz for `--export-rate`.
+/// A sample rate in [1, 10 000] Hz for `--export-rate`.
 fn export_rate_unescaped(text: &str) -> Result<f64, String> {
+    use chessarm_core::plan::hardware::{MAX_EXPORT_RATE, MIN_EXPORT_RATE};
     let value = positive_unescaped(text)?;
-    let most = chessarm_core::plan::hardware::MAX_EXPORT_RATE;
-    if value > most { Err(format!("{value} Hz is above the highest export rate, {most} Hz")) } else { Ok(value) }
+    if value > MAX_EXPORT_RATE {
+        Err(format!("{value} Hz is above the highest export rate, {MAX_EXPORT_RATE} Hz"))
+    } else if value < MIN_EXPORT_RATE {
+        Err(format!(
+            "{value} Hz is below the lowest export rate, {MIN_EXPORT_RATE} Hz (a driver interpolates between samples)"
+        ))
+    } else {
+        Ok(value)
+    }
 }
 
 /// A finite number.

@@ -276,6 +276,8 @@ pub struct Setup {
     pub urdf_path: Option<std::path::PathBuf>,
     /// The joints' names (the URDF's, or `joint1`…`joint4`), for exports.
     pub joint_names: [String; 4],
+    /// The base frame's name (the URDF's root link, or `base_link`), for exports.
+    pub base_link: String,
     /// The motion limits (`[motion]`, `[gripper]`, then the motion flags).
     pub motion: MotionLimits,
     /// How robot moves are timed (set by `--timing`; the file does not say).
@@ -293,6 +295,7 @@ impl Default for Setup {
             path: None,
             urdf_path: None,
             joint_names: default_joint_names(),
+            base_link: "base_link".into(),
             motion: MotionLimits::default(),
             timing: TimingMode::default(),
         }
@@ -453,6 +456,7 @@ impl SetupFile {
             path: None,
             urdf_path: None,
             joint_names: default_joint_names(),
+            base_link: "base_link".into(),
             motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
             timing: TimingMode::default(),
         })

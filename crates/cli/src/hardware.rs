@@ -45,7 +45,7 @@ pub struct MoveLabel<'a> {
 pub fn write_move(
     dir: &Path,
     stem: &str,
-    joint_names: &[String; 4],
+    (base_link, joint_names): (&str, &[String; 4]),
     points: &[HardwarePoint],
     commands: &[GripperCommand],
     label: &MoveLabel<'_>,
@@ -73,7 +73,7 @@ pub fn write_move(
         .collect();
     let value = json!({
         "trajectory": {
-            "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "base_link"},
+            "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": base_link},
             "joint_names": joint_names,
             "points": points.iter().map(|p| json!({
                 "positions": p.q.map(plain).as_slice(),

@@ -20,11 +20,73 @@ use cli::{Cli, Command};
 use config::Setup;
 
 /// Whether `--json` was given: results as JSON on stdout instead of a summary for people.
-static JSON_OUTPUT: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+static JSON_OUTPUT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// What a command run by [`run_captured`] printed, kept instead of printed.
+#[derive(Debug, Default, Clone)]
+pub struct Captured {
+    /// Standard output (the result's one line of JSON, or text such as `arm`'s TOML).
+    pub stdout: String,
+    /// What went to standard error: warnings and notes for the person at the terminal.
+    pub stderr: String,
+}
+
+/// While [`run_captured`] runs a command: where its output goes instead of the terminal.
+static CAPTURE: std::sync::Mutex<Option<Captured>> = std::sync::Mutex::new(None);
+
+/// One command at a time runs captured (the capture is the process's).
+static CAPTURED_RUN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Appends to the capture when one is on; `false` when the text should go to the terminal.
+fn captured(text: &str, stdout: bool) -> bool {
+    let mut capture = CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    match capture.as_mut() {
+        Some(kept) => {
+            if stdout { &mut kept.stdout } else { &mut kept.stderr }.push_str(text);
+            true
+        }
+        None => false,
+    }
+}
+
+/// Why [`run_captured`] did not run or finish a command.
+#[derive(Debug)]
+pub enum RunError {
+    /// The arguments: clap's message (naming the flag and the value as typed) on one line.
+    Usage(String),
+    /// The command failed: the error, as the CLI prints it on one line.
+    Failed(String),
+}
+
+/// Runs `chessarm ARGS --json` in this process, for the Python bindings: what it would print is
+/// returned instead (the result's JSON is `stdout`). Files are written as the command writes them.
+///
+/// # Errors
+///
+/// As [`RunError`]: bad arguments, or the command's own error.
+pub fn run_captured(args: &[String]) -> Result<Captured, RunError> {
+    use clap::Parser;
+    let _one_at_a_time = CAPTURED_RUN.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let words = std::iter::once("chessarm".to_string()).chain(args.iter().cloned()).chain(["--json".to_string()]);
+    let cli = Cli::try_parse_from(words).map_err(|error| {
+        let rendered = error.render().to_string();
+        let message: Vec<&str> = rendered
+            .lines()
+            .take_while(|line| !line.starts_with("Usage:") && !line.starts_with("For more information"))
+            .map(str::trim)
+            .filter(|line| !line.is_empty())
+            .collect();
+        RunError::Usage(shorten_long_words(&escape_controls(&message.join(" "))))
+    })?;
+    *CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(Captured::default());
+    let result = run(cli);
+    let kept = CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take().unwrap_or_default();
+    result.map(|()| kept).map_err(|error| RunError::Failed(one_line(&error)))
+}
 
 /// Whether the result goes out as JSON (`--json`).
 pub fn json_output() -> bool {
-    JSON_OUTPUT.get().copied().unwrap_or(false)
+    JSON_OUTPUT.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Prints a command's result: `json` with `--json`, else `human` (a summary for people, which
@@ -58,10 +120,11 @@ pub fn files_text(files: &[String]) -> String {
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
-    let _ = JSON_OUTPUT.set(cli.json);
+    JSON_OUTPUT.store(cli.json, std::sync::atomic::Ordering::Relaxed);
     let mut setup = Setup::load(cli.arm.as_deref())?;
     if let Some(path) = &cli.urdf {
-        (setup.arm, setup.joint_names) = urdf_import::load(path)?;
+        let imported = urdf_import::load(path)?;
+        (setup.arm, setup.joint_names, setup.base_link) = (imported.model, imported.joint_names, imported.base_link);
         setup.urdf_path = Some(path.clone());
     }
     match cli.command {
@@ -106,6 +169,9 @@ pub fn print_json(value: &serde_json::Value) -> Result<()> {
 /// As [`print_json`].
 pub fn print_text(text: &str) -> Result<()> {
     use std::io::Write;
+    if captured(text, true) {
+        return Ok(());
+    }
     let mut stdout = std::io::stdout().lock();
     stdout
         .write_all(text.as_bytes())
@@ -124,6 +190,9 @@ pub fn is_closed_pipe(error: &anyhow::Error) -> bool {
 /// Writes text for the person at the terminal to standard error (dropped if it is closed).
 pub fn tell(text: &str) {
     use std::io::Write;
+    if captured(text, false) {
+        return;
+    }
     let _ = write!(std::io::stderr(), "{text}");
 }
 

@@ -15,7 +15,7 @@
 //! `chessarm urdf`'s tool marker does not add its trace of mass).
 
 use anyhow::{Context, Result, anyhow, bail};
-use chessarm_core::arm::chain::{ChainJoint, SerialChain, isometry_from_xyz_rpy, model_from_chain};
+use chessarm_core::arm::chain::{ChainError, ChainJoint, SerialChain, isometry_from_xyz_rpy, model_from_chain};
 use chessarm_core::arm::kinematics::Pose;
 use chessarm_core::arm::model::{ArmModel, Friction, Inertial, JointLimits, REPORT_GRAVITY};
 use chessarm_core::nalgebra::{Matrix3, Vector3};
@@ -27,13 +27,23 @@ use std::path::Path;
 /// Bodies lighter than this (kg) fixed to a moving link are markers, not mass.
 pub const MARKER_MASS: f64 = 1e-6;
 
-/// Reads the arm of the URDF file at `path`, and its joints' names.
+/// An arm read from URDF, with the names a driver knows it by.
+#[derive(Debug, Clone)]
+pub struct ImportedArm {
+    pub model: ArmModel<4>,
+    /// The four moving joints' names, base to tool.
+    pub joint_names: [String; 4],
+    /// The root link (the base frame's name).
+    pub base_link: String,
+}
+
+/// Reads the arm of the URDF file at `path`.
 ///
 /// # Errors
 ///
 /// The file cannot be read, is not XML, or describes something chessarm cannot model; the
 /// message names the file, the element and its line.
-pub fn load(path: &Path) -> Result<(ArmModel<4>, [String; 4])> {
+pub fn load(path: &Path) -> Result<ImportedArm> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read URDF file {}", path.display()))?;
     from_urdf(&text).with_context(|| format!("URDF file {}", path.display()))
 }
@@ -110,12 +120,12 @@ struct JointElement<'a, 'input> {
     child: String,
 }
 
-/// The arm described by URDF `text`, and its joints' names.
+/// The arm described by URDF `text`.
 ///
 /// # Errors
 ///
 /// As [`load`], without the file name.
-pub fn from_urdf(text: &str) -> Result<(ArmModel<4>, [String; 4])> {
+pub fn from_urdf(text: &str) -> Result<ImportedArm> {
     let document = Document::parse(text).map_err(|e| anyhow!("not valid XML: {e}"))?;
     let robot = document.root_element();
     if !robot.has_tag_name("robot") {
@@ -129,6 +139,8 @@ pub fn from_urdf(text: &str) -> Result<(ArmModel<4>, [String; 4])> {
         }
     }
     let mut children: BTreeMap<String, Vec<JointElement<'_, '_>>> = BTreeMap::new();
+    // Where each joint is, for the messages of the conversion to DH.
+    let mut places = BTreeMap::new();
     let mut has_parent = BTreeMap::new();
     for joint in robot.children().filter(|n| n.has_tag_name("joint")) {
         let name = joint.attribute("name").ok_or_else(|| anyhow!("{}: a joint needs a name", at(&joint)))?.to_string();
@@ -145,11 +157,13 @@ pub fn from_urdf(text: &str) -> Result<(ArmModel<4>, [String; 4])> {
         if let Some(other) = has_parent.insert(child_link.clone(), name.clone()) {
             bail!("{}: link '{child_link}' is already the child of joint '{other}'", at(&joint));
         }
+        places.insert(name.clone(), at(&joint));
         children.entry(parent).or_default().push(JointElement { node: joint, name, kind, child: child_link });
     }
     let roots: Vec<&String> = links.keys().filter(|name| !has_parent.contains_key(*name)).collect();
     let root = match roots.as_slice() {
         [root] => (*root).clone(),
+        [] if links.is_empty() => bail!("{}: the robot has no links", at(&robot)),
         [] => bail!("every link is some joint's child: the joints form a loop, not a chain from a base"),
         many => bail!(
             "links {} have no parent joint: the file must describe one chain from a single base link",
@@ -161,6 +175,7 @@ pub fn from_urdf(text: &str) -> Result<(ArmModel<4>, [String; 4])> {
     let mut moving: Vec<ChainJoint> = Vec::new();
     // The pose of the current link in the frame of the last moving joint's link (or the base).
     let mut fixed = Pose::identity();
+    let base_link = root.clone();
     let mut current = root;
     let mut path = vec![current.clone()];
     // Fixed joints after the last moving one (to the tool).
@@ -187,6 +202,8 @@ pub fn from_urdf(text: &str) -> Result<(ArmModel<4>, [String; 4])> {
                     && let Some(last) = moving.last_mut()
                     && body.mass >= MARKER_MASS
                 {
+                    chessarm_core::arm::model::validate_inertial("its <inertial>", &body, true)
+                        .map_err(|e| anyhow!("{}: {e}", at(&child_node)))?;
                     last.body = last.body.combine(&body.transformed(&fixed));
                 }
             }
@@ -231,6 +248,12 @@ pub fn from_urdf(text: &str) -> Result<(ArmModel<4>, [String; 4])> {
         current = joint.child.clone();
         path.push(current.clone());
     }
+    if let Some((name, node)) = links.iter().find(|(name, _)| !path.contains(name)) {
+        bail!(
+            "{}: link '{name}' is not on the chain from '{base_link}': chessarm needs one chain, not a second tree",
+            at(node)
+        );
+    }
     let count = moving.len();
     let Ok(joints) = <[ChainJoint; 4]>::try_from(moving) else {
         bail!(
@@ -247,9 +270,18 @@ pub fn from_urdf(text: &str) -> Result<(ArmModel<4>, [String; 4])> {
             joints[3].name
         );
     }
-    let names = joints.clone().map(|joint| joint.name);
+    let joint_names = joints.clone().map(|joint| joint.name);
     let chain = SerialChain { joints, tool: fixed, gravity: gravity(&robot)? };
-    Ok((model_from_chain(&chain).map_err(|e| anyhow!("{e}"))?, names))
+    let model = model_from_chain(&chain).map_err(|error| {
+        let joint = match &error {
+            ChainError::Shape { joint, .. } | ChainError::Model { joint, .. } => joint,
+        };
+        match places.get(joint) {
+            Some(place) => anyhow!("{place}: {}", error.to_string().split_once(": ").map_or("", |(_, why)| why)),
+            None => anyhow!("{error}"),
+        }
+    })?;
+    Ok(ImportedArm { model, joint_names, base_link })
 }
 
 /// A joint's `<limit>`: lower, upper (rad), effort (N·m), velocity (rad/s).
@@ -304,7 +336,12 @@ fn gravity(robot: &Node<'_, '_>) -> Result<Vector3<f64>> {
     let option = child(robot, "mujoco").and_then(|m| child(&m, "option"));
     match option {
         Some(option) if option.attribute("gravity").is_some() => {
-            Ok(Vector3::from(triple(&option, "gravity", [0.0; 3])?))
+            let gravity = Vector3::from(triple(&option, "gravity", [0.0; 3])?);
+            // The base yaw turns about z, the board lies in the xy plane: gravity is along −z.
+            if !(gravity.z < 0.0 && gravity.xy().norm() <= 1e-9 * gravity.norm()) {
+                bail!("{}: gravity must point along −z (the base yaw's axis is +z)", at(&option));
+            }
+            Ok(gravity)
         }
         _ => Ok(Vector3::new(0.0, 0.0, -REPORT_GRAVITY)),
     }

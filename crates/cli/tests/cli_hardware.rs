@@ -37,6 +37,7 @@ fn check_move_files(dir: &Path, stem: &str, rate: f64, joint_names: &[&str]) -> 
     let keys = |v: &Value| v.as_object().unwrap().keys().cloned().collect::<BTreeSet<_>>();
     assert_eq!(keys(trajectory), ["header", "joint_names", "points"].map(String::from).into());
     assert_eq!(keys(&trajectory["header"]), ["frame_id", "stamp"].map(String::from).into());
+    assert_eq!(trajectory["header"]["frame_id"], "base_link", "{stem}: the base frame (the URDF's root link)");
     let names: Vec<&str> = trajectory["joint_names"].as_array().unwrap().iter().map(|n| n.as_str().unwrap()).collect();
     assert_eq!(names, joint_names);
     let points = trajectory["points"].as_array().unwrap();
@@ -211,6 +212,7 @@ fn a_bad_export_rate_is_refused_by_name() {
     for (rate, needle) in [
         ("0", "must be finite and > 0"),
         ("-5", "must be finite and > 0"),
+        ("0.5", "below the lowest export rate, 1 Hz"),
         ("20000", "above the highest"),
         ("fast", "not a number"),
     ] {

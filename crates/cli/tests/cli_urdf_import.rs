@@ -289,7 +289,11 @@ fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
                 "<origin xyz=\"0.32 -0.015 -0.01\" rpy=\"0 0.6 0\"/>\n    <axis xyz=\"0 1 0\"/>",
                 "<origin xyz=\"0.32 -0.015 -0.01\" rpy=\"0 0.6 0\"/>\n    <axis xyz=\"1 0 0\"/>",
             ),
-            vec!["joint 'wrist'".into(), "not parallel to joint 'shoulder'".into(), "wrist roll".into()],
+            vec![
+                format!("line {}: <joint name=\"wrist\">", line_of(r#"<joint name="wrist""#)),
+                "not parallel to joint 'shoulder'".into(),
+                "wrist roll".into(),
+            ],
         ),
         (
             "branching tree",
@@ -310,7 +314,50 @@ fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
         (
             "tilted base",
             edit(r#"<origin xyz="0 0 0.04" rpy="0 0 0.25"/>"#, r#"<origin xyz="0 0 0.04" rpy="0.2 0 0.25"/>"#),
-            vec!["joint 'waist'".into(), "base yaw".into()],
+            vec![format!("line {}: <joint name=\"waist\">", line_of(r#"<joint name="waist""#)), "base yaw".into()],
+        ),
+        (
+            "base axis beside the origin",
+            edit(r#"<origin xyz="0 0 0.04" rpy="0 0 0.25"/>"#, r#"<origin xyz="0.002 0 0.04" rpy="0 0 0.25"/>"#),
+            vec!["<joint name=\"waist\">".into(), "passes 2.000e-3 m from the base origin".into()],
+        ),
+        (
+            "a second tree",
+            edit(
+                "  <link name=\"tool\"/>",
+                "  <link name=\"tool\"/>\n  <link name=\"stray\"/>\n  <link name=\"other\"/>\n  <joint name=\"s\" type=\"fixed\"><parent link=\"stray\"/><child link=\"other\"/></joint>",
+            ),
+            vec!["links 'base_link', 'stray' have no parent joint".into()],
+        ),
+        (
+            "a loop beside the chain",
+            edit(
+                "  <link name=\"tool\"/>",
+                "  <link name=\"tool\"/>\n  <link name=\"p\"/>\n  <link name=\"r\"/>\n  <joint name=\"pr\" type=\"fixed\"><parent link=\"p\"/><child link=\"r\"/></joint>\n  <joint name=\"rp\" type=\"fixed\"><parent link=\"r\"/><child link=\"p\"/></joint>",
+            ),
+            vec!["<link name=\"p\">".into(), "not on the chain from 'base_link'".into()],
+        ),
+        (
+            "tool on the wrist axis",
+            edit(r#"<origin xyz="0.07 0.01 -0.015" rpy="0 0 0"/>"#, r#"<origin xyz="0 0.03 0" rpy="0 0 0"/>"#)
+                .replace(r#"<origin xyz="0.05 0 0" rpy="0 0 0.4"/>"#, r#"<origin xyz="0 0 0" rpy="0 0 0"/>"#),
+            vec!["<joint name=\"wrist\">".into(), "tool point lies on this joint's axis".into()],
+        ),
+        (
+            "sideways gravity",
+            edit(
+                "<robot name=\"offset_arm\">",
+                "<robot name=\"offset_arm\">\n  <mujoco><option gravity=\"9.8 0 0\"/></mujoco>",
+            ),
+            vec!["<option>".into(), "gravity must point along −z".into()],
+        ),
+        (
+            "an unphysical fixed link",
+            edit(
+                r#"<inertia ixx="0.00003" ixy="0" ixz="0" iyy="0.00004" iyz="0.000002" izz="0.000035"/>"#,
+                r#"<inertia ixx="-0.0005" ixy="0" ixz="0" iyy="0.00004" iyz="0.000002" izz="0.000035"/>"#,
+            ),
+            vec!["<link name=\"gripper\">".into(), "principal moments".into()],
         ),
         (
             "no tool",

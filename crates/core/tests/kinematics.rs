@@ -326,3 +326,78 @@ fn a_target_within_the_sideways_offset_is_refused_by_name() {
     assert!(matches!(error, IkError::InsideOffset { .. }), "{error}");
     assert!(error.to_string().contains("sideways offset of 0.1200 m"), "{error}");
 }
+
+/// The report's arm with other joint limits and a base angle offset.
+fn report_arm_with(limits: [(f64, f64); 4], base_offset: f64) -> chessarm_core::arm::model::ArmModel<4> {
+    use chessarm_core::arm::model::{DhParameters, JointLimits, Link};
+    let base = report_arm();
+    let links: [Link; 4] = std::array::from_fn(|i| Link {
+        limits: JointLimits { lower: limits[i].0, upper: limits[i].1, ..base.link(i).limits },
+        dh: DhParameters { theta_offset: if i == 0 { base_offset } else { 0.0 }, ..base.link(i).dh },
+        ..*base.link(i)
+    });
+    base.with_links(links).unwrap()
+}
+
+#[test]
+fn ik_takes_an_angle_a_turn_away_when_that_lies_within_the_limits() {
+    use std::f64::consts::PI;
+    let limits = report_arm().links().map(|l| (l.limits.lower, l.limits.upper));
+    // The base turns over [0, 6.2] rad: a target at −72° needs q1 = 2π − 1.25 rad.
+    let model = report_arm_with([(0.0, 6.2), limits[1], limits[2], limits[3]], 0.0);
+    let target = Vector3::new(0.1, -0.3, 0.05);
+    let q = inverse_kinematics(&model, &target, TOOL_DOWN).unwrap();
+    assert!((q[0] - (2.0 * PI + target.y.atan2(target.x))).abs() < 1e-12, "{q}");
+    assert!((tool_point(&model, &q).xyz() - target).norm() < 1e-12);
+}
+
+#[test]
+fn ik_reaches_back_over_the_shoulder_when_the_base_cannot_turn_to_the_target() {
+    let limits = report_arm().links().map(|l| (l.limits.lower, l.limits.upper));
+    // The base turns only ±1.5 rad: a target behind needs the base turned by π from it and the
+    // shoulder tipped back (the other base branch), elbow still up.
+    let model = report_arm_with([(-1.5, 1.5), limits[1], limits[2], limits[3]], 0.0);
+    let target = Vector3::new(-0.3, -0.1, 0.05);
+    let q = inverse_kinematics(&model, &target, TOOL_DOWN).unwrap();
+    assert!(q[0].abs() <= 1.5 && q[1] > std::f64::consts::FRAC_PI_2, "{q}");
+    let reached = tool_point(&model, &q);
+    // The pitch is the joint angles' sum, here a turn away from −π/2: the same direction.
+    assert!((reached.xyz() - target).norm() < 1e-12 && wrap_angle(reached.w - TOOL_DOWN).abs() < 1e-12, "{reached}");
+    let chain = FrameChain::new(&model, &q);
+    let tool_x = chain.body_pose(3).rotation.matrix().column(0).into_owned();
+    assert!((tool_x - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12, "the tool points down: {tool_x}");
+    let (shoulder, elbow, wrist) = (
+        Vector3::new(0.0, 0.0, REPORT_L1),
+        chain.body_pose(1).translation.vector,
+        chain.body_pose(2).translation.vector,
+    );
+    // Elbow up: above the shoulder–wrist line, at the elbow's distance along it.
+    let along = (elbow - shoulder).dot(&(wrist - shoulder)) / (wrist - shoulder).norm_squared();
+    assert!(elbow.z > shoulder.z + along * (wrist.z - shoulder.z), "elbow below the line: {elbow} {wrist}");
+    // Where neither branch reaches, the front branch's reason is given.
+    let error = inverse_kinematics(&model, &Vector3::new(0.0, 0.02, -0.25), TOOL_DOWN).unwrap_err();
+    assert!(matches!(error, IkError::JointLimit { .. }), "{error}");
+}
+
+#[test]
+fn a_path_across_the_base_joints_turn_is_refused_not_followed_as_a_jump() {
+    use chessarm_core::plan::path::CartesianPath;
+    use chessarm_core::plan::trajectory::{JointTrajectory, PlanError};
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let limits = report_arm().links().map(|l| (l.limits.lower, l.limits.upper));
+    // With θ offset −π/2 the base's ±π turn points along +y: a line from x = −0.1 to x = 0.1 at
+    // y = 0.3 crosses it.
+    let model = report_arm_with([(-PI, PI), limits[1], limits[2], limits[3]], -FRAC_PI_2);
+    let mut path = CartesianPath::new(Vector3::new(-0.1, 0.3, 0.1));
+    path.move_to(Vector3::new(0.1, 0.3, 0.1), 2.0).unwrap();
+    match JointTrajectory::from_path(&model, &path, 0.01, TOOL_DOWN) {
+        Err(error @ PlanError::Jump { joint: 1, .. }) => {
+            assert!(error.to_string().contains("would jump"), "{error}");
+        }
+        other => panic!("expected a jump of joint 1, got {other:?}"),
+    }
+    // The same line with the turn behind the arm is followed smoothly.
+    let smooth = JointTrajectory::from_path(&report_arm(), &path, 0.01, TOOL_DOWN).unwrap();
+    let steps = smooth.samples().windows(2).map(|w| (w[1].q - w[0].q).abs().max()).fold(0.0, f64::max);
+    assert!(steps < 0.05, "largest step {steps} rad");
+}

@@ -28,6 +28,19 @@ pyo3::create_exception!(
     Error,
     "A dynamics computation failed (e.g. M(q) not positive definite)."
 );
+pyo3::create_exception!(chessarm, CommandError, Error, "A chessarm command failed (the CLI's one-line message).");
+
+/// Runs `chessarm ARGS --json` in this process with the GIL released: `(stdout, stderr)` of
+/// the command (its result's JSON is stdout). Bad arguments raise `ValueError` with the CLI's
+/// message naming the flag; a failed command raises `CommandError`.
+#[pyfunction]
+fn run_cli(py: Python<'_>, args: Vec<String>) -> PyResult<(String, String)> {
+    match py.detach(|| chessarm::run_captured(&args)) {
+        Ok(captured) => Ok((captured.stdout, captured.stderr)),
+        Err(chessarm::RunError::Usage(message)) => Err(PyValueError::new_err(message)),
+        Err(chessarm::RunError::Failed(message)) => Err(CommandError::new_err(message)),
+    }
+}
 
 /// The message of an error and its causes on one line, as the CLI prints it.
 fn message(error: &anyhow::Error) -> String {
@@ -148,8 +161,8 @@ impl Arm {
     /// The arm of a URDF file (as `chessarm --urdf FILE`).
     #[staticmethod]
     fn from_urdf(path: PathBuf) -> PyResult<Self> {
-        let (model, joint_names) = chessarm::urdf_import::load(&path).map_err(|e| ModelError::new_err(message(&e)))?;
-        Ok(Self { model, joint_names })
+        let imported = chessarm::urdf_import::load(&path).map_err(|e| ModelError::new_err(message(&e)))?;
+        Ok(Self { model: imported.model, joint_names: imported.joint_names })
     }
 
     /// The joints' names (the URDF's, or joint1…joint4).
@@ -292,6 +305,8 @@ fn _chessarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ModelError", m.py().get_type::<ModelError>())?;
     m.add("UnreachableError", m.py().get_type::<UnreachableError>())?;
     m.add("DynamicsError", m.py().get_type::<DynamicsError>())?;
+    m.add("CommandError", m.py().get_type::<CommandError>())?;
+    m.add_function(wrap_pyfunction!(run_cli, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

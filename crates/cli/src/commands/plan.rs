@@ -409,7 +409,7 @@ fn write_hardware(
     let points = hardware_points(&setup.arm, motion, commands, TOOL_DOWN, rate).map_err(|e| {
         anyhow!("{}: the hardware trajectory: {e}", if label.uci.is_empty() { label.san } else { label.uci })
     })?;
-    crate::hardware::write_move(dir, stem, &setup.joint_names, &points, commands, label, rate)
+    crate::hardware::write_move(dir, stem, (&setup.base_link, &setup.joint_names), &points, commands, label, rate)
 }
 
 /// The control period moves are planned for, s (as `play` simulates them).

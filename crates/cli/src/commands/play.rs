@@ -208,7 +208,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             crate::hardware::write_move(
                 &hardware_dir,
                 &format!("{:03}-{}", report.ply, report.uci),
-                &setup.joint_names,
+                (&setup.base_link, &setup.joint_names),
                 &hardware.points,
                 &hardware.commands,
                 &label,

@@ -202,7 +202,15 @@ pub fn model_from_chain(chain: &SerialChain) -> Result<ArmModel<4>, ChainError> 
                 ),
             ));
         }
-        x[k] = if length < LENGTH_TOLERANCE { x[k - 1] } else { across / length };
+        if length < LENGTH_TOLERANCE {
+            return Err(shape(
+                &joints[3],
+                "the tool point lies on this joint's axis: the tool's direction (its pitch) is undefined; put the \
+                 tool frame's origin at the tool tip"
+                    .into(),
+            ));
+        }
+        x[k] = across / length;
         let z_next = if k < 4 { z[k] } else { axis };
         dh[k - 1] = DhParameters {
             a: length,

@@ -14,7 +14,7 @@
 use super::kinematics::{ChainVelocities, FrameChain};
 use super::model::{ArmModel, JointVector};
 use nalgebra::{Matrix4, RowVector4, Vector3, Vector4};
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Tool pitch with the gripper pointing straight down, rad.
 pub const TOOL_DOWN: f64 = -FRAC_PI_2;
@@ -224,7 +224,11 @@ const REACH_ROUNDING: f64 = 64.0 * f64::EPSILON;
 /// `β3 = atan2(H_w − l2 sin β2, X_w − l2 cos β2)` (ERRATA 3), `β4 = pitch`. The joint angles
 /// follow from `ψ_k = e·β_k`: `q2 = σ2 ψ2 − o2`, `q3 = σ3 (ψ3 − ψ2) − o3`,
 /// `q4 = σ4 (ψ4 − ψ3) − o4`; for the report's arm `θ2 = β2`, `θ3 = β3 − β2`, `θ4 = pitch − β3`.
-/// Checked against the joint limits.
+/// A joint angle outside its limits is taken a turn (2π) away where that lies inside them. When
+/// this solution is out of reach or limits, the other base branch is tried: `R = −√(r² − s²)`,
+/// `θ = atan2(y, x) − atan2(−e·s, R)` (the base turned by about π) with
+/// `β2 = w − acos(…)` (elbow up again, seen from the other side); the first solution's error
+/// stands when both fail.
 pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64) -> Result<JointVector<4>, IkError> {
     let geometry = PlanarGeometry::of(model)?;
     let shown = [target.x, target.y, target.z];
@@ -245,41 +249,68 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
         return Err(IkError::InsideOffset { target: shown, distance: radial, offset: lateral.abs() });
     };
     let (sin_pitch, cos_pitch) = pitch.sin_cos();
-    let wrist_radial = plane_radial - shoulder_offset - l4 * cos_pitch;
-    let wrist_height = target.z - l4 * sin_pitch - l1;
-    let distance = wrist_radial.hypot(wrist_height);
-    let (min, max) = geometry.wrist_reach();
-    // Within [min, max] the law of cosines gives |cos| ≤ 1 exactly; rounding can put the
-    // distance and the cosine a few ulps outside at the boundary (the arm fully stretched or
-    // folded), which is still reachable: a slack of REACH_ROUNDING·max (≈ 9e-15 m here) covers
-    // the rounding of the wrist distance from a target and is far below any physical tolerance.
-    let slack = REACH_ROUNDING * max;
-    let cos_elbow = ((l2 * l2 + distance * distance - l3 * l3) / (2.0 * l2 * distance)).clamp(-1.0, 1.0);
-    if !(distance >= min - slack && distance <= max + slack && cos_elbow.is_finite()) {
-        return Err(IkError::OutOfReach { target: shown, needed: distance, min, max });
-    }
-    let mut base = target.y.atan2(target.x);
-    if lateral != 0.0 {
-        base += (up * lateral).atan2(plane_radial);
-    }
-    let shoulder = wrist_height.atan2(wrist_radial) + cos_elbow.acos();
-    let forearm = (wrist_height - l2 * shoulder.sin()).atan2(wrist_radial - l2 * shoulder.cos());
     let [o1, o2, o3, o4] = offsets;
     let [s2, s3, s4] = signs;
-    // `up·β = ψ`; for the report's arm every factor is 1 and every offset 0, which leaves the
-    // angles bit for bit as the report's formulas give them.
-    let (shoulder, forearm, tool) = (up * shoulder, up * forearm, up * pitch);
-    let q = JointVector::<4>::new(
-        principal(base - o1),
-        principal(s2 * shoulder - o2),
-        wrap_angle(s3 * (forearm - shoulder) - o3),
-        wrap_angle(s4 * (tool - forearm) - o4),
-    );
-    match model.first_limit_violation(&q) {
-        Some((joint, value, lower, upper)) => {
-            Err(IkError::JointLimit { target: shown, joint: joint + 1, value, lower, upper })
+    // One branch of the base: the pitch plane's x1 towards the target (`reach > 0`, the
+    // report's) or away from it (`reach < 0`: the base turned by about π, the arm reaching back
+    // over its shoulder axis, elbow still up).
+    let solve = |reach: f64| -> Result<JointVector<4>, IkError> {
+        let wrist_radial = reach - shoulder_offset - l4 * cos_pitch;
+        let wrist_height = target.z - l4 * sin_pitch - l1;
+        let distance = wrist_radial.hypot(wrist_height);
+        let (min, max) = geometry.wrist_reach();
+        // Within [min, max] the law of cosines gives |cos| ≤ 1 exactly; rounding can put the
+        // distance and the cosine a few ulps outside at the boundary (the arm fully stretched
+        // or folded), which is still reachable: a slack of REACH_ROUNDING·max (≈ 9e-15 m here)
+        // covers the rounding of the wrist distance from a target and is far below any
+        // physical tolerance.
+        let slack = REACH_ROUNDING * max;
+        let cos_elbow = ((l2 * l2 + distance * distance - l3 * l3) / (2.0 * l2 * distance)).clamp(-1.0, 1.0);
+        if !(distance >= min - slack && distance <= max + slack && cos_elbow.is_finite()) {
+            return Err(IkError::OutOfReach { target: shown, needed: distance, min, max });
         }
-        None => Ok(q),
+        let mut base = target.y.atan2(target.x);
+        let shoulder = if reach > 0.0 {
+            if lateral != 0.0 {
+                base += (up * lateral).atan2(reach);
+            }
+            wrist_height.atan2(wrist_radial) + cos_elbow.acos()
+        } else {
+            base -= (-(up * lateral)).atan2(reach);
+            wrist_height.atan2(wrist_radial) - cos_elbow.acos()
+        };
+        let forearm = (wrist_height - l2 * shoulder.sin()).atan2(wrist_radial - l2 * shoulder.cos());
+        // `up·β = ψ`; for the report's arm every factor is 1 and every offset 0, which leaves
+        // the angles bit for bit as the report's formulas give them.
+        let (shoulder, forearm, tool) = (up * shoulder, up * forearm, up * pitch);
+        let mut q = JointVector::<4>::new(
+            principal(base - o1),
+            principal(s2 * shoulder - o2),
+            wrap_angle(s3 * (forearm - shoulder) - o3),
+            wrap_angle(s4 * (tool - forearm) - o4),
+        );
+        // A joint whose range reaches beyond ±π may need the same angle a turn away.
+        for (j, link) in model.links().iter().enumerate() {
+            let limits = &link.limits;
+            if q[j] < limits.lower || q[j] > limits.upper {
+                if let Some(turned) =
+                    [q[j] + TAU, q[j] - TAU].into_iter().find(|v| *v >= limits.lower && *v <= limits.upper)
+                {
+                    q[j] = turned;
+                }
+            }
+        }
+        match model.first_limit_violation(&q) {
+            Some((joint, value, lower, upper)) => {
+                Err(IkError::JointLimit { target: shown, joint: joint + 1, value, lower, upper })
+            }
+            None => Ok(q),
+        }
+    };
+    match solve(plane_radial) {
+        // The front branch's error stands when the back one fails too.
+        Err(front @ (IkError::OutOfReach { .. } | IkError::JointLimit { .. })) => solve(-plane_radial).or(Err(front)),
+        result => result,
     }
 }
 
@@ -290,7 +321,6 @@ fn principal(angle: f64) -> f64 {
 
 /// The same angle in `(−π, π]`, rad.
 pub fn wrap_angle(angle: f64) -> f64 {
-    use std::f64::consts::TAU;
     let wrapped = (angle + PI).rem_euclid(TAU) - PI;
     if wrapped <= -PI { wrapped + TAU } else { wrapped }
 }

@@ -14,6 +14,10 @@ use crate::arm::model::{ArmModel, JointVector};
 /// Highest sample rate of an export, Hz (a 10 kHz stream is beyond any hobby servo bus).
 pub const MAX_EXPORT_RATE: f64 = 10_000.0;
 
+/// Lowest sample rate of an export, Hz: a driver interpolates between samples, and below one a
+/// second it would cut straight across the board.
+pub const MIN_EXPORT_RATE: f64 = 1.0;
+
 /// Instants closer than this (s) are the same sample.
 const SAME_INSTANT: f64 = 1e-9;
 
@@ -44,7 +48,7 @@ pub struct HardwarePoint {
 /// Why no export: the rate, or the plan's joint motion at an instant.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ExportError {
-    #[error("{0} Hz: the rate must be a finite number in (0, {MAX_EXPORT_RATE}] Hz")]
+    #[error("{0} Hz: the rate must be a finite number in [{MIN_EXPORT_RATE}, {MAX_EXPORT_RATE}] Hz")]
     Rate(f64),
     #[error(transparent)]
     Plan(#[from] PlanError),
@@ -70,7 +74,7 @@ pub fn hardware_points(
     pitch: f64,
     rate: f64,
 ) -> Result<Vec<HardwarePoint>, ExportError> {
-    if !(rate.is_finite() && rate > 0.0 && rate <= MAX_EXPORT_RATE) {
+    if !(rate.is_finite() && (MIN_EXPORT_RATE..=MAX_EXPORT_RATE).contains(&rate)) {
         return Err(ExportError::Rate(rate));
     }
     let mut commands = commands.to_vec();
@@ -97,5 +101,6 @@ pub fn hardware_points(
             grip: closed.then(|| grips - 1),
         });
     }
+    super::trajectory::check_continuity(arm, points.iter().map(|p| (p.t, &p.q)))?;
     Ok(points)
 }

@@ -33,6 +33,33 @@ pub enum PlanError {
     Singular { time: f64, position: [f64; 3], determinant: f64 },
     #[error("at t = {time:.3} s joint {joint} would turn at {rate:.3} rad/s, above its limit {limit:.3} rad/s")]
     VelocityLimit { time: f64, joint: usize, rate: f64, limit: f64 },
+    #[error(
+        "at t = {time:.3} s joint {joint} would jump from {from:.4} to {to:.4} rad between two samples: the path \
+         crosses the joint's limit or its turn (±π), or the arm's posture flips; no motion of the arm follows it"
+    )]
+    Jump { time: f64, joint: usize, from: f64, to: f64 },
+}
+
+/// Checks that consecutive joint samples `(t, q)` move no joint further than a motion can: by
+/// more than `max(1 rad, 2·v_max·Δt)`. IK gives each instant's angles on their own; a path across
+/// a joint's ±π turn or onto the other base branch would otherwise be followed as a jump.
+pub fn check_continuity<'a>(
+    model: &ArmModel<4>,
+    samples: impl IntoIterator<Item = (f64, &'a JointVector<4>)>,
+) -> Result<(), PlanError> {
+    let mut previous: Option<(f64, &JointVector<4>)> = None;
+    for (t, q) in samples {
+        if let Some((t0, q0)) = previous {
+            for (j, link) in model.links().iter().enumerate() {
+                let allowed = (2.0 * link.limits.velocity * (t - t0)).max(1.0);
+                if (q[j] - q0[j]).abs() > allowed {
+                    return Err(PlanError::Jump { time: t, joint: j + 1, from: q0[j], to: q[j] });
+                }
+            }
+        }
+        previous = Some((t, q));
+    }
+    Ok(())
 }
 
 /// Smallest |det J| (m³/rad) accepted before a configuration counts as singular. The report's
@@ -114,11 +141,13 @@ pub struct JointTrajectory {
 }
 
 impl JointTrajectory {
-    /// Samples `path` every `dt` s and converts each sample to joint space.
+    /// Samples `path` every `dt` s and converts each sample to joint space; a jump between
+    /// samples ([`check_continuity`]) is an error.
     pub fn from_path(model: &ArmModel<4>, path: &impl ToolMotion, dt: f64, pitch: f64) -> Result<Self, PlanError> {
         let samples = sample_times(path.duration(), dt)?
             .map(|t| joint_state_at(model, &path.sample(t), pitch))
             .collect::<Result<Vec<_>, _>>()?;
+        check_continuity(model, samples.iter().map(|s| (s.t, &s.q)))?;
         Ok(Self { dt, samples })
     }
 

@@ -1,0 +1,84 @@
+"""chessarm.plan/simulate/play/tune/robustness: the CLI's own commands run in-process, so
+their files equal the CLI's byte for byte, loaded as NumPy arrays."""
+
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import chessarm
+
+BIN = os.environ.get("CHESSARM_BIN")
+needs_cli = pytest.mark.skipif(BIN is None, reason="CHESSARM_BIN is not set: SKIPPED the comparison with the CLI")
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def cli(tmp, *args):
+    out = subprocess.run([BIN, *args, "--out", str(tmp), "--json"], check=True, capture_output=True, text=True)
+    return json.loads(out.stdout)
+
+
+def same_files(a: Path, b: Path, names):
+    for name in names:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+@needs_cli
+def test_simulate_writes_the_clis_files_and_loads_them(tmp_path):
+    result = chessarm.simulate(controller=["pd", "pid"], out=tmp_path / "py")
+    cli(tmp_path / "cli", "simulate", "--controller", "pd,pid")
+    same_files(tmp_path / "py", tmp_path / "cli", ["pd.csv", "pid.csv"])
+    run = result.runs["pd"]
+    assert run.q.shape == (len(run.t), 4) and run.tau.shape == (len(run.t), 4) and run.tip.shape == (len(run.t), 3)
+    assert abs(run.t[-1] - 13.0) < 1e-9
+    # The summary is the CLI's (but for the folder it names).
+    assert [c["controller"] for c in result.summary["summary"]["controllers"]] == ["pd", "pid"]
+
+
+@needs_cli
+def test_play_equals_the_cli_and_gives_the_game_and_its_trajectories(tmp_path):
+    game = chessarm.play(moves="e4 e5 Nf3", out=tmp_path / "py")
+    cli(tmp_path / "cli", "play", "--moves", "e4 e5 Nf3")
+    same_files(tmp_path / "py", tmp_path / "cli", ["moves/001-e2e4.csv", "moves/003-g1f3.csv", "hardware/001-e2e4.json"])
+    assert game.summary["misplaced"] == 0
+    assert game.game["final_fen_physical"].startswith("rnbqkbnr/pppp1ppp/8/4p3/4P3/5N2/PPPP1PPP/RNBQKB1R")
+    assert sorted(game.moves) == ["moves/001-e2e4.csv", "moves/002-e7e5.csv", "moves/003-g1f3.csv"]
+    trajectory = game.hardware["hardware/001-e2e4.json"]["trajectory"]
+    assert trajectory["joint_names"] == ["joint1", "joint2", "joint3", "joint4"]
+    assert game.hardware["hardware/001-e2e4.csv"]["gripper"][0] == "open"
+
+
+def test_play_takes_pgn_text_and_a_temporary_folder_goes_away():
+    game = chessarm.play("1. f3 e5 2. g4 Qh4# 0-1\n")
+    assert game.summary["result"] == "0-1" and game.out is None
+    assert len(game.game["moves"]) == 4
+
+
+@needs_cli
+def test_tune_rows_equal_the_clis_csv(tmp_path):
+    rows = chessarm.tune(kp="100..400:3", kd="10..40:3", out=tmp_path / "py")
+    cli(tmp_path / "cli", "tune", "--kp", "100..400:3", "--kd", "10..40:3")
+    same_files(tmp_path / "py", tmp_path / "cli", ["tune.csv"])
+    assert len(rows) == 9 and rows[0]["kp"] == 100.0 and rows[0]["status"] == "ok"
+    # The summary is the CLI's: the best candidates, best first.
+    best = rows.summary["best"][0]
+    assert best["metric"] == min(row["max_tip_error_mm"] for row in rows)
+    assert rows[int(best["index"])]["kp"] == best["kp"]
+    np.testing.assert_array_equal(rows.table.kd[:3], [10.0, 25.0, 40.0])
+
+
+def test_plan_with_moves_and_the_urdf_arm():
+    planned = chessarm.plan("e4", urdf=ROOT / "examples" / "offset-arm.urdf")
+    assert planned.joint.q_des.shape[1] == 4
+    assert planned.hardware["hardware/001-e2e4.json"]["trajectory"]["joint_names"] == ["waist", "shoulder", "elbow", "wrist"]
+
+
+def test_errors_name_the_flag_or_say_why():
+    with pytest.raises(ValueError, match="--kp"):
+        chessarm.tune(kp="nonsense")
+    with pytest.raises(chessarm.CommandError, match="e4"):
+        chessarm.play(moves="e4 e4")
+    assert issubclass(chessarm.CommandError, chessarm.Error)
