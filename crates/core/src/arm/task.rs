@@ -292,12 +292,11 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
         // A joint whose range reaches beyond ±π may need the same angle a turn away.
         for (j, link) in model.links().iter().enumerate() {
             let limits = &link.limits;
-            if q[j] < limits.lower || q[j] > limits.upper {
-                if let Some(turned) =
+            if (q[j] < limits.lower || q[j] > limits.upper)
+                && let Some(turned) =
                     [q[j] + TAU, q[j] - TAU].into_iter().find(|v| *v >= limits.lower && *v <= limits.upper)
-                {
-                    q[j] = turned;
-                }
+            {
+                q[j] = turned;
             }
         }
         match model.first_limit_violation(&q) {
