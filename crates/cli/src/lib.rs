@@ -68,20 +68,23 @@ pub fn run_captured(args: &[String]) -> Result<Captured, RunError> {
     use clap::Parser;
     let _one_at_a_time = CAPTURED_RUN.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let words = std::iter::once("chessarm".to_string()).chain(args.iter().cloned()).chain(["--json".to_string()]);
-    let cli = Cli::try_parse_from(words).map_err(|error| {
-        let rendered = error.render().to_string();
-        let message: Vec<&str> = rendered
-            .lines()
-            .take_while(|line| !line.starts_with("Usage:") && !line.starts_with("For more information"))
-            .map(str::trim)
-            .filter(|line| !line.is_empty())
-            .collect();
-        RunError::Usage(shorten_long_words(&escape_controls(&message.join(" "))))
-    })?;
+    let cli = Cli::try_parse_from(words).map_err(|error| RunError::Usage(usage_message(&error)))?;
     *CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(Captured::default());
     let result = run(cli);
     let kept = CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take().unwrap_or_default();
     result.map(|()| kept).map_err(|error| RunError::Failed(one_line(&error)))
+}
+
+/// clap's message for bad arguments on one line, without its usage and help hints.
+pub fn usage_message(error: &clap::Error) -> String {
+    let rendered = error.render().to_string();
+    let message: Vec<&str> = rendered
+        .lines()
+        .take_while(|line| !line.starts_with("Usage:") && !line.starts_with("For more information"))
+        .map(str::trim)
+        .filter(|line| !line.is_empty())
+        .collect();
+    shorten_long_words(&escape_controls(&message.join(" ")))
 }
 
 /// Whether the result goes out as JSON (`--json`).

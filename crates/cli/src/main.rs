@@ -18,18 +18,7 @@ fn main() -> ExitCode {
                     }
                 },
                 _ => {
-                    // One line: clap's message without its usage and help hints.
-                    let rendered = error.render().to_string();
-                    let message: Vec<&str> = rendered
-                        .lines()
-                        .take_while(|line| !line.starts_with("Usage:") && !line.starts_with("For more information"))
-                        .map(str::trim)
-                        .filter(|line| !line.is_empty())
-                        .collect();
-                    chessarm::tell(&format!(
-                        "{}\n",
-                        chessarm::shorten_long_words(&chessarm::escape_controls(&message.join(" ")))
-                    ));
+                    chessarm::tell(&format!("{}\n", chessarm::usage_message(&error)));
                     ExitCode::from(2)
                 }
             };

@@ -263,10 +263,11 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
         );
     };
     if tool_joints == 0 {
+        let last = path.last().map_or("", String::as_str);
         bail!(
-            "the chain ends at link '{}', moved by joint '{}': add a fixed joint to a tool link whose origin is the \
-             tool tip",
-            path.last().map_or("", String::as_str),
+            "{}: the chain ends at link '{last}', moved by joint '{}': add a fixed joint to a tool link whose origin \
+             is the tool tip",
+            links.get(last).map_or_else(String::new, at),
             joints[3].name
         );
     }

@@ -370,7 +370,11 @@ fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
             .unwrap()
             .to_string()
                 + "</robot>\n",
-            vec!["ends at link 'wrist_link'".into(), "fixed joint to a tool link".into()],
+            vec![
+                format!("line {}: <link name=\"wrist_link\">", line_of(r#"<link name="wrist_link""#)),
+                "ends at link 'wrist_link'".into(),
+                "fixed joint to a tool link".into(),
+            ],
         ),
         (
             "three joints",

@@ -1,7 +1,7 @@
 """Type stubs of the compiled part of chessarm (``chessarm._chessarm``)."""
 
 from os import PathLike
-from typing import List, Sequence, Union
+from typing import List, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +22,12 @@ class UnreachableError(Error):
 
 class DynamicsError(Error):
     """A dynamics computation failed (e.g. M(q) not positive definite)."""
+
+class CommandError(Error):
+    """A chessarm command failed (the CLI's one-line message)."""
+
+def run_cli(args: List[str]) -> Tuple[str, str]:
+    """Runs ``chessarm ARGS --json`` in this process: (stdout, stderr) of the command."""
 
 class Arm:
     """A 4-DOF arm (base yaw, three pitch joints) in standard DH with its links' masses."""
