@@ -43,11 +43,18 @@ fn trials(c: &mut Criterion) {
         let study = Study::for_trials(&setup, &args.conditions, 1e-3).expect("conditions");
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("pool");
         group.bench_function(format!("{name}: 100 trials, 2 threads"), |b| {
-            b.iter(|| pool.install(|| run_trials(&setup, &work, &specs, &study, &options, 0..100, None)))
+            b.iter(|| {
+                pool.install(|| run_trials(&setup, &work, &specs, &study, &options, 0..100, None))
+                    .expect("not cancelled")
+            })
         });
         let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
         group.bench_function(format!("{name}: 1 trial, 1 thread"), |b| {
-            b.iter(|| single.install(|| run_trials(&setup, &work, &specs, &study, &options, 0..1, None)))
+            b.iter(|| {
+                single
+                    .install(|| run_trials(&setup, &work, &specs, &study, &options, 0..1, None))
+                    .expect("not cancelled")
+            })
         });
     }
     group.finish();

@@ -34,6 +34,25 @@ pub struct Captured {
 /// While [`run_captured`] runs a command: where its output goes instead of the terminal.
 static CAPTURE: std::sync::Mutex<Option<Captured>> = std::sync::Mutex::new(None);
 
+/// Set by [`cancel`]: sweeps, campaigns and games stop at their next candidate, trial or ply.
+static CANCELLED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Asks the command running in this process to stop (Python's Ctrl-C); it fails with
+/// "interrupted" at its next candidate, trial or ply.
+pub fn cancel() {
+    CANCELLED.store(true, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether [`cancel`] was called during this command.
+pub fn cancelled() -> bool {
+    CANCELLED.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// The error of a command stopped by [`cancel`].
+pub fn interrupted() -> anyhow::Error {
+    anyhow::anyhow!("interrupted")
+}
+
 /// One command at a time runs captured (the capture is the process's).
 static CAPTURED_RUN: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
@@ -54,8 +73,9 @@ fn captured(text: &str, stdout: bool) -> bool {
 pub enum RunError {
     /// The arguments: clap's message (naming the flag and the value as typed) on one line.
     Usage(String),
-    /// The command failed: the error, as the CLI prints it on one line.
-    Failed(String),
+    /// The command failed: the error, as the CLI prints it on one line, and what it had said
+    /// on standard error before.
+    Failed { message: String, stderr: String },
 }
 
 /// Runs `chessarm ARGS --json` in this process, for the Python bindings: what it would print is
@@ -70,9 +90,13 @@ pub fn run_captured(args: &[String]) -> Result<Captured, RunError> {
     let words = std::iter::once("chessarm".to_string()).chain(args.iter().cloned()).chain(["--json".to_string()]);
     let cli = Cli::try_parse_from(words).map_err(|error| RunError::Usage(usage_message(&error)))?;
     *CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(Captured::default());
+    CANCELLED.store(false, std::sync::atomic::Ordering::Relaxed);
+    // The folders' lists are read afresh: between two runs in one process the user may have
+    // removed or changed a folder.
+    output::forget_listed();
     let result = run(cli);
     let kept = CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take().unwrap_or_default();
-    result.map(|()| kept).map_err(|error| RunError::Failed(one_line(&error)))
+    result.map(|()| kept.clone()).map_err(|error| RunError::Failed { message: one_line(&error), stderr: kept.stderr })
 }
 
 /// clap's message for bad arguments on one line, without its usage and help hints.

@@ -177,6 +177,11 @@ fn is_plain_name(name: &str) -> bool {
     !name.is_empty() && name != "." && name != ".." && name != WRITTEN_LIST && !name.contains(['/', '\\', '\0'])
 }
 
+/// Forgets the lists read so far (they are read again when next needed).
+pub fn forget_listed() {
+    *listed() = None;
+}
+
 fn listed() -> MutexGuard<'static, Option<HashMap<PathBuf, HashSet<String>>>> {
     LISTED.lock().unwrap_or_else(PoisonError::into_inner)
 }

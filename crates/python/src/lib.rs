@@ -7,7 +7,9 @@
 //! GIL released.
 
 use chessarm::config::Setup;
-use chessarm_core::arm::dynamics::{forward_dynamics, gravity_torques, inverse_dynamics, mass_matrix};
+use chessarm_core::arm::dynamics::{
+    forward_dynamics, friction_torques, gravity_torques, inverse_dynamics, mass_matrix,
+};
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::lagrange::coriolis_matrix;
 use chessarm_core::arm::model::{ArmModel, JointVector};
@@ -30,15 +32,53 @@ pyo3::create_exception!(
 );
 pyo3::create_exception!(chessarm, CommandError, Error, "A chessarm command failed (the CLI's one-line message).");
 
-/// Runs `chessarm ARGS --json` in this process with the GIL released: `(stdout, stderr)` of
-/// the command (its result's JSON is stdout). Bad arguments raise `ValueError` with the CLI's
-/// message naming the flag; a failed command raises `CommandError`.
+/// Runs `chessarm ARGS --json` in this process on a thread of its own, the GIL released:
+/// `(stdout, stderr)` of the command (its result's JSON is stdout). Bad arguments raise
+/// `ValueError` with the CLI's message naming the flag; a failed command raises `CommandError`
+/// (with what it said before on stderr). Ctrl-C (any Python signal handler that raises) stops a
+/// sweep, campaign or game at its next candidate, trial or ply and raises here.
 #[pyfunction]
 fn run_cli(py: Python<'_>, args: Vec<String>) -> PyResult<(String, String)> {
-    match py.detach(|| chessarm::run_captured(&args)) {
+    let (done, result) = std::sync::mpsc::channel();
+    // Behind a mutex so the wait can leave the GIL (a receiver is not shared between threads).
+    let result = std::sync::Mutex::new(result);
+    let worker = std::thread::Builder::new()
+        .name("chessarm-command".into())
+        .spawn(move || {
+            let _ = done.send(chessarm::run_captured(&args));
+        })
+        .map_err(|e| Error::new_err(format!("cannot start the command's thread: {e}")))?;
+    let outcome = loop {
+        let wait = || {
+            let receiver = result.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            receiver.recv_timeout(std::time::Duration::from_millis(50))
+        };
+        match py.detach(wait) {
+            Ok(outcome) => break outcome,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                if let Err(signal) = py.check_signals() {
+                    chessarm::cancel();
+                    let _ = py.detach(|| worker.join());
+                    return Err(signal);
+                }
+            }
+            // The thread ended without an answer: it panicked (the panic stays in Rust).
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(Error::new_err("the command stopped on an internal error (a panic in chessarm)"));
+            }
+        }
+    };
+    let _ = py.detach(|| worker.join());
+    match outcome {
         Ok(captured) => Ok((captured.stdout, captured.stderr)),
         Err(chessarm::RunError::Usage(message)) => Err(PyValueError::new_err(message)),
-        Err(chessarm::RunError::Failed(message)) => Err(CommandError::new_err(message)),
+        Err(chessarm::RunError::Failed { message, stderr }) => {
+            Err(CommandError::new_err(if stderr.trim().is_empty() {
+                message
+            } else {
+                format!("{message}\n{}", stderr.trim_end())
+            }))
+        }
     }
 }
 
@@ -79,11 +119,12 @@ fn matched(arguments: &[(&str, &PyArrayLikeDyn<'_, f64, AllowTypeChange>)]) -> P
     for (name, array) in arguments {
         let given = states(name, array)?;
         if single.is_some_and(|s| s != given.single) || count.is_some_and(|c| c != given.rows.len()) {
+            let shape = |single: bool, rows: usize| if single { "(4,)".to_string() } else { format!("({rows}, 4)") };
             return Err(PyValueError::new_err(format!(
-                "{name}: {} state(s) where {} has {}: give every argument the same shape",
-                given.rows.len(),
+                "{name}: shape {} where {} has shape {}: give every argument the same shape",
+                shape(given.single, given.rows.len()),
                 arguments[0].0,
-                count.unwrap_or(0)
+                shape(single.unwrap_or(true), count.unwrap_or(0))
             )));
         }
         single = Some(given.single);
@@ -224,8 +265,11 @@ impl Arm {
 
     /// Closed-form inverse kinematics (elbow up) for the tool tip at `xyz` (m) with `pitch`
     /// (rad): the joint angles, rad. Raises `UnreachableError` with the reason.
-    #[pyo3(signature = (xyz, pitch = TOOL_DOWN))]
+    #[pyo3(signature = (xyz, pitch = TOOL_DOWN), text_signature = "(self, xyz, pitch=-1.5707963267948966)")]
     fn ik<'py>(&self, py: Python<'py>, xyz: [f64; 3], pitch: f64) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        if !pitch.is_finite() {
+            return Err(PyValueError::new_err(format!("pitch = {pitch} is not finite")));
+        }
         let q = inverse_kinematics(&self.model, &Vector3::from(xyz), pitch)
             .map_err(|e| UnreachableError::new_err(e.to_string()))?;
         Ok(output(py, q.as_slice().to_vec(), 1, &[4], true))
@@ -253,8 +297,25 @@ impl Arm {
         })
     }
 
-    /// Forward dynamics: a = M(q)⁻¹ (τ + τ_friction − C(q, v) v − g(q)), rad/s².
+    /// Forward dynamics, the inverse of `rnea` (as Pinocchio's `aba`, without friction):
+    /// a = M(q)⁻¹ (τ − C(q, v) v − g(q)), rad/s².
     fn aba<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        tau: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        self.map(py, &[("q", &q), ("v", &v), ("tau", &tau)], &[4], |model, s| {
+            // Friction cancelled: the core's forward dynamics adds τ_friction(v).
+            let tau = s[2] - friction_torques(model, &s[1]);
+            forward_dynamics(model, &s[0], &s[1], &tau).map(|a| a.as_slice().to_vec()).map_err(|e| e.to_string())
+        })
+    }
+
+    /// Forward dynamics of the simulated plant, friction included:
+    /// a = M(q)⁻¹ (τ + τ_friction(v) − C(q, v) v − g(q)), rad/s² (`aba` when the arm has none).
+    fn forward_dynamics<'py>(
         &self,
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,

@@ -125,7 +125,7 @@ def test_errors_are_python_exceptions_with_the_clis_messages(tmp_path):
     assert issubclass(chessarm.UnreachableError, chessarm.Error)
     with pytest.raises(ValueError, match=r"q: shape \[3\]"):
         arm.mass_matrix([1.0, 2.0, 3.0])
-    with pytest.raises(ValueError, match="v: 2 state"):
+    with pytest.raises(ValueError, match=r"v: shape \(2, 4\) where q has shape \(3, 4\)"):
         arm.rnea(STATES[:3], STATES[:2], STATES[:3])
     with pytest.raises(ValueError, match="not finite"):
         arm.gravity([0.0, float("nan"), 0.0, 0.0])

@@ -82,3 +82,56 @@ def test_errors_name_the_flag_or_say_why():
     with pytest.raises(chessarm.CommandError, match="e4"):
         chessarm.play(moves="e4 e4")
     assert issubclass(chessarm.CommandError, chessarm.Error)
+
+
+def test_numpy_values_paths_and_games_become_the_clis_flags(tmp_path):
+    q = np.array([0.1, 0.2, 0.3, 0.4])
+    fk = chessarm.run("fk", q=q)
+    np.testing.assert_allclose(fk["tip"], chessarm.Arm.default().fk(q)[:3, 3], rtol=0, atol=1e-15)
+    assert chessarm.run("fk", q=list(q)) == fk
+    assert "[[links]]" in chessarm.run("arm")  # a command that prints a file gives its text
+    dynamics = chessarm.run("dynamics", q=q, payload_mass=np.float64(0.1))
+    assert len(dynamics["g"]) == 4
+    with pytest.raises(FileNotFoundError, match="gmae.pgn"):
+        chessarm.play("gmae.pgn")
+    with pytest.raises(FileNotFoundError):
+        chessarm.play(tmp_path / "missing.pgn")
+    game = tmp_path / "game.pgn"
+    game.write_text("1. e4 *\n")
+    rows = chessarm.tune(pgn=game, kp="100..200:2", kd="10..20:2")
+    assert len(rows) == 4 and all(row["status"] == "ok" for row in rows)
+
+
+def test_a_folder_removed_between_runs_is_written_again(tmp_path):
+    import shutil
+
+    out = tmp_path / "sim"
+    chessarm.simulate(controller="pd", out=out)
+    shutil.rmtree(out)
+    chessarm.simulate(controller="pd", out=out)
+    assert (out / ".chessarm-written").exists()
+    chessarm.simulate(controller="pd", out=out)  # and again: its own files are replaced
+
+
+def test_ctrl_c_stops_a_long_sweep_soon_and_the_next_call_works():
+    import signal
+    import threading
+    import time
+
+    threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+    started = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        chessarm.tune(kp="100..900:40", kd="10..60:40", threads=1)  # ~20 s to the end
+    assert time.perf_counter() - started < 5.0
+    assert len(chessarm.tune(kp="100..200:2", kd="10..20:2")) == 4
+
+
+def test_aba_is_rneas_inverse_and_forward_dynamics_adds_friction():
+    arm = chessarm.Arm.from_urdf(ROOT / "examples" / "offset-arm.urdf")  # it has friction
+    rng = np.random.default_rng(3)
+    q, v, a = (rng.uniform(-2, 2, (8, 4)) for _ in range(3))
+    tau = arm.rnea(q, v, a)
+    np.testing.assert_allclose(arm.aba(q, v, tau), a, rtol=0, atol=1e-9)
+    assert np.abs(arm.forward_dynamics(q, v, tau) - a).max() > 1e-3
+    plain = chessarm.Arm.default()
+    np.testing.assert_array_equal(plain.forward_dynamics(q, v, tau), plain.aba(q, v, tau))

@@ -89,3 +89,29 @@ def test_a_lost_workers_shards_run_again_and_the_file_is_the_same(client, tmp_pa
     # The worker was lost while the sweep ran (a new one took its place).
     client.wait_for_workers(2, timeout=60)
     assert victim not in set(client.scheduler_info()["workers"])
+
+
+def test_calls_do_not_share_results_and_bad_arguments_fail_fast(client):
+    first = chessarm.distributed.tune(client, shards=2, kp="500..600:2", kd="10..20:2", progress=False)
+    second = chessarm.distributed.tune(client, shards=2, kp="700..800:2", kd="10..20:2", progress=False)
+    assert {row["kp"] for row in first} == {500.0, 600.0} and {row["kp"] for row in second} == {700.0, 800.0}
+    with pytest.raises(ValueError, match="--kp"):
+        chessarm.distributed.tune(client, shards=2, kp="nonsense", progress=False)
+    assert len(chessarm.distributed.tune(client, shards=2, kp="100..200:2", kd="10..20:2", progress=False)) == 4
+    for bad in [dict(shards=0), dict(workers=0, client=None)]:
+        arguments = {"client": client, **bad}
+        with pytest.raises(ValueError):
+            chessarm.distributed.tune(arguments.pop("client"), kp="100..200:2", kd="10..20:2", **arguments)
+
+
+def test_a_scheduler_address_gets_a_client_that_is_closed_after(client):
+    address = client.scheduler.address
+    before = len(client.run_on_scheduler(lambda dask_scheduler: list(dask_scheduler.clients)))
+    for _ in range(2):
+        chessarm.distributed.tune(scheduler=address, shards=2, kp="100..200:2", kd="10..20:2", progress=False)
+    import time
+
+    time.sleep(0.5)
+    after = len(client.run_on_scheduler(lambda dask_scheduler: list(dask_scheduler.clients)))
+    assert after == before
+    assert distributed.default_client() is client

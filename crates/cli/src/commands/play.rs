@@ -179,6 +179,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     );
     let mut reports = Vec::new();
     for ply in 0..total {
+        if crate::cancelled() {
+            return Err(crate::interrupted());
+        }
         // A given game is replayed whole; an engine game stops at its result.
         if matches!(source, Source::Engines { .. }) && game.outcome().is_some() {
             break;

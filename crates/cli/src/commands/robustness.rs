@@ -266,6 +266,10 @@ pub struct TrialOptions {
 }
 
 /// Runs trials `range` of every controller on the current rayon pool, in trial order.
+///
+/// # Errors
+///
+/// Only [`crate::interrupted`], when the run was cancelled.
 pub fn run_trials(
     setup: &Setup,
     work: &Work,
@@ -274,10 +278,13 @@ pub fn run_trials(
     options: &TrialOptions,
     range: std::ops::Range<usize>,
     progress: Option<&indicatif::ProgressBar>,
-) -> Vec<TrialRow> {
-    range
+) -> Result<Vec<TrialRow>> {
+    let rows: Result<Vec<Vec<TrialRow>>> = range
         .into_par_iter()
         .map(|index| {
+            if crate::cancelled() {
+                return Err(crate::interrupted());
+            }
             let seed = derive_seed(options.seed, index as u64);
             let rows = match study.trial(seed) {
                 Ok(trial) => specs
@@ -315,10 +322,10 @@ pub fn run_trials(
             if let Some(bar) = progress {
                 bar.inc(1);
             }
-            rows
+            Ok(rows)
         })
-        .flatten()
-        .collect()
+        .collect();
+    Ok(rows?.into_iter().flatten().collect())
 }
 
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
@@ -371,7 +378,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         controller_knows_payload: args.controller_knows_payload,
         tolerance,
     };
-    let rows = pool.install(|| run_trials(setup, &work, &specs, &study, &options, range.clone(), Some(&bar)));
+    let rows = pool.install(|| run_trials(setup, &work, &specs, &study, &options, range.clone(), Some(&bar)))?;
     let wall_time_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
 

@@ -379,18 +379,21 @@ pub fn sweep(
     let threads = crate::resources::worker_threads(threads)?;
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
-    Ok(pool.install(|| {
+    pool.install(|| {
         range
             .into_par_iter()
             .map(|index| {
+                if crate::cancelled() {
+                    return Err(crate::interrupted());
+                }
                 let candidate = simulate_candidate(setup, study, options, index, &gains[index]);
                 if let Some(bar) = progress {
                     bar.inc(1);
                 }
-                candidate
+                Ok(candidate)
             })
             .collect()
-    }))
+    })
 }
 
 pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {

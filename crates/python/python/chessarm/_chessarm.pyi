@@ -53,14 +53,16 @@ class Arm:
         """(x, y, z, pitch) in m and rad: shape (4,) or (n, 4)."""
     def jacobian(self, q: ArrayLike) -> npt.NDArray[np.float64]:
         """Tool-tip geometric Jacobian (v; ω) in the base frame: shape (6, 4) or (n, 6, 4)."""
-    def ik(self, xyz: Sequence[float], pitch: float = ...) -> npt.NDArray[np.float64]:
+    def ik(self, xyz: Sequence[float], pitch: float = -1.5707963267948966) -> npt.NDArray[np.float64]:
         """Joint angles (rad) putting the tool tip at xyz (m) with pitch (rad, default −π/2)."""
     def mass_matrix(self, q: ArrayLike) -> npt.NDArray[np.float64]:
         """M(q), kg·m²: shape (4, 4) or (n, 4, 4)."""
     def rnea(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> npt.NDArray[np.float64]:
         """τ = M(q) a + C(q, v) v + g(q), N·m: shape (4,) or (n, 4)."""
     def aba(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike) -> npt.NDArray[np.float64]:
-        """a = M(q)⁻¹ (τ + τ_friction − C(q, v) v − g(q)), rad/s²: shape (4,) or (n, 4)."""
+        """The inverse of rnea: a = M(q)⁻¹ (τ − C(q, v) v − g(q)), rad/s²: (4,) or (n, 4)."""
+    def forward_dynamics(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike) -> npt.NDArray[np.float64]:
+        """The plant's: a = M(q)⁻¹ (τ + τ_friction(v) − C(q, v) v − g(q)), rad/s²."""
     def gravity(self, q: ArrayLike) -> npt.NDArray[np.float64]:
         """g(q), N·m: shape (4,) or (n, 4)."""
     def coriolis(self, q: ArrayLike, v: ArrayLike) -> npt.NDArray[np.float64]:

@@ -22,6 +22,16 @@ from ._chessarm import run_cli
 
 
 def _value(value: Any) -> str:
+    """A flag's value as the CLI reads it: floats in full (also NumPy's), arrays and lists
+    comma-separated, paths as paths."""
+    if isinstance(value, np.ndarray):
+        return ",".join(_value(v) for v in value.ravel().tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, (list, tuple)):
+        return ",".join(_value(v) for v in value)
+    if isinstance(value, bool):
+        return "true" if value else "false"
     if isinstance(value, float):
         return repr(value)
     if isinstance(value, os.PathLike):
@@ -36,19 +46,23 @@ def flags(**kwargs: Any) -> List[str]:
         if value is None or value is False:
             continue
         flag = "--" + key.replace("_", "-")
-        if value is True:
+        if value is True or (isinstance(value, np.bool_) and bool(value)):
             words.append(flag)
-        elif isinstance(value, (list, tuple)):
-            words += [flag, ",".join(_value(v) for v in value)]
+        elif isinstance(value, np.bool_):
+            continue
         else:
             words += [flag, _value(value)]
     return words
 
 
-def run(command: str, *args: str, **kwargs: Any) -> Dict[str, Any]:
-    """Runs ``chessarm COMMAND ARGS… FLAGS… --json`` and returns its JSON result as a dict."""
+def run(command: str, *args: Any, **kwargs: Any) -> Any:
+    """Runs ``chessarm COMMAND ARGS… FLAGS… --json``: its JSON result as a dict, or, for the
+    commands that print a file (``arm``: TOML, ``urdf``: XML), that text."""
     stdout, _ = run_cli([command, *[_value(a) for a in args], *flags(**kwargs)])
-    return json.loads(stdout)
+    try:
+        return json.loads(stdout)
+    except json.JSONDecodeError:
+        return stdout
 
 
 class Table(dict):
@@ -132,8 +146,26 @@ class Result:
         return f"{type(self).__name__}(tables={sorted(self.tables)}, out={self.out!r})"
 
 
+def pgn_file(pgn: Any, holder: str) -> str:
+    """A PGN game given as a path (which must exist) or as PGN text (written into `holder`)."""
+    if isinstance(pgn, os.PathLike) or (isinstance(pgn, str) and "\n" not in pgn and pgn.strip().endswith(".pgn")):
+        if not os.path.exists(os.fspath(pgn)):
+            raise FileNotFoundError(f"no PGN file {os.fspath(pgn)!r}")
+        return os.fspath(pgn)
+    if os.path.exists(pgn):
+        return pgn
+    path = os.path.join(holder, "game.pgn")
+    with open(path, "w") as f:
+        f.write(pgn)
+    return path
+
+
 def _in_folder(command: str, positional: List[str], out: Optional[os.PathLike], kwargs: Dict[str, Any], kind):
     with tempfile.TemporaryDirectory(prefix="chessarm-") as temporary:
+        # A game for tune/robustness/simulate comes as the command's positional PGN file.
+        game = kwargs.pop("pgn", None) or kwargs.pop("game_file", None)
+        if game is not None:
+            positional = [pgn_file(game, temporary), *positional]
         folder = os.fspath(out) if out is not None else os.path.join(temporary, command)
         stdout, stderr = run_cli([command, *positional, *flags(out=folder, **kwargs)])
         summary = json.loads(stdout)
@@ -207,17 +239,7 @@ def play(
 ) -> Game:
     """``chessarm play``: a PGN game (a path, or the PGN text itself), a move list, or a game
     against an engine (``engine="builtin"`` or a UCI program's path)."""
-    with tempfile.TemporaryDirectory(prefix="chessarm-pgn-") as holder:
-        positional: List[str] = []
-        if pgn is not None:
-            if os.path.exists(os.fspath(pgn)):
-                positional = [os.fspath(pgn)]
-            else:
-                path = os.path.join(holder, "game.pgn")
-                with open(path, "w") as f:
-                    f.write(pgn)
-                positional = [path]
-        return _in_folder("play", positional, out, dict(moves=moves, engine=engine, **kwargs), Game)
+    return _in_folder("play", [], out, dict(pgn=pgn, moves=moves, engine=engine, **kwargs), Game)
 
 
 class Sweep(list):

@@ -19,6 +19,7 @@ import os
 import sys
 import tempfile
 import time
+import uuid
 from typing import Any, Dict, Optional, Tuple
 
 from . import _commands
@@ -28,22 +29,29 @@ from ._chessarm import run_cli
 def _shard(command: str, csv_name: str, index: int, count: int, kwargs: Dict[str, Any]) -> Tuple[int, str]:
     """Runs shard ``index`` of ``count`` on this worker; its CSV's text."""
     with tempfile.TemporaryDirectory(prefix="chessarm-shard-") as folder:
-        args = [command, *_commands.flags(shard=f"{index + 1}/{count}", out=folder, **kwargs)]
+        kwargs = dict(kwargs)
+        game = kwargs.pop("pgn", None) or kwargs.pop("game_file", None)
+        positional = [] if game is None else [_commands.pgn_file(game, folder)]
+        args = [command, *positional, *_commands.flags(shard=f"{index + 1}/{count}", out=folder, **kwargs)]
         run_cli(args)
         with open(os.path.join(folder, csv_name), newline="") as f:
             return index, f.read()
 
 
 def _client(client, scheduler: Optional[str], workers: int):
-    """The client to use and whether this call made (and must close) it."""
+    """The client to use, and the client and cluster this call made (and must close)."""
     if client is not None:
-        return client, None
+        return client, None, None
     from dask.distributed import Client, LocalCluster
 
     if scheduler is not None:
-        return Client(scheduler), None
+        made = Client(scheduler, set_as_default=False)
+        return made, made, None
+    if not (isinstance(workers, int) and workers >= 1):
+        raise ValueError(f"workers={workers!r}: a LocalCluster needs at least one worker")
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
-    return Client(cluster), cluster
+    made = Client(cluster, set_as_default=False)
+    return made, made, cluster
 
 
 def _campaign(
@@ -62,17 +70,21 @@ def _campaign(
 
     if kwargs.get("shard") is not None:
         raise ValueError("shard: chessarm.distributed chooses the shards; give shards=N instead")
-    client, cluster = _client(client, scheduler, workers)
+    if shards is not None and not (isinstance(shards, int) and shards >= 1):
+        raise ValueError(f"shards={shards!r}: needs at least one shard")
+    client, made, cluster = _client(client, scheduler, workers)
     try:
-        count = shards or max(2, 2 * len(client.scheduler_info().get("workers", {})) or 2)
-        if count < 1:
-            raise ValueError(f"shards={shards}: needs at least one shard")
+        count = shards if shards is not None else max(2, 2 * len(client.scheduler_info().get("workers", {})))
         # A shard runs on one core of its worker unless told otherwise: the cores are the
         # workers'. The rows do not depend on it.
         kwargs = {"threads": 1, **kwargs}
         started = time.perf_counter()
+        # Keys of this call's own (Dask would otherwise hand back an earlier call's results).
+        token = uuid.uuid4().hex[:12]
         futures = [
-            client.submit(_shard, command, csv_name, k, count, kwargs, key=f"chessarm-{command}-{k}-of-{count}", retries=retries, pure=False)
+            client.submit(
+                _shard, command, csv_name, k, count, kwargs, key=f"chessarm-{command}-{token}-{k + 1}-of-{count}", retries=retries
+            )
             for k in range(count)
         ]
         texts: Dict[int, str] = {}
@@ -87,8 +99,9 @@ def _campaign(
                 )
         merged = "".join(texts[k] for k in range(count))
     finally:
+        if made is not None:
+            made.close()
         if cluster is not None:
-            client.close()
             cluster.close()
     if out is not None:
         folder = os.fspath(out)
@@ -98,7 +111,7 @@ def _campaign(
         with open(partial, "w", newline="") as f:
             f.write(merged)
         os.replace(partial, target)
-    return merged
+    return merged, count
 
 
 def _table(text: str, csv_name: str) -> _commands.Table:
@@ -124,11 +137,11 @@ def tune(
     (its address), or neither (a ``LocalCluster`` of ``workers`` processes, closed after). The
     rows, as :func:`chessarm.tune` returns them; with ``out=`` the merged ``tune.csv`` is
     written there. ``text`` holds the merged CSV."""
-    text = _campaign("tune", "tune.csv", client, scheduler, workers, shards, out, retries, progress, kwargs)
+    text, count = _campaign("tune", "tune.csv", client, scheduler, workers, shards, out, retries, progress, kwargs)
     table = _table(text, "tune.csv")
     sweep = _commands.Sweep(table.rows())
     sweep.table = table
-    sweep.summary = {"candidates": len(sweep), "shards": shards}
+    sweep.summary = {"candidates": len(sweep), "shards": count}
     sweep.text = text
     return sweep
 
@@ -145,7 +158,7 @@ def robustness(
     **kwargs: Any,
 ) -> _commands.Table:
     """A ``robustness`` campaign on Dask (as :func:`tune`): the merged ``robustness.csv``."""
-    text = _campaign("robustness", "robustness.csv", client, scheduler, workers, shards, out, retries, progress, kwargs)
+    text, _ = _campaign("robustness", "robustness.csv", client, scheduler, workers, shards, out, retries, progress, kwargs)
     table = _table(text, "robustness.csv")
     table.text = text
     return table
