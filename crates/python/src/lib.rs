@@ -147,6 +147,11 @@ fn output<'py>(
     ArrayD::from_shape_vec(IxDyn(&full), values).expect("the values fill the shape").into_pyarray(py)
 }
 
+/// A 4×4 matrix's entries row by row.
+fn row_major(m: &chessarm_core::nalgebra::Matrix4<f64>) -> [f64; 16] {
+    std::array::from_fn(|k| m[(k / 4, k % 4)])
+}
+
 /// A 4-DOF arm: base yaw and three pitch joints, in standard DH, with its links' masses.
 #[pyclass(module = "chessarm", frozen)]
 struct Arm {
@@ -156,13 +161,14 @@ struct Arm {
 
 impl Arm {
     /// `f(states…) → values` over every state, without the GIL; one state's values have `shape`.
-    fn map<'py>(
+    fn map<'py, const K: usize>(
         &self,
         py: Python<'py>,
         arguments: &[(&str, &PyArrayLikeDyn<'_, f64, AllowTypeChange>)],
         shape: &[usize],
-        f: impl Fn(&ArmModel<4>, &[JointVector<4>]) -> Result<Vec<f64>, String> + Send + Sync,
+        f: impl Fn(&ArmModel<4>, &[JointVector<4>]) -> Result<[f64; K], String> + Send + Sync,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        debug_assert_eq!(shape.iter().product::<usize>(), K);
         let (all, single) = matched(arguments)?;
         let count = all[0].len();
         let model = self.model;
@@ -173,8 +179,8 @@ impl Arm {
                 for i in 0..count {
                     state.clear();
                     state.extend(all.iter().map(|rows| JointVector::<4>::from(rows[i])));
-                    values
-                        .extend(f(&model, &state).map_err(|e| if count > 1 { format!("state {i}: {e}") } else { e })?);
+                    let one = f(&model, &state).map_err(|e| if count > 1 { format!("state {i}: {e}") } else { e })?;
+                    values.extend_from_slice(&one);
                 }
                 Ok::<_, String>(values)
             })
@@ -230,9 +236,9 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q)], &[4, 4], |model, s| {
+        self.map::<16>(py, &[("q", &q)], &[4, 4], |model, s| {
             let pose = FrameChain::new(model, &s[0]).body_pose(3).to_homogeneous();
-            Ok((0..4).flat_map(|r| (0..4).map(move |c| pose[(r, c)])).collect())
+            Ok(std::array::from_fn(|k| pose[(k / 4, k % 4)]))
         })
     }
 
@@ -242,7 +248,7 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q)], &[4], |model, s| Ok(tool_point(model, &s[0]).as_slice().to_vec()))
+        self.map::<4>(py, &[("q", &q)], &[4], |model, s| Ok(tool_point(model, &s[0]).into()))
     }
 
     /// Geometric Jacobian of the tool tip, 6×4: rows vx, vy, vz, ωx, ωy, ωz in the base frame
@@ -252,14 +258,13 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q)], &[6, 4], |model, s| {
+        self.map::<24>(py, &[("q", &q)], &[6, 4], |model, s| {
             let chain = FrameChain::new(model, &s[0]);
             let (linear, angular) = chain.point_jacobian(&chain.tip(), 3);
-            let mut values = Vec::with_capacity(24);
-            for r in 0..6 {
-                values.extend((0..4).map(|c| if r < 3 { linear[(r, c)] } else { angular[(r - 3, c)] }));
-            }
-            Ok(values)
+            Ok(std::array::from_fn(|k| {
+                let (r, c) = (k / 4, k % 4);
+                if r < 3 { linear[(r, c)] } else { angular[(r - 3, c)] }
+            }))
         })
     }
 
@@ -281,7 +286,7 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q)], &[4, 4], |model, s| Ok(mass_matrix(model, &s[0]).transpose().as_slice().to_vec()))
+        self.map::<16>(py, &[("q", &q)], &[4, 4], |model, s| Ok(row_major(&mass_matrix(model, &s[0]))))
     }
 
     /// Inverse dynamics (recursive Newton–Euler): τ = M(q) a + C(q, v) v + g(q), N·m.
@@ -292,8 +297,8 @@ impl Arm {
         v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         a: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q), ("v", &v), ("a", &a)], &[4], |model, s| {
-            Ok(inverse_dynamics(model, &s[0], &s[1], &s[2]).as_slice().to_vec())
+        self.map::<4>(py, &[("q", &q), ("v", &v), ("a", &a)], &[4], |model, s| {
+            Ok(inverse_dynamics(model, &s[0], &s[1], &s[2]).into())
         })
     }
 
@@ -306,10 +311,10 @@ impl Arm {
         v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         tau: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q), ("v", &v), ("tau", &tau)], &[4], |model, s| {
+        self.map::<4>(py, &[("q", &q), ("v", &v), ("tau", &tau)], &[4], |model, s| {
             // Friction cancelled: the core's forward dynamics adds τ_friction(v).
             let tau = s[2] - friction_torques(model, &s[1]);
-            forward_dynamics(model, &s[0], &s[1], &tau).map(|a| a.as_slice().to_vec()).map_err(|e| e.to_string())
+            forward_dynamics(model, &s[0], &s[1], &tau).map(Into::into).map_err(|e| e.to_string())
         })
     }
 
@@ -322,8 +327,8 @@ impl Arm {
         v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         tau: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q), ("v", &v), ("tau", &tau)], &[4], |model, s| {
-            forward_dynamics(model, &s[0], &s[1], &s[2]).map(|a| a.as_slice().to_vec()).map_err(|e| e.to_string())
+        self.map::<4>(py, &[("q", &q), ("v", &v), ("tau", &tau)], &[4], |model, s| {
+            forward_dynamics(model, &s[0], &s[1], &s[2]).map(Into::into).map_err(|e| e.to_string())
         })
     }
 
@@ -333,7 +338,7 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q)], &[4], |model, s| Ok(gravity_torques(model, &s[0]).as_slice().to_vec()))
+        self.map::<4>(py, &[("q", &q)], &[4], |model, s| Ok(gravity_torques(model, &s[0]).into()))
     }
 
     /// Coriolis matrix C(q, v) (Christoffel symbols; Ṁ − 2C skew-symmetric), N·m·s/rad.
@@ -343,8 +348,8 @@ impl Arm {
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map(py, &[("q", &q), ("v", &v)], &[4, 4], |model, s| {
-            Ok(coriolis_matrix(model, &s[0], &s[1]).transpose().as_slice().to_vec())
+        self.map::<16>(py, &[("q", &q), ("v", &v)], &[4, 4], |model, s| {
+            Ok(row_major(&coriolis_matrix(model, &s[0], &s[1])))
         })
     }
 
