@@ -34,18 +34,28 @@ pub struct Captured {
 /// While [`run_captured`] runs a command: where its output goes instead of the terminal.
 static CAPTURE: std::sync::Mutex<Option<Captured>> = std::sync::Mutex::new(None);
 
-/// Set by [`cancel`]: sweeps, campaigns and games stop at their next candidate, trial or ply.
-static CANCELLED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// Numbers of the in-process runs ([`run_id`]); 0 is no run.
+static NEXT_RUN: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+/// The run executing now (0: none, e.g. the binary's own).
+static CURRENT_RUN: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+/// The run [`cancel`] was asked to stop.
+static CANCELLED_RUN: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
-/// Asks the command running in this process to stop (Python's Ctrl-C); it fails with
-/// "interrupted" at its next candidate, trial or ply.
-pub fn cancel() {
-    CANCELLED.store(true, std::sync::atomic::Ordering::Relaxed);
+/// A fresh number for a [`run_captured`] call, so that [`cancel`] stops that run and no other.
+pub fn run_id() -> u64 {
+    NEXT_RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
-/// Whether [`cancel`] was called during this command.
+/// Asks run `id` to stop (Python's Ctrl-C), whether it is running or still waiting its turn:
+/// sweeps, campaigns and games fail with "interrupted" at their next candidate, trial or ply.
+pub fn cancel(id: u64) {
+    CANCELLED_RUN.store(id, std::sync::atomic::Ordering::SeqCst);
+}
+
+/// Whether the running command was asked to stop.
 pub fn cancelled() -> bool {
-    CANCELLED.load(std::sync::atomic::Ordering::Relaxed)
+    let current = CURRENT_RUN.load(std::sync::atomic::Ordering::SeqCst);
+    current != 0 && CANCELLED_RUN.load(std::sync::atomic::Ordering::SeqCst) == current
 }
 
 /// The error of a command stopped by [`cancel`].
@@ -80,21 +90,23 @@ pub enum RunError {
 
 /// Runs `chessarm ARGS --json` in this process, for the Python bindings: what it would print is
 /// returned instead (the result's JSON is `stdout`). Files are written as the command writes them.
+/// `id` (from [`run_id`]) names the run for [`cancel`].
 ///
 /// # Errors
 ///
 /// As [`RunError`]: bad arguments, or the command's own error.
-pub fn run_captured(args: &[String]) -> Result<Captured, RunError> {
+pub fn run_captured(args: &[String], id: u64) -> Result<Captured, RunError> {
     use clap::Parser;
     let _one_at_a_time = CAPTURED_RUN.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let words = std::iter::once("chessarm".to_string()).chain(args.iter().cloned()).chain(["--json".to_string()]);
     let cli = Cli::try_parse_from(words).map_err(|error| RunError::Usage(usage_message(&error)))?;
     *CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(Captured::default());
-    CANCELLED.store(false, std::sync::atomic::Ordering::Relaxed);
+    CURRENT_RUN.store(id, std::sync::atomic::Ordering::SeqCst);
     // The folders' lists are read afresh: between two runs in one process the user may have
     // removed or changed a folder.
     output::forget_listed();
     let result = run(cli);
+    CURRENT_RUN.store(0, std::sync::atomic::Ordering::SeqCst);
     let kept = CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take().unwrap_or_default();
     result.map(|()| kept.clone()).map_err(|error| RunError::Failed { message: one_line(&error), stderr: kept.stderr })
 }

@@ -39,15 +39,19 @@ pyo3::create_exception!(chessarm, CommandError, Error, "A chessarm command faile
 /// sweep, campaign or game at its next candidate, trial or ply and raises here.
 #[pyfunction]
 fn run_cli(py: Python<'_>, args: Vec<String>) -> PyResult<(String, String)> {
+    let id = chessarm::run_id();
     let (done, result) = std::sync::mpsc::channel();
     // Behind a mutex so the wait can leave the GIL (a receiver is not shared between threads).
     let result = std::sync::Mutex::new(result);
     let worker = std::thread::Builder::new()
         .name("chessarm-command".into())
         .spawn(move || {
-            let _ = done.send(chessarm::run_captured(&args));
+            let _ = done.send(chessarm::run_captured(&args, id));
         })
         .map_err(|e| Error::new_err(format!("cannot start the command's thread: {e}")))?;
+    // A signal's exception, once raised: the run is cancelled, and its end awaited (signals
+    // still checked, so the wait never blocks Python for good).
+    let mut interrupted: Option<PyErr> = None;
     let outcome = loop {
         let wait = || {
             let receiver = result.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -57,9 +61,8 @@ fn run_cli(py: Python<'_>, args: Vec<String>) -> PyResult<(String, String)> {
             Ok(outcome) => break outcome,
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
                 if let Err(signal) = py.check_signals() {
-                    chessarm::cancel();
-                    let _ = py.detach(|| worker.join());
-                    return Err(signal);
+                    chessarm::cancel(id);
+                    interrupted.get_or_insert(signal);
                 }
             }
             // The thread ended without an answer: it panicked (the panic stays in Rust).
@@ -69,6 +72,9 @@ fn run_cli(py: Python<'_>, args: Vec<String>) -> PyResult<(String, String)> {
         }
     };
     let _ = py.detach(|| worker.join());
+    if let Some(signal) = interrupted {
+        return Err(signal);
+    }
     match outcome {
         Ok(captured) => Ok((captured.stdout, captured.stderr)),
         Err(chessarm::RunError::Usage(message)) => Err(PyValueError::new_err(message)),

@@ -135,3 +135,41 @@ def test_aba_is_rneas_inverse_and_forward_dynamics_adds_friction():
     assert np.abs(arm.forward_dynamics(q, v, tau) - a).max() > 1e-3
     plain = chessarm.Arm.default()
     np.testing.assert_array_equal(plain.forward_dynamics(q, v, tau), plain.aba(q, v, tau))
+
+
+def test_ctrl_c_stops_this_threads_command_not_anothers(tmp_path):
+    import signal
+    import threading
+    import time
+
+    background = {}
+
+    def sweep_in_the_background():
+        background["rows"] = chessarm.tune(kp="100..900:12", kd="10..60:12", threads=1)
+
+    worker = threading.Thread(target=sweep_in_the_background)
+    worker.start()
+    time.sleep(0.3)  # the background sweep holds the process's command slot now
+    threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+    with pytest.raises(KeyboardInterrupt):
+        chessarm.tune(kp="100..900:40", kd="10..60:40", threads=1, out=tmp_path / "main")
+    worker.join()
+    assert len(background["rows"]) == 144  # it ran to its end
+    assert not (tmp_path / "main" / "tune.csv").exists()  # this one stopped before writing
+
+
+def test_games_are_paths_that_exist_or_pgn_text(tmp_path):
+    for missing in ["games/x.txt", "missing.PGN"]:
+        with pytest.raises(FileNotFoundError):
+            chessarm.play(missing)
+    with pytest.raises(ValueError, match="empty"):
+        chessarm.tune(pgn="", kp="100..200:2", kd="10..20:2")
+    with pytest.raises(ValueError, match="give one"):
+        chessarm.tune(pgn="1. e4 *", game_file="g.pgn")
+    from chessarm._commands import flags
+
+    assert flags(controller_knows_payload=np.array(True), x=np.bool_(False), n=np.int64(3)) == [
+        "--controller-knows-payload",
+        "--n",
+        "3",
+    ]

@@ -115,3 +115,12 @@ def test_a_scheduler_address_gets_a_client_that_is_closed_after(client):
     after = len(client.run_on_scheduler(lambda dask_scheduler: list(dask_scheduler.clients)))
     assert after == before
     assert distributed.default_client() is client
+
+
+def test_counts_may_be_numpy_integers_but_not_bools(client):
+    import numpy as np
+
+    rows = chessarm.distributed.tune(client, shards=np.int64(2), kp="100..200:2", kd="10..20:2", progress=False)
+    assert len(rows) == 4 and rows.summary["shards"] == 2
+    with pytest.raises(ValueError, match="whole number"):
+        chessarm.distributed.tune(client, shards=True, kp="100..200:2", kd="10..20:2")

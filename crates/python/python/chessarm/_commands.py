@@ -24,6 +24,8 @@ from ._chessarm import run_cli
 def _value(value: Any) -> str:
     """A flag's value as the CLI reads it: floats in full (also NumPy's), arrays and lists
     comma-separated, paths as paths."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
     if isinstance(value, np.ndarray):
         return ",".join(_value(v) for v in value.ravel().tolist())
     if isinstance(value, np.generic):
@@ -43,13 +45,15 @@ def flags(**kwargs: Any) -> List[str]:
     """Command-line flags from keyword arguments (``None`` and ``False`` are left out)."""
     words: List[str] = []
     for key, value in kwargs.items():
+        if isinstance(value, np.ndarray) and value.ndim == 0:
+            value = value.item()
+        if isinstance(value, np.bool_):
+            value = bool(value)
         if value is None or value is False:
             continue
         flag = "--" + key.replace("_", "-")
-        if value is True or (isinstance(value, np.bool_) and bool(value)):
+        if value is True:
             words.append(flag)
-        elif isinstance(value, np.bool_):
-            continue
         else:
             words += [flag, _value(value)]
     return words
@@ -146,24 +150,43 @@ class Result:
         return f"{type(self).__name__}(tables={sorted(self.tables)}, out={self.out!r})"
 
 
+def _looks_like_a_path(text: str) -> bool:
+    """One line naming a file (``games/x.pgn``, ``x.PGN``), not movetext (``1. e4 e5 *``)."""
+    line = text.strip()
+    if "\n" in line or not line:
+        return False
+    return line.lower().endswith(".pgn") or os.sep in line or (" " not in line and not line[:1].isdigit())
+
+
 def pgn_file(pgn: Any, holder: str) -> str:
-    """A PGN game given as a path (which must exist) or as PGN text (written into `holder`)."""
-    if isinstance(pgn, os.PathLike) or (isinstance(pgn, str) and "\n" not in pgn and pgn.strip().endswith(".pgn")):
+    """A PGN game given as a path (which must exist) or as PGN text (written into `holder`).
+    With Dask the path must exist on every worker; PGN text travels with the task."""
+    if not isinstance(pgn, (str, os.PathLike)):
+        raise TypeError(f"pgn: a path or PGN text, not {type(pgn).__name__}")
+    if isinstance(pgn, os.PathLike) or os.path.exists(pgn) or _looks_like_a_path(pgn):
         if not os.path.exists(os.fspath(pgn)):
             raise FileNotFoundError(f"no PGN file {os.fspath(pgn)!r}")
         return os.fspath(pgn)
-    if os.path.exists(pgn):
-        return pgn
+    if not pgn.strip():
+        raise ValueError("pgn: empty PGN text")
     path = os.path.join(holder, "game.pgn")
     with open(path, "w") as f:
         f.write(pgn)
     return path
 
 
+def _game(kwargs: Dict[str, Any]) -> Any:
+    """`pgn=` (or its CLI name `game_file=`) taken out of `kwargs`; both is an error."""
+    pgn, game_file = kwargs.pop("pgn", None), kwargs.pop("game_file", None)
+    if pgn is not None and game_file is not None:
+        raise ValueError("pgn and game_file name the same game: give one")
+    return pgn if pgn is not None else game_file
+
+
 def _in_folder(command: str, positional: List[str], out: Optional[os.PathLike], kwargs: Dict[str, Any], kind):
     with tempfile.TemporaryDirectory(prefix="chessarm-") as temporary:
-        # A game for tune/robustness/simulate comes as the command's positional PGN file.
-        game = kwargs.pop("pgn", None) or kwargs.pop("game_file", None)
+        # A game for play/tune/robustness comes as the command's positional PGN file.
+        game = _game(kwargs)
         if game is not None:
             positional = [pgn_file(game, temporary), *positional]
         folder = os.fspath(out) if out is not None else os.path.join(temporary, command)

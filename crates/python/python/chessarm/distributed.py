@@ -10,7 +10,9 @@ for byte (only the first shard writes the header; every candidate's row depends 
 finished shard on standard error (or ``progress=False``).
 
 Needs ``dask[distributed]`` (``pip install "./crates/python[distributed]"``) on the client and
-the workers, and the chessarm package on every worker.
+the workers, and the chessarm package on every worker. Files named in the flags (``arm=``,
+``urdf=``, a ``pgn=`` path) are opened by the workers: on a remote cluster they must exist there
+at the same path; a game given as PGN text travels with the tasks.
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ import time
 import uuid
 from typing import Any, Dict, Optional, Tuple
 
+import numpy as np
+
 from . import _commands
 from ._chessarm import run_cli
 
@@ -30,12 +34,27 @@ def _shard(command: str, csv_name: str, index: int, count: int, kwargs: Dict[str
     """Runs shard ``index`` of ``count`` on this worker; its CSV's text."""
     with tempfile.TemporaryDirectory(prefix="chessarm-shard-") as folder:
         kwargs = dict(kwargs)
-        game = kwargs.pop("pgn", None) or kwargs.pop("game_file", None)
+        game = _commands._game(kwargs)
         positional = [] if game is None else [_commands.pgn_file(game, folder)]
         args = [command, *positional, *_commands.flags(shard=f"{index + 1}/{count}", out=folder, **kwargs)]
         run_cli(args)
         with open(os.path.join(folder, csv_name), newline="") as f:
             return index, f.read()
+
+
+def _count(name: str, value: Any) -> int:
+    """A whole number ≥ 1 (NumPy's too; not a bool)."""
+    import operator
+
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name}={value!r}: needs a whole number ≥ 1")
+    try:
+        count = operator.index(value)
+    except TypeError:
+        raise ValueError(f"{name}={value!r}: needs a whole number ≥ 1") from None
+    if count < 1:
+        raise ValueError(f"{name}={value!r}: needs at least one")
+    return count
 
 
 def _client(client, scheduler: Optional[str], workers: int):
@@ -47,8 +66,7 @@ def _client(client, scheduler: Optional[str], workers: int):
     if scheduler is not None:
         made = Client(scheduler, set_as_default=False)
         return made, made, None
-    if not (isinstance(workers, int) and workers >= 1):
-        raise ValueError(f"workers={workers!r}: a LocalCluster needs at least one worker")
+    workers = _count("workers", workers)
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
     made = Client(cluster, set_as_default=False)
     return made, made, cluster
@@ -70,8 +88,8 @@ def _campaign(
 
     if kwargs.get("shard") is not None:
         raise ValueError("shard: chessarm.distributed chooses the shards; give shards=N instead")
-    if shards is not None and not (isinstance(shards, int) and shards >= 1):
-        raise ValueError(f"shards={shards!r}: needs at least one shard")
+    if shards is not None:
+        shards = _count("shards", shards)
     client, made, cluster = _client(client, scheduler, workers)
     try:
         count = shards if shards is not None else max(2, 2 * len(client.scheduler_info().get("workers", {})))
