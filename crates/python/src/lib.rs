@@ -243,8 +243,7 @@ impl Arm {
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         self.map::<16>(py, &[("q", &q)], &[4, 4], |model, s| {
-            let pose = FrameChain::new(model, &s[0]).body_pose(3).to_homogeneous();
-            Ok(std::array::from_fn(|k| pose[(k / 4, k % 4)]))
+            Ok(row_major(&FrameChain::new(model, &s[0]).body_pose(3).to_homogeneous()))
         })
     }
 

@@ -73,8 +73,7 @@ def test_physics_identities(arm_and_flags):
         np.testing.assert_array_equal(m, m.T)
         assert np.linalg.eigvalsh(m).min() > 0
         tau = arm.rnea(q, v, a)
-        # Forward ∘ inverse = identity (frictionless arms: ABA subtracts no friction here
-        # beyond what RNEA lacks; the example URDF has friction, so compare with it added).
+        # RNEA's terms: M a + (C v + g), g alone at rest, C v from the Coriolis matrix.
         np.testing.assert_allclose(arm.rnea(q, v, np.zeros(4)) + m @ a, tau, rtol=0, atol=1e-12)
         np.testing.assert_allclose(arm.rnea(q, np.zeros(4), np.zeros(4)), arm.gravity(q), rtol=0, atol=1e-12)
         np.testing.assert_allclose(arm.rnea(q, v, np.zeros(4)) - arm.gravity(q), arm.coriolis(q, v) @ v, atol=1e-12)
