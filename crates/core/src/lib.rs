@@ -10,6 +10,7 @@
 
 pub mod arm;
 pub mod control;
+pub mod lanes;
 pub mod plan;
 pub mod sense;
 pub mod sim;

@@ -16,6 +16,7 @@
 use super::kinematics::{JointTrig, compose_frames};
 use super::mass_factor::MassMatrixFactor;
 use super::model::{ArmModel, JointVector};
+use super::yaw_pitch::{self, from_array, from_rows, to_array};
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
 /// `M(q)`, kg·m² (N·m·s²/rad).
@@ -277,8 +278,12 @@ pub fn mass_matrix_with_frames<const N: usize>(model: &ArmModel<N>, frames: &Bod
 
 /// Joint-space mass matrix `M(q)`, symmetric positive definite.
 pub fn mass_matrix<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>) -> MassMatrix<N> {
-    mass_matrix_with_frames(model, &BodyFrames::new(model, q))
+    match model.yaw_pitch() {
+        Some(fast) => from_rows(&yaw_pitch::at(fast, q).mass_matrix),
+        None => mass_matrix_with_frames(model, &BodyFrames::new(model, q)),
+    }
 }
+
 
 /// Inverse dynamics `τ = M q̈ + C q̇ + g`, N·m.
 pub fn inverse_dynamics<const N: usize>(
@@ -287,13 +292,19 @@ pub fn inverse_dynamics<const N: usize>(
     qd: &JointVector<N>,
     qdd: &JointVector<N>,
 ) -> JointVector<N> {
-    rnea_with_frames(model, &BodyFrames::new(model, q), qd, qdd, &model.gravity())
+    match model.yaw_pitch() {
+        Some(fast) => from_array(yaw_pitch::at(fast, q).inverse_dynamics(fast, &to_array(qd), &to_array(qdd))),
+        None => rnea_with_frames(model, &BodyFrames::new(model, q), qd, qdd, &model.gravity()),
+    }
 }
 
 /// Gravity torques `g(q)`, N·m: the torques that hold the arm still.
 pub fn gravity_torques<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>) -> JointVector<N> {
     let zero = JointVector::<N>::zeros();
-    inverse_dynamics(model, q, &zero, &zero)
+    match model.yaw_pitch() {
+        Some(fast) => from_array(yaw_pitch::at(fast, q).bias(fast, &[0.0; 4])),
+        None => inverse_dynamics(model, q, &zero, &zero),
+    }
 }
 
 /// Centrifugal and Coriolis torques `C(q, q̇) q̇`, N·m.
@@ -302,12 +313,21 @@ pub fn coriolis_torques<const N: usize>(
     q: &JointVector<N>,
     qd: &JointVector<N>,
 ) -> JointVector<N> {
-    rnea_with_frames(model, &BodyFrames::new(model, q), qd, &JointVector::zeros(), &Vector3::zeros())
+    match model.yaw_pitch() {
+        Some(fast) => {
+            let weightless = yaw_pitch::YawPitch { gravity_z: 0.0, ..*fast };
+            from_array(yaw_pitch::at(&weightless, q).bias(&weightless, &to_array(qd)))
+        }
+        None => rnea_with_frames(model, &BodyFrames::new(model, q), qd, &JointVector::zeros(), &Vector3::zeros()),
+    }
 }
 
 /// Bias torques `C(q, q̇) q̇ + g(q)`, N·m (the report's `N`).
 pub fn bias_torques<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> JointVector<N> {
-    bias_with_frames(model, &BodyFrames::new(model, q), qd)
+    match model.yaw_pitch() {
+        Some(fast) => from_array(yaw_pitch::at(fast, q).bias(fast, &to_array(qd))),
+        None => bias_with_frames(model, &BodyFrames::new(model, q), qd),
+    }
 }
 
 /// Joint friction torques acting on the joints (opposing motion), N·m:
@@ -338,6 +358,10 @@ pub struct DynamicsTerms<const N: usize> {
 impl<const N: usize> DynamicsTerms<N> {
     /// From one forward-kinematics pass at `q`.
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> Self {
+        if let Some(fast) = model.yaw_pitch() {
+            let at = yaw_pitch::at(fast, q);
+            return Self { mass_matrix: from_rows(&at.mass_matrix), bias: from_array(at.bias(fast, &to_array(qd))) };
+        }
         let frames = BodyFrames::new(model, q);
         Self { mass_matrix: mass_matrix_with_frames(model, &frames), bias: bias_with_frames(model, &frames, qd) }
     }
@@ -351,7 +375,18 @@ pub fn forward_dynamics<const N: usize>(
     qd: &JointVector<N>,
     torque: &JointVector<N>,
 ) -> Result<JointVector<N>, DynamicsError> {
-    Ok(ConfigurationDynamics::new(model, q)?.acceleration(model, qd, torque))
+    match model.yaw_pitch() {
+        Some(fast) => {
+            let at = yaw_pitch::at(fast, q);
+            // The yaw drops out of M, so a non-finite base angle would pass unnoticed: it fails
+            // here as it does on the general path (where it makes M NaN).
+            if !at.factor.positive_definite(0) || !q[0].is_finite() {
+                return Err(DynamicsError::NotPositiveDefinite(q.iter().copied().collect()));
+            }
+            Ok(from_array(at.acceleration(fast, &to_array(qd), &to_array(torque))))
+        }
+        None => Ok(ConfigurationDynamics::new(model, q)?.acceleration(model, qd, torque)),
+    }
 }
 
 /// Everything about one configuration `q` that forward dynamics needs, whatever the joint

@@ -6,6 +6,7 @@
 //! origin of frame `j`.
 
 use super::model::{ArmModel, DhParameters, JointVector};
+use crate::lanes::{sin_cos, small_angle_sin_cos};
 use nalgebra::{IsometryMatrix3, Matrix3, Rotation3, SMatrix, Translation3, Vector3};
 
 /// A rigid transform: rotation matrix and translation (m).
@@ -13,8 +14,8 @@ pub type Pose = IsometryMatrix3<f64>;
 
 /// `A = Rz(θ) · Tz(d) · Tx(a) · Rx(α)`, the standard DH transform from frame `i−1` to `i`.
 pub fn dh_transform(dh: &DhParameters, joint_angle: f64) -> Pose {
-    let (sa, ca) = dh.alpha.sin_cos();
-    let (st, ct) = (joint_angle + dh.theta_offset).sin_cos();
+    let (sa, ca) = sin_cos(dh.alpha);
+    let (st, ct) = sin_cos(joint_angle + dh.theta_offset);
     let rotation = Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca);
     Pose::from_parts(Translation3::new(dh.a * ct, dh.a * st, dh.d), Rotation3::from_matrix_unchecked(rotation))
 }
@@ -29,17 +30,6 @@ pub struct JointTrig<const N: usize> {
 /// Largest angle step (rad) [`JointTrig::shifted`] takes by series; beyond it calls `sin_cos`.
 const SERIES_STEP: f64 = 0.05;
 
-/// `(sin δ, cos δ)` for a small angle δ (rad) by their Taylor series up to δ⁹ and δ⁸, in
-/// Horner form in δ² (multiplications only). For |δ| ≤ 0.05 rad the first omitted terms,
-/// δ¹¹/11! and δ¹⁰/10!, are below 3·10⁻²⁰: exact to rounding.
-#[inline(always)]
-fn small_angle_sin_cos(d: f64) -> (f64, f64) {
-    let d2 = d * d;
-    let sin_d = d + d * d2 * (-1.0 / 6.0 + d2 * (1.0 / 120.0 + d2 * (-1.0 / 5040.0 + d2 * (1.0 / 362_880.0))));
-    let cos_d = 1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 + d2 * (-1.0 / 720.0 + d2 * (1.0 / 40_320.0))));
-    (sin_d, cos_d)
-}
-
 /// `(sin(θ + δ), cos(θ + δ))` from `(sin θ, cos θ)` and `(sin δ, cos δ)` by angle addition:
 /// `sin(θ+δ) = sin θ cos δ + cos θ sin δ`, `cos(θ+δ) = cos θ cos δ − sin θ sin δ`.
 #[inline(always)]
@@ -50,7 +40,7 @@ fn add_angles((s, c): (f64, f64), (sin_d, cos_d): (f64, f64)) -> (f64, f64) {
 impl<const N: usize> JointTrig<N> {
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
         let angle = std::array::from_fn(|i| q[i] + model.link(i).dh.theta_offset);
-        Self { angle, sin_cos: angle.map(f64::sin_cos) }
+        Self { angle, sin_cos: angle.map(sin_cos) }
     }
 
     /// The same for the angles moved by `delta` (rad), by angle addition with
@@ -66,7 +56,7 @@ impl<const N: usize> JointTrig<N> {
             shifted.sin_cos[i] = if d.abs() <= SERIES_STEP {
                 add_angles(self.sin_cos[i], small_angle_sin_cos(d))
             } else {
-                shifted.angle[i].sin_cos()
+                sin_cos(shifted.angle[i])
             };
         }
         shifted

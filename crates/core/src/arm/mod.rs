@@ -10,3 +10,4 @@ pub mod payload;
 pub mod preset;
 pub mod task;
 pub mod uncertainty;
+pub mod yaw_pitch;

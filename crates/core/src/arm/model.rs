@@ -160,6 +160,11 @@ pub struct ArmModel<const N: usize = 4> {
     twist_trig: [(f64, f64); N],
     /// Whether any joint has friction, cached so frictionless forward dynamics skips it.
     has_friction: bool,
+    /// The structured constants when the arm is of the yaw–pitch family (and the fast path is
+    /// not switched off): the dynamics then take [`super::yaw_pitch`]'s path.
+    yaw_pitch: Option<super::yaw_pitch::YawPitch<f64>>,
+    /// Whether the structured path may be used (see [`ArmModel::with_general_dynamics`]).
+    structured: bool,
 }
 
 impl<const N: usize> ArmModel<N> {
@@ -177,10 +182,20 @@ impl<const N: usize> ArmModel<N> {
                 return Err(invalid(format!("gravity.{axis}"), value, "must be finite"));
             }
         }
-        let twist_trig = std::array::from_fn(|i| links[i].dh.alpha.sin_cos());
+        let twist_trig = std::array::from_fn(|i| crate::lanes::sin_cos(links[i].dh.alpha));
         let has_friction = links.iter().any(|link| link.friction != Friction::default());
-        let mut model = Self { links, gravity, payload: None, bodies: [Inertial::zero(); N], twist_trig, has_friction };
+        let mut model = Self {
+            links,
+            gravity,
+            payload: None,
+            bodies: [Inertial::zero(); N],
+            twist_trig,
+            has_friction,
+            yaw_pitch: None,
+            structured: true,
+        };
         model.bodies = model.combined_bodies();
+        model.yaw_pitch = super::yaw_pitch::YawPitch::new(&model).ok();
         Ok(model)
     }
 
@@ -192,12 +207,31 @@ impl<const N: usize> ArmModel<N> {
         let mut model = *self;
         model.payload = payload;
         model.bodies = model.combined_bodies();
+        if self.structured {
+            model.yaw_pitch = super::yaw_pitch::YawPitch::new(&model).ok();
+        }
         Ok(model)
+    }
+
+    /// The yaw–pitch constants, when the dynamics take the structured path.
+    pub fn yaw_pitch(&self) -> Option<&super::yaw_pitch::YawPitch<f64>> {
+        self.yaw_pitch.as_ref()
+    }
+
+    /// The same arm with the structured path switched off: every dynamics call takes the
+    /// general recursive algorithms (the fast path's test oracle, and a benchmark's baseline).
+    pub fn with_general_dynamics(&self) -> Self {
+        let mut model = *self;
+        model.yaw_pitch = None;
+        model.structured = false;
+        model
     }
 
     /// The same arm with other links (e.g. other limits), keeping gravity and payload.
     pub fn with_links(&self, links: [Link; N]) -> Result<Self, ModelError> {
-        Self::new(links, self.gravity).and_then(|m| m.with_payload(self.payload))
+        let model = Self::new(links, self.gravity)?;
+        let model = if self.structured { model } else { model.with_general_dynamics() };
+        model.with_payload(self.payload)
     }
 
     /// Whether any joint has viscous or Coulomb friction.

@@ -4,6 +4,7 @@
 pub mod closed_loop;
 pub mod metrics;
 pub mod plant;
+pub mod structured;
 
 pub use closed_loop::{
     NoObserver, Observer, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary, StepRecord, simulate,

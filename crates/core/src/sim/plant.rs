@@ -5,12 +5,18 @@
 use crate::arm::dynamics::{ConfigurationDynamics, DynamicsError, DynamicsTerms, MassMatrix};
 use crate::arm::kinematics::JointTrig;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
+use crate::arm::yaw_pitch::{from_array, from_rows, to_array};
 use crate::control::JointState;
+use crate::sim::structured::{self, Failures, Start, State};
 use nalgebra::Vector3;
 
 /// The physical arm being simulated: its model (with the gripped payload) and the scratch its
 /// integrators fill in place every step (frames, mass matrices and factors at the step's
 /// start and at its stage configurations), so a step allocates and moves nothing large.
+///
+/// An arm of the yaw–pitch family steps on the structured dynamics
+/// ([`crate::arm::yaw_pitch`], [`super::structured`]); any other on the general recursive
+/// algorithms.
 #[derive(Debug, Clone)]
 pub struct Plant<const N: usize> {
     model: ArmModel<N>,
@@ -18,9 +24,14 @@ pub struct Plant<const N: usize> {
     start: StateDynamics<N>,
     /// The state `start` holds, `None` when stale (never evaluated, or the payload changed).
     evaluated_at: Option<JointState<N>>,
-    /// Stage configurations inside the step (the middle one of Nyström's method, the end).
+    /// The general path's configuration at the start and at the stage configurations inside
+    /// the step (the middle one of Nyström's method, the end).
+    general_start: ConfigurationDynamics<N>,
     middle: ConfigurationDynamics<N>,
     end: ConfigurationDynamics<N>,
+    /// The structured path's dynamics at the start, valid with `evaluated_at` when the model
+    /// has the structure.
+    structured_start: Option<Start<f64>>,
 }
 
 impl<const N: usize> Plant<N> {
@@ -29,10 +40,16 @@ impl<const N: usize> Plant<N> {
         let configuration = ConfigurationDynamics::placeholder(&model);
         Self {
             model,
-            start: StateDynamics { configuration: configuration.clone(), bias: JointVector::zeros() },
+            start: StateDynamics {
+                tip: Vector3::zeros(),
+                mass_matrix: MassMatrix::identity(),
+                bias: JointVector::zeros(),
+            },
             evaluated_at: None,
+            general_start: configuration.clone(),
             middle: configuration.clone(),
             end: configuration,
+            structured_start: None,
         }
     }
 
@@ -53,8 +70,26 @@ impl<const N: usize> Plant<N> {
     pub fn evaluate(&mut self, state: &JointState<N>) -> Result<&StateDynamics<N>, DynamicsError> {
         if self.evaluated_at != Some(*state) {
             self.evaluated_at = None;
-            self.start.configuration.set_configuration(&self.model, &state.q, JointTrig::new(&self.model, &state.q))?;
-            self.start.bias = self.start.configuration.bias(&self.model, &state.qd);
+            if let Some(fast) = self.model.yaw_pitch() {
+                let start = Start::new(fast, &State { q: to_array(&state.q), qd: to_array(&state.qd) });
+                if !start.configuration.factor.positive_definite(0) {
+                    return Err(DynamicsError::NotPositiveDefinite(state.q.iter().copied().collect()));
+                }
+                self.start = StateDynamics {
+                    tip: Vector3::from(start.configuration.tip_in_base()),
+                    mass_matrix: from_rows(&start.configuration.mass_matrix),
+                    bias: from_array(start.bias),
+                };
+                self.structured_start = Some(start);
+            } else {
+                let general = &mut self.general_start;
+                general.set_configuration(&self.model, &state.q, JointTrig::new(&self.model, &state.q))?;
+                self.start = StateDynamics {
+                    tip: general.tip(),
+                    mass_matrix: *general.mass_matrix(),
+                    bias: general.bias(&self.model, &state.qd),
+                };
+            }
             self.evaluated_at = Some(*state);
         }
         Ok(&self.start)
@@ -83,11 +118,20 @@ impl<const N: usize> Plant<N> {
         integrator: Integrator,
     ) -> Result<JointState<N>, DynamicsError> {
         self.evaluate(state)?;
-        let Self { model, start, middle, end, .. } = self;
+        if let (Some(fast), Some(start)) = (self.model.yaw_pitch(), &self.structured_start) {
+            let mut failures = Failures::<1> { lanes: 0, at: [[0.0; 4]] };
+            let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
+            let next = structured::step(fast, start, &here, &to_array(torque), dt, integrator, &mut failures);
+            if failures.lanes != 0 {
+                return Err(DynamicsError::NotPositiveDefinite(failures.at[0].to_vec()));
+            }
+            return Ok(JointState { q: from_array(next.q), qd: from_array(next.qd) });
+        }
+        let Self { model, start, general_start, middle, end, .. } = self;
         let model = &*model;
         let (q, qd) = (&state.q, &state.qd);
-        let start_trig = *start.configuration.trig();
-        let q1dd = start.configuration.acceleration_with_bias(model, qd, torque, &start.bias);
+        let start_trig = *general_start.trig();
+        let q1dd = general_start.acceleration_with_bias(model, qd, torque, &start.bias);
         // The dynamics at configuration `at` (rad) inside the step, filled into `scratch`.
         let move_to = |scratch: &mut ConfigurationDynamics<N>, at: &JointVector<N>| {
             scratch.set_configuration(model, at, start_trig.shifted(&(at - q)))
@@ -141,7 +185,8 @@ impl<const N: usize> Plant<N> {
 /// The plant's kinematics and dynamics at one state ([`Plant::evaluate`]).
 #[derive(Debug, Clone)]
 pub struct StateDynamics<const N: usize> {
-    configuration: ConfigurationDynamics<N>,
+    tip: Vector3<f64>,
+    mass_matrix: MassMatrix<N>,
     /// `C(q, q̇) q̇ + g(q)`.
     bias: JointVector<N>,
 }
@@ -149,12 +194,12 @@ pub struct StateDynamics<const N: usize> {
 impl<const N: usize> StateDynamics<N> {
     /// The tool tip at the state's configuration, m (base frame).
     pub fn tip(&self) -> Vector3<f64> {
-        self.configuration.tip()
+        self.tip
     }
 
     /// `M(q)` of the plant's model, kg·m².
     pub fn mass_matrix(&self) -> &MassMatrix<N> {
-        self.configuration.mass_matrix()
+        &self.mass_matrix
     }
 
     /// `C(q, q̇) q̇ + g(q)` of the plant's model, N·m.
@@ -164,7 +209,7 @@ impl<const N: usize> StateDynamics<N> {
 
     /// `M(q)` and `C(q, q̇) q̇ + g(q)`, as a controller with the plant's model computes them.
     pub fn terms(&self) -> DynamicsTerms<N> {
-        DynamicsTerms { mass_matrix: *self.mass_matrix(), bias: self.bias }
+        DynamicsTerms { mass_matrix: self.mass_matrix, bias: self.bias }
     }
 }
 

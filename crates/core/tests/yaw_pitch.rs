@@ -1,0 +1,187 @@
+//! The structured dynamics of the yaw–pitch family against the general RNEA/CRBA (the oracle):
+//! the mass matrix, bias, gravity, Coriolis, inverse and forward dynamics and the tool tip at
+//! random states of the report's arm, an asymmetric arm (offsets, reversed and downward frames,
+//! a twisted tool frame, off-plane centres of mass, products of inertia, motors, rotors,
+//! friction, a payload) and random arms of the family; refused for arms outside it.
+
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
+use chessarm_core::arm::dynamics::{
+    DynamicsTerms, bias_torques, coriolis_torques, forward_dynamics, gravity_torques, inverse_dynamics, mass_matrix,
+};
+use chessarm_core::arm::kinematics::FrameChain;
+use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointVector, Payload};
+use chessarm_core::arm::preset::report_arm;
+use chessarm_core::arm::yaw_pitch::YawPitch;
+use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector3};
+use chessarm_core::sim::{Integrator, Plant};
+use proptest::prelude::*;
+
+/// Agreement of the two formulations: both are a few hundred flops on O(1) numbers, so their
+/// rounding differs by ~1e-15 relative; 1e-12 (the bound) relative to the quantity's
+/// scale is far above that and far below any modelling mistake (a wrong sign or a missing
+/// product of inertia changes torques by 1e-4 N·m and more).
+const AGREE: f64 = 1e-12;
+
+fn close(fast: &[f64], general: &[f64], what: &str) -> Result<(), TestCaseError> {
+    let scale = general.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+    let worst = fast.iter().zip(general).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    prop_assert!(worst <= AGREE * scale, "{what}: fast {fast:?} vs general {general:?}: {worst:e}");
+    Ok(())
+}
+
+/// A box-shaped body's inertia about its centre, turned by roll–pitch–yaw `turn` (always physical).
+fn tensor(mass: f64, size: [f64; 3], turn: [f64; 3]) -> Matrix3<f64> {
+    let [x, y, z] = size.map(|s| s * s);
+    let principal = Matrix3::from_diagonal(&Vector3::new(y + z, x + z, x + y)) * (mass / 12.0);
+    let rotation = Rotation3::from_euler_angles(turn[0], turn[1], turn[2]).into_inner();
+    rotation * principal * rotation.transpose()
+}
+
+/// An arm of the family with everything asymmetric that the family allows: `seed` (24 numbers
+/// in [-1, 1]) sets offsets, twists' choices, centres of mass and tensors.
+fn family_arm(seed: &[f64; 24], down: bool, reversed: [bool; 2], tool_twist: f64) -> ArmModel<4> {
+    let mut links = *report_arm().links();
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let pitch_twist = |reverse: bool| if reverse { std::f64::consts::PI } else { 0.0 };
+    let dh = [
+        DhParameters { a: 0.03 * seed[0].abs(), alpha: if down { -half_pi } else { half_pi }, d: 0.1, theta_offset: seed[1] },
+        DhParameters { a: 0.3, alpha: pitch_twist(reversed[0]), d: 0.04 * seed[2], theta_offset: seed[3] },
+        DhParameters { a: 0.28, alpha: pitch_twist(reversed[1]), d: 0.04 * seed[4], theta_offset: seed[5] },
+        DhParameters { a: 0.1, alpha: tool_twist, d: 0.04 * seed[6], theta_offset: seed[7] },
+    ];
+    for (j, link) in links.iter_mut().enumerate() {
+        let s = |k: usize| seed[(8 + 4 * j + k) % 24];
+        link.dh = dh[j];
+        let mass = 0.3 + 0.2 * s(0).abs();
+        link.inertial = Inertial {
+            mass,
+            com: Vector3::new(-0.1 + 0.05 * s(1), 0.02 * s(2), 0.03 * s(3)),
+            inertia: tensor(mass, [0.05 + 0.02 * s(0), 0.04, 0.03 + 0.01 * s(1)], [s(1), s(2), s(3)]),
+        };
+        link.motor_mass = 0.1 * s(2).abs();
+        link.rotor_inertia = 1e-3 * s(3).abs();
+        link.friction = Friction { viscous: 0.05 * s(1).abs(), coulomb: 0.02 * s(0).abs() };
+    }
+    ArmModel::new(links, Vector3::new(0.0, 0.0, -9.81)).unwrap()
+}
+
+fn asymmetric_arm() -> ArmModel<4> {
+    let seed: [f64; 24] = std::array::from_fn(|k| ((k as f64 * 0.7).sin() * 1.3).clamp(-1.0, 1.0));
+    let payload = Payload {
+        inertial: Inertial {
+            mass: 0.05,
+            com: Vector3::new(0.02, 0.01, -0.015),
+            inertia: tensor(0.05, [0.02, 0.02, 0.04], [0.2, -0.1, 0.4]),
+        },
+    };
+    family_arm(&seed, true, [true, false], 0.7).with_payload(Some(payload)).unwrap()
+}
+
+/// The fast path (the model as built) against the general path (the same model with it off)
+/// at one state.
+fn agree_at(model: &ArmModel<4>, q: [f64; 4], qd: [f64; 4], qdd: [f64; 4]) -> Result<(), TestCaseError> {
+    prop_assert!(model.yaw_pitch().is_some(), "the arm must take the structured path");
+    let general = model.with_general_dynamics();
+    prop_assert!(general.yaw_pitch().is_none());
+    let (q, qd, qdd) = (JointVector::from(q), JointVector::from(qd), JointVector::from(qdd));
+    close(mass_matrix(model, &q).as_slice(), mass_matrix(&general, &q).as_slice(), "M")?;
+    close(bias_torques(model, &q, &qd).as_slice(), bias_torques(&general, &q, &qd).as_slice(), "C q̇ + g")?;
+    close(gravity_torques(model, &q).as_slice(), gravity_torques(&general, &q).as_slice(), "g")?;
+    close(coriolis_torques(model, &q, &qd).as_slice(), coriolis_torques(&general, &q, &qd).as_slice(), "C q̇")?;
+    let tau = inverse_dynamics(model, &q, &qd, &qdd);
+    close(tau.as_slice(), inverse_dynamics(&general, &q, &qd, &qdd).as_slice(), "inverse dynamics")?;
+    let fast_terms = DynamicsTerms::new(model, &q, &qd);
+    let general_terms = DynamicsTerms::new(&general, &q, &qd);
+    close(fast_terms.mass_matrix.as_slice(), general_terms.mass_matrix.as_slice(), "terms' M")?;
+    close(fast_terms.bias.as_slice(), general_terms.bias.as_slice(), "terms' bias")?;
+    let fast_acceleration = forward_dynamics(model, &q, &qd, &tau).unwrap();
+    let general_acceleration = forward_dynamics(&general, &q, &qd, &tau).unwrap();
+    close(fast_acceleration.as_slice(), general_acceleration.as_slice(), "forward dynamics")?;
+    // Forward ∘ inverse = identity on the fast path alone (friction is the plant's, not RNEA's).
+    if !model.has_friction() {
+        close(fast_acceleration.as_slice(), qdd.as_slice(), "forward(inverse(q̈))")?;
+    }
+    // One plant step each way, and its tool tip.
+    let state = chessarm_core::control::JointState { q, qd };
+    let (mut fast_plant, mut general_plant) = (Plant::new(*model), Plant::new(general));
+    let tip = fast_plant.evaluate(&state).unwrap().tip();
+    close(tip.as_slice(), FrameChain::new(&general, &q).tip().as_slice(), "tip")?;
+    for integrator in Integrator::ALL {
+        let a = fast_plant.step(&state, &tau, 1e-3, integrator).unwrap();
+        let b = general_plant.step(&state, &tau, 1e-3, integrator).unwrap();
+        close(a.q.as_slice(), b.q.as_slice(), integrator.name())?;
+        close(a.qd.as_slice(), b.qd.as_slice(), integrator.name())?;
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn the_report_arm_and_an_asymmetric_arm_agree_with_the_general_algorithms(
+        q in prop::array::uniform4(-3.0f64..3.0),
+        qd in prop::array::uniform4(-4.0f64..4.0),
+        qdd in prop::array::uniform4(-20.0f64..20.0),
+    ) {
+        agree_at(&report_arm(), q, qd, qdd)?;
+        let loaded = report_arm().with_payload(Some(Payload::upright_cylinder(0.2, 0.05, 0.012, 0.03))).unwrap();
+        agree_at(&loaded, q, qd, qdd)?;
+        agree_at(&asymmetric_arm(), q, qd, qdd)?;
+    }
+
+    #[test]
+    fn random_arms_of_the_family_agree_with_the_general_algorithms(
+        seed in prop::array::uniform24(-1.0f64..1.0),
+        down in any::<bool>(),
+        reversed in prop::array::uniform2(any::<bool>()),
+        tool_twist in -3.2f64..3.2,
+        q in prop::array::uniform4(-3.0f64..3.0),
+        qd in prop::array::uniform4(-4.0f64..4.0),
+        qdd in prop::array::uniform4(-20.0f64..20.0),
+    ) {
+        agree_at(&family_arm(&seed, down, reversed, tool_twist), q, qd, qdd)?;
+    }
+}
+
+#[test]
+fn arms_outside_the_family_take_the_general_path_and_say_why() {
+    let mut links = *report_arm().links();
+    links[1].dh.alpha = 0.3;
+    let tilted = ArmModel::new(links, Vector3::new(0.0, 0.0, -9.8)).unwrap();
+    assert!(tilted.yaw_pitch().is_none());
+    let reason = YawPitch::new(&tilted).unwrap_err().to_string();
+    assert!(reason.contains("link 2") && reason.contains("alpha = 0.3 rad"), "{reason}");
+
+    let mut links = *report_arm().links();
+    links[0].dh.alpha = 1.2;
+    let reason = YawPitch::new(&ArmModel::new(links, Vector3::new(0.0, 0.0, -9.8)).unwrap()).unwrap_err().to_string();
+    assert!(reason.contains("link 1 needs alpha = ±90°"), "{reason}");
+
+    let sideways = ArmModel::new(*report_arm().links(), Vector3::new(0.5, 0.0, -9.8)).unwrap();
+    assert!(sideways.yaw_pitch().is_none());
+    assert!(YawPitch::new(&sideways).unwrap_err().to_string().contains("gravity (0.5, 0, -9.8)"));
+
+    let three = ArmModel::<3>::new(std::array::from_fn(|j| report_arm().links()[j]), Vector3::new(0.0, 0.0, -9.8))
+        .unwrap();
+    assert!(three.yaw_pitch().is_none());
+    assert!(YawPitch::new(&three).unwrap_err().to_string().contains("3 joints"));
+
+    // The report's arm is in; switched off it stays off through a payload and new links.
+    let report = report_arm();
+    assert!(report.yaw_pitch().is_some());
+    let general = report.with_general_dynamics();
+    assert!(general.with_payload(Some(Payload::point_mass(0.1))).unwrap().yaw_pitch().is_none());
+    assert!(general.with_links(*report.links()).unwrap().yaw_pitch().is_none());
+    assert!(report.with_payload(Some(Payload::point_mass(0.1))).unwrap().yaw_pitch().is_some());
+}
+
+#[test]
+fn a_twist_within_rounding_of_90_degrees_is_in_the_family_and_a_visible_one_is_not() {
+    let mut links = *report_arm().links();
+    links[0].dh.alpha = std::f64::consts::FRAC_PI_2 + 1e-14;
+    assert!(ArmModel::new(links, Vector3::new(0.0, 0.0, -9.8)).unwrap().yaw_pitch().is_some());
+    links[0].dh.alpha = std::f64::consts::FRAC_PI_2 + 1e-9;
+    assert!(ArmModel::new(links, Vector3::new(0.0, 0.0, -9.8)).unwrap().yaw_pitch().is_none());
+}
