@@ -20,13 +20,21 @@ fn per_call(c: &mut Criterion) {
     let qd = JointVector::<4>::new(0.3, -0.2, 0.4, 0.1);
     let qdd = JointVector::<4>::new(1.0, -2.0, 0.5, 3.0);
     let tau = inverse_dynamics(&model, &q, &qd, &qdd);
-    c.bench_function("mass matrix M(q) (CRBA)", |b| b.iter(|| mass_matrix(&model, black_box(&q))));
-    c.bench_function("bias C(q,qd)qd + g(q) (RNEA)", |b| b.iter(|| bias_torques(&model, black_box(&q), &qd)));
-    c.bench_function("gravity g(q)", |b| b.iter(|| gravity_torques(&model, black_box(&q))));
-    c.bench_function("inverse dynamics (RNEA)", |b| b.iter(|| inverse_dynamics(&model, black_box(&q), &qd, &qdd)));
-    c.bench_function("forward dynamics (CRBA + RNEA + LDLt)", |b| {
-        b.iter(|| forward_dynamics(&model, black_box(&q), &qd, &tau))
-    });
+    // The structured path (the report's arm is of the yaw–pitch family) and the general
+    // recursive algorithms on the same arm, side by side.
+    for (path, model) in [("", model), (" (general)", model.with_general_dynamics())] {
+        c.bench_function(&format!("mass matrix M(q){path}"), |b| b.iter(|| mass_matrix(&model, black_box(&q))));
+        c.bench_function(&format!("bias C(q,qd)qd + g(q){path}"), |b| {
+            b.iter(|| bias_torques(&model, black_box(&q), &qd))
+        });
+        c.bench_function(&format!("gravity g(q){path}"), |b| b.iter(|| gravity_torques(&model, black_box(&q))));
+        c.bench_function(&format!("inverse dynamics{path}"), |b| {
+            b.iter(|| inverse_dynamics(&model, black_box(&q), &qd, &qdd))
+        });
+        c.bench_function(&format!("forward dynamics{path}"), |b| {
+            b.iter(|| forward_dynamics(&model, black_box(&q), &qd, &tau))
+        });
+    }
     let mut plant = Plant::new(model);
     let mut controller =
         ComputedTorque::new("pd", model, Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid"));
@@ -51,8 +59,10 @@ fn scenario(c: &mut Criterion) {
     let path = queens_gambit(&board).path(&board).expect("valid");
     let trajectory = JointTrajectory::from_path(&model, &path, 1e-3, TOOL_DOWN).expect("feasible");
     let gains = Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid");
-    for integrator in Integrator::ALL {
-        let name = format!("queens-gambit 13 s at 1 kHz, PD, one core, {}", integrator.name());
+    let runs = Integrator::ALL.map(|integrator| (integrator, model, ""));
+    let general = (Integrator::RungeKuttaNystrom4, model.with_general_dynamics(), " (general)");
+    for (integrator, model, path) in runs.into_iter().chain([general]) {
+        let name = format!("queens-gambit 13 s at 1 kHz, PD, one core, {}{path}", integrator.name());
         c.bench_function(&name, |b| {
             b.iter(|| {
                 let mut plant = Plant::new(model);

@@ -11,7 +11,7 @@
 
 use crate::arm::dynamics::DynamicsError;
 use crate::arm::kinematics::FrameChain;
-use crate::arm::model::{JointVector, ModelError, Payload};
+use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::{Controller, JointState, Reference};
 use crate::plan::trajectory::JointTrajectory;
 use crate::sense::Feedback;
@@ -253,166 +253,310 @@ where
     R: ReferenceSource<N> + ?Sized,
     O: Observer<N> + ?Sized,
 {
-    let steps_per_sample = config.steps_per_sample()?;
-    let dt = config.dt;
-    let steps = (reference.duration() / dt).round();
-    if steps > crate::plan::path::MAX_SAMPLES as f64 {
-        return Err(SimError::Config(format!(
-            "{} s at a time step of {dt} s is more than {} steps; use a larger time step",
-            reference.duration(),
-            crate::plan::path::MAX_SAMPLES
-        )));
-    }
-    let steps = steps as usize;
-    let mut state = initial.unwrap_or_else(|| JointState::at_rest(reference.reference(0.0).q));
-    if let Some((j, value)) = state.q.iter().chain(state.qd.iter()).enumerate().find(|(_, v)| !v.is_finite()) {
-        let what = if j < N { "angle" } else { "rate" };
-        return Err(SimError::Config(format!("initial joint {} {what} = {value} must be finite", j % N + 1)));
-    }
-    controller.reset();
-    feedback.reset(&state);
-    let exact = feedback.is_exact();
-    let mut estimate = state;
-    let mut applied_acceleration = JointVector::<N>::zeros();
-    let mut command = JointVector::<N>::zeros();
-    // Per joint: e^{−dt/T} (the decay over a step) and (T/dt)(1 − e^{−dt/T}) (the mean over a
-    // step of the decaying part).
-    let lag_decay = config.torque_lag.map(|lag| if lag > 0.0 { (-dt / lag).exp() } else { 0.0 });
-    let lag_mean = config.torque_lag.map(|lag| if lag > 0.0 { lag / dt * (1.0 - (-dt / lag).exp()) } else { 0.0 });
-    let has_lag = config.torque_lag.iter().any(|lag| *lag > 0.0);
-    // The motors' torque at the start of the current step (with a lag).
-    let mut motor_torque = JointVector::<N>::zeros();
-    let (mut squared_angle_estimate_error, mut squared_rate_estimate_error) =
-        (JointVector::<N>::zeros(), JointVector::<N>::zeros());
-    let mut samples_taken = 0usize;
-
-    // The first step at or after `tracking_from` (to the nearest step, like the marks).
-    let first_tracked_step = ((config.tracking_from / dt).round() as usize).min(steps);
-    let mut squared_joint_error = JointVector::<N>::zeros();
-    let mut max_joint_error = JointVector::<N>::zeros();
-    let (mut squared_tip_error, mut max_tip_error) = (0.0, 0.0f64);
-    let mut peak_torque = JointVector::<N>::zeros();
-    let mut saturated_samples = 0;
-    let mut saturated_per_joint = [0; N];
-    // Each mark belongs to the step nearest to it, once (a mark half-way between two steps
-    // goes to one of them, whatever the rounding of its time). Unreached marks stay NaN.
-    let mark_steps: Vec<usize> = marks.iter().map(|mark| (mark / dt).round().max(0.0) as usize).collect();
-    let mut tip_at_marks = vec![Vector3::repeat(f64::NAN); marks.len()];
-    let mut tip_error_at_marks = vec![f64::NAN; marks.len()];
-    let mut next_event = 0;
-    // The plant's M and C q̇ + g at each step are the first stage of its integrator; a
-    // controller with the same model gets them too instead of computing them again.
-    let shares_terms = |plant: &Plant<N>, controller: &C| controller.dynamics_model() == Some(plant.model());
-    let mut controller_shares_terms = shares_terms(plant, controller);
-
-    for step in 0..=steps {
-        let t = step as f64 * dt;
-        while next_event < events.len() && events[next_event].time <= t + 0.5 * dt {
-            let event = &events[next_event];
-            plant.set_payload(event.payload).map_err(|source| SimError::Payload { time: t, source })?;
-            if event.controller_knows {
-                controller.set_payload(event.payload).map_err(|source| SimError::Payload { time: t, source })?;
-            }
-            controller.gripper_changed(event.payload.is_some());
-            next_event += 1;
-            controller_shares_terms = shares_terms(plant, controller);
+    let mut run = Run::new(feedback, controller, reference, initial, events, marks, config, plant.model())?;
+    loop {
+        while let Some(event) = run.due_event() {
+            plant.set_payload(event.payload).map_err(|source| SimError::Payload { time: run.time(), source })?;
+            run.apply_event(&event, plant.model())?;
         }
-        let desired = reference.reference(t);
-        let at_state = plant.evaluate(&state).map_err(|source| SimError::Dynamics { time: t, source })?;
-        let tip = at_state.tip();
-        if step.is_multiple_of(steps_per_sample) {
-            let raw = if exact {
-                estimate = state;
-                if controller_shares_terms {
-                    controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms())
+        let at_state = plant.evaluate(&run.state).map_err(|source| SimError::Dynamics { time: run.time(), source })?;
+        let view = PlantView { tip: at_state.tip(), terms: at_state.terms() };
+        let torque = run.control(&view, plant.model(), observer)?;
+        if run.finished() {
+            break;
+        }
+        let next = plant.step(&run.state, &torque, run.dt, run.config.integrator);
+        run.advance(next)?;
+    }
+    Ok(run.summary())
+}
+
+/// What the closed loop needs of the plant at the current state: the tool tip (m) and the
+/// plant's `M` and `C q̇ + g` (handed to a controller with the plant's model).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PlantView<const N: usize> {
+    pub tip: Vector3<f64>,
+    pub terms: crate::arm::dynamics::DynamicsTerms<N>,
+}
+
+/// One closed-loop run between plant steps: the controller, sensors and estimator, the torque
+/// hold and motor lag, the payload events and the metrics. The driver ([`simulate_sensed`] with
+/// one [`Plant`], or [`super::batch`] with a lane of a batched plant) evaluates and steps the
+/// plant; everything else happens here, in the same order for both, so a lane's metrics are
+/// the scalar run's bit for bit.
+pub(crate) struct Run<'a, const N: usize, C: ?Sized, R: ?Sized> {
+    feedback: &'a mut Feedback<N>,
+    controller: &'a mut C,
+    reference: &'a R,
+    events: &'a [PayloadEvent],
+    pub config: SimConfig<N>,
+    pub dt: f64,
+    steps_per_sample: usize,
+    pub steps: usize,
+    /// The step about to be taken (`0..=steps`).
+    pub step: usize,
+    pub state: JointState<N>,
+    exact: bool,
+    estimate: JointState<N>,
+    applied_acceleration: JointVector<N>,
+    command: JointVector<N>,
+    lag_decay: JointVector<N>,
+    lag_mean: JointVector<N>,
+    has_lag: bool,
+    motor_torque: JointVector<N>,
+    squared_angle_estimate_error: JointVector<N>,
+    squared_rate_estimate_error: JointVector<N>,
+    samples_taken: usize,
+    first_tracked_step: usize,
+    squared_joint_error: JointVector<N>,
+    max_joint_error: JointVector<N>,
+    squared_tip_error: f64,
+    max_tip_error: f64,
+    peak_torque: JointVector<N>,
+    saturated_samples: usize,
+    saturated_per_joint: [usize; N],
+    mark_steps: Vec<usize>,
+    tip_at_marks: Vec<Vector3<f64>>,
+    tip_error_at_marks: Vec<f64>,
+    next_event: usize,
+    controller_shares_terms: bool,
+}
+
+impl<const N: usize, C: ?Sized, R: ?Sized> std::fmt::Debug for Run<'_, N, C, R> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Run").field("step", &self.step).field("state", &self.state).finish_non_exhaustive()
+    }
+}
+
+impl<'a, const N: usize, C, R> Run<'a, N, C, R>
+where
+    C: Controller<N> + ?Sized,
+    R: ReferenceSource<N> + ?Sized,
+{
+    /// Checks the settings and the initial state (default: at rest on the reference's first
+    /// point) and resets the controller and the feedback. `plant` is the plant's model.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        feedback: &'a mut Feedback<N>,
+        controller: &'a mut C,
+        reference: &'a R,
+        initial: Option<JointState<N>>,
+        events: &'a [PayloadEvent],
+        marks: &[f64],
+        config: &SimConfig<N>,
+        plant: &ArmModel<N>,
+    ) -> Result<Self, SimError> {
+        let steps_per_sample = config.steps_per_sample()?;
+        let dt = config.dt;
+        let steps = (reference.duration() / dt).round();
+        if steps > crate::plan::path::MAX_SAMPLES as f64 {
+            return Err(SimError::Config(format!(
+                "{} s at a time step of {dt} s is more than {} steps; use a larger time step",
+                reference.duration(),
+                crate::plan::path::MAX_SAMPLES
+            )));
+        }
+        let steps = steps as usize;
+        let state = initial.unwrap_or_else(|| JointState::at_rest(reference.reference(0.0).q));
+        if let Some((j, value)) = state.q.iter().chain(state.qd.iter()).enumerate().find(|(_, v)| !v.is_finite()) {
+            let what = if j < N { "angle" } else { "rate" };
+            return Err(SimError::Config(format!("initial joint {} {what} = {value} must be finite", j % N + 1)));
+        }
+        controller.reset();
+        feedback.reset(&state);
+        let exact = feedback.is_exact();
+        // Per joint: e^{−dt/T} (the decay over a step) and (T/dt)(1 − e^{−dt/T}) (the mean over
+        // a step of the decaying part).
+        let lag_decay = config.torque_lag.map(|lag| if lag > 0.0 { (-dt / lag).exp() } else { 0.0 });
+        let lag_mean =
+            config.torque_lag.map(|lag| if lag > 0.0 { lag / dt * (1.0 - (-dt / lag).exp()) } else { 0.0 });
+        let has_lag = config.torque_lag.iter().any(|lag| *lag > 0.0);
+        // The first step at or after `tracking_from` (to the nearest step, like the marks).
+        let first_tracked_step = ((config.tracking_from / dt).round() as usize).min(steps);
+        // Each mark belongs to the step nearest to it, once (a mark half-way between two steps
+        // goes to one of them, whatever the rounding of its time). Unreached marks stay NaN.
+        let mark_steps: Vec<usize> = marks.iter().map(|mark| (mark / dt).round().max(0.0) as usize).collect();
+        // The plant's M and C q̇ + g at each step are the first stage of its integrator; a
+        // controller with the same model gets them too instead of computing them again.
+        let controller_shares_terms = controller.dynamics_model() == Some(plant);
+        Ok(Self {
+            feedback,
+            controller,
+            reference,
+            events,
+            config: *config,
+            dt,
+            steps_per_sample,
+            steps,
+            step: 0,
+            state,
+            exact,
+            estimate: state,
+            applied_acceleration: JointVector::zeros(),
+            command: JointVector::zeros(),
+            lag_decay,
+            lag_mean,
+            has_lag,
+            motor_torque: JointVector::zeros(),
+            squared_angle_estimate_error: JointVector::zeros(),
+            squared_rate_estimate_error: JointVector::zeros(),
+            samples_taken: 0,
+            first_tracked_step,
+            squared_joint_error: JointVector::zeros(),
+            max_joint_error: JointVector::zeros(),
+            squared_tip_error: 0.0,
+            max_tip_error: 0.0,
+            peak_torque: JointVector::zeros(),
+            saturated_samples: 0,
+            saturated_per_joint: [0; N],
+            tip_at_marks: vec![Vector3::repeat(f64::NAN); marks.len()],
+            tip_error_at_marks: vec![f64::NAN; marks.len()],
+            mark_steps,
+            next_event: 0,
+            controller_shares_terms,
+        })
+    }
+
+    /// The time of the current step, s.
+    pub fn time(&self) -> f64 {
+        self.step as f64 * self.dt
+    }
+
+    /// Whether the current step is the run's last (nothing to integrate after it).
+    pub fn finished(&self) -> bool {
+        self.step == self.steps
+    }
+
+    /// The next payload event due at the current step, if any; the driver applies it to the
+    /// plant, then hands it to [`Run::apply_event`].
+    pub fn due_event(&self) -> Option<PayloadEvent> {
+        let t = self.time();
+        self.events.get(self.next_event).filter(|event| event.time <= t + 0.5 * self.dt).copied()
+    }
+
+    /// Tells the controller about an event the plant (now `plant`) has taken.
+    pub fn apply_event(&mut self, event: &PayloadEvent, plant: &ArmModel<N>) -> Result<(), SimError> {
+        if event.controller_knows {
+            self.controller
+                .set_payload(event.payload)
+                .map_err(|source| SimError::Payload { time: self.time(), source })?;
+        }
+        self.controller.gripper_changed(event.payload.is_some());
+        self.next_event += 1;
+        self.controller_shares_terms = self.controller.dynamics_model() == Some(plant);
+        Ok(())
+    }
+
+    /// The controller's sample (when one is due), the torque over the coming step (after the
+    /// motors' lag) and the metrics of the current step, which `observer` sees. `at_state` is the
+    /// plant at [`Run::state`], `plant` its model.
+    pub fn control<O: Observer<N> + ?Sized>(
+        &mut self,
+        at_state: &PlantView<N>,
+        plant: &ArmModel<N>,
+        observer: &mut O,
+    ) -> Result<JointVector<N>, SimError> {
+        let (t, step, state) = (self.time(), self.step, self.state);
+        let config = &self.config;
+        let desired = self.reference.reference(t);
+        let tip = at_state.tip;
+        if step.is_multiple_of(self.steps_per_sample) {
+            let raw = if self.exact {
+                self.estimate = state;
+                if self.controller_shares_terms {
+                    self.controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms)
                 } else {
-                    controller.torque(&state, &desired, config.control_period)
+                    self.controller.torque(&state, &desired, config.control_period)
                 }
             } else {
-                estimate = feedback.observe(&state, &applied_acceleration);
-                let error_q = estimate.q - state.q;
-                let error_qd = estimate.qd - state.qd;
-                squared_angle_estimate_error += error_q.component_mul(&error_q);
-                squared_rate_estimate_error += error_qd.component_mul(&error_qd);
-                controller.torque(&estimate, &desired, config.control_period)
+                self.estimate = self.feedback.observe(&state, &self.applied_acceleration);
+                let error_q = self.estimate.q - state.q;
+                let error_qd = self.estimate.qd - state.qd;
+                self.squared_angle_estimate_error += error_q.component_mul(&error_q);
+                self.squared_rate_estimate_error += error_qd.component_mul(&error_qd);
+                self.controller.torque(&self.estimate, &desired, config.control_period)
             };
-            samples_taken += 1;
+            self.samples_taken += 1;
             let mut clipped = false;
             for j in 0..N {
                 if !raw[j].is_finite() {
-                    return Err(SimError::Diverged {
-                        time: t,
-                        joint: j + 1,
-                        quantity: "torque command",
-                        value: raw[j],
-                    });
+                    return Err(SimError::Diverged { time: t, joint: j + 1, quantity: "torque command", value: raw[j] });
                 }
                 let limit = config.torque_limits[j];
-                command[j] = raw[j].clamp(-limit, limit);
-                if command[j] != raw[j] {
-                    saturated_per_joint[j] += 1;
+                self.command[j] = raw[j].clamp(-limit, limit);
+                if self.command[j] != raw[j] {
+                    self.saturated_per_joint[j] += 1;
                     clipped = true;
                 }
             }
-            saturated_samples += usize::from(clipped);
-            if !exact {
-                applied_acceleration = acceleration_of(controller, &estimate, &command, clipped);
+            self.saturated_samples += usize::from(clipped);
+            if !self.exact {
+                self.applied_acceleration = acceleration_of(&*self.controller, &self.estimate, &self.command, clipped);
             }
         }
-        let torque = if has_lag {
+        let command = self.command;
+        let torque = if self.has_lag {
             // The exact response of T τ̇ + τ = τ_c over the step, held as its mean (what
             // the step integrates): τ̄ = τ_c + (τ_k − τ_c)(T/dt)(1 − e^{−dt/T}),
             // τ_{k+1} = τ_c + (τ_k − τ_c) e^{−dt/T}.
-            let gap = motor_torque - command;
-            motor_torque = command + gap.component_mul(&lag_decay);
-            command + gap.component_mul(&lag_mean)
+            let gap = self.motor_torque - command;
+            self.motor_torque = command + gap.component_mul(&self.lag_decay);
+            command + gap.component_mul(&self.lag_mean)
         } else {
             command
         };
         let error = desired.q - state.q;
-        peak_torque = peak_torque.sup(&torque.abs());
-        let tip_desired = reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant.model(), &desired.q).tip());
+        self.peak_torque = self.peak_torque.sup(&torque.abs());
+        let tip_desired = self.reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant, &desired.q).tip());
         let tip_error = (tip - tip_desired).norm();
-        if step >= first_tracked_step {
-            squared_joint_error += error.component_mul(&error);
-            max_joint_error = max_joint_error.sup(&error.abs());
-            squared_tip_error += tip_error * tip_error;
-            max_tip_error = max_tip_error.max(tip_error);
+        if step >= self.first_tracked_step {
+            self.squared_joint_error += error.component_mul(&error);
+            self.max_joint_error = self.max_joint_error.sup(&error.abs());
+            self.squared_tip_error += tip_error * tip_error;
+            self.max_tip_error = self.max_tip_error.max(tip_error);
         }
-        for (k, &mark_step) in mark_steps.iter().enumerate() {
+        for (k, &mark_step) in self.mark_steps.iter().enumerate() {
             if mark_step == step {
-                tip_at_marks[k] = tip;
-                tip_error_at_marks[k] = tip_error;
+                self.tip_at_marks[k] = tip;
+                self.tip_error_at_marks[k] = tip_error;
             }
         }
-        observer.observe(&StepRecord { t, state, estimate, reference: desired, torque, tip, tip_desired });
-        if step == steps {
-            break;
-        }
-        state = plant
-            .step(&state, &torque, dt, config.integrator)
-            .map_err(|source| SimError::Dynamics { time: t, source })?;
-        check_state(&state, t + dt, config.runaway_speed)?;
+        observer.observe(&StepRecord { t, state, estimate: self.estimate, reference: desired, torque, tip, tip_desired });
+        Ok(torque)
     }
-    let tracked_steps = steps + 1 - first_tracked_step;
-    let samples = tracked_steps as f64;
-    Ok(SimSummary {
-        duration: steps as f64 * dt,
-        steps,
-        rms_joint_error: (squared_joint_error / samples).map(f64::sqrt),
-        max_joint_error,
-        rms_tip_error: (squared_tip_error / samples).sqrt(),
-        max_tip_error,
-        tracked_steps,
-        peak_torque,
-        saturated_samples,
-        saturated_per_joint,
-        tip_at_marks,
-        tip_error_at_marks,
-        final_state: state,
-        rms_angle_estimate_error: (squared_angle_estimate_error / samples_taken.max(1) as f64).map(f64::sqrt),
-        rms_rate_estimate_error: (squared_rate_estimate_error / samples_taken.max(1) as f64).map(f64::sqrt),
-    })
+
+    /// Takes the plant's state after the step (or why the step failed) and moves to the next.
+    pub fn advance(&mut self, next: Result<JointState<N>, DynamicsError>) -> Result<(), SimError> {
+        let t = self.time();
+        self.state = next.map_err(|source| SimError::Dynamics { time: t, source })?;
+        check_state(&self.state, t + self.dt, self.config.runaway_speed)?;
+        self.step += 1;
+        Ok(())
+    }
+
+    /// The metrics of the finished run.
+    pub fn summary(self) -> SimSummary<N> {
+        let tracked_steps = self.steps + 1 - self.first_tracked_step;
+        let samples = tracked_steps as f64;
+        let sampled = self.samples_taken.max(1) as f64;
+        SimSummary {
+            duration: self.steps as f64 * self.dt,
+            steps: self.steps,
+            rms_joint_error: (self.squared_joint_error / samples).map(f64::sqrt),
+            max_joint_error: self.max_joint_error,
+            rms_tip_error: (self.squared_tip_error / samples).sqrt(),
+            max_tip_error: self.max_tip_error,
+            tracked_steps,
+            peak_torque: self.peak_torque,
+            saturated_samples: self.saturated_samples,
+            saturated_per_joint: self.saturated_per_joint,
+            tip_at_marks: self.tip_at_marks,
+            tip_error_at_marks: self.tip_error_at_marks,
+            final_state: self.state,
+            rms_angle_estimate_error: (self.squared_angle_estimate_error / sampled).map(f64::sqrt),
+            rms_rate_estimate_error: (self.squared_rate_estimate_error / sampled).map(f64::sqrt),
+        }
+    }
 }
 
 /// The joint acceleration the controller's command will produce as its model predicts it, the
