@@ -44,8 +44,7 @@ pub trait Real:
                         + d2 * (Self::splat(-1.0 / 5040.0) + d2 * Self::splat(1.0 / 362_880.0))));
         let cos = Self::splat(1.0)
             + d2 * (Self::splat(-0.5)
-                + d2 * (Self::splat(1.0 / 24.0)
-                    + d2 * (Self::splat(-1.0 / 720.0) + d2 * Self::splat(1.0 / 40_320.0))));
+                + d2 * (Self::splat(1.0 / 24.0) + d2 * (Self::splat(-1.0 / 720.0) + d2 * Self::splat(1.0 / 40_320.0))));
         (sin, cos)
     }
 }
@@ -111,6 +110,7 @@ macro_rules! lane_op {
         impl<const L: usize> $trait for Lanes<L> {
             type Output = Self;
             #[inline(always)]
+            #[allow(clippy::assign_op_pattern)] // one macro for the three operators
             fn $method(self, other: Self) -> Self {
                 let mut out = self.0;
                 for (a, b) in out.iter_mut().zip(other.0) {
@@ -121,6 +121,7 @@ macro_rules! lane_op {
         }
         impl<const L: usize> $assign_trait for Lanes<L> {
             #[inline(always)]
+            #[allow(clippy::assign_op_pattern)] // this is the assign operation
             fn $assign(&mut self, other: Self) {
                 *self = *self $op other;
             }

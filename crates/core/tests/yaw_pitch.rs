@@ -45,7 +45,12 @@ fn family_arm(seed: &[f64; 24], down: bool, reversed: [bool; 2], tool_twist: f64
     let half_pi = std::f64::consts::FRAC_PI_2;
     let pitch_twist = |reverse: bool| if reverse { std::f64::consts::PI } else { 0.0 };
     let dh = [
-        DhParameters { a: 0.03 * seed[0].abs(), alpha: if down { -half_pi } else { half_pi }, d: 0.1, theta_offset: seed[1] },
+        DhParameters {
+            a: 0.03 * seed[0].abs(),
+            alpha: if down { -half_pi } else { half_pi },
+            d: 0.1,
+            theta_offset: seed[1],
+        },
         DhParameters { a: 0.3, alpha: pitch_twist(reversed[0]), d: 0.04 * seed[2], theta_offset: seed[3] },
         DhParameters { a: 0.28, alpha: pitch_twist(reversed[1]), d: 0.04 * seed[4], theta_offset: seed[5] },
         DhParameters { a: 0.1, alpha: tool_twist, d: 0.04 * seed[6], theta_offset: seed[7] },
@@ -163,8 +168,8 @@ fn arms_outside_the_family_take_the_general_path_and_say_why() {
     assert!(sideways.yaw_pitch().is_none());
     assert!(YawPitch::new(&sideways).unwrap_err().to_string().contains("gravity (0.5, 0, -9.8)"));
 
-    let three = ArmModel::<3>::new(std::array::from_fn(|j| report_arm().links()[j]), Vector3::new(0.0, 0.0, -9.8))
-        .unwrap();
+    let three =
+        ArmModel::<3>::new(std::array::from_fn(|j| report_arm().links()[j]), Vector3::new(0.0, 0.0, -9.8)).unwrap();
     assert!(three.yaw_pitch().is_none());
     assert!(YawPitch::new(&three).unwrap_err().to_string().contains("3 joints"));
 

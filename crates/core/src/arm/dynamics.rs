@@ -284,7 +284,6 @@ pub fn mass_matrix<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>) -> M
     }
 }
 
-
 /// Inverse dynamics `τ = M q̈ + C q̇ + g`, N·m.
 pub fn inverse_dynamics<const N: usize>(
     model: &ArmModel<N>,

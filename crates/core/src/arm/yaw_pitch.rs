@@ -31,6 +31,9 @@
 //! result bit for bit. The general RNEA/CRBA of [`super::dynamics`] stays the test oracle and the
 //! path for every other arm.
 
+// The kernels index several arrays by joint, as their equations do.
+#![allow(clippy::needless_range_loop)]
+
 use super::dynamics::MassMatrix;
 use super::model::{ArmModel, JointVector};
 use crate::lanes::Real;
@@ -252,7 +255,7 @@ impl<S: Real> Angles<S> {
         out.angle[0] = self.angle[0] + delta[0];
         let mut step = S::splat(0.0);
         for j in 1..4 {
-            step = step + model.sign[j] * delta[j];
+            step += model.sign[j] * delta[j];
             out.angle[j] = self.angle[j] + step;
             let (sd, cd) = step.small_sin_cos();
             let (sin, cos) = (self.sin[j] * cd + self.cos[j] * sd, self.cos[j] * cd - self.sin[j] * sd);
@@ -261,8 +264,10 @@ impl<S: Real> Angles<S> {
             if (0..S::LANES).all(small) {
                 (out.sin[j], out.cos[j]) = (sin, cos);
             } else {
-                out.sin[j] = S::from_fn(|i| if small(i) { sin.lane(i) } else { crate::lanes::sin_cos(angle.lane(i)).0 });
-                out.cos[j] = S::from_fn(|i| if small(i) { cos.lane(i) } else { crate::lanes::sin_cos(angle.lane(i)).1 });
+                out.sin[j] =
+                    S::from_fn(|i| if small(i) { sin.lane(i) } else { crate::lanes::sin_cos(angle.lane(i)).0 });
+                out.cos[j] =
+                    S::from_fn(|i| if small(i) { cos.lane(i) } else { crate::lanes::sin_cos(angle.lane(i)).1 });
             }
         }
         out
@@ -411,7 +416,12 @@ fn friction<S: Real>(model: &YawPitch<S>, qd: &[S; 4]) -> [S; 4] {
 
 /// The composite-rigid-body mass matrix of the module's equations.
 #[inline(always)]
-fn mass_matrix<S: Real>(model: &YawPitch<S>, point: &[[S; 3]; 4], com: &[[S; 3]; 4], inertia: &[Sym<S>; 4]) -> [[S; 4]; 4] {
+fn mass_matrix<S: Real>(
+    model: &YawPitch<S>,
+    point: &[[S; 3]; 4],
+    com: &[[S; 3]; 4],
+    inertia: &[Sym<S>; 4],
+) -> [[S; 4]; 4] {
     let zero = S::splat(0.0);
     let mut matrix = [[zero; 4]; 4];
     let mut mass = zero;
@@ -469,11 +479,8 @@ fn newton_euler<S: Real, const ACCELERATION: bool>(
         if j > 0 {
             let norm2 = w * w + r * r;
             let lever = sub(&at.point[j], &at.point[j - 1]);
-            let spin = if ACCELERATION {
-                cross(&[ax, ay, az], &lever)
-            } else {
-                [zero, -(ax * lever[2]), ax * lever[1]]
-            };
+            let spin =
+                if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
             let turn = centripetal(w, r, norm2, &lever);
             point_acceleration = add(&point_acceleration, &add(&spin, &turn));
             ax -= model.sign[j] * qd[j] * r;
@@ -489,8 +496,7 @@ fn newton_euler<S: Real, const ACCELERATION: bool>(
         }
         let norm2 = w * w + r * r;
         let lever = sub(&at.com[j], &at.point[j]);
-        let spin =
-            if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
+        let spin = if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
         let com_acceleration = add(&point_acceleration, &add(&spin, &centripetal(w, r, norm2, &lever)));
         let m = model.mass[j];
         let f = [com_acceleration[0] * m, com_acceleration[1] * m, com_acceleration[2] * m];

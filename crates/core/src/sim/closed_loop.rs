@@ -368,8 +368,7 @@ where
         // Per joint: e^{−dt/T} (the decay over a step) and (T/dt)(1 − e^{−dt/T}) (the mean over
         // a step of the decaying part).
         let lag_decay = config.torque_lag.map(|lag| if lag > 0.0 { (-dt / lag).exp() } else { 0.0 });
-        let lag_mean =
-            config.torque_lag.map(|lag| if lag > 0.0 { lag / dt * (1.0 - (-dt / lag).exp()) } else { 0.0 });
+        let lag_mean = config.torque_lag.map(|lag| if lag > 0.0 { lag / dt * (1.0 - (-dt / lag).exp()) } else { 0.0 });
         let has_lag = config.torque_lag.iter().any(|lag| *lag > 0.0);
         // The first step at or after `tracking_from` (to the nearest step, like the marks).
         let first_tracked_step = ((config.tracking_from / dt).round() as usize).min(steps);
@@ -480,7 +479,12 @@ where
             let mut clipped = false;
             for j in 0..N {
                 if !raw[j].is_finite() {
-                    return Err(SimError::Diverged { time: t, joint: j + 1, quantity: "torque command", value: raw[j] });
+                    return Err(SimError::Diverged {
+                        time: t,
+                        joint: j + 1,
+                        quantity: "torque command",
+                        value: raw[j],
+                    });
                 }
                 let limit = config.torque_limits[j];
                 self.command[j] = raw[j].clamp(-limit, limit);
@@ -521,7 +525,15 @@ where
                 self.tip_error_at_marks[k] = tip_error;
             }
         }
-        observer.observe(&StepRecord { t, state, estimate: self.estimate, reference: desired, torque, tip, tip_desired });
+        observer.observe(&StepRecord {
+            t,
+            state,
+            estimate: self.estimate,
+            reference: desired,
+            torque,
+            tip,
+            tip_desired,
+        });
         Ok(torque)
     }
 
