@@ -10,6 +10,12 @@
 
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
+/// `[f(0), f(1), f(2), f(3)]`, always inlined (`std::array::from_fn` is not always).
+#[inline(always)]
+pub fn array4<S>(f: impl Fn(usize) -> S) -> [S; 4] {
+    [f(0), f(1), f(2), f(3)]
+}
+
 /// A number the kernels compute with: `f64` (one run) or [`Lanes`] (`L` runs).
 pub trait Real:
     Copy
@@ -167,18 +173,26 @@ impl<const L: usize> Real for Lanes<L> {
     }
 
     #[inline(always)]
-    fn from_fn(f: impl FnMut(usize) -> f64) -> Self {
-        Self(std::array::from_fn(f))
+    fn from_fn(mut f: impl FnMut(usize) -> f64) -> Self {
+        // A loop rather than `std::array::from_fn`, which is not always inlined.
+        let mut out = [0.0; L];
+        for (i, slot) in out.iter_mut().enumerate() {
+            *slot = f(i);
+        }
+        Self(out)
     }
 
     #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
         // The same steps as the scalar `sin_cos`, the polynomial on all lanes at once.
-        let quadrant = self.0.map(quadrant_of);
-        let reduced = Self(std::array::from_fn(|i| reduce(self.0[i], quadrant[i])));
-        let (sin, cos) = reduced_sin_cos(reduced);
-        let mut out_sin = sin.0;
-        let mut out_cos = cos.0;
+        let mut quadrant = self.0;
+        let mut reduced = self.0;
+        for i in 0..L {
+            quadrant[i] = quadrant_of(self.0[i]);
+            reduced[i] = reduce(self.0[i], quadrant[i]);
+        }
+        let (sin, cos) = reduced_sin_cos(Self(reduced));
+        let (mut out_sin, mut out_cos) = (sin.0, cos.0);
         for i in 0..L {
             (out_sin[i], out_cos[i]) = by_quadrant(sin.0[i], cos.0[i], quadrant[i]);
         }
@@ -233,16 +247,16 @@ fn reduced_sin_cos<S: Real>(r: S) -> (S, S) {
     (sin, cos)
 }
 
-/// `(sin x, cos x)` from those of `r = x − k π/2`.
+/// `(sin x, cos x)` from those of `r = x − k π/2`: by `k mod 4`, `(s, c)`, `(c, −s)`, `(−s, −c)`,
+/// `(−c, s)`. Without branches (a swap and two sign flips, the sign flips as IEEE negation
+/// does them, on the sign bit), so that lanes vectorise; a NaN or infinite `x` is NaN already.
 #[inline(always)]
 fn by_quadrant(sin: f64, cos: f64, k: f64) -> (f64, f64) {
-    // k mod 4 in two's complement (negative k too); a NaN or infinite x gives NaN here already.
-    match (k as i64) & 3 {
-        0 => (sin, cos),
-        1 => (cos, -sin),
-        2 => (-sin, -cos),
-        _ => (-cos, sin),
-    }
+    let n = k as i64 as u64; // two's complement: n mod 4 is right for negative k too
+    let (a, b) = if n & 1 == 0 { (sin, cos) } else { (cos, sin) };
+    let sin_sign = (n & 2) << 62;
+    let cos_sign = (n.wrapping_add(1) & 2) << 62;
+    (f64::from_bits(a.to_bits() ^ sin_sign), f64::from_bits(b.to_bits() ^ cos_sign))
 }
 
 /// `(sin x, cos x)`, within 2 ulp of the exact values for |x| ≤ 1.6·10⁶ rad (joint

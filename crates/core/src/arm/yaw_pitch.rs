@@ -324,27 +324,43 @@ impl<S: Real> Configuration<S> {
     #[inline(always)]
     pub fn new(model: &YawPitch<S>, angles: Angles<S>) -> Self {
         let zero = S::splat(0.0);
-        let mut point = [[zero; 3]; 4];
-        let mut com = [[zero; 3]; 4];
-        let mut inertia = model.inertia;
-        point[1] = model.shoulder;
-        com[0] = model.com[0];
-        let mut tip = point[1];
+        let mut configuration = Self {
+            angles,
+            point: [[zero; 3]; 4],
+            tip: [zero; 3],
+            com: [[zero; 3]; 4],
+            inertia: model.inertia,
+            mass_matrix: [[zero; 4]; 4],
+            factor: Factor { lower: [[zero; 4]; 4], pivot: [zero; 4], inverse_pivot: [zero; 4] },
+        };
+        configuration.set(model, angles);
+        configuration
+    }
+
+    /// [`Configuration::new`] in place: scratch refilled every stage without moving it.
+    #[inline(always)]
+    pub fn set(&mut self, model: &YawPitch<S>, angles: Angles<S>) {
+        self.angles = angles;
+        self.point[0] = [S::splat(0.0); 3];
+        self.point[1] = model.shoulder;
+        self.com[0] = model.com[0];
+        self.inertia[0] = model.inertia[0];
         for j in 1..4 {
             let (s, c) = (angles.sin[j], angles.cos[j]);
-            com[j] = add(&point[j], &turn_y(s, c, &model.com[j]));
-            let next = add(&point[j], &turn_y(s, c, &model.link[j]));
+            let base = self.point[j];
+            self.com[j] = add(&base, &turn_y(s, c, &model.com[j]));
+            let next = add(&base, &turn_y(s, c, &model.link[j]));
             if j < 3 {
-                point[j + 1] = next;
+                self.point[j + 1] = next;
             } else {
-                tip = next;
+                self.tip = next;
             }
             // R_y(φ) Î R_y(φ)ᵀ by the double angle (c₂, s₂) = (cos 2φ, sin 2φ).
             let (c2, s2) = (c * c - s * s, S::splat(2.0) * s * c);
             let body = &model.inertia[j];
             let (mean, half) = (model.inertia_mean[j], model.inertia_half[j]);
             let spin = half * c2 + body.xz * s2;
-            inertia[j] = Sym {
+            self.inertia[j] = Sym {
                 xx: mean + spin,
                 yy: body.yy,
                 zz: mean - spin,
@@ -353,9 +369,8 @@ impl<S: Real> Configuration<S> {
                 yz: c * body.yz - s * body.xy,
             };
         }
-        let mass_matrix = mass_matrix(model, &point, &com, &inertia);
-        let factor = Factor::new(&mass_matrix);
-        Self { angles, point, tip, com, inertia, mass_matrix, factor }
+        mass_matrix(model, &self.point, &self.com, &self.inertia, &mut self.mass_matrix);
+        self.factor.set(&self.mass_matrix);
     }
 
     /// The tool tip in the base frame, m: `R_z(ψ)` of the tip in `Y`.
@@ -405,7 +420,7 @@ impl<S: Real> Configuration<S> {
 /// by lane as [`super::dynamics::friction_torques`] computes it.
 #[inline(always)]
 fn friction<S: Real>(model: &YawPitch<S>, qd: &[S; 4]) -> [S; 4] {
-    std::array::from_fn(|j| {
+    crate::lanes::array4(|j| {
         let coulomb = S::from_fn(|i| {
             let coulomb = model.coulomb[j].lane(i);
             if coulomb == 0.0 { 0.0 } else { coulomb * (qd[j].lane(i) / super::dynamics::COULOMB_SMOOTHING).tanh() }
@@ -421,9 +436,9 @@ fn mass_matrix<S: Real>(
     point: &[[S; 3]; 4],
     com: &[[S; 3]; 4],
     inertia: &[Sym<S>; 4],
-) -> [[S; 4]; 4] {
+    matrix: &mut [[S; 4]; 4],
+) {
     let zero = S::splat(0.0);
-    let mut matrix = [[zero; 4]; 4];
     let mut mass = zero;
     let mut h = [zero; 3];
     let (mut iyy, mut iyz, mut izz) = (zero, zero, zero);
@@ -456,7 +471,6 @@ fn mass_matrix<S: Real>(
         matrix[j][0] = moment_z;
         matrix[j][j] += model.rotor[j];
     }
-    matrix
 }
 
 /// Recursive Newton–Euler in `Y`, sparse as the module explains; `ACCELERATION = false` leaves
@@ -539,12 +553,11 @@ pub struct Factor<S> {
 }
 
 impl<S: Real> Factor<S> {
+    /// Factorises `matrix` in place (only its lower triangle is read).
     #[inline(always)]
-    pub fn new(matrix: &[[S; 4]; 4]) -> Self {
+    pub fn set(&mut self, matrix: &[[S; 4]; 4]) {
         let zero = S::splat(0.0);
-        let mut lower = [[zero; 4]; 4];
-        let mut pivot = [zero; 4];
-        let mut inverse_pivot = [zero; 4];
+        let Self { lower, pivot, inverse_pivot } = self;
         for j in 0..4 {
             let mut scaled_row = [zero; 4];
             let mut d = matrix[j][j];
@@ -562,7 +575,6 @@ impl<S: Real> Factor<S> {
                 lower[i][j] = entry * inverse_pivot[j];
             }
         }
-        Self { lower, pivot, inverse_pivot }
     }
 
     /// Whether lane `lane` was positive definite: every pivot > 0 (NaN fails) with a finite

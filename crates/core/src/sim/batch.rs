@@ -14,6 +14,7 @@
 //! lane count is 1.
 
 use super::closed_loop::{PlantView, Run, SimConfig, SimError, SimSummary};
+use super::plant::Integrator;
 use super::structured::{self, Failures, Start, State};
 use super::{NoObserver, PayloadEvent, Plant, ReferenceSource};
 use crate::arm::dynamics::{DynamicsError, DynamicsTerms};
@@ -188,9 +189,9 @@ pub fn simulate_lanes(
         if take == 1 {
             results.push(batch[0].simulate_alone());
         } else if width == 4 {
-            results.extend(level.run(|| simulate_batch::<4>(batch)));
+            results.extend(simulate_batch::<4>(batch, level));
         } else {
-            results.extend(level.run(|| simulate_batch::<8>(batch)));
+            results.extend(simulate_batch::<8>(batch, level));
         }
     }
     results
@@ -237,14 +238,55 @@ fn lane_of<const L: usize>(batch: &YawPitch<Lanes<L>>, i: usize) -> YawPitch<f64
     }
 }
 
+/// The lanes' joint states side by side.
+fn lane_state<const L: usize>(states: &[JointState<4>; L]) -> State<Lanes<L>> {
+    State {
+        q: lanes_of(states.map(|s| std::array::from_fn(|j| s.q[j]))),
+        qd: lanes_of(states.map(|s| std::array::from_fn(|j| s.qd[j]))),
+    }
+}
+
 fn lanes_of<const L: usize>(values: [[f64; 4]; L]) -> [Lanes<L>; 4] {
     std::array::from_fn(|j| Lanes(std::array::from_fn(|i| values[i][j])))
 }
 
+/// The dynamics at the lanes' states, into `start`, compiled for `level`.
+fn set_start<const L: usize>(
+    level: SimdLevel,
+    model: &YawPitch<Lanes<L>>,
+    start: &mut Start<Lanes<L>>,
+    state: &State<Lanes<L>>,
+) {
+    // `inline(always)`: the closure's body is compiled inside pulp's function for the level,
+    // with its instructions; a closure of its own would get the baseline's.
+    level.run(
+        #[inline(always)]
+        || start.set(model, state),
+    );
+}
+
+/// One step of every lane ([`structured::step`]), compiled for `level`.
+#[allow(clippy::too_many_arguments)] // the step's own arguments and the level
+fn step_lanes<const L: usize>(
+    level: SimdLevel,
+    model: &YawPitch<Lanes<L>>,
+    start: &mut Start<Lanes<L>>,
+    state: &State<Lanes<L>>,
+    torque: &[Lanes<L>; 4],
+    dt: f64,
+    integrator: Integrator,
+    failures: &mut Failures<L>,
+) -> State<Lanes<L>> {
+    level.run(
+        #[inline(always)]
+        || structured::step(model, start, state, torque, dt, integrator, failures),
+    )
+}
+
 /// Up to `L` runs (all of the family, with one time step and integrator) side by side; lanes
-/// beyond `runs.len()` are idle from the start.
-#[inline(always)]
-fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>]) -> Vec<Result<SimSummary<4>, SimError>> {
+/// beyond `runs.len()` are idle from the start. The lanes' arithmetic runs at `level`; the
+/// rest (controllers, sensors, events, metrics) lane by lane.
+fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) -> Vec<Result<SimSummary<4>, SimError>> {
     let count = runs.len();
     let (dt, integrator) = (runs[0].config.dt, runs[0].config.integrator);
     let mut models: [ArmModel<4>; L] = std::array::from_fn(|i| runs[i.min(count - 1)].plant);
@@ -269,6 +311,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>]) -> Vec<Result<SimSum
         _ => loops.iter().flatten().next().map_or(JointState::at_rest(JointVector::zeros()), |lane| lane.state),
     });
     let mut torques = [[0.0; 4]; L];
+    let mut start = Start::new(&fast, &lane_state(&states));
     loop {
         // Payload events, lane by lane: the plant's model first, then the controller.
         for i in 0..count {
@@ -289,11 +332,8 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>]) -> Vec<Result<SimSum
                 }
             }
         }
-        let state = State {
-            q: lanes_of(states.map(|s| std::array::from_fn(|j| s.q[j]))),
-            qd: lanes_of(states.map(|s| std::array::from_fn(|j| s.qd[j]))),
-        };
-        let start = Start::new(&fast, &state);
+        let state = lane_state(&states);
+        set_start(level, &fast, &mut start, &state);
         let tip = start.configuration.tip_in_base();
         let mut active = 0;
         for i in 0..count {
@@ -332,7 +372,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>]) -> Vec<Result<SimSum
         }
         let torque = lanes_of(torques);
         let mut failures = Failures::<L> { lanes: 0, at: [[0.0; 4]; L] };
-        let next = structured::step(&fast, &start, &state, &torque, dt, integrator, &mut failures);
+        let next = step_lanes(level, &fast, &mut start, &state, &torque, dt, integrator, &mut failures);
         for i in 0..count {
             let Some(lane) = loops[i].as_mut() else { continue };
             let stepped = if failures.lanes & (1 << i) != 0 {

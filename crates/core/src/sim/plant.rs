@@ -71,7 +71,14 @@ impl<const N: usize> Plant<N> {
         if self.evaluated_at != Some(*state) {
             self.evaluated_at = None;
             if let Some(fast) = self.model.yaw_pitch() {
-                let start = Start::new(fast, &State { q: to_array(&state.q), qd: to_array(&state.qd) });
+                let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
+                let start = match &mut self.structured_start {
+                    Some(start) => {
+                        start.set(fast, &here);
+                        start
+                    }
+                    None => self.structured_start.insert(Start::new(fast, &here)),
+                };
                 if !start.configuration.factor.positive_definite(0) {
                     return Err(DynamicsError::NotPositiveDefinite(state.q.iter().copied().collect()));
                 }
@@ -80,7 +87,6 @@ impl<const N: usize> Plant<N> {
                     mass_matrix: from_rows(&start.configuration.mass_matrix),
                     bias: from_array(start.bias),
                 };
-                self.structured_start = Some(start);
             } else {
                 let general = &mut self.general_start;
                 general.set_configuration(&self.model, &state.q, JointTrig::new(&self.model, &state.q))?;
@@ -118,7 +124,7 @@ impl<const N: usize> Plant<N> {
         integrator: Integrator,
     ) -> Result<JointState<N>, DynamicsError> {
         self.evaluate(state)?;
-        if let (Some(fast), Some(start)) = (self.model.yaw_pitch(), &self.structured_start) {
+        if let (Some(fast), Some(start)) = (self.model.yaw_pitch(), self.structured_start.as_mut()) {
             let mut failures = Failures::<1> { lanes: 0, at: [[0.0; 4]] };
             let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
             let next = structured::step(fast, start, &here, &to_array(torque), dt, integrator, &mut failures);

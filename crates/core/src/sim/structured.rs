@@ -4,7 +4,7 @@
 //! same order, so each lane's step equals the scalar step bit for bit.
 
 use crate::arm::yaw_pitch::{Angles, Configuration, YawPitch};
-use crate::lanes::Real;
+use crate::lanes::{Real, array4};
 use crate::sim::plant::Integrator;
 
 /// A joint state of one run or of `L`: angles (rad) and rates (rad/s).
@@ -14,11 +14,16 @@ pub struct State<S> {
     pub qd: [S; 4],
 }
 
-/// The dynamics at a step's starting state: the configuration and `C q̇ + g` there.
+/// The dynamics at a step's starting state, and the scratch of the stages inside the step,
+/// refilled in place every step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Start<S> {
     pub configuration: Configuration<S>,
+    /// `C q̇ + g` at the start.
     pub bias: [S; 4],
+    /// The stage configurations (the middle one, the end).
+    middle: Configuration<S>,
+    end: Configuration<S>,
 }
 
 impl<S: Real> Start<S> {
@@ -26,7 +31,14 @@ impl<S: Real> Start<S> {
     pub fn new(model: &YawPitch<S>, state: &State<S>) -> Self {
         let configuration = Configuration::new(model, Angles::new(model, &state.q));
         let bias = configuration.bias(model, &state.qd);
-        Self { configuration, bias }
+        Self { configuration, bias, middle: configuration, end: configuration }
+    }
+
+    /// [`Start::new`] in place.
+    #[inline(always)]
+    pub fn set(&mut self, model: &YawPitch<S>, state: &State<S>) {
+        self.configuration.set(model, Angles::new(model, &state.q));
+        self.bias = self.configuration.bias(model, &state.qd);
     }
 }
 
@@ -41,31 +53,32 @@ pub struct Failures<const L: usize> {
 #[inline(always)]
 fn axpy<S: Real>(x: &[S; 4], a: &[S; 4], h: f64) -> [S; 4] {
     let h = S::splat(h);
-    std::array::from_fn(|j| x[j] + a[j] * h)
+    array4(|j| x[j] + a[j] * h)
 }
 
 #[inline(always)]
 fn difference<S: Real>(a: &[S; 4], b: &[S; 4]) -> [S; 4] {
-    std::array::from_fn(|j| a[j] - b[j])
+    array4(|j| a[j] - b[j])
 }
 
-/// The configuration at `at` (rad) inside the step, its angles moved from the start's.
+/// Fills `scratch` with the configuration at `at` (rad) inside the step, its angles moved from
+/// the start's.
 #[inline(always)]
 fn stage<S: Real, const L: usize>(
     model: &YawPitch<S>,
     start: &Configuration<S>,
+    scratch: &mut Configuration<S>,
     q: &[S; 4],
     at: &[S; 4],
     failures: &mut Failures<L>,
-) -> Configuration<S> {
-    let configuration = Configuration::new(model, start.angles.shifted(model, &difference(at, q)));
+) {
+    scratch.set(model, start.angles.shifted(model, &difference(at, q)));
     for lane in 0..S::LANES {
-        if failures.lanes & (1 << lane) == 0 && !configuration.factor.positive_definite(lane) {
+        if failures.lanes & (1 << lane) == 0 && !scratch.factor.positive_definite(lane) {
             failures.lanes |= 1 << lane;
             failures.at[lane] = at.map(|v| v.lane(lane));
         }
     }
-    configuration
 }
 
 /// One step of `dt` seconds from `state` with `torque` held, by `integrator`, from the
@@ -74,7 +87,7 @@ fn stage<S: Real, const L: usize>(
 #[inline(always)]
 pub fn step<S: Real, const L: usize>(
     model: &YawPitch<S>,
-    start: &Start<S>,
+    start: &mut Start<S>,
     state: &State<S>,
     torque: &[S; 4],
     dt: f64,
@@ -82,48 +95,59 @@ pub fn step<S: Real, const L: usize>(
     failures: &mut Failures<L>,
 ) -> State<S> {
     let (q, qd) = (&state.q, &state.qd);
-    let q1dd = start.configuration.acceleration_with_bias(model, qd, torque, &start.bias);
+    let Start { configuration: first, bias, middle, end } = start;
+    let (first, bias) = (&*first, &*bias);
     let c = S::splat;
+    // The stages after the first, in one loop, so that the configuration and acceleration are
+    // compiled once (they are most of the code, and it is compiled for every SIMD level).
+    let stages = match integrator {
+        Integrator::RungeKutta4 | Integrator::RungeKuttaNystrom4 => 3,
+        Integrator::Midpoint => 1,
+        Integrator::SemiImplicitEuler => 0,
+    };
+    // Stage k's acceleration and rate (rad/s², rad/s); stage 0 is the start.
+    let mut qdd = [first.acceleration_with_bias(model, qd, torque, bias); 4];
+    let mut rates = [*qd; 4];
+    for k in 1..=stages {
+        // Where stage k evaluates: its configuration (none: the previous stage's), its rate,
+        // and whether its configuration is the step's end.
+        let (at, rate, at_end) = match integrator {
+            Integrator::RungeKutta4 => {
+                let h = if k == 3 { dt } else { dt / 2.0 };
+                (Some(axpy(q, &rates[k - 1], h)), axpy(qd, &qdd[k - 1], h), k == 3)
+            }
+            Integrator::RungeKuttaNystrom4 => match k {
+                1 => (Some(axpy(&axpy(q, qd, dt / 2.0), &qdd[0], dt * dt / 8.0)), axpy(qd, &qdd[0], dt / 2.0), false),
+                2 => (None, axpy(qd, &qdd[1], dt / 2.0), false),
+                _ => (Some(axpy(&axpy(q, qd, dt), &qdd[2], dt * dt / 2.0)), axpy(qd, &qdd[2], dt), true),
+            },
+            Integrator::Midpoint | Integrator::SemiImplicitEuler => {
+                (Some(axpy(q, qd, dt / 2.0)), axpy(qd, &qdd[0], dt / 2.0), false)
+            }
+        };
+        let configuration = if at_end { &mut *end } else { &mut *middle };
+        if let Some(at) = at {
+            stage(model, first, configuration, q, &at, failures);
+        }
+        qdd[k] = configuration.acceleration(model, &rate, torque);
+        rates[k] = rate;
+    }
+    let sixth = c(dt / 6.0);
     match integrator {
-        Integrator::RungeKutta4 => {
-            let s2 = State { q: axpy(q, qd, dt / 2.0), qd: axpy(qd, &q1dd, dt / 2.0) };
-            let middle = stage(model, &start.configuration, q, &s2.q, failures);
-            let q2dd = middle.acceleration(model, &s2.qd, torque);
-            let s3 = State { q: axpy(q, &s2.qd, dt / 2.0), qd: axpy(qd, &q2dd, dt / 2.0) };
-            let middle = stage(model, &start.configuration, q, &s3.q, failures);
-            let q3dd = middle.acceleration(model, &s3.qd, torque);
-            let s4 = State { q: axpy(q, &s3.qd, dt), qd: axpy(qd, &q3dd, dt) };
-            let end = stage(model, &start.configuration, q, &s4.q, failures);
-            let q4dd = end.acceleration(model, &s4.qd, torque);
-            let sixth = c(dt / 6.0);
-            State {
-                q: std::array::from_fn(|j| q[j] + (qd[j] + s2.qd[j] * c(2.0) + s3.qd[j] * c(2.0) + s4.qd[j]) * sixth),
-                qd: std::array::from_fn(|j| qd[j] + (q1dd[j] + q2dd[j] * c(2.0) + q3dd[j] * c(2.0) + q4dd[j]) * sixth),
-            }
-        }
+        Integrator::RungeKutta4 => State {
+            q: array4(|j| q[j] + (qd[j] + rates[1][j] * c(2.0) + rates[2][j] * c(2.0) + rates[3][j]) * sixth),
+            qd: array4(|j| qd[j] + (qdd[0][j] + qdd[1][j] * c(2.0) + qdd[2][j] * c(2.0) + qdd[3][j]) * sixth),
+        },
         Integrator::RungeKuttaNystrom4 => {
-            let at = axpy(&axpy(q, qd, dt / 2.0), &q1dd, dt * dt / 8.0);
-            let middle = stage(model, &start.configuration, q, &at, failures);
-            let q2dd = middle.acceleration(model, &axpy(qd, &q1dd, dt / 2.0), torque);
-            let q3dd = middle.acceleration(model, &axpy(qd, &q2dd, dt / 2.0), torque);
-            let at = axpy(&axpy(q, qd, dt), &q3dd, dt * dt / 2.0);
-            let end = stage(model, &start.configuration, q, &at, failures);
-            let q4dd = end.acceleration(model, &axpy(qd, &q3dd, dt), torque);
             let (h, h2) = (c(dt), c(dt * dt / 6.0));
-            let sixth = c(dt / 6.0);
             State {
-                q: std::array::from_fn(|j| q[j] + qd[j] * h + (q1dd[j] + q2dd[j] + q3dd[j]) * h2),
-                qd: std::array::from_fn(|j| qd[j] + (q1dd[j] + q2dd[j] * c(2.0) + q3dd[j] * c(2.0) + q4dd[j]) * sixth),
+                q: array4(|j| q[j] + qd[j] * h + (qdd[0][j] + qdd[1][j] + qdd[2][j]) * h2),
+                qd: array4(|j| qd[j] + (qdd[0][j] + qdd[1][j] * c(2.0) + qdd[2][j] * c(2.0) + qdd[3][j]) * sixth),
             }
         }
-        Integrator::Midpoint => {
-            let halfway = State { q: axpy(q, qd, dt / 2.0), qd: axpy(qd, &q1dd, dt / 2.0) };
-            let middle = stage(model, &start.configuration, q, &halfway.q, failures);
-            let halfway_qdd = middle.acceleration(model, &halfway.qd, torque);
-            State { q: axpy(q, &halfway.qd, dt), qd: axpy(qd, &halfway_qdd, dt) }
-        }
+        Integrator::Midpoint => State { q: axpy(q, &rates[1], dt), qd: axpy(qd, &qdd[1], dt) },
         Integrator::SemiImplicitEuler => {
-            let qd = axpy(qd, &q1dd, dt);
+            let qd = axpy(qd, &qdd[0], dt);
             State { q: axpy(q, &qd, dt), qd }
         }
     }
