@@ -93,3 +93,39 @@ pub fn worker_threads(requested: Option<usize>) -> Result<usize> {
         Some(n) => Ok(n),
     }
 }
+
+/// How sweeps and campaigns batch their runs: `CHESSARM_LANES` (1, 4 or 8 runs side by side;
+/// 8 when unset) and `CHESSARM_SIMD` (`avx512`, `avx2` or `sse2`; the best this CPU has when
+/// unset). Neither changes a result, only the speed: every run's metrics are the same bit for
+/// bit (see `chessarm_core::sim::batch`).
+///
+/// # Errors
+///
+/// A value that is not one of those, or a level this CPU lacks, naming the variable and the
+/// value as typed.
+pub fn batching() -> Result<(chessarm_core::sim::batch::LaneCount, chessarm_core::sim::batch::SimdLevel)> {
+    use chessarm_core::sim::batch::{LaneCount, SimdLevel};
+    let lanes = match std::env::var("CHESSARM_LANES") {
+        Err(_) => LaneCount::default(),
+        Ok(typed) => typed
+            .trim()
+            .parse()
+            .ok()
+            .and_then(LaneCount::from_count)
+            .ok_or_else(|| anyhow::anyhow!("CHESSARM_LANES={typed:?}: the runs side by side are 1, 4 or 8"))?,
+    };
+    let level = match std::env::var("CHESSARM_SIMD") {
+        Err(_) => SimdLevel::detect(),
+        Ok(typed) => {
+            let available: Vec<&str> =
+                SimdLevel::ALL.into_iter().filter(|level| level.available()).map(SimdLevel::name).collect();
+            let level = SimdLevel::from_name(typed.trim())
+                .ok_or_else(|| anyhow::anyhow!("CHESSARM_SIMD={typed:?}: the levels are avx512, avx2 and sse2"))?;
+            if !level.available() {
+                bail!("CHESSARM_SIMD={typed:?}: this CPU does not have it (it has {})", available.join(", "));
+            }
+            level
+        }
+    };
+    Ok((lanes, level))
+}

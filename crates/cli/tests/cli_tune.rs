@@ -324,3 +324,74 @@ fn the_deploy_scripts_run_their_shards_and_merge_to_the_full_sweep() {
     }
     assert_eq!(merged, full);
 }
+
+/// The SIMD levels this CPU runs, by asking the binary (`CHESSARM_SIMD` refuses a level the CPU
+/// lacks); each one it lacks is reported as skipped.
+pub fn simd_levels(test: &str) -> Vec<&'static str> {
+    let mut levels = Vec::new();
+    for level in ["avx512", "avx2", "sse2"] {
+        let probe = with_env(
+            &["tune", "--kp", "100..100:1", "--kd", "10..10:1", "--scenario", "nonexistent-scenario"],
+            &[("CHESSARM_SIMD", level)],
+        );
+        if String::from_utf8_lossy(&probe.stderr).contains("does not have it") {
+            use std::io::Write as _;
+            let _ =
+                writeln!(std::io::stderr(), "test {test} ... SIMD level {level} SKIPPED (this CPU does not have it)");
+        } else {
+            levels.push(level);
+        }
+    }
+    levels
+}
+
+#[test]
+fn a_sweep_is_the_same_at_every_lane_count_and_simd_level() {
+    // Candidates that diverge (the larger kp with little damping), that clip at the torque
+    // limits, and ordinary ones, under hobby sensors with the Kalman filter: the CSV must not
+    // depend on how many candidates share a batch or on the SIMD instructions.
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = |name: &str, env: &[(&str, &str)]| {
+        let out = dir.path().join(name);
+        let args = [
+            "tune",
+            "--kp",
+            "200..30000:4",
+            "--kd",
+            "1..60:3",
+            // A start away from the path: the start-up transient clips at the torque limits.
+            "--q0",
+            "0,0.8,-2.4,0",
+            "--sensors",
+            "hobby",
+            "--estimator",
+            "kalman",
+            "--threads",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let output = with_env(&args, env);
+        assert!(output.status.success(), "{env:?}: {}", String::from_utf8_lossy(&output.stderr));
+        std::fs::read_to_string(out.join("tune.csv")).unwrap()
+    };
+    let scalar = sweep("scalar", &[("CHESSARM_LANES", "1")]);
+    let statuses: Vec<Vec<String>> = rows(&scalar);
+    assert!(statuses.iter().any(|r| r[4] != "ok"), "no failing candidate:\n{scalar}");
+    assert!(statuses.iter().any(|r| r[4] == "ok" && r[12] != "0"), "no candidate at the torque limits:\n{scalar}");
+    for level in simd_levels("a_sweep_is_the_same_at_every_lane_count_and_simd_level") {
+        for lanes in ["4", "8"] {
+            let batched = sweep(&format!("{lanes}-{level}"), &[("CHESSARM_LANES", lanes), ("CHESSARM_SIMD", level)]);
+            assert_eq!(batched, scalar, "{lanes} lanes at {level}");
+        }
+    }
+    // The variables as typed, when they are not a lane count or a level.
+    let bad = |env: &[(&str, &str)]| {
+        with_env(
+            &["tune", "--kp", "200..800:2", "--kd", "15..35:2", "--out", dir.path().join("bad").to_str().unwrap()],
+            env,
+        )
+    };
+    assert_one_line_error(&bad(&[("CHESSARM_LANES", "3")]), &["CHESSARM_LANES=\"3\"", "1, 4 or 8"]);
+    assert_one_line_error(&bad(&[("CHESSARM_SIMD", "neon")]), &["CHESSARM_SIMD=\"neon\"", "avx512, avx2 and sse2"]);
+}

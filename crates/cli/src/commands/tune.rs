@@ -21,7 +21,8 @@ use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
 use chessarm_core::plan::trajectory::JointTrajectory;
 use chessarm_core::sense::Conditions;
-use chessarm_core::sim::{Integrator, NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, simulate_sensed};
+use chessarm_core::sim::batch::{LaneCount, LaneRun, SimdLevel, simulate_lanes};
+use chessarm_core::sim::{Integrator, PayloadEvent, Plant, SimConfig, SimError, SimSummary};
 use rayon::prelude::*;
 use serde_json::json;
 use std::time::Instant;
@@ -175,54 +176,10 @@ pub fn simulate_candidate(
     let mut totals = Totals::default();
     match study {
         Study::Scenario(scenario) => {
-            let trial = options.trial.as_ref();
-            let mut plant = Plant::new(trial.map_or(setup.arm, |t| t.plant));
-            let spec = ControllerSpec {
-                name: "candidate".into(),
-                kind: options.kind,
-                gains: *gains,
-                knows_friction: options.knows_friction,
+            return match scenario_run(setup, scenario, options, gains, &candidate) {
+                Ok(mut run) => scenario_candidate(setup, candidate, run.simulate_alone()),
+                Err(failed) => failed,
             };
-            let mut controller = match spec.build(setup.arm) {
-                Ok(controller) => controller,
-                Err(error) => {
-                    candidate.status = format!("failed: {error}");
-                    return candidate;
-                }
-            };
-            let conditions = trial.map_or_else(Conditions::ideal, |t| t.conditions.clone());
-            let mut feedback = match conditions.feedback(1e-3) {
-                Ok(feedback) => feedback,
-                Err(error) => {
-                    candidate.status = format!("failed: {error}");
-                    return candidate;
-                }
-            };
-            let config = SimConfig {
-                integrator: options.integrator,
-                tracking_from: options.tracking_from,
-                torque_lag: conditions.torque_lag,
-                ..SimConfig::new(&plant)
-            };
-            let result = simulate_sensed(
-                &mut plant,
-                &mut feedback,
-                controller.as_mut(),
-                &scenario.trajectory,
-                scenario.initial,
-                &scenario.events,
-                &scenario.marks,
-                &config,
-                &mut NoObserver,
-            );
-            match result {
-                Ok(summary) => {
-                    totals.add(&summary, &limits);
-                    let place = summary.tip_error_at_marks.iter().fold(0.0f64, |a, b| a.max(*b));
-                    totals.fill(&mut candidate, place);
-                }
-                Err(error) => candidate.status = format!("failed: {error}"),
-            }
         }
         Study::Game(record) => {
             let mut settings = PlaySettings::new("candidate", *gains);
@@ -259,6 +216,91 @@ pub fn simulate_candidate(
         }
     }
     candidate
+}
+
+/// A scenario candidate as a run of the batch simulator (1 ms steps of `options.integrator`,
+/// 1 kHz control, torque limits of the model), or the candidate with why it cannot start.
+fn scenario_run<'a>(
+    setup: &Setup,
+    scenario: &'a ScenarioStudy,
+    options: &CandidateOptions,
+    gains: &Gains<4>,
+    candidate: &Candidate,
+) -> Result<LaneRun<'a>, Candidate> {
+    let failed = |error: &dyn std::fmt::Display| {
+        let mut failed = candidate.clone();
+        failed.status = format!("failed: {error}");
+        failed
+    };
+    let trial = options.trial.as_ref();
+    let plant = trial.map_or(setup.arm, |t| t.plant);
+    let spec = ControllerSpec {
+        name: "candidate".into(),
+        kind: options.kind,
+        gains: *gains,
+        knows_friction: options.knows_friction,
+    };
+    let controller = spec.build(setup.arm).map_err(|error| failed(&error))?;
+    let conditions = trial.map_or_else(Conditions::ideal, |t| t.conditions.clone());
+    let feedback = conditions.feedback(1e-3).map_err(|error| failed(&error))?;
+    let config = SimConfig {
+        integrator: options.integrator,
+        tracking_from: options.tracking_from,
+        torque_lag: conditions.torque_lag,
+        ..SimConfig::new(&Plant::new(plant))
+    };
+    Ok(LaneRun {
+        plant,
+        feedback,
+        controller,
+        reference: &scenario.trajectory,
+        initial: scenario.initial,
+        events: &scenario.events,
+        marks: &scenario.marks,
+        config,
+    })
+}
+
+/// `candidate` with the metrics of its scenario run.
+fn scenario_candidate(setup: &Setup, mut candidate: Candidate, result: Result<SimSummary<4>, SimError>) -> Candidate {
+    match result {
+        Ok(summary) => {
+            let mut totals = Totals::default();
+            totals.add(&summary, &setup.arm.torque_limits());
+            let place = summary.tip_error_at_marks.iter().fold(0.0f64, |a, b| a.max(*b));
+            totals.fill(&mut candidate, place);
+        }
+        Err(error) => candidate.status = format!("failed: {error}"),
+    }
+    candidate
+}
+
+/// The scenario candidates `indices`, `lanes` runs side by side at SIMD level `level`, in order.
+fn scenario_candidates(
+    setup: &Setup,
+    scenario: &ScenarioStudy,
+    options: &CandidateOptions,
+    gains: &[Gains<4>],
+    indices: &[usize],
+    (lanes, level): (LaneCount, SimdLevel),
+) -> Vec<Candidate> {
+    let mut out: Vec<Option<Candidate>> = vec![None; indices.len()];
+    let mut runs = Vec::with_capacity(indices.len());
+    let mut slots = Vec::with_capacity(indices.len());
+    for (slot, &index) in indices.iter().enumerate() {
+        let blank = blank_candidate(index, &gains[index]);
+        match scenario_run(setup, scenario, options, &gains[index], &blank) {
+            Ok(run) => {
+                runs.push(run);
+                slots.push((slot, blank));
+            }
+            Err(failed) => out[slot] = Some(failed),
+        }
+    }
+    for ((slot, blank), result) in slots.into_iter().zip(simulate_lanes(&mut runs, lanes, level)) {
+        out[slot] = Some(scenario_candidate(setup, blank, result));
+    }
+    out.into_iter().map(|candidate| candidate.unwrap_or_else(|| unreachable!("every slot is filled"))).collect()
 }
 
 /// Settings every candidate shares.
@@ -377,8 +419,29 @@ pub fn sweep(
     progress: Option<&indicatif::ProgressBar>,
 ) -> Result<Vec<Candidate>> {
     let threads = crate::resources::worker_threads(threads)?;
+    let batching = crate::resources::batching()?;
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
+    if let Study::Scenario(scenario) = study {
+        // A batch of candidates per task: the lanes of one batch simulator.
+        let indices: Vec<usize> = range.collect();
+        let batches: Result<Vec<Vec<Candidate>>> = pool.install(|| {
+            indices
+                .par_chunks(batching.0.get())
+                .map(|chunk| {
+                    if crate::cancelled() {
+                        return Err(crate::interrupted());
+                    }
+                    let candidates = scenario_candidates(setup, scenario, options, gains, chunk, batching);
+                    if let Some(bar) = progress {
+                        bar.inc(chunk.len() as u64);
+                    }
+                    Ok(candidates)
+                })
+                .collect()
+        });
+        return Ok(batches?.into_iter().flatten().collect());
+    }
     pool.install(|| {
         range
             .into_par_iter()
@@ -397,6 +460,7 @@ pub fn sweep(
 }
 
 pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
+    crate::resources::batching()?;
     let setup = &args.motion.apply(setup)?;
     let gains = candidate_gains(args)?;
     let range = shard_range(gains.len(), args.shard);
