@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 mod common;
-use common::{assert_one_line_error, chessarm, json_of};
+use common::{assert_one_line_error, chessarm, json_of, simd_levels};
 
 use std::path::Path;
 
@@ -337,4 +337,55 @@ fn a_kubernetes_index_picks_the_same_trials_as_the_shard_flag() {
     let from_env = run("env", &["--shard-from-env", "--shards", "2"], Some("1"));
     assert_eq!(from_env, given);
     assert_eq!(given.lines().count(), 2, "trials 3 and 4 of 4, no header: {given}");
+}
+
+#[test]
+fn a_campaign_is_the_same_at_every_lane_count_and_simd_level() {
+    // Trials of drawn arms, pieces and hobby sensors with the Kalman filter, two controllers
+    // each, the wrist stiff and barely damped so that it diverges or clips in some trials: the CSV must not
+    // depend on how many runs share a batch or on the SIMD instructions.
+    let dir = tempfile::tempdir().unwrap();
+    let uncertainty = write(dir.path(), "u.toml", UNCERTAINTY);
+    let run = |name: &str, env: &[(&str, &str)]| {
+        let out = dir.path().join(name);
+        let args = [
+            "robustness",
+            "--trials",
+            "11",
+            "--uncertainty",
+            &uncertainty,
+            "--sensors",
+            "hobby",
+            "--estimator",
+            "kalman",
+            "--controller",
+            "pd,pid",
+            "--kp",
+            "400,400,400,6000",
+            "--kd",
+            "40,40,40,2",
+            "--threads",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ];
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))
+            .args(args)
+            .envs(env.iter().copied())
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{env:?}: {}", String::from_utf8_lossy(&output.stderr));
+        std::fs::read_to_string(out.join("robustness.csv")).unwrap()
+    };
+    let scalar = run("scalar", &[("CHESSARM_LANES", "1")]);
+    assert_eq!(scalar.lines().count(), 1 + 22, "{scalar}");
+    assert!(scalar.lines().any(|line| line.contains(",failed: ")), "no failed run:\n{scalar}");
+    assert!(scalar.lines().filter(|line| line.contains(",ok,")).count() >= 11, "{scalar}");
+    for level in simd_levels("a_campaign_is_the_same_at_every_lane_count_and_simd_level") {
+        for lanes in ["4", "8"] {
+            let batched = run(&format!("{lanes}-{level}"), &[("CHESSARM_LANES", lanes), ("CHESSARM_SIMD", level)]);
+            assert_eq!(batched, scalar, "{lanes} lanes at {level}");
+        }
+    }
 }

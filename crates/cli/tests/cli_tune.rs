@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 mod common;
-use common::{assert_one_line_error, chessarm, json_of};
+use common::{assert_one_line_error, chessarm, json_of, simd_levels};
 
 use serde_json::Value;
 
@@ -323,26 +323,6 @@ fn the_deploy_scripts_run_their_shards_and_merge_to_the_full_sweep() {
         merged.push_str(&std::fs::read_to_string(dir.path().join(format!("k8s/shard-{index}/tune.csv"))).unwrap());
     }
     assert_eq!(merged, full);
-}
-
-/// The SIMD levels this CPU runs, by asking the binary (`CHESSARM_SIMD` refuses a level the CPU
-/// lacks); each one it lacks is reported as skipped.
-pub fn simd_levels(test: &str) -> Vec<&'static str> {
-    let mut levels = Vec::new();
-    for level in ["avx512", "avx2", "sse2"] {
-        let probe = with_env(
-            &["tune", "--kp", "100..100:1", "--kd", "10..10:1", "--scenario", "nonexistent-scenario"],
-            &[("CHESSARM_SIMD", level)],
-        );
-        if String::from_utf8_lossy(&probe.stderr).contains("does not have it") {
-            use std::io::Write as _;
-            let _ =
-                writeln!(std::io::stderr(), "test {test} ... SIMD level {level} SKIPPED (this CPU does not have it)");
-        } else {
-            levels.push(level);
-        }
-    }
-    levels
 }
 
 #[test]

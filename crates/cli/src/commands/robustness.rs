@@ -18,7 +18,8 @@ use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
 use chessarm_core::control::choice::ControllerSpec;
 use chessarm_core::sense::rng::derive_seed;
-use chessarm_core::sim::{Integrator, NoObserver, Plant, SimConfig, SimSummary, simulate_sensed};
+use chessarm_core::sim::batch::{LaneCount, LaneRun, SimdLevel, simulate_lanes};
+use chessarm_core::sim::{Integrator, PayloadEvent, Plant, SimConfig, SimSummary};
 use rayon::prelude::*;
 use serde_json::json;
 use std::time::Instant;
@@ -87,10 +88,10 @@ impl Totals {
     }
 }
 
-/// Runs one controller on one trial. `tolerance` in m.
+/// Runs one controller on one trial of a game. `tolerance` in m.
 fn run_trial(
     setup: &Setup,
-    work: &Work,
+    record: &GameRecord,
     spec: &ControllerSpec,
     trial: &Trial,
     integrator: Integrator,
@@ -100,51 +101,25 @@ fn run_trial(
     let mut totals = Totals::default();
     let limits = setup.arm.torque_limits();
     let outcome: Result<()> = (|| {
-        match work {
-            Work::Scenario { plan, payload_mass } => {
-                let mut plant = Plant::new(trial.plant);
-                let mut controller = spec.build(setup.arm)?;
-                let mut feedback = trial.conditions.feedback(1e-3)?;
-                let config =
-                    SimConfig { integrator, torque_lag: trial.conditions.torque_lag, ..SimConfig::new(&plant) };
-                let events = pawn_events(setup, Some(trial), &plan.path, *payload_mass, controller_knows_payload);
-                let marks: Vec<f64> = plan.path.events().iter().map(|e| e.time).collect();
-                let summary = simulate_sensed(
-                    &mut plant,
-                    &mut feedback,
-                    controller.as_mut(),
-                    &plan.joint,
-                    None,
-                    &events,
-                    &marks,
-                    &config,
-                    &mut NoObserver,
-                )?;
-                totals.add(&summary, &limits);
-                totals.places.extend(placement_error(plan, &summary));
+        let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
+        settings.controller = spec.clone();
+        settings.pieces = setup.pieces;
+        settings.limits = setup.motion;
+        settings.timing = setup.timing;
+        settings.record_every = 0;
+        settings.controller_knows_payload = controller_knows_payload;
+        settings.integrator = integrator;
+        settings.tolerance = tolerance;
+        settings.plant = Some(trial.plant);
+        settings.true_pieces = Some(trial.pieces);
+        settings.conditions = trial.conditions.clone();
+        let mut game = Game::new(setup.arm, setup.board, record.start.clone(), settings)?;
+        for mv in &record.moves {
+            let report = game.play(mv, Mover::Robot)?;
+            if let Some(summary) = &report.summary {
+                totals.add(summary, &limits);
             }
-            Work::Game(record) => {
-                let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
-                settings.controller = spec.clone();
-                settings.pieces = setup.pieces;
-                settings.limits = setup.motion;
-                settings.timing = setup.timing;
-                settings.record_every = 0;
-                settings.controller_knows_payload = controller_knows_payload;
-                settings.integrator = integrator;
-                settings.tolerance = tolerance;
-                settings.plant = Some(trial.plant);
-                settings.true_pieces = Some(trial.pieces);
-                settings.conditions = trial.conditions.clone();
-                let mut game = Game::new(setup.arm, setup.board, record.start.clone(), settings)?;
-                for mv in &record.moves {
-                    let report = game.play(mv, Mover::Robot)?;
-                    if let Some(summary) = &report.summary {
-                        totals.add(summary, &limits);
-                    }
-                    totals.places.extend(&report.place_errors);
-                }
-            }
+            totals.places.extend(&report.place_errors);
         }
         Ok(())
     })();
@@ -265,11 +240,14 @@ pub struct TrialOptions {
     pub tolerance: f64,
 }
 
-/// Runs trials `range` of every controller on the current rayon pool, in trial order.
+/// Runs trials `range` of every controller on the current rayon pool, in trial order. A
+/// scenario's trials run on the batch simulator, a batch of trials per task (their runs side
+/// by side, see [`crate::resources::batching`]); a game's trial by trial.
 ///
 /// # Errors
 ///
-/// Only [`crate::interrupted`], when the run was cancelled.
+/// [`crate::interrupted`], when the run was cancelled; a bad `CHESSARM_LANES` or
+/// `CHESSARM_SIMD`.
 pub fn run_trials(
     setup: &Setup,
     work: &Work,
@@ -279,48 +257,53 @@ pub fn run_trials(
     range: std::ops::Range<usize>,
     progress: Option<&indicatif::ProgressBar>,
 ) -> Result<Vec<TrialRow>> {
-    let rows: Result<Vec<Vec<TrialRow>>> = range
-        .into_par_iter()
-        .map(|index| {
+    let batching = crate::resources::batching()?;
+    let indices: Vec<usize> = range.collect();
+    let per_task = match work {
+        Work::Scenario { .. } => batching.0.get(),
+        Work::Game(_) => 1,
+    };
+    let rows: Result<Vec<Vec<TrialRow>>> = indices
+        .par_chunks(per_task)
+        .map(|chunk| {
             if crate::cancelled() {
                 return Err(crate::interrupted());
             }
-            let seed = derive_seed(options.seed, index as u64);
-            let rows = match study.trial(seed) {
-                Ok(trial) => specs
+            let drawn: Vec<Drawn> = chunk
+                .iter()
+                .map(|&index| {
+                    let seed = derive_seed(options.seed, index as u64);
+                    Drawn { index, seed, trial: study.trial(seed) }
+                })
+                .collect();
+            let rows = match work {
+                Work::Scenario { plan, payload_mass } => {
+                    scenario_rows(setup, plan, *payload_mass, specs, &drawn, options, batching)
+                }
+                Work::Game(record) => drawn
                     .iter()
-                    .map(|spec| {
-                        let (status, totals) = run_trial(
-                            setup,
-                            work,
-                            spec,
-                            &trial,
-                            options.integrator,
-                            options.controller_knows_payload,
-                            options.tolerance,
-                        );
-                        row(index, &trial, spec, status, &totals, options.tolerance)
+                    .flat_map(|drawn| match &drawn.trial {
+                        Ok(trial) => specs
+                            .iter()
+                            .map(|spec| {
+                                let (status, totals) = run_trial(
+                                    setup,
+                                    record,
+                                    spec,
+                                    trial,
+                                    options.integrator,
+                                    options.controller_knows_payload,
+                                    options.tolerance,
+                                );
+                                row(drawn.index, trial, spec, status, &totals, options.tolerance)
+                            })
+                            .collect(),
+                        Err(error) => vec![failed_draw(drawn, error)],
                     })
                     .collect(),
-                Err(error) => vec![TrialRow {
-                    trial: index,
-                    trial_seed: seed,
-                    controller: "-".into(),
-                    status: format!("failed: {}", crate::one_line(&error)),
-                    place_error_mm: f64::NAN,
-                    pieces: 0,
-                    misplaced: 0,
-                    max_tip_error_mm: f64::NAN,
-                    rms_tip_error_mm: f64::NAN,
-                    peak_torque_nm: f64::NAN,
-                    peak_torque_ratio: f64::NAN,
-                    saturated_samples: 0,
-                    rms_rate_estimate_error: f64::NAN,
-                    drawn: Vec::new(),
-                }],
             };
             if let Some(bar) = progress {
-                bar.inc(1);
+                bar.inc(chunk.len() as u64);
             }
             Ok(rows)
         })
@@ -328,7 +311,121 @@ pub fn run_trials(
     Ok(rows?.into_iter().flatten().collect())
 }
 
+/// A trial's index, seed and drawn arm, pieces and sensors (or why they could not be drawn).
+struct Drawn {
+    index: usize,
+    seed: u64,
+    trial: Result<Trial>,
+}
+
+/// The row of a trial whose draw failed.
+fn failed_draw(drawn: &Drawn, error: &anyhow::Error) -> TrialRow {
+    TrialRow {
+        trial: drawn.index,
+        trial_seed: drawn.seed,
+        controller: "-".into(),
+        status: format!("failed: {}", crate::one_line(error)),
+        place_error_mm: f64::NAN,
+        pieces: 0,
+        misplaced: 0,
+        max_tip_error_mm: f64::NAN,
+        rms_tip_error_mm: f64::NAN,
+        peak_torque_nm: f64::NAN,
+        peak_torque_ratio: f64::NAN,
+        saturated_samples: 0,
+        rms_rate_estimate_error: f64::NAN,
+        drawn: Vec::new(),
+    }
+}
+
+/// One controller on one trial of the scenario, as a run of the batch simulator.
+fn scenario_run<'a>(
+    setup: &Setup,
+    plan: &'a Plan,
+    trial: &Trial,
+    spec: &ControllerSpec,
+    events: &'a [PayloadEvent],
+    marks: &'a [f64],
+    integrator: Integrator,
+) -> Result<LaneRun<'a>> {
+    let controller = spec.build(setup.arm)?;
+    let feedback = trial.conditions.feedback(1e-3)?;
+    let config =
+        SimConfig { integrator, torque_lag: trial.conditions.torque_lag, ..SimConfig::new(&Plant::new(trial.plant)) };
+    Ok(LaneRun {
+        plant: trial.plant,
+        feedback,
+        controller,
+        reference: &plan.joint,
+        initial: None,
+        events,
+        marks,
+        config,
+    })
+}
+
+/// The rows of the scenario trials `drawn`, every controller of each, their runs side by side.
+fn scenario_rows(
+    setup: &Setup,
+    plan: &Plan,
+    payload_mass: f64,
+    specs: &[ControllerSpec],
+    drawn: &[Drawn],
+    options: &TrialOptions,
+    (lanes, level): (LaneCount, SimdLevel),
+) -> Vec<TrialRow> {
+    let limits = setup.arm.torque_limits();
+    let marks: Vec<f64> = plan.path.events().iter().map(|e| e.time).collect();
+    let events: Vec<Vec<PayloadEvent>> = drawn
+        .iter()
+        .map(|d| match &d.trial {
+            Ok(trial) => pawn_events(setup, Some(trial), &plan.path, payload_mass, options.controller_knows_payload),
+            Err(_) => Vec::new(),
+        })
+        .collect();
+    // The rows in order, those of runs still to simulate empty until they have run.
+    let mut rows: Vec<Option<TrialRow>> = Vec::new();
+    let mut runs = Vec::new();
+    let mut pending = Vec::new();
+    for (d, events) in drawn.iter().zip(&events) {
+        let trial = match &d.trial {
+            Ok(trial) => trial,
+            Err(error) => {
+                rows.push(Some(failed_draw(d, error)));
+                continue;
+            }
+        };
+        for spec in specs {
+            match scenario_run(setup, plan, trial, spec, events, &marks, options.integrator) {
+                Ok(run) => {
+                    pending.push((rows.len(), d.index, trial, spec));
+                    runs.push(run);
+                    rows.push(None);
+                }
+                Err(error) => {
+                    let status = format!("failed: {}", crate::one_line(&error));
+                    rows.push(Some(row(d.index, trial, spec, status, &Totals::default(), options.tolerance)));
+                }
+            }
+        }
+    }
+    for ((slot, index, trial, spec), result) in pending.into_iter().zip(simulate_lanes(&mut runs, lanes, level)) {
+        let mut totals = Totals::default();
+        let status = match result {
+            Ok(summary) => {
+                totals.add(&summary, &limits);
+                totals.places.extend(placement_error(plan, &summary));
+                "ok".to_string()
+            }
+            Err(error) => format!("failed: {}", crate::one_line(&anyhow::Error::from(error))),
+        };
+        rows[slot] = Some(row(index, trial, spec, status, &totals, options.tolerance));
+    }
+    rows.into_iter().map(|row| row.unwrap_or_else(|| unreachable!("every row is filled"))).collect()
+}
+
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
+    crate::resources::batching()?;
     let setup = &args.motion.apply(setup)?;
     let mut specs = controller_specs(&args.controller, &args.gains)?;
     for spec in &mut specs {

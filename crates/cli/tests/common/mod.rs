@@ -37,3 +37,25 @@ pub fn assert_one_line_error(output: &Output, needles: &[&str]) {
 pub fn numbers(value: &Value) -> Vec<f64> {
     value.as_array().expect("array").iter().map(|v| v.as_f64().expect("number")).collect()
 }
+
+/// The SIMD levels this CPU runs, by asking the binary (`CHESSARM_SIMD` refuses a level the CPU
+/// lacks); each one it lacks is reported on the terminal as skipped by test `test`.
+pub fn simd_levels(test: &str) -> Vec<&'static str> {
+    let mut levels = Vec::new();
+    for level in ["avx512", "avx2", "sse2"] {
+        let probe = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+            .args(["tune", "--kp", "100..100:1", "--kd", "10..10:1", "--scenario", "no-such-scenario", "--json"])
+            .env("CHESSARM_SIMD", level)
+            .output()
+            .unwrap();
+        if String::from_utf8_lossy(&probe.stderr).contains("does not have it") {
+            use std::io::Write as _;
+            // Past the harness's capture, so that it shows on the terminal.
+            let _ =
+                writeln!(std::io::stderr(), "test {test} ... SIMD level {level} SKIPPED (this CPU does not have it)");
+        } else {
+            levels.push(level);
+        }
+    }
+    levels
+}
