@@ -197,7 +197,37 @@ fn phases(run: &ReplayRun) -> Vec<[f64; 2]> {
     out
 }
 
-fn run_json(run: &ReplayRun, table: &Table, tolerance: f64) -> Value {
+/// A run's frames, channel by channel, quantised and delta-encoded; typed rather than a
+/// `serde_json::Value` tree, which would take ~4× their memory when written (fields in
+/// alphabetical order, as a `Value`'s are).
+#[derive(Debug, serde::Serialize)]
+struct FramesJson {
+    q: Vec<Vec<i64>>,
+    qd: Vec<Vec<i64>>,
+    t: Vec<i64>,
+    tip_desired: Vec<Vec<i64>>,
+    tip_error: Vec<i64>,
+}
+
+/// A run as the replay's data holds it (fields in alphabetical order).
+#[derive(Debug, serde::Serialize)]
+struct RunJson {
+    frames: FramesJson,
+    handled: Vec<Value>,
+    moves: Vec<Value>,
+    name: String,
+    phases: Vec<[f64; 2]>,
+}
+
+/// The replay's data: the scene, then its runs.
+#[derive(Debug, serde::Serialize)]
+pub struct ReplayData {
+    #[serde(flatten)]
+    scene: Value,
+    runs: Vec<RunJson>,
+}
+
+fn run_json(run: &ReplayRun, table: &Table, tolerance: f64) -> RunJson {
     let frames = &run.frames;
     let channel = |get: &dyn Fn(&Frame) -> f64, unit: f64| deltas(frames.iter().map(|f| quantise(get(f), unit)));
     let q: Vec<Vec<i64>> = (0..4).map(|j| channel(&|f: &Frame| f.q[j], ANGLE_UNIT)).collect();
@@ -228,27 +258,27 @@ fn run_json(run: &ReplayRun, table: &Table, tolerance: f64) -> Value {
         .iter()
         .map(|m| json!({"ply": m.ply, "number": m.number, "san": m.san, "uci": m.uci, "by": m.by, "start": micro(m.start), "end": micro(m.end)}))
         .collect();
-    json!({
-        "name": run.name,
-        "frames": {
-            "t": channel(&|f: &Frame| f.t, TIME_UNIT),
-            "q": q,
-            "qd": qd,
-            "tip_desired": tip,
-            "tip_error": frames.iter().map(|f| quantise(f.tip_error, ERROR_UNIT)).collect::<Vec<_>>(),
+    RunJson {
+        name: run.name.clone(),
+        frames: FramesJson {
+            t: channel(&|f: &Frame| f.t, TIME_UNIT),
+            q,
+            qd,
+            tip_desired: tip,
+            tip_error: frames.iter().map(|f| quantise(f.tip_error, ERROR_UNIT)).collect(),
         },
-        "handled": handled,
-        "moves": moves,
-        "phases": phases(run),
-    })
+        handled,
+        moves,
+        phases: phases(run),
+    }
 }
 
 fn side(color: Color) -> &'static str {
     if color == Color::White { "white" } else { "black" }
 }
 
-/// The replay's data as JSON.
-pub fn replay_json(replay: &Replay<'_>) -> Value {
+/// The replay's data, to be written as JSON.
+pub fn replay_json(replay: &Replay<'_>) -> ReplayData {
     let board = replay.board;
     let dh: Vec<[f64; 4]> =
         replay.arm.links().iter().map(|l| [l.dh.a, l.dh.alpha, l.dh.d, l.dh.theta_offset].map(|v| v + 0.0)).collect();
@@ -289,7 +319,7 @@ pub fn replay_json(replay: &Replay<'_>) -> Value {
             })
         })
         .collect();
-    json!({
+    let scene = json!({
         "format": "chessarm-replay",
         "version": 1,
         "three": THREE_VERSION,
@@ -314,15 +344,17 @@ pub fn replay_json(replay: &Replay<'_>) -> Value {
         "pieces": pieces,
         "table": table,
         "tolerance_mm": replay.tolerance * 1e3,
-        "runs": replay.runs.iter().map(|r| run_json(r, replay.table, replay.tolerance)).collect::<Vec<_>>(),
-    })
+    });
+    ReplayData { scene, runs: replay.runs.iter().map(|r| run_json(r, replay.table, replay.tolerance)).collect() }
 }
 
 /// The whole page: the viewer with three.js and the data filled in.
 pub fn replay_html(replay: &Replay<'_>) -> String {
     // In a <script> element only "</script" (and "<!--") can end or disturb the text: JSON
     // escapes every '<'; the three.js files hold neither (tested).
-    let data = replay_json(replay).to_string().replace('<', "\\u003c");
+    let data = serde_json::to_string(&replay_json(replay))
+        .unwrap_or_else(|_| unreachable!("the replay's data has string keys and finite numbers"))
+        .replace('<', "\\u003c");
     VIEWER
         .replacen("/*THREE_CORE*/", THREE_CORE, 1)
         .replacen("/*THREE_MODULE*/", THREE_MODULE, 1)

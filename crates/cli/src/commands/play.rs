@@ -21,9 +21,11 @@ use std::time::{Duration, Instant};
 /// More plies than any game can have under the fifty-move rule (about 5 900).
 const LONGEST_GAME_PLIES: usize = 6_000;
 
-/// Memory one played ply keeps, bytes: its recorded steps (every 10 ms of up to ~15 s of
-/// motion, captures and promotions being the longest) with their plot points.
-const BYTES_PER_PLY: f64 = 1_500.0 * (std::mem::size_of::<chessarm_core::sim::StepRecord<4>>() + 16) as f64;
+/// Memory one played ply keeps until the end, bytes: its replay frames (every 20 ms of up to
+/// ~15 s of motion, captures and promotions being the longest), its plot points (two every
+/// 0.1 s) and its report; its recorded steps go to its CSV and are dropped.
+const BYTES_PER_PLY: f64 =
+    (750 * std::mem::size_of::<Frame>() + 300 * 16 + std::mem::size_of::<MoveReport>() + 2_048) as f64;
 
 /// Where the moves come from.
 enum Source {
@@ -178,6 +180,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         "ply", "san", "by", "kind", "time s", "max tip mm", "placement mm"
     );
     let mut reports = Vec::new();
+    let mut tip_errors = TipErrors::default();
+    let mut replay = ReplayBuilder::new(first_number, start_pose);
     for ply in 0..total {
         if crate::cancelled() {
             return Err(crate::interrupted());
@@ -219,13 +223,18 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             )?;
         }
         bar.inc(1);
+        // The recorded steps are in the move's CSV now: only the plot's and the replay's share
+        // of them stays, so that memory does not grow with the records of every move.
+        tip_errors.add(&report);
+        replay.add(&report);
+        report.records = Vec::new();
         reports.push(report);
     }
     bar.finish_and_clear();
     let wall_time_s = started.elapsed().as_secs_f64();
     let plot = args.out.join("tip_error.png");
     let placement_plot = args.out.join("placement.png");
-    plot_game(&plot, &placement_plot, &reports, args.tolerance_mm)?;
+    plot_game(&plot, &placement_plot, tip_errors, &reports, args.tolerance_mm)?;
     let dependence = machine_dependence(args);
     if !dependence.is_empty() {
         crate::tell(&format!("note: this game may differ on another machine: {}\n", dependence.join("; ")));
@@ -252,7 +261,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             game.robot_time(),
             game.misplaced().len()
         ),
-        runs: vec![replay_run(&settings_name, &reports, first_number, start_pose)],
+        runs: vec![replay.finish(&settings_name)],
     };
     write_replay(&replay_path, &replay)?;
     let mut human = String::new();
@@ -426,38 +435,106 @@ fn game_json(
     })
 }
 
-/// The game as the replay shows it: the arm at rest at `start` (its home pose at t = 0), then
-/// every robot move's recorded steps at the display rate and its simulated end state at its
-/// end, every piece moved, every move on the timeline. `first` is the start position's move
-/// number and side to move.
-fn replay_run(name: &str, reports: &[MoveReport], first: (u32, Color), start: Frame) -> ReplayRun {
-    let mut frames = vec![start];
-    let mut moves = Vec::with_capacity(reports.len());
-    let (mut number, mut turn) = first;
-    for report in reports {
+/// The game as the replay shows it, built move by move: the arm at rest at its home pose at
+/// t = 0, then every robot move's recorded steps at the display rate and its simulated end
+/// state at its end, every piece moved, every move on the timeline.
+struct ReplayBuilder {
+    frames: Vec<Frame>,
+    moves: Vec<ReplayMove>,
+    handled: Vec<chessarm_chess::play::Handling>,
+    /// The next move's number and side to move.
+    number: u32,
+    turn: Color,
+}
+
+impl ReplayBuilder {
+    /// `first` is the start position's move number and side to move.
+    fn new((number, turn): (u32, Color), start: Frame) -> Self {
+        Self { frames: vec![start], moves: Vec::new(), handled: Vec::new(), number, turn }
+    }
+
+    fn add(&mut self, report: &MoveReport) {
         let end = report.summary.as_ref().zip(report.records.last()).map(|(summary, last)| Frame {
             t: report.start_time + summary.duration,
             q: summary.final_state.q.into(),
             qd: summary.final_state.qd.into(),
             ..Frame::of(report.start_time + summary.duration, last)
         });
-        thin(report.records.iter().map(|r| Frame::of(report.start_time + r.t, r)).chain(end), &mut frames);
-        moves.push(ReplayMove {
+        thin(report.records.iter().map(|r| Frame::of(report.start_time + r.t, r)).chain(end), &mut self.frames);
+        self.moves.push(ReplayMove {
             ply: report.ply,
-            number: format!("{number}{}", if turn == Color::White { "." } else { "..." }),
+            number: format!("{}{}", self.number, if self.turn == Color::White { "." } else { "..." }),
             san: report.san.clone(),
             uci: report.uci.clone(),
             by: if report.mover == Mover::Robot { "robot" } else { "hand" },
             start: report.start_time,
             end: report.start_time + report.duration,
         });
-        if turn == Color::Black {
-            number += 1;
+        if self.turn == Color::Black {
+            self.number += 1;
         }
-        turn = !turn;
+        self.turn = !self.turn;
+        self.handled.extend(report.handled.iter().copied());
     }
-    let handled = reports.iter().flat_map(|r| r.handled.iter().copied()).collect();
-    ReplayRun { name: name.to_string(), frames, handled, moves }
+
+    fn finish(self, name: &str) -> ReplayRun {
+        ReplayRun { name: name.to_string(), frames: self.frames, handled: self.handled, moves: self.moves }
+    }
+}
+
+/// The game's tool-tip error for its plot (robot time s, mm), kept at most every
+/// [`TipErrors::PERIOD`]: the smallest and the largest of each period, so the plot's envelope
+/// is that of every recorded step.
+#[derive(Default)]
+struct TipErrors {
+    points: Vec<(f64, f64)>,
+    /// The period being filled: its number and its smallest and largest points so far.
+    open: Option<(i64, (f64, f64), (f64, f64))>,
+}
+
+impl TipErrors {
+    /// 0.1 s: 10 000 periods over the longest game's ~1000 s, more than the plot's pixels.
+    const PERIOD: f64 = 0.1;
+
+    fn add(&mut self, report: &MoveReport) {
+        self.extend(report.records.iter().map(|s| (report.start_time + s.t, (s.tip - s.tip_desired).norm() * 1e3)));
+    }
+
+    /// Adds `(time s, error mm)` points in time order.
+    fn extend(&mut self, errors: impl Iterator<Item = (f64, f64)>) {
+        for (t, error) in errors {
+            let index = (t / Self::PERIOD).floor() as i64;
+            self.open = match self.open.take() {
+                Some((i, low, high)) if i == index => Some((
+                    i,
+                    if error < low.1 { (t, error) } else { low },
+                    if error > high.1 { (t, error) } else { high },
+                )),
+                other => {
+                    self.flush(other);
+                    Some((index, (t, error), (t, error)))
+                }
+            };
+        }
+    }
+
+    /// Every period's smallest and largest, in time order.
+    fn points(mut self) -> Vec<(f64, f64)> {
+        let open = self.open.take();
+        self.flush(open);
+        self.points
+    }
+
+    /// A period's smallest and largest, in time order.
+    fn flush(&mut self, period: Option<(i64, (f64, f64), (f64, f64))>) {
+        if let Some((_, low, high)) = period {
+            let (first, second) = if low.0 <= high.0 { (low, high) } else { (high, low) };
+            self.points.push(first);
+            if second != first {
+                self.points.push(second);
+            }
+        }
+    }
 }
 
 fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
@@ -477,17 +554,20 @@ fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
     )
 }
 
-fn plot_game(path: &Path, placement_path: &Path, reports: &[MoveReport], tolerance_mm: f64) -> Result<()> {
+fn plot_game(
+    path: &Path,
+    placement_path: &Path,
+    tip_errors: TipErrors,
+    reports: &[MoveReport],
+    tolerance_mm: f64,
+) -> Result<()> {
     // Displayed in mm; game.json and the CSVs say mm too.
     let tip = Panel {
         title: "tool-tip tracking error over the game (robot time; log scale)".into(),
         y_label: "tip error (mm)".into(),
         series: vec![Series {
             label: "|tip − desired tip|".into(),
-            points: reports
-                .iter()
-                .flat_map(|r| r.records.iter().map(move |s| (r.start_time + s.t, (s.tip - s.tip_desired).norm() * 1e3)))
-                .collect(),
+            points: tip_errors.points(),
             color: 2,
             style: Style::Line,
         }],
@@ -517,4 +597,35 @@ fn plot_game(path: &Path, placement_path: &Path, reports: &[MoveReport], toleran
     };
     plot_panels(path, "Game: tool-tip tracking", "robot time (s)", &[tip])?;
     plot_panels(placement_path, "Game: piece placement", "ply", &[placement])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::TipErrors;
+
+    #[test]
+    fn the_plot_keeps_each_periods_smallest_and_largest_error_in_time_order() {
+        // 10 ms points over 2.35 s, in two moves, with a spike and a dip inside periods.
+        let error = |k: usize| match k {
+            37 => 50.0,
+            142 => 0.001,
+            _ => 1.0 + (k as f64 * 0.7).sin(),
+        };
+        let points: Vec<(f64, f64)> = (0..235).map(|k| (k as f64 * 0.01, error(k))).collect();
+        let mut kept = TipErrors::default();
+        kept.extend(points[..120].iter().copied());
+        kept.extend(points[120..].iter().copied());
+        let kept = kept.points();
+        assert!(kept.windows(2).all(|w| w[0].0 < w[1].0), "{kept:?}");
+        for period in 0..24 {
+            let inside = |p: &&(f64, f64)| (p.0 / TipErrors::PERIOD).floor() as i64 == period;
+            let all: Vec<&(f64, f64)> = points.iter().filter(inside).collect();
+            let mine: Vec<&(f64, f64)> = kept.iter().filter(inside).collect();
+            assert!(mine.len() <= 2, "period {period}: {mine:?}");
+            let max = all.iter().map(|p| p.1).fold(f64::MIN, f64::max);
+            let min = all.iter().map(|p| p.1).fold(f64::MAX, f64::min);
+            assert!(mine.iter().any(|p| p.1 == max) && mine.iter().any(|p| p.1 == min), "period {period}");
+        }
+        assert!(kept.contains(&(0.37, 50.0)) && kept.contains(&(1.42, 0.001)));
+    }
 }
