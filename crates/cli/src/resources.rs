@@ -105,18 +105,23 @@ pub fn worker_threads(requested: Option<usize>) -> Result<usize> {
 /// value as typed.
 pub fn batching() -> Result<(chessarm_core::sim::batch::LaneCount, chessarm_core::sim::batch::SimdLevel)> {
     use chessarm_core::sim::batch::{LaneCount, SimdLevel};
-    let lanes = match std::env::var("CHESSARM_LANES") {
-        Err(_) => LaneCount::default(),
-        Ok(typed) => typed
+    let read = |name: &str| match std::env::var(name) {
+        Ok(value) => Ok(Some(value)),
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(std::env::VarError::NotUnicode(value)) => Err(anyhow::anyhow!("{name}={value:?} is not UTF-8 text")),
+    };
+    let lanes = match read("CHESSARM_LANES")? {
+        None => LaneCount::default(),
+        Some(typed) => typed
             .trim()
             .parse()
             .ok()
             .and_then(LaneCount::from_count)
             .ok_or_else(|| anyhow::anyhow!("CHESSARM_LANES={typed:?}: the runs side by side are 1, 4 or 8"))?,
     };
-    let level = match std::env::var("CHESSARM_SIMD") {
-        Err(_) => SimdLevel::detect(),
-        Ok(typed) => {
+    let level = match read("CHESSARM_SIMD")? {
+        None => SimdLevel::detect(),
+        Some(typed) => {
             let available: Vec<&str> =
                 SimdLevel::ALL.into_iter().filter(|level| level.available()).map(SimdLevel::name).collect();
             let level = SimdLevel::from_name(typed.trim())

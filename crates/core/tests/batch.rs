@@ -72,7 +72,10 @@ fn candidate<'a>(
             link.friction = Friction { viscous: draw.range(0.0, 0.05), coulomb: draw.range(0.0, 0.03) };
         }
     }
-    let plant = ArmModel::new(links, Vector3::new(0.0, 0.0, -9.8)).unwrap();
+    // Every fourth candidate's plant is the controller's model, with ideal sensors: the
+    // controller takes the plant's mass matrix and bias as they are (no second evaluation).
+    let exact = index % 4 == 3;
+    let plant = if exact { report_arm() } else { ArmModel::new(links, Vector3::new(0.0, 0.0, -9.8)).unwrap() };
     let kind = [ControllerKind::ComputedTorque, ControllerKind::AntiWindupPid, ControllerKind::DisturbanceObserver]
         [(draw.next() * 3.0) as usize % 3];
     let diverging = draw.next() < 0.15;
@@ -90,7 +93,7 @@ fn candidate<'a>(
         knows_friction: draw.next() < 0.5,
     };
     let controller = spec.build(report_arm()).unwrap();
-    let sensed = draw.next() < 0.5;
+    let sensed = draw.next() < 0.5 && !exact;
     let feedback = if sensed {
         let profile = SensorProfile::<4>::hobby();
         let filter =
@@ -223,4 +226,45 @@ fn a_run_outside_the_family_or_with_other_settings_is_simulated_alone() {
     let batched: Vec<String> =
         simulate_lanes(&mut runs, LaneCount::Four, SimdLevel::detect()).iter().map(fingerprint).collect();
     assert_eq!(scalar, batched);
+}
+
+#[test]
+fn every_integrator_batches_bit_for_bit() {
+    let trajectory = trajectory();
+    let hold = Hold(trajectory.reference(0.0).q, 0.3);
+    let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
+    let events = [[PayloadEvent { time: 0.2, payload: pawn, controller_knows: true }; 2]; 3];
+    for integrator in [Integrator::RungeKutta4, Integrator::Midpoint, Integrator::SemiImplicitEuler] {
+        let make = || {
+            (0..10)
+                .map(|i| {
+                    let mut run = candidate(i, &trajectory, &hold, &events, &[0.25]);
+                    run.config.integrator = integrator;
+                    run
+                })
+                .collect::<Vec<_>>()
+        };
+        let scalar: Vec<String> = make().iter_mut().map(|run| fingerprint(&run.simulate_alone())).collect();
+        for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
+            for lanes in [LaneCount::Four, LaneCount::Eight] {
+                let batched: Vec<String> = simulate_lanes(&mut make(), lanes, level).iter().map(fingerprint).collect();
+                assert_eq!(scalar, batched, "{integrator:?}, {} lanes at {}", lanes.get(), level.name());
+            }
+        }
+    }
+}
+
+#[test]
+fn a_run_with_a_nan_time_step_gets_the_scalar_simulators_error() {
+    let trajectory = trajectory();
+    let hold = Hold(trajectory.reference(0.0).q, 0.2);
+    let events = [[PayloadEvent { time: 10.0, payload: None, controller_knows: true }; 2]; 3];
+    let mut runs: Vec<LaneRun<'_>> = (0..3).map(|i| candidate(i, &trajectory, &hold, &events, &[])).collect();
+    runs[0].config.dt = f64::NAN;
+    let mut alone = candidate(0, &trajectory, &hold, &events, &[]);
+    alone.config.dt = f64::NAN;
+    let expected = fingerprint(&alone.simulate_alone());
+    assert!(expected.starts_with("error"), "{expected}");
+    let batched = simulate_lanes(&mut runs, LaneCount::Eight, SimdLevel::detect());
+    assert_eq!(fingerprint(&batched[0]), expected);
 }

@@ -488,9 +488,12 @@ impl ReplayBuilder {
 #[derive(Default)]
 struct TipErrors {
     points: Vec<(f64, f64)>,
-    /// The period being filled: its number and its smallest and largest points so far.
-    open: Option<(i64, (f64, f64), (f64, f64))>,
+    /// The period being filled.
+    open: Option<Period>,
 }
+
+/// A period of [`TipErrors`]: its number and its smallest and largest points so far.
+type Period = (i64, (f64, f64), (f64, f64));
 
 impl TipErrors {
     /// 0.1 s: 10 000 periods over the longest game's ~1000 s, more than the plot's pixels.
@@ -526,7 +529,7 @@ impl TipErrors {
     }
 
     /// A period's smallest and largest, in time order.
-    fn flush(&mut self, period: Option<(i64, (f64, f64), (f64, f64))>) {
+    fn flush(&mut self, period: Option<Period>) {
         if let Some((_, low, high)) = period {
             let (first, second) = if low.0 <= high.0 { (low, high) } else { (high, low) };
             self.points.push(first);

@@ -175,12 +175,10 @@ pub fn simulate_candidate(
     let limits = setup.arm.torque_limits();
     let mut totals = Totals::default();
     match study {
-        Study::Scenario(scenario) => {
-            return match scenario_run(setup, scenario, options, gains, &candidate) {
-                Ok(mut run) => scenario_candidate(setup, candidate, run.simulate_alone()),
-                Err(failed) => failed,
-            };
-        }
+        Study::Scenario(scenario) => match scenario_run(setup, scenario, options, gains) {
+            Ok(mut run) => return scenario_candidate(setup, candidate, run.simulate_alone()),
+            Err(status) => candidate.status = status,
+        },
         Study::Game(record) => {
             let mut settings = PlaySettings::new("candidate", *gains);
             settings.controller.kind = options.kind;
@@ -219,19 +217,14 @@ pub fn simulate_candidate(
 }
 
 /// A scenario candidate as a run of the batch simulator (1 ms steps of `options.integrator`,
-/// 1 kHz control, torque limits of the model), or the candidate with why it cannot start.
+/// 1 kHz control, torque limits of the model), or its status saying why it cannot start.
 fn scenario_run<'a>(
     setup: &Setup,
     scenario: &'a ScenarioStudy,
     options: &CandidateOptions,
     gains: &Gains<4>,
-    candidate: &Candidate,
-) -> Result<LaneRun<'a>, Candidate> {
-    let failed = |error: &dyn std::fmt::Display| {
-        let mut failed = candidate.clone();
-        failed.status = format!("failed: {error}");
-        failed
-    };
+) -> Result<LaneRun<'a>, String> {
+    let failed = |error: &dyn std::fmt::Display| format!("failed: {error}");
     let trial = options.trial.as_ref();
     let plant = trial.map_or(setup.arm, |t| t.plant);
     let spec = ControllerSpec {
@@ -289,12 +282,12 @@ fn scenario_candidates(
     let mut slots = Vec::with_capacity(indices.len());
     for (slot, &index) in indices.iter().enumerate() {
         let blank = blank_candidate(index, &gains[index]);
-        match scenario_run(setup, scenario, options, &gains[index], &blank) {
+        match scenario_run(setup, scenario, options, &gains[index]) {
             Ok(run) => {
                 runs.push(run);
                 slots.push((slot, blank));
             }
-            Err(failed) => out[slot] = Some(failed),
+            Err(status) => out[slot] = Some(Candidate { status, ..blank }),
         }
     }
     for ((slot, blank), result) in slots.into_iter().zip(simulate_lanes(&mut runs, lanes, level)) {

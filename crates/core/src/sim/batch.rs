@@ -183,6 +183,9 @@ pub fn simulate_lanes(
                         && run.config.integrator == first.config.integrator
                 })
                 .count()
+                // A NaN time step equals nothing, itself included: such a run goes alone, to
+                // the scalar simulator's error.
+                .max(1)
         };
         let (batch, tail) = rest.split_at_mut(take);
         rest = tail;
