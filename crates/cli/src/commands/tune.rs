@@ -400,6 +400,12 @@ pub fn shard_range(total: usize, shard: Option<(usize, usize)>) -> std::ops::Ran
     }
 }
 
+/// How many of `runs` runs one task takes: a batch of `lanes`, or fewer when that would leave
+/// some of `threads` threads without work (the results do not depend on it).
+pub fn per_task(runs: usize, threads: usize, lanes: LaneCount) -> usize {
+    lanes.get().min(runs.div_ceil(threads.max(1))).max(1)
+}
+
 /// Runs the candidates `range` on `threads` worker threads (all cores when `None`).
 #[allow(clippy::too_many_arguments)]
 pub fn sweep(
@@ -420,7 +426,7 @@ pub fn sweep(
         let indices: Vec<usize> = range.collect();
         let batches: Result<Vec<Vec<Candidate>>> = pool.install(|| {
             indices
-                .par_chunks(batching.0.get())
+                .par_chunks(per_task(indices.len(), threads, batching.0))
                 .map(|chunk| {
                     if crate::cancelled() {
                         return Err(crate::interrupted());
