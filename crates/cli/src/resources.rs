@@ -134,3 +134,10 @@ pub fn batching() -> Result<(chessarm_core::sim::batch::LaneCount, chessarm_core
     };
     Ok((lanes, level))
 }
+
+/// How many of `runs` runs one task of a sweep or campaign takes: a batch of `lanes`, or fewer
+/// when that would leave some of `threads` threads without work (the results do not depend on
+/// it).
+pub fn per_task(runs: usize, threads: usize, lanes: chessarm_core::sim::batch::LaneCount) -> usize {
+    lanes.get().min(runs.div_ceil(threads.max(1))).max(1)
+}

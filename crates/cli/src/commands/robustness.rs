@@ -260,9 +260,7 @@ pub fn run_trials(
     let batching = crate::resources::batching()?;
     let indices: Vec<usize> = range.collect();
     let per_task = match work {
-        Work::Scenario { .. } => {
-            crate::commands::tune::per_task(indices.len(), rayon::current_num_threads(), batching.0)
-        }
+        Work::Scenario { .. } => crate::resources::per_task(indices.len(), rayon::current_num_threads(), batching.0),
         Work::Game(_) => 1,
     };
     let rows: Result<Vec<Vec<TrialRow>>> = indices

@@ -162,11 +162,12 @@ impl Totals {
     }
 }
 
-/// Simulates one candidate (1 ms steps of `options.integrator`, 1 kHz control, torque limits
-/// of the model).
-pub fn simulate_candidate(
+/// Plays one candidate through the game `record` (1 ms steps of `options.integrator`, 1 kHz
+/// control, torque limits of the model); a scenario's candidates go to
+/// [`scenario_candidates`].
+fn game_candidate(
     setup: &Setup,
-    study: &Study,
+    record: &GameRecord,
     options: &CandidateOptions,
     index: usize,
     gains: &Gains<4>,
@@ -174,44 +175,36 @@ pub fn simulate_candidate(
     let mut candidate = blank_candidate(index, gains);
     let limits = setup.arm.torque_limits();
     let mut totals = Totals::default();
-    match study {
-        Study::Scenario(scenario) => match scenario_run(setup, scenario, options, gains) {
-            Ok(mut run) => return scenario_candidate(setup, candidate, run.simulate_alone()),
-            Err(status) => candidate.status = status,
-        },
-        Study::Game(record) => {
-            let mut settings = PlaySettings::new("candidate", *gains);
-            settings.controller.kind = options.kind;
-            settings.pieces = setup.pieces;
-            settings.limits = setup.motion;
-            settings.timing = setup.timing;
-            if let Some(trial) = &options.trial {
-                settings.plant = Some(trial.plant);
-                settings.true_pieces = Some(trial.pieces);
-                settings.conditions = trial.conditions.clone();
+    let mut settings = PlaySettings::new("candidate", *gains);
+    settings.controller.kind = options.kind;
+    settings.pieces = setup.pieces;
+    settings.limits = setup.motion;
+    settings.timing = setup.timing;
+    if let Some(trial) = &options.trial {
+        settings.plant = Some(trial.plant);
+        settings.true_pieces = Some(trial.pieces);
+        settings.conditions = trial.conditions.clone();
+    }
+    settings.record_every = 0;
+    settings.controller_knows_payload = options.controller_knows_payload;
+    settings.integrator = options.integrator;
+    let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
+        let mut place = 0.0f64;
+        for mv in &record.moves {
+            let report = game.play(mv, Mover::Robot)?;
+            if let Some(summary) = &report.summary {
+                totals.add(summary, &limits);
             }
-            settings.record_every = 0;
-            settings.controller_knows_payload = options.controller_knows_payload;
-            settings.integrator = options.integrator;
-            let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
-                let mut place = 0.0f64;
-                for mv in &record.moves {
-                    let report = game.play(mv, Mover::Robot)?;
-                    if let Some(summary) = &report.summary {
-                        totals.add(summary, &limits);
-                    }
-                    place = report.place_errors.iter().fold(place, |a, b| a.max(*b));
-                }
-                Ok((place, game.misplaced().len()))
-            });
-            match played {
-                Ok((place, misplaced)) => {
-                    totals.fill(&mut candidate, place);
-                    candidate.misplaced = misplaced;
-                }
-                Err(error) => candidate.status = format!("failed: {error}"),
-            }
+            place = report.place_errors.iter().fold(place, |a, b| a.max(*b));
         }
+        Ok((place, game.misplaced().len()))
+    });
+    match played {
+        Ok((place, misplaced)) => {
+            totals.fill(&mut candidate, place);
+            candidate.misplaced = misplaced;
+        }
+        Err(error) => candidate.status = format!("failed: {error}"),
     }
     candidate
 }
@@ -400,12 +393,6 @@ pub fn shard_range(total: usize, shard: Option<(usize, usize)>) -> std::ops::Ran
     }
 }
 
-/// How many of `runs` runs one task takes: a batch of `lanes`, or fewer when that would leave
-/// some of `threads` threads without work (the results do not depend on it).
-pub fn per_task(runs: usize, threads: usize, lanes: LaneCount) -> usize {
-    lanes.get().min(runs.div_ceil(threads.max(1))).max(1)
-}
-
 /// Runs the candidates `range` on `threads` worker threads (all cores when `None`).
 #[allow(clippy::too_many_arguments)]
 pub fn sweep(
@@ -421,26 +408,29 @@ pub fn sweep(
     let batching = crate::resources::batching()?;
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
-    if let Study::Scenario(scenario) = study {
-        // A batch of candidates per task: the lanes of one batch simulator.
-        let indices: Vec<usize> = range.collect();
-        let batches: Result<Vec<Vec<Candidate>>> = pool.install(|| {
-            indices
-                .par_chunks(per_task(indices.len(), threads, batching.0))
-                .map(|chunk| {
-                    if crate::cancelled() {
-                        return Err(crate::interrupted());
-                    }
-                    let candidates = scenario_candidates(setup, scenario, options, gains, chunk, batching);
-                    if let Some(bar) = progress {
-                        bar.inc(chunk.len() as u64);
-                    }
-                    Ok(candidates)
-                })
-                .collect()
-        });
-        return Ok(batches?.into_iter().flatten().collect());
-    }
+    let record = match study {
+        Study::Game(record) => record,
+        Study::Scenario(scenario) => {
+            // A batch of candidates per task: the lanes of one batch simulator.
+            let indices: Vec<usize> = range.collect();
+            let batches: Result<Vec<Vec<Candidate>>> = pool.install(|| {
+                indices
+                    .par_chunks(crate::resources::per_task(indices.len(), threads, batching.0))
+                    .map(|chunk| {
+                        if crate::cancelled() {
+                            return Err(crate::interrupted());
+                        }
+                        let candidates = scenario_candidates(setup, scenario, options, gains, chunk, batching);
+                        if let Some(bar) = progress {
+                            bar.inc(chunk.len() as u64);
+                        }
+                        Ok(candidates)
+                    })
+                    .collect()
+            });
+            return Ok(batches?.into_iter().flatten().collect());
+        }
+    };
     pool.install(|| {
         range
             .into_par_iter()
@@ -448,7 +438,7 @@ pub fn sweep(
                 if crate::cancelled() {
                     return Err(crate::interrupted());
                 }
-                let candidate = simulate_candidate(setup, study, options, index, &gains[index]);
+                let candidate = game_candidate(setup, record, options, index, &gains[index]);
                 if let Some(bar) = progress {
                     bar.inc(1);
                 }
