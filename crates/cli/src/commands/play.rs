@@ -22,10 +22,10 @@ use std::time::{Duration, Instant};
 const LONGEST_GAME_PLIES: usize = 6_000;
 
 /// Memory one played ply keeps until the end, bytes: its replay frames (every 20 ms of up to
-/// ~15 s of motion, captures and promotions being the longest), its plot points (two every
-/// 0.1 s) and its report; its recorded steps go to its CSV and are dropped.
+/// ~15 s of motion, captures and promotions being the longest), its plot points (every 10 ms)
+/// and its report; its recorded steps go to its CSV and are dropped.
 const BYTES_PER_PLY: f64 =
-    (750 * std::mem::size_of::<Frame>() + 300 * 16 + std::mem::size_of::<MoveReport>() + 2_048) as f64;
+    (750 * std::mem::size_of::<Frame>() + 1_500 * 16 + std::mem::size_of::<MoveReport>() + 2_048) as f64;
 
 /// Where the moves come from.
 enum Source {
@@ -180,7 +180,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         "ply", "san", "by", "kind", "time s", "max tip mm", "placement mm"
     );
     let mut reports = Vec::new();
-    let mut tip_errors = TipErrors::default();
+    // The tip error of every recorded step (robot time s, mm), for the game's plot.
+    let mut tip_errors: Vec<(f64, f64)> = Vec::new();
     let mut replay = ReplayBuilder::new(first_number, start_pose);
     for ply in 0..total {
         if crate::cancelled() {
@@ -224,8 +225,10 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         }
         bar.inc(1);
         // The recorded steps are in the move's CSV now: only the plot's and the replay's share
-        // of them stays, so that memory does not grow with the records of every move.
-        tip_errors.add(&report);
+        // of them stays (16 of a step's 300-odd bytes, and the replay's frames), so that
+        // memory does not grow with the records of every move.
+        tip_errors
+            .extend(report.records.iter().map(|r| (report.start_time + r.t, (r.tip - r.tip_desired).norm() * 1e3)));
         replay.add(&report);
         report.records = Vec::new();
         reports.push(report);
@@ -482,64 +485,6 @@ impl ReplayBuilder {
     }
 }
 
-/// The game's tool-tip error for its plot (robot time s, mm), kept at most every
-/// [`TipErrors::PERIOD`]: the smallest and the largest of each period, so the plot's envelope
-/// is that of every recorded step.
-#[derive(Default)]
-struct TipErrors {
-    points: Vec<(f64, f64)>,
-    /// The period being filled.
-    open: Option<Period>,
-}
-
-/// A period of [`TipErrors`]: its number and its smallest and largest points so far.
-type Period = (i64, (f64, f64), (f64, f64));
-
-impl TipErrors {
-    /// 0.1 s: 10 000 periods over the longest game's ~1000 s, more than the plot's pixels.
-    const PERIOD: f64 = 0.1;
-
-    fn add(&mut self, report: &MoveReport) {
-        self.extend(report.records.iter().map(|s| (report.start_time + s.t, (s.tip - s.tip_desired).norm() * 1e3)));
-    }
-
-    /// Adds `(time s, error mm)` points in time order.
-    fn extend(&mut self, errors: impl Iterator<Item = (f64, f64)>) {
-        for (t, error) in errors {
-            let index = (t / Self::PERIOD).floor() as i64;
-            self.open = match self.open.take() {
-                Some((i, low, high)) if i == index => Some((
-                    i,
-                    if error < low.1 { (t, error) } else { low },
-                    if error > high.1 { (t, error) } else { high },
-                )),
-                other => {
-                    self.flush(other);
-                    Some((index, (t, error), (t, error)))
-                }
-            };
-        }
-    }
-
-    /// Every period's smallest and largest, in time order.
-    fn points(mut self) -> Vec<(f64, f64)> {
-        let open = self.open.take();
-        self.flush(open);
-        self.points
-    }
-
-    /// A period's smallest and largest, in time order.
-    fn flush(&mut self, period: Option<Period>) {
-        if let Some((_, low, high)) = period {
-            let (first, second) = if low.0 <= high.0 { (low, high) } else { (high, low) };
-            self.points.push(first);
-            if second != first {
-                self.points.push(second);
-            }
-        }
-    }
-}
-
 fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
     let mut header = vec!["t".to_string()];
     header.extend(numbered("q", 4).chain(numbered("q_des", 4)));
@@ -560,7 +505,7 @@ fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
 fn plot_game(
     path: &Path,
     placement_path: &Path,
-    tip_errors: TipErrors,
+    tip_errors: Vec<(f64, f64)>,
     reports: &[MoveReport],
     tolerance_mm: f64,
 ) -> Result<()> {
@@ -569,10 +514,7 @@ fn plot_game(
         title: "tool-tip tracking error over the game (robot time; log scale)".into(),
         y_label: "tip error (mm)".into(),
         series: vec![Series {
-            label: "|tip − desired tip|".into(),
-            points: tip_errors.points(),
-            color: 2,
-            style: Style::Line,
+            label: "|tip − desired tip|".into(), points: tip_errors, color: 2, style: Style::Line
         }],
         log_y: true,
         ..Panel::default()
@@ -600,35 +542,4 @@ fn plot_game(
     };
     plot_panels(path, "Game: tool-tip tracking", "robot time (s)", &[tip])?;
     plot_panels(placement_path, "Game: piece placement", "ply", &[placement])
-}
-
-#[cfg(test)]
-mod tests {
-    use super::TipErrors;
-
-    #[test]
-    fn the_plot_keeps_each_periods_smallest_and_largest_error_in_time_order() {
-        // 10 ms points over 2.35 s, in two moves, with a spike and a dip inside periods.
-        let error = |k: usize| match k {
-            37 => 50.0,
-            142 => 0.001,
-            _ => 1.0 + (k as f64 * 0.7).sin(),
-        };
-        let points: Vec<(f64, f64)> = (0..235).map(|k| (k as f64 * 0.01, error(k))).collect();
-        let mut kept = TipErrors::default();
-        kept.extend(points[..120].iter().copied());
-        kept.extend(points[120..].iter().copied());
-        let kept = kept.points();
-        assert!(kept.windows(2).all(|w| w[0].0 < w[1].0), "{kept:?}");
-        for period in 0..24 {
-            let inside = |p: &&(f64, f64)| (p.0 / TipErrors::PERIOD).floor() as i64 == period;
-            let all: Vec<&(f64, f64)> = points.iter().filter(inside).collect();
-            let mine: Vec<&(f64, f64)> = kept.iter().filter(inside).collect();
-            assert!(mine.len() <= 2, "period {period}: {mine:?}");
-            let max = all.iter().map(|p| p.1).fold(f64::MIN, f64::max);
-            let min = all.iter().map(|p| p.1).fold(f64::MAX, f64::min);
-            assert!(mine.iter().any(|p| p.1 == max) && mine.iter().any(|p| p.1 == min), "period {period}");
-        }
-        assert!(kept.contains(&(0.37, 50.0)) && kept.contains(&(1.42, 0.001)));
-    }
 }
