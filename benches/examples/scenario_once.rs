@@ -1,5 +1,5 @@
 //! One run of the queens-gambit scenario (13 s at 1 kHz, PD, default integrator), for
-//! instruction counts: `valgrind --tool=callgrind target/release/examples/scenario_once [N]`.
+//! instruction counts: `valgrind --tool=callgrind target/release/examples/scenario_once [N] [LEVEL]`.
 
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::scenario::queens_gambit;
@@ -8,10 +8,12 @@ use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 use chessarm_core::plan::trajectory::JointTrajectory;
+use chessarm_core::sim::batch::SimdLevel;
 use chessarm_core::sim::{NoObserver, Plant, SimConfig, simulate};
 
 fn main() {
     let runs: usize = std::env::args().nth(1).and_then(|n| n.parse().ok()).unwrap_or(1);
+    let level = std::env::args().nth(2).and_then(|name| SimdLevel::from_name(&name)).unwrap_or_else(SimdLevel::detect);
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid scenario");
@@ -20,7 +22,7 @@ fn main() {
     let mut fastest = f64::INFINITY;
     let mut last_error = 0.0;
     for _ in 0..runs {
-        let mut plant = Plant::new(model);
+        let mut plant = Plant::new(model).with_simd_level(level);
         let mut controller = ComputedTorque::new("pd", model, gains);
         let config = SimConfig::new(&plant);
         let started = std::time::Instant::now();

@@ -34,7 +34,7 @@ pub trait Real:
     /// The same value in every lane.
     fn splat(value: f64) -> Self;
     /// Lane `i` of `LANES`.
-    fn lane(self, i: usize) -> f64;
+    fn lane(&self, i: usize) -> f64;
     /// Lane `i` is `f(i)`.
     fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
     /// `(sin x, cos x)` by [`sin_cos`], lane by lane.
@@ -64,8 +64,8 @@ impl Real for f64 {
     }
 
     #[inline(always)]
-    fn lane(self, _i: usize) -> f64 {
-        self
+    fn lane(&self, _i: usize) -> f64 {
+        *self
     }
 
     #[inline(always)]
@@ -100,7 +100,7 @@ impl<const L: usize> std::fmt::Debug for Lanes<L> {
 impl<const L: usize> Lanes<L> {
     /// Lane `i`.
     #[inline(always)]
-    pub fn get(self, i: usize) -> f64 {
+    pub fn get(&self, i: usize) -> f64 {
         self.0[i]
     }
 
@@ -168,7 +168,7 @@ impl<const L: usize> Real for Lanes<L> {
     }
 
     #[inline(always)]
-    fn lane(self, i: usize) -> f64 {
+    fn lane(&self, i: usize) -> f64 {
         self.0[i]
     }
 
@@ -268,6 +268,74 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     let k = quadrant_of(x);
     let (sin, cos) = reduced_sin_cos(reduce(x, k));
     by_quadrant(sin, cos, k)
+}
+
+/// Which SIMD instructions the kernels (a plant's step, a batch's lanes) are compiled for; the results are the same at
+/// every level, only the speed differs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SimdLevel {
+    /// x86-64-v4: AVX-512 (8 f64 per register).
+    Avx512,
+    /// x86-64-v3: AVX2 (4 f64 per register).
+    Avx2,
+    /// The x86-64 baseline, SSE2 (2 f64 per register), or whatever the target has elsewhere.
+    Baseline,
+}
+
+impl SimdLevel {
+    pub const ALL: [SimdLevel; 3] = [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Baseline];
+
+    /// The best level this CPU has.
+    pub fn detect() -> Self {
+        Self::ALL.into_iter().find(|level| level.available()).unwrap_or(SimdLevel::Baseline)
+    }
+
+    /// Whether this CPU can run the level.
+    pub fn available(self) -> bool {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx512 => pulp::x86::V4::try_new().is_some(),
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx2 => pulp::x86::V3::try_new().is_some(),
+            #[cfg(not(target_arch = "x86_64"))]
+            SimdLevel::Avx512 | SimdLevel::Avx2 => false,
+            SimdLevel::Baseline => true,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SimdLevel::Avx512 => "avx512",
+            SimdLevel::Avx2 => "avx2",
+            SimdLevel::Baseline => "sse2",
+        }
+    }
+
+    /// From its name (`avx512`, `avx2`, `sse2`).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|level| level.name() == name)
+    }
+
+    /// Runs `f` compiled for this level (the baseline when the CPU lacks it). `f` and what it
+    /// must vectorise have to be `#[inline(always)]` to be compiled for the level.
+    #[inline(always)]
+    pub(crate) fn run<R>(self, f: impl FnOnce() -> R) -> R {
+        #[cfg(target_arch = "x86_64")]
+        match self {
+            SimdLevel::Avx512 => {
+                if let Some(simd) = pulp::x86::V4::try_new() {
+                    return simd.vectorize(f);
+                }
+            }
+            SimdLevel::Avx2 => {
+                if let Some(simd) = pulp::x86::V3::try_new() {
+                    return simd.vectorize(f);
+                }
+            }
+            SimdLevel::Baseline => {}
+        }
+        f()
+    }
 }
 
 #[cfg(test)]

@@ -76,8 +76,13 @@ fn candidate<'a>(
     // controller takes the plant's mass matrix and bias as they are (no second evaluation).
     let exact = index % 4 == 3;
     let plant = if exact { report_arm() } else { ArmModel::new(links, Vector3::new(0.0, 0.0, -9.8)).unwrap() };
-    let kind = [ControllerKind::ComputedTorque, ControllerKind::AntiWindupPid, ControllerKind::DisturbanceObserver]
-        [(draw.next() * 3.0) as usize % 3];
+    let kinds = [
+        ControllerKind::ComputedTorque,
+        ControllerKind::AntiWindupPid,
+        ControllerKind::DisturbanceObserver,
+        ControllerKind::Adaptive,
+    ];
+    let kind = kinds[(draw.next() * 4.0) as usize % 4];
     let diverging = draw.next() < 0.15;
     // Gains far beyond what a 1 kHz sampled loop can hold: the run diverges within ~0.1 s.
     let (kp, kd) = if diverging {

@@ -587,6 +587,22 @@ impl<S: Real> Factor<S> {
         })
     }
 
+    /// The lanes that were not positive definite ([`Factor::positive_definite`]), bit `i` for
+    /// lane `i`: all lanes at once, without branches, so that it vectorises.
+    #[inline(always)]
+    pub fn failed_lanes(&self) -> u64 {
+        let mut failed = 0u64;
+        for lane in 0..S::LANES {
+            let mut ok = true;
+            for j in 0..4 {
+                // `d > 0` is false for NaN; `|1/d| ≠ ∞` is `!is_infinite()`.
+                ok &= (self.pivot[j].lane(lane) > 0.0) & (self.inverse_pivot[j].lane(lane).abs() != f64::INFINITY);
+            }
+            failed |= u64::from(!ok) << lane;
+        }
+        failed
+    }
+
     /// `x = M⁻¹ b`.
     #[inline(always)]
     pub fn solve(&self, b: &[S; 4]) -> [S; 4] {

@@ -13,15 +13,16 @@
 //! from its batch's, is simulated alone by the scalar simulator; so is the whole slice when the
 //! lane count is 1.
 
-use super::closed_loop::{PlantView, Run, SimConfig, SimError, SimSummary};
+use super::closed_loop::{PlantView, ReferenceNow, Run, SimConfig, SimError, SimSummary};
 use super::plant::Integrator;
 use super::structured::{self, Failures, Start, State};
 use super::{NoObserver, PayloadEvent, Plant, ReferenceSource};
-use crate::arm::dynamics::{DynamicsError, DynamicsTerms};
+use crate::arm::dynamics::{DynamicsError, DynamicsTerms, MassMatrix};
 use crate::arm::model::{ArmModel, JointVector};
-use crate::arm::yaw_pitch::{YawPitch, from_rows};
+use crate::arm::yaw_pitch::YawPitch;
 use crate::control::{Controller, JointState};
 use crate::lanes::Lanes;
+pub use crate::lanes::SimdLevel;
 use crate::sense::Feedback;
 use nalgebra::Vector3;
 
@@ -46,7 +47,12 @@ impl std::fmt::Debug for LaneRun<'_> {
 impl LaneRun<'_> {
     /// This run alone, on the scalar simulator.
     pub fn simulate_alone(&mut self) -> Result<SimSummary<4>, SimError> {
-        let mut plant = Plant::new(self.plant);
+        self.simulate_alone_at(SimdLevel::detect())
+    }
+
+    /// [`LaneRun::simulate_alone`] with the plant's kernels at `level`.
+    pub fn simulate_alone_at(&mut self, level: SimdLevel) -> Result<SimSummary<4>, SimError> {
+        let mut plant = Plant::new(self.plant).with_simd_level(level);
         super::simulate_sensed(
             &mut plant,
             &mut self.feedback,
@@ -90,74 +96,6 @@ impl LaneCount {
     }
 }
 
-/// Which SIMD instructions the batched kernels are compiled for; the results are the same at
-/// every level, only the speed differs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SimdLevel {
-    /// x86-64-v4: AVX-512 (8 f64 per register).
-    Avx512,
-    /// x86-64-v3: AVX2 (4 f64 per register).
-    Avx2,
-    /// The x86-64 baseline, SSE2 (2 f64 per register), or whatever the target has elsewhere.
-    Baseline,
-}
-
-impl SimdLevel {
-    pub const ALL: [SimdLevel; 3] = [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Baseline];
-
-    /// The best level this CPU has.
-    pub fn detect() -> Self {
-        Self::ALL.into_iter().find(|level| level.available()).unwrap_or(SimdLevel::Baseline)
-    }
-
-    /// Whether this CPU can run the level.
-    pub fn available(self) -> bool {
-        match self {
-            #[cfg(target_arch = "x86_64")]
-            SimdLevel::Avx512 => pulp::x86::V4::try_new().is_some(),
-            #[cfg(target_arch = "x86_64")]
-            SimdLevel::Avx2 => pulp::x86::V3::try_new().is_some(),
-            #[cfg(not(target_arch = "x86_64"))]
-            SimdLevel::Avx512 | SimdLevel::Avx2 => false,
-            SimdLevel::Baseline => true,
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            SimdLevel::Avx512 => "avx512",
-            SimdLevel::Avx2 => "avx2",
-            SimdLevel::Baseline => "sse2",
-        }
-    }
-
-    /// From its name (`avx512`, `avx2`, `sse2`).
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|level| level.name() == name)
-    }
-
-    /// Runs `f` compiled for this level (the baseline when the CPU lacks it). `f` and what it
-    /// must vectorise have to be `#[inline(always)]` to be compiled for the level.
-    #[inline(always)]
-    fn run<R>(self, f: impl FnOnce() -> R) -> R {
-        #[cfg(target_arch = "x86_64")]
-        match self {
-            SimdLevel::Avx512 => {
-                if let Some(simd) = pulp::x86::V4::try_new() {
-                    return simd.vectorize(f);
-                }
-            }
-            SimdLevel::Avx2 => {
-                if let Some(simd) = pulp::x86::V3::try_new() {
-                    return simd.vectorize(f);
-                }
-            }
-            SimdLevel::Baseline => {}
-        }
-        f()
-    }
-}
-
 /// Simulates every run of `runs`, `lanes` at a time at SIMD level `level`, and returns their
 /// results in order. The results do not depend on `lanes` or `level`.
 pub fn simulate_lanes(
@@ -190,7 +128,7 @@ pub fn simulate_lanes(
         let (batch, tail) = rest.split_at_mut(take);
         rest = tail;
         if take == 1 {
-            results.push(batch[0].simulate_alone());
+            results.push(batch[0].simulate_alone_at(level));
         } else if width == 4 {
             results.extend(simulate_batch::<4>(batch, level));
         } else {
@@ -286,6 +224,15 @@ fn step_lanes<const L: usize>(
     )
 }
 
+/// The structure of a lane's controller's model, or `plant`'s where it has none of the family.
+fn controller_arm<C, R>(lane: Option<&Run<'_, 4, C, R>>, plant: &YawPitch<f64>) -> YawPitch<f64>
+where
+    C: Controller<4> + ?Sized,
+    R: ReferenceSource<4> + ?Sized,
+{
+    lane.and_then(|lane| lane.controller_model()).and_then(ArmModel::yaw_pitch).copied().unwrap_or(*plant)
+}
+
 /// Up to `L` runs (all of the family, with one time step and integrator) side by side; lanes
 /// beyond `runs.len()` are idle from the start. The lanes' arithmetic runs at `level`; the
 /// rest (controllers, sensors, events, metrics) lane by lane.
@@ -315,6 +262,13 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
     });
     let mut torques = [[0.0; 4]; L];
     let mut start = Start::new(&fast, &lane_state(&states));
+    // The controllers' models where they are of the family (the plant's arm elsewhere, unused),
+    // for their terms at the states they see, all lanes at once; refreshed when a payload
+    // event may have changed them (`Controller::dynamics_model` changes only then).
+    let mut controller_arms: [YawPitch<f64>; L] =
+        std::array::from_fn(|i| loops.get(i).map_or(arms[i], |lane| controller_arm(lane.as_ref(), &arms[i])));
+    let mut controller_fast = YawPitch::gather(std::array::from_fn(|i| &controller_arms[i]));
+    let mut controller_start = start;
     loop {
         // Payload events, lane by lane: the plant's model first, then the controller.
         for i in 0..count {
@@ -333,24 +287,63 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                     loops[i] = None;
                     break;
                 }
+                let arm = controller_arm(Some(&*lane), &structure(&models[i]));
+                if arm != controller_arms[i] {
+                    controller_arms[i] = arm;
+                    set_lane(&mut controller_fast, i, &arm);
+                }
             }
+        }
+        // The controllers that compute their own terms this step: their feedback runs now and
+        // their terms are computed in lanes, as each would compute them alone.
+        let mut seen = states;
+        let mut wants_terms = 0u64;
+        for i in 0..count {
+            let Some(lane) = loops[i].as_mut() else { continue };
+            if let Some((state, model)) = lane.seen_for_terms()
+                && let Some(arm) = model.yaw_pitch()
+            {
+                debug_assert!(*arm == controller_arms[i], "a controller's model changed outside a payload event");
+                seen[i] = state;
+                wants_terms |= 1 << i;
+            }
+        }
+        if wants_terms != 0 {
+            set_start(level, &controller_fast, &mut controller_start, &lane_state(&seen));
         }
         let state = lane_state(&states);
         set_start(level, &fast, &mut start, &state);
         let tip = start.configuration.tip_in_base();
         let mut active = 0;
+        // The reference sample of the last lane that took one: lanes on the same reference
+        // (a sweep's, a campaign's) are at the same step, so they share it.
+        let not_positive_definite = start.configuration.factor.failed_lanes();
+        let mut shared: Option<(&(dyn ReferenceSource<4> + Sync), ReferenceNow<4>)> = None;
         for i in 0..count {
             let Some(lane) = loops[i].as_mut() else { continue };
             let time = lane.time();
-            let outcome = if start.configuration.factor.positive_definite(i) {
+            let outcome = if not_positive_definite & (1 << i) == 0 {
+                let matrix = &start.configuration.mass_matrix;
                 let view = PlantView {
                     tip: Vector3::new(tip[0].get(i), tip[1].get(i), tip[2].get(i)),
                     terms: DynamicsTerms {
-                        mass_matrix: from_rows(&start.configuration.mass_matrix.map(|row| row.map(|x| x.get(i)))),
-                        bias: JointVector::from(start.bias.map(|x| x.get(i))),
+                        mass_matrix: MassMatrix::from_fn(|r, c| matrix[r][c].get(i)),
+                        bias: JointVector::from_fn(|j, _| start.bias[j].get(i)),
                     },
                 };
-                lane.control(&view, &models[i], &mut NoObserver)
+                let reference = lane.reference();
+                let now = match shared {
+                    Some((last, now)) if std::ptr::eq(last, reference) => now,
+                    _ => shared.insert((reference, lane.reference_now())).1,
+                };
+                let terms = (wants_terms & (1 << i) != 0).then(|| {
+                    let matrix = &controller_start.configuration.mass_matrix;
+                    DynamicsTerms {
+                        mass_matrix: MassMatrix::from_fn(|r, c| matrix[r][c].get(i)),
+                        bias: JointVector::from_fn(|j, _| controller_start.bias[j].get(i)),
+                    }
+                });
+                lane.control_at(&view, &models[i], &mut NoObserver, &now, terms.as_ref())
             } else {
                 let q = states[i].q.iter().copied().collect();
                 Err(SimError::Dynamics { time, source: DynamicsError::NotPositiveDefinite(q) })
@@ -382,8 +375,8 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                 Err(DynamicsError::NotPositiveDefinite(failures.at[i].to_vec()))
             } else {
                 Ok(JointState {
-                    q: JointVector::from(next.q.map(|x| x.get(i))),
-                    qd: JointVector::from(next.qd.map(|x| x.get(i))),
+                    q: JointVector::from_fn(|j, _| next.q[j].get(i)),
+                    qd: JointVector::from_fn(|j, _| next.qd[j].get(i)),
                 })
             };
             match lane.advance(stepped) {

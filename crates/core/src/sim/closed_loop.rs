@@ -9,7 +9,7 @@
 //! given instants. Metrics accumulate on the fly; time series go to an [`Observer`] only if the
 //! caller wants them, so a run allocates nothing per step.
 
-use crate::arm::dynamics::DynamicsError;
+use crate::arm::dynamics::{DynamicsError, DynamicsTerms};
 use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::{Controller, JointState, Reference};
@@ -279,6 +279,14 @@ pub(crate) struct PlantView<const N: usize> {
     pub terms: crate::arm::dynamics::DynamicsTerms<N>,
 }
 
+/// A reference at one step ([`Run::reference_now`]): the desired joint state, and the desired
+/// tip (m) where the reference knows it without forward kinematics.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ReferenceNow<const N: usize> {
+    pub desired: Reference<N>,
+    pub tip: Option<Vector3<f64>>,
+}
+
 /// One closed-loop run between plant steps: the controller, sensors and estimator, the torque
 /// hold and motor lag, the payload events and the metrics. The driver ([`simulate_sensed`] with
 /// one [`Plant`], or [`super::batch`] with a lane of a batched plant) evaluates and steps the
@@ -320,6 +328,8 @@ pub(crate) struct Run<'a, const N: usize, C: ?Sized, R: ?Sized> {
     tip_error_at_marks: Vec<f64>,
     next_event: usize,
     controller_shares_terms: bool,
+    /// Whether [`Run::seen_for_terms`] has already run the feedback for the current sample.
+    observed: bool,
 }
 
 impl<const N: usize, C: ?Sized, R: ?Sized> std::fmt::Debug for Run<'_, N, C, R> {
@@ -413,6 +423,7 @@ where
             mark_steps,
             next_event: 0,
             controller_shares_terms,
+            observed: false,
         })
     }
 
@@ -446,6 +457,24 @@ where
         Ok(())
     }
 
+    /// The model the controller computes its dynamics with, if any
+    /// ([`Controller::dynamics_model`]).
+    pub fn controller_model(&self) -> Option<&ArmModel<N>> {
+        self.controller.dynamics_model()
+    }
+
+    /// The reference this run follows.
+    pub fn reference(&self) -> &'a R {
+        self.reference
+    }
+
+    /// The reference at the current step: the desired joint state and, where the reference
+    /// knows it, the desired tip.
+    pub fn reference_now(&self) -> ReferenceNow<N> {
+        let t = self.time();
+        ReferenceNow { desired: self.reference.reference(t), tip: self.reference.desired_tip(t) }
+    }
+
     /// The controller's sample (when one is due), the torque over the coming step (after the
     /// motors' lag) and the metrics of the current step, which `observer` sees. `at_state` is the
     /// plant at [`Run::state`], `plant` its model.
@@ -455,25 +484,71 @@ where
         plant: &ArmModel<N>,
         observer: &mut O,
     ) -> Result<JointVector<N>, SimError> {
+        let now = self.reference_now();
+        self.control_at(at_state, plant, observer, &now, None)
+    }
+
+    /// Runs the feedback (sensors and estimator) for the state the controller sees, and the
+    /// estimate's error statistics.
+    fn observe(&mut self) {
+        let state = self.state;
+        if self.exact {
+            self.estimate = state;
+            return;
+        }
+        self.estimate = self.feedback.observe(&state, &self.applied_acceleration);
+        let error_q = self.estimate.q - state.q;
+        let error_qd = self.estimate.qd - state.qd;
+        self.squared_angle_estimate_error += error_q.component_mul(&error_q);
+        self.squared_rate_estimate_error += error_qd.component_mul(&error_qd);
+    }
+
+    /// At a controller sample where the controller computes its own `M̂` and `Ĉ q̇ + ĝ` (it
+    /// sees an estimate, or its model is not the plant's): runs the feedback now and returns
+    /// the state the controller sees, and its model, for the driver to compute the terms
+    /// ([`crate::arm::dynamics::DynamicsTerms::new`]) and hand them to [`Run::control_at`]. A
+    /// batch computes them for all its lanes at once. `None` at other steps.
+    pub fn seen_for_terms(&mut self) -> Option<(JointState<N>, &ArmModel<N>)> {
+        let due = self.step.is_multiple_of(self.steps_per_sample);
+        if !due || (self.exact && self.controller_shares_terms) || self.controller.dynamics_model().is_none() {
+            return None;
+        }
+        if !self.observed {
+            self.observe();
+            self.observed = true;
+        }
+        self.controller.dynamics_model().map(|model| (self.estimate, model))
+    }
+
+    /// [`Run::control`] with the reference at the current step given (`now`, what
+    /// [`Run::reference_now`] returns: a batch's lanes on one reference sample it once) and,
+    /// after [`Run::seen_for_terms`], the controller's terms at the state it sees.
+    pub fn control_at<O: Observer<N> + ?Sized>(
+        &mut self,
+        at_state: &PlantView<N>,
+        plant: &ArmModel<N>,
+        observer: &mut O,
+        now: &ReferenceNow<N>,
+        controller_terms: Option<&DynamicsTerms<N>>,
+    ) -> Result<JointVector<N>, SimError> {
         let (t, step, state) = (self.time(), self.step, self.state);
-        let config = &self.config;
-        let desired = self.reference.reference(t);
+        let period = self.config.control_period;
+        let desired = now.desired;
         let tip = at_state.tip;
         if step.is_multiple_of(self.steps_per_sample) {
-            let raw = if self.exact {
+            let raw = if self.exact && self.controller_shares_terms {
                 self.estimate = state;
-                if self.controller_shares_terms {
-                    self.controller.torque_with_terms(&state, &desired, config.control_period, &at_state.terms)
-                } else {
-                    self.controller.torque(&state, &desired, config.control_period)
-                }
+                self.controller.torque_with_terms(&state, &desired, period, &at_state.terms)
             } else {
-                self.estimate = self.feedback.observe(&state, &self.applied_acceleration);
-                let error_q = self.estimate.q - state.q;
-                let error_qd = self.estimate.qd - state.qd;
-                self.squared_angle_estimate_error += error_q.component_mul(&error_q);
-                self.squared_rate_estimate_error += error_qd.component_mul(&error_qd);
-                self.controller.torque(&self.estimate, &desired, config.control_period)
+                if !self.observed {
+                    self.observe();
+                }
+                self.observed = false;
+                let seen = self.estimate;
+                match controller_terms {
+                    Some(terms) => self.controller.torque_with_terms(&seen, &desired, period, terms),
+                    None => self.controller.torque(&seen, &desired, period),
+                }
             };
             self.samples_taken += 1;
             let mut clipped = false;
@@ -486,7 +561,7 @@ where
                         value: raw[j],
                     });
                 }
-                let limit = config.torque_limits[j];
+                let limit = self.config.torque_limits[j];
                 self.command[j] = raw[j].clamp(-limit, limit);
                 if self.command[j] != raw[j] {
                     self.saturated_per_joint[j] += 1;
@@ -495,7 +570,8 @@ where
             }
             self.saturated_samples += usize::from(clipped);
             if !self.exact {
-                self.applied_acceleration = acceleration_of(&*self.controller, &self.estimate, &self.command, clipped);
+                self.applied_acceleration =
+                    acceleration_of(&*self.controller, &self.estimate, &self.command, clipped, controller_terms);
             }
         }
         let command = self.command;
@@ -511,7 +587,7 @@ where
         };
         let error = desired.q - state.q;
         self.peak_torque = self.peak_torque.sup(&torque.abs());
-        let tip_desired = self.reference.desired_tip(t).unwrap_or_else(|| FrameChain::new(plant, &desired.q).tip());
+        let tip_desired = now.tip.unwrap_or_else(|| FrameChain::new(plant, &desired.q).tip());
         let tip_error = (tip - tip_desired).norm();
         if step >= self.first_tracked_step {
             self.squared_joint_error += error.component_mul(&error);
@@ -580,6 +656,7 @@ fn acceleration_of<const N: usize, C: Controller<N> + ?Sized>(
     seen: &JointState<N>,
     clipped_command: &JointVector<N>,
     clipped: bool,
+    terms: Option<&DynamicsTerms<N>>,
 ) -> JointVector<N> {
     let commanded = controller.commanded_acceleration().unwrap_or_else(JointVector::zeros);
     if !clipped {
@@ -587,7 +664,7 @@ fn acceleration_of<const N: usize, C: Controller<N> + ?Sized>(
     }
     match controller.dynamics_model() {
         Some(model) => {
-            let terms = crate::arm::dynamics::DynamicsTerms::new(model, &seen.q, &seen.qd);
+            let terms = terms.copied().unwrap_or_else(|| DynamicsTerms::new(model, &seen.q, &seen.qd));
             crate::arm::mass_factor::MassMatrixFactor::new(&terms.mass_matrix)
                 .map_or(commanded, |factor| factor.solve(&(clipped_command - terms.bias)))
         }

@@ -7,6 +7,7 @@ use crate::arm::kinematics::JointTrig;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::arm::yaw_pitch::{from_array, from_rows, to_array};
 use crate::control::JointState;
+use crate::lanes::SimdLevel;
 use crate::sim::structured::{self, Failures, Start, State};
 use nalgebra::Vector3;
 
@@ -15,8 +16,9 @@ use nalgebra::Vector3;
 /// start and at its stage configurations), so a step allocates and moves nothing large.
 ///
 /// An arm of the yaw–pitch family steps on the structured dynamics
-/// ([`crate::arm::yaw_pitch`], [`super::structured`]); any other on the general recursive
-/// algorithms.
+/// ([`crate::arm::yaw_pitch`], [`super::structured`]), compiled for the best SIMD level the CPU
+/// has ([`Plant::with_simd_level`] picks another; the results are the same bits at every
+/// level); any other arm on the general recursive algorithms.
 #[derive(Debug, Clone)]
 pub struct Plant<const N: usize> {
     model: ArmModel<N>,
@@ -32,6 +34,8 @@ pub struct Plant<const N: usize> {
     /// The structured path's dynamics at the start, valid with `evaluated_at` when the model
     /// has the structure.
     structured_start: Option<Start<f64>>,
+    /// The instructions the structured path's kernels run with.
+    simd: SimdLevel,
 }
 
 impl<const N: usize> Plant<N> {
@@ -50,7 +54,19 @@ impl<const N: usize> Plant<N> {
             middle: configuration.clone(),
             end: configuration,
             structured_start: None,
+            simd: SimdLevel::detect(),
         }
+    }
+
+    /// The same plant with the structured path's kernels run at `level` (the baseline's where
+    /// the CPU lacks it): for comparing the levels, which give the same results.
+    pub fn with_simd_level(mut self, level: SimdLevel) -> Self {
+        self.simd = level;
+        self
+    }
+
+    pub fn simd_level(&self) -> SimdLevel {
+        self.simd
     }
 
     pub fn model(&self) -> &ArmModel<N> {
@@ -72,13 +88,12 @@ impl<const N: usize> Plant<N> {
             self.evaluated_at = None;
             if let Some(fast) = self.model.yaw_pitch() {
                 let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
-                let start = match &mut self.structured_start {
-                    Some(start) => {
-                        start.set(fast, &here);
-                        start
-                    }
-                    None => self.structured_start.insert(Start::new(fast, &here)),
-                };
+                let start = self.structured_start.get_or_insert_with(|| Start::new(fast, &here));
+                // `inline(always)`: compiled inside the level's function, with its instructions.
+                self.simd.run(
+                    #[inline(always)]
+                    || start.set(fast, &here),
+                );
                 if !start.configuration.factor.positive_definite(0) {
                     return Err(DynamicsError::NotPositiveDefinite(state.q.iter().copied().collect()));
                 }
@@ -127,7 +142,11 @@ impl<const N: usize> Plant<N> {
         if let (Some(fast), Some(start)) = (self.model.yaw_pitch(), self.structured_start.as_mut()) {
             let mut failures = Failures::<1> { lanes: 0, at: [[0.0; 4]] };
             let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
-            let next = structured::step(fast, start, &here, &to_array(torque), dt, integrator, &mut failures);
+            let torque = to_array(torque);
+            let next = self.simd.run(
+                #[inline(always)]
+                || structured::step(fast, start, &here, &torque, dt, integrator, &mut failures),
+            );
             if failures.lanes != 0 {
                 return Err(DynamicsError::NotPositiveDefinite(failures.at[0].to_vec()));
             }

@@ -73,11 +73,12 @@ fn stage<S: Real, const L: usize>(
     failures: &mut Failures<L>,
 ) {
     scratch.set(model, start.angles.shifted(model, &difference(at, q)));
-    for lane in 0..S::LANES {
-        if failures.lanes & (1 << lane) == 0 && !scratch.factor.positive_definite(lane) {
-            failures.lanes |= 1 << lane;
+    let new = scratch.factor.failed_lanes() & !failures.lanes;
+    if new != 0 {
+        for lane in (0..S::LANES).filter(|lane| new & (1 << lane) != 0) {
             failures.at[lane] = at.map(|v| v.lane(lane));
         }
+        failures.lanes |= new;
     }
 }
 
