@@ -285,9 +285,10 @@ pub enum SimdLevel {
 impl SimdLevel {
     pub const ALL: [SimdLevel; 3] = [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Baseline];
 
-    /// The best level this CPU has.
+    /// The best level this CPU has (found once, then remembered).
     pub fn detect() -> Self {
-        Self::ALL.into_iter().find(|level| level.available()).unwrap_or(SimdLevel::Baseline)
+        static BEST: std::sync::OnceLock<SimdLevel> = std::sync::OnceLock::new();
+        *BEST.get_or_init(|| Self::ALL.into_iter().find(|level| level.available()).unwrap_or(SimdLevel::Baseline))
     }
 
     /// Whether this CPU can run the level.

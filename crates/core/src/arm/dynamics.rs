@@ -286,7 +286,12 @@ pub fn mass_matrix_with_frames<const N: usize>(model: &ArmModel<N>, frames: &Bod
 /// Joint-space mass matrix `M(q)`, symmetric positive definite.
 pub fn mass_matrix<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>) -> MassMatrix<N> {
     match model.yaw_pitch() {
-        Some(fast) => from_rows(&yaw_pitch::at(fast, q).mass_matrix),
+        Some(fast) => from_rows(&yaw_pitch::at(
+            fast,
+            q,
+            #[inline(always)]
+            |at| at.mass_matrix,
+        )),
         None => mass_matrix_with_frames(model, &BodyFrames::new(model, q)),
     }
 }
@@ -299,7 +304,12 @@ pub fn inverse_dynamics<const N: usize>(
     qdd: &JointVector<N>,
 ) -> JointVector<N> {
     match model.yaw_pitch() {
-        Some(fast) => from_array(yaw_pitch::at(fast, q).inverse_dynamics(fast, &to_array(qd), &to_array(qdd))),
+        Some(fast) => from_array(yaw_pitch::at(
+            fast,
+            q,
+            #[inline(always)]
+            |at| at.inverse_dynamics(fast, &to_array(qd), &to_array(qdd)),
+        )),
         None => rnea_with_frames(model, &BodyFrames::new(model, q), qd, qdd, &model.gravity()),
     }
 }
@@ -308,7 +318,12 @@ pub fn inverse_dynamics<const N: usize>(
 pub fn gravity_torques<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>) -> JointVector<N> {
     let zero = JointVector::<N>::zeros();
     match model.yaw_pitch() {
-        Some(fast) => from_array(yaw_pitch::at(fast, q).bias(fast, &[0.0; 4])),
+        Some(fast) => from_array(yaw_pitch::at(
+            fast,
+            q,
+            #[inline(always)]
+            |at| at.bias(fast, &[0.0; 4]),
+        )),
         None => inverse_dynamics(model, q, &zero, &zero),
     }
 }
@@ -322,7 +337,12 @@ pub fn coriolis_torques<const N: usize>(
     match model.yaw_pitch() {
         Some(fast) => {
             let weightless = yaw_pitch::YawPitch { gravity_z: 0.0, ..*fast };
-            from_array(yaw_pitch::at(&weightless, q).bias(&weightless, &to_array(qd)))
+            from_array(yaw_pitch::at(
+                &weightless,
+                q,
+                #[inline(always)]
+                |at| at.bias(&weightless, &to_array(qd)),
+            ))
         }
         None => rnea_with_frames(model, &BodyFrames::new(model, q), qd, &JointVector::zeros(), &Vector3::zeros()),
     }
@@ -331,7 +351,12 @@ pub fn coriolis_torques<const N: usize>(
 /// Bias torques `C(q, q̇) q̇ + g(q)`, N·m (the report's `N`).
 pub fn bias_torques<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> JointVector<N> {
     match model.yaw_pitch() {
-        Some(fast) => from_array(yaw_pitch::at(fast, q).bias(fast, &to_array(qd))),
+        Some(fast) => from_array(yaw_pitch::at(
+            fast,
+            q,
+            #[inline(always)]
+            |at| at.bias(fast, &to_array(qd)),
+        )),
         None => bias_with_frames(model, &BodyFrames::new(model, q), qd),
     }
 }
@@ -365,8 +390,13 @@ impl<const N: usize> DynamicsTerms<N> {
     /// From one forward-kinematics pass at `q`.
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> Self {
         if let Some(fast) = model.yaw_pitch() {
-            let at = yaw_pitch::at(fast, q);
-            return Self { mass_matrix: from_rows(&at.mass_matrix), bias: from_array(at.bias(fast, &to_array(qd))) };
+            let (mass_matrix, bias) = yaw_pitch::at(
+                fast,
+                q,
+                #[inline(always)]
+                |at| (at.mass_matrix, at.bias(fast, &to_array(qd))),
+            );
+            return Self { mass_matrix: from_rows(&mass_matrix), bias: from_array(bias) };
         }
         let frames = BodyFrames::new(model, q);
         Self { mass_matrix: mass_matrix_with_frames(model, &frames), bias: bias_with_frames(model, &frames, qd) }
@@ -383,13 +413,25 @@ pub fn forward_dynamics<const N: usize>(
 ) -> Result<JointVector<N>, DynamicsError> {
     match model.yaw_pitch() {
         Some(fast) => {
-            let at = yaw_pitch::at(fast, q);
+            let acceleration = yaw_pitch::at(
+                fast,
+                q,
+                #[inline(always)]
+                |at| {
+                    // No closure inside: it would be compiled apart, for the baseline.
+                    if at.factor.positive_definite(0) {
+                        Some(at.acceleration(fast, &to_array(qd), &to_array(torque)))
+                    } else {
+                        None
+                    }
+                },
+            );
             // The yaw drops out of M, so a non-finite base angle would pass unnoticed: it fails
             // here as it does on the general path (where it makes M NaN).
-            if !at.factor.positive_definite(0) || !q[0].is_finite() {
-                return Err(DynamicsError::NotPositiveDefinite(q.iter().copied().collect()));
+            match acceleration {
+                Some(acceleration) if q[0].is_finite() => Ok(from_array(acceleration)),
+                _ => Err(DynamicsError::NotPositiveDefinite(q.iter().copied().collect())),
             }
-            Ok(from_array(at.acceleration(fast, &to_array(qd), &to_array(torque))))
         }
         None => Ok(ConfigurationDynamics::new(model, q)?.acceleration(model, qd, torque)),
     }

@@ -36,7 +36,7 @@
 
 use super::dynamics::MassMatrix;
 use super::model::{ArmModel, JointVector};
-use crate::lanes::Real;
+use crate::lanes::{Real, SimdLevel};
 use nalgebra::{Matrix3, Vector3};
 
 /// `|cos β|` (or `|sin β|`) below which a twist counts as exactly ±90° (or 0°/180°), and the
@@ -624,9 +624,19 @@ impl<S: Real> Factor<S> {
     }
 }
 
-/// The model's configuration at `q` (rad), for the free functions of [`super::dynamics`].
-pub(crate) fn at<const N: usize>(model: &YawPitch<f64>, q: &JointVector<N>) -> Configuration<f64> {
-    Configuration::new(model, Angles::new(model, &to_array(q)))
+/// `f` of the model's configuration at `q` (rad), for the free functions of
+/// [`super::dynamics`]: both compiled for the CPU's best SIMD level ([`SimdLevel::detect`]; the
+/// same bits at every level), so `f` must be an `#[inline(always)]` closure.
+#[inline(always)]
+pub(crate) fn at<const N: usize, R>(
+    model: &YawPitch<f64>,
+    q: &JointVector<N>,
+    f: impl FnOnce(&Configuration<f64>) -> R,
+) -> R {
+    SimdLevel::detect().run(
+        #[inline(always)]
+        || f(&Configuration::new(model, Angles::new(model, &to_array(q)))),
+    )
 }
 
 /// The entries of a 4×4 matrix as an `N × N` one (`N = 4` whenever the structured path runs).
