@@ -139,6 +139,40 @@ fn candidate<'a>(
     }
 }
 
+/// A fixed adaptive candidate (the random ones rarely reach its payload estimate): `index`'s
+/// plant and settings, the adaptive controller with moderate gains on the whole trajectory,
+/// hobby encoders with the Kalman filter when `sensed`, and the events of `events[which]`.
+fn adaptive_candidate<'a>(
+    index: u64,
+    sensed: bool,
+    which: usize,
+    trajectory: &'a JointTrajectory,
+    hold: &'a Hold,
+    events: &'a [[PayloadEvent; 2]; 3],
+    marks: &'a [f64],
+) -> LaneRun<'a> {
+    let mut run = candidate(index, trajectory, hold, events, marks);
+    let spec = ControllerSpec {
+        name: format!("adaptive{index}"),
+        kind: ControllerKind::Adaptive,
+        gains: Gains::uniform(150.0, 20.0, 0.0).unwrap(),
+        knows_friction: false,
+    };
+    run.controller = spec.build(report_arm()).unwrap();
+    if sensed {
+        let profile = SensorProfile::<4>::hobby();
+        let filter =
+            JointKalman::new(1e-3, profile.angle_std(), None, profile.delay_samples, KalmanSettings::DEFAULT).unwrap();
+        run.feedback =
+            Feedback::new(Sensors::new(profile, index).unwrap(), Estimator::Kalman(Box::new(filter))).unwrap();
+    }
+    run.reference = trajectory;
+    run.initial = None;
+    run.events = &events[which];
+    run.config.torque_limits = JointVector::repeat(1e4);
+    run
+}
+
 /// The summary's numbers, bit for bit, and the error's text.
 fn fingerprint(result: &Result<SimSummary<4>, SimError>) -> String {
     match result {
@@ -180,7 +214,17 @@ fn every_lane_equals_the_scalar_run_bit_for_bit_at_every_lane_count_and_level() 
     ];
     let marks = [0.3, 0.9, 1.1];
     let count = 27;
-    let make = || (0..count).map(|i| candidate(i, &trajectory, &hold, &events, &marks)).collect::<Vec<_>>();
+    // Then four adaptive runs: sensed and told of the pawn, sensed and not told, ideal sensors
+    // and told (a perturbed plant: the controller's own terms), ideal and not told (the plant
+    // its model: the plant's terms).
+    let adaptive = [(true, 0), (true, 2), (false, 0), (false, 1)];
+    let make = || {
+        let mut runs: Vec<_> = (0..count).map(|i| candidate(i, &trajectory, &hold, &events, &marks)).collect();
+        for (k, (sensed, which)) in adaptive.iter().enumerate() {
+            runs.push(adaptive_candidate(40 + k as u64, *sensed, *which, &trajectory, &hold, &events, &marks));
+        }
+        runs
+    };
     let scalar: Vec<String> = make().iter_mut().map(|run| fingerprint(&run.simulate_alone())).collect();
     // The candidates cover what they are meant to: failures, clipping, sensors, early ends.
     assert!(scalar.iter().any(|f| f.contains("diverged")), "no diverging lane: {scalar:#?}");
@@ -188,6 +232,10 @@ fn every_lane_equals_the_scalar_run_bit_for_bit_at_every_lane_count_and_level() 
     let ok: Vec<&String> = scalar.iter().filter(|f| !f.starts_with("error")).collect();
     assert!(ok.iter().any(|f| f.split(' ').nth(6).is_some_and(|s| s != "0")), "no clipped lane");
     assert!(ok.iter().any(|f| f.starts_with("370 ")), "no lane that ends early");
+    // The adaptive runs go to the end (a payload estimate through grip and release).
+    for f in &scalar[count as usize..] {
+        assert!(!f.starts_with("error"), "an adaptive run failed: {f}");
+    }
     let mut levels = 0;
     for level in SimdLevel::ALL {
         if !level.available() {

@@ -75,6 +75,10 @@ pub trait Controller<const N: usize>: std::fmt::Debug + Send {
     /// The model the controller computes `M̂(q)` and `Ĉ q̇ + ĝ` with, if it uses one. When it
     /// equals the plant's model, the closed loop hands the plant's terms at the measured state
     /// to [`Controller::torque_with_terms`] rather than have them computed twice.
+    ///
+    /// It may change only in [`Controller::set_payload`]: the closed loop compares it with the
+    /// plant's at payload events only, and the batch simulator computes the terms of the model
+    /// it had then (a debug build checks this every step).
     fn dynamics_model(&self) -> Option<&ArmModel<N>> {
         None
     }

@@ -287,11 +287,9 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                     loops[i] = None;
                     break;
                 }
-                let arm = controller_arm(Some(&*lane), &structure(&models[i]));
-                if arm != controller_arms[i] {
-                    controller_arms[i] = arm;
-                    set_lane(&mut controller_fast, i, &arm);
-                }
+                // Always refreshed (an event is rare): no comparison to treat −0 as +0.
+                controller_arms[i] = controller_arm(Some(&*lane), &structure(&models[i]));
+                set_lane(&mut controller_fast, i, &controller_arms[i]);
             }
         }
         // The controllers that compute their own terms this step: their feedback runs now and
@@ -303,7 +301,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             if let Some((state, model)) = lane.seen_for_terms()
                 && let Some(arm) = model.yaw_pitch()
             {
-                debug_assert!(*arm == controller_arms[i], "a controller's model changed outside a payload event");
+                debug_assert!(*arm == controller_arms[i], "a controller's model changed outside `set_payload`");
                 seen[i] = state;
                 wants_terms |= 1 << i;
             }
@@ -315,9 +313,9 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
         set_start(level, &fast, &mut start, &state);
         let tip = start.configuration.tip_in_base();
         let mut active = 0;
+        let not_positive_definite = start.configuration.factor.failed_lanes();
         // The reference sample of the last lane that took one: lanes on the same reference
         // (a sweep's, a campaign's) are at the same step, so they share it.
-        let not_positive_definite = start.configuration.factor.failed_lanes();
         let mut shared: Option<(&(dyn ReferenceSource<4> + Sync), ReferenceNow<4>)> = None;
         for i in 0..count {
             let Some(lane) = loops[i].as_mut() else { continue };

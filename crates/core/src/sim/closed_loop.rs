@@ -505,9 +505,11 @@ where
 
     /// At a controller sample where the controller computes its own `M̂` and `Ĉ q̇ + ĝ` (it
     /// sees an estimate, or its model is not the plant's): runs the feedback now and returns
-    /// the state the controller sees, and its model, for the driver to compute the terms
-    /// ([`crate::arm::dynamics::DynamicsTerms::new`]) and hand them to [`Run::control_at`]. A
-    /// batch computes them for all its lanes at once. `None` at other steps.
+    /// the state the controller sees, and its model (of any arm), for the driver to compute
+    /// the terms ([`crate::arm::dynamics::DynamicsTerms::new`]) and hand them to
+    /// [`Run::control_at`], which must follow at the same step (with or without the terms). A
+    /// batch computes them for all its lanes at once. `None` where no sample is due, the
+    /// controller shares the plant's terms, or it has no model.
     pub fn seen_for_terms(&mut self) -> Option<(JointState<N>, &ArmModel<N>)> {
         let due = self.step.is_multiple_of(self.steps_per_sample);
         if !due || (self.exact && self.controller_shares_terms) || self.controller.dynamics_model().is_none() {
