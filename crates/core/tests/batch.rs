@@ -54,6 +54,14 @@ impl Draw {
     }
 }
 
+/// Hobby encoders (noise seeded by `seed`) with the Kalman filter at 1 kHz.
+fn hobby_kalman(seed: u64) -> Feedback<4> {
+    let profile = SensorProfile::<4>::hobby();
+    let filter =
+        JointKalman::new(1e-3, profile.angle_std(), None, profile.delay_samples, KalmanSettings::DEFAULT).unwrap();
+    Feedback::new(Sensors::new(profile, seed).unwrap(), Estimator::Kalman(Box::new(filter))).unwrap()
+}
+
 /// The `index`-th random candidate: its plant (perturbed masses, sometimes friction and a
 /// heavier payload), controller (kind, gains, sometimes huge: a divergence), sensors (ideal, or
 /// hobby encoders with the Kalman filter) and settings (torque limits low enough to clip, a lag).
@@ -99,14 +107,7 @@ fn candidate<'a>(
     };
     let controller = spec.build(report_arm()).unwrap();
     let sensed = draw.next() < 0.5 && !exact;
-    let feedback = if sensed {
-        let profile = SensorProfile::<4>::hobby();
-        let filter =
-            JointKalman::new(1e-3, profile.angle_std(), None, profile.delay_samples, KalmanSettings::DEFAULT).unwrap();
-        Feedback::new(Sensors::new(profile, index).unwrap(), Estimator::Kalman(Box::new(filter))).unwrap()
-    } else {
-        Feedback::ideal()
-    };
+    let feedback = if sensed { hobby_kalman(index) } else { Feedback::ideal() };
     let mut config = SimConfig {
         integrator: Integrator::RungeKuttaNystrom4,
         ..SimConfig::new(&chessarm_core::sim::Plant::new(plant))
@@ -160,11 +161,7 @@ fn adaptive_candidate<'a>(
     };
     run.controller = spec.build(report_arm()).unwrap();
     if sensed {
-        let profile = SensorProfile::<4>::hobby();
-        let filter =
-            JointKalman::new(1e-3, profile.angle_std(), None, profile.delay_samples, KalmanSettings::DEFAULT).unwrap();
-        run.feedback =
-            Feedback::new(Sensors::new(profile, index).unwrap(), Estimator::Kalman(Box::new(filter))).unwrap();
+        run.feedback = hobby_kalman(index);
     }
     run.reference = trajectory;
     run.initial = None;
