@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 mod common;
-use common::{assert_one_line_error, chessarm, json_of, simd_levels};
+use common::{assert_one_line_error, assert_same_at_every_batching, chessarm, json_of};
 
 use std::path::Path;
 
@@ -382,10 +382,5 @@ fn a_campaign_is_the_same_at_every_lane_count_and_simd_level() {
     assert_eq!(scalar.lines().count(), 1 + 22, "{scalar}");
     assert!(scalar.lines().any(|line| line.contains(",failed: ")), "no failed run:\n{scalar}");
     assert!(scalar.lines().filter(|line| line.contains(",ok,")).count() >= 11, "{scalar}");
-    for level in simd_levels("a_campaign_is_the_same_at_every_lane_count_and_simd_level") {
-        for lanes in ["4", "8"] {
-            let batched = run(&format!("{lanes}-{level}"), &[("CHESSARM_LANES", lanes), ("CHESSARM_SIMD", level)]);
-            assert_eq!(batched, scalar, "{lanes} lanes at {level}");
-        }
-    }
+    assert_same_at_every_batching("a_campaign_is_the_same_at_every_lane_count_and_simd_level", &scalar, run);
 }

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 mod common;
-use common::{assert_one_line_error, chessarm, json_of, simd_levels};
+use common::{assert_one_line_error, assert_same_at_every_batching, chessarm, json_of};
 
 use serde_json::Value;
 
@@ -359,12 +359,7 @@ fn a_sweep_is_the_same_at_every_lane_count_and_simd_level() {
     let statuses: Vec<Vec<String>> = rows(&scalar);
     assert!(statuses.iter().any(|r| r[4] != "ok"), "no failing candidate:\n{scalar}");
     assert!(statuses.iter().any(|r| r[4] == "ok" && r[12] != "0"), "no candidate at the torque limits:\n{scalar}");
-    for level in simd_levels("a_sweep_is_the_same_at_every_lane_count_and_simd_level") {
-        for lanes in ["4", "8"] {
-            let batched = sweep(&format!("{lanes}-{level}"), &[("CHESSARM_LANES", lanes), ("CHESSARM_SIMD", level)]);
-            assert_eq!(batched, scalar, "{lanes} lanes at {level}");
-        }
-    }
+    assert_same_at_every_batching("a_sweep_is_the_same_at_every_lane_count_and_simd_level", &scalar, sweep);
     // The variables as typed, when they are not a lane count or a level.
     let bad = |env: &[(&str, &str)]| {
         with_env(

@@ -270,8 +270,8 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     by_quadrant(sin, cos, k)
 }
 
-/// Which SIMD instructions the kernels (a plant's step, a batch's lanes) are compiled for; the results are the same at
-/// every level, only the speed differs.
+/// Which SIMD instructions the kernels (a plant's step, a batch's lanes, the dynamics
+/// functions) are compiled for; the results are the same at every level, only the speed differs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SimdLevel {
     /// x86-64-v4: AVX-512 (8 f64 per register).

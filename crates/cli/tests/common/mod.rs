@@ -59,3 +59,15 @@ pub fn simd_levels(test: &str) -> Vec<&'static str> {
     }
     levels
 }
+
+/// Asserts that `run(name, env)`, a command's CSV with the variables `env` set (`name` naming
+/// its output folder), equals `scalar` (its CSV at one lane) at 4 and 8 lanes and every SIMD
+/// level this CPU has; test `test` reports the levels it lacks as skipped.
+pub fn assert_same_at_every_batching(test: &str, scalar: &str, run: impl Fn(&str, &[(&str, &str)]) -> String) {
+    for level in simd_levels(test) {
+        for lanes in ["4", "8"] {
+            let batched = run(&format!("{lanes}-{level}"), &[("CHESSARM_LANES", lanes), ("CHESSARM_SIMD", level)]);
+            assert_eq!(batched, scalar, "{lanes} lanes at {level}");
+        }
+    }
+}

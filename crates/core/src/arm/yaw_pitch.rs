@@ -581,14 +581,11 @@ impl<S: Real> Factor<S> {
     /// reciprocal, the test of `MassMatrixFactor::new`.
     #[inline(always)]
     pub fn positive_definite(&self, lane: usize) -> bool {
-        (0..4).all(|j| {
-            let d = self.pivot[j].lane(lane);
-            !(d.is_nan() || d <= 0.0 || self.inverse_pivot[j].lane(lane).is_infinite())
-        })
+        self.failed_lanes() & (1 << lane) == 0
     }
 
-    /// The lanes that were not positive definite ([`Factor::positive_definite`]), bit `i` for
-    /// lane `i`: all lanes at once, without branches, so that it vectorises.
+    /// The lanes that were not positive definite, bit `i` for lane `i`: all lanes at once,
+    /// without branches, so that it vectorises.
     #[inline(always)]
     pub fn failed_lanes(&self) -> u64 {
         let mut failed = 0u64;

@@ -224,6 +224,15 @@ fn step_lanes<const L: usize>(
     )
 }
 
+/// Lane `i`'s `M` and `C q̇ + g` at the start of the step.
+fn terms_of<const L: usize>(start: &Start<Lanes<L>>, i: usize) -> DynamicsTerms<4> {
+    let matrix = &start.configuration.mass_matrix;
+    DynamicsTerms {
+        mass_matrix: MassMatrix::from_fn(|r, c| matrix[r][c].get(i)),
+        bias: JointVector::from_fn(|j, _| start.bias[j].get(i)),
+    }
+}
+
 /// The structure of a lane's controller's model, or `plant`'s where it has none of the family.
 fn controller_arm<C, R>(lane: Option<&Run<'_, 4, C, R>>, plant: &YawPitch<f64>) -> YawPitch<f64>
 where
@@ -321,26 +330,16 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             let Some(lane) = loops[i].as_mut() else { continue };
             let time = lane.time();
             let outcome = if not_positive_definite & (1 << i) == 0 {
-                let matrix = &start.configuration.mass_matrix;
                 let view = PlantView {
                     tip: Vector3::new(tip[0].get(i), tip[1].get(i), tip[2].get(i)),
-                    terms: DynamicsTerms {
-                        mass_matrix: MassMatrix::from_fn(|r, c| matrix[r][c].get(i)),
-                        bias: JointVector::from_fn(|j, _| start.bias[j].get(i)),
-                    },
+                    terms: terms_of(&start, i),
                 };
                 let reference = lane.reference();
                 let now = match shared {
                     Some((last, now)) if std::ptr::eq(last, reference) => now,
                     _ => shared.insert((reference, lane.reference_now())).1,
                 };
-                let terms = (wants_terms & (1 << i) != 0).then(|| {
-                    let matrix = &controller_start.configuration.mass_matrix;
-                    DynamicsTerms {
-                        mass_matrix: MassMatrix::from_fn(|r, c| matrix[r][c].get(i)),
-                        bias: JointVector::from_fn(|j, _| controller_start.bias[j].get(i)),
-                    }
-                });
+                let terms = (wants_terms & (1 << i) != 0).then(|| terms_of(&controller_start, i));
                 lane.control_at(&view, &models[i], &mut NoObserver, &now, terms.as_ref())
             } else {
                 let q = states[i].q.iter().copied().collect();

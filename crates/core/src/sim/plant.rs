@@ -88,12 +88,20 @@ impl<const N: usize> Plant<N> {
             self.evaluated_at = None;
             if let Some(fast) = self.model.yaw_pitch() {
                 let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
-                let start = self.structured_start.get_or_insert_with(|| Start::new(fast, &here));
-                // `inline(always)`: compiled inside the level's function, with its instructions.
-                self.simd.run(
-                    #[inline(always)]
-                    || start.set(fast, &here),
-                );
+                let simd = self.simd;
+                let start = match &mut self.structured_start {
+                    Some(start) => {
+                        // `inline(always)`: compiled inside the level's function, with its
+                        // instructions.
+                        simd.run(
+                            #[inline(always)]
+                            || start.set(fast, &here),
+                        );
+                        start
+                    }
+                    // The first evaluation fills the scratch (the same bits at any level).
+                    None => self.structured_start.insert(Start::new(fast, &here)),
+                };
                 if !start.configuration.factor.positive_definite(0) {
                     return Err(DynamicsError::NotPositiveDefinite(state.q.iter().copied().collect()));
                 }
