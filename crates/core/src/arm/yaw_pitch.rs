@@ -340,6 +340,14 @@ impl<S: Real> Configuration<S> {
     /// [`Configuration::new`] in place: scratch refilled every stage without moving it.
     #[inline(always)]
     pub fn set(&mut self, model: &YawPitch<S>, angles: Angles<S>) {
+        self.set_mass_matrix(model, angles);
+        self.factor.set(&self.mass_matrix);
+    }
+
+    /// [`Configuration::set`] without the factor, which is left as it was: for `M`, the bias
+    /// and the tip alone (a controller's terms), not for accelerations.
+    #[inline(always)]
+    pub fn set_mass_matrix(&mut self, model: &YawPitch<S>, angles: Angles<S>) {
         self.angles = angles;
         self.point[0] = [S::splat(0.0); 3];
         self.point[1] = model.shoulder;
@@ -370,7 +378,6 @@ impl<S: Real> Configuration<S> {
             };
         }
         mass_matrix(model, &self.point, &self.com, &self.inertia, &mut self.mass_matrix);
-        self.factor.set(&self.mass_matrix);
     }
 
     /// The tool tip in the base frame, m: `R_z(ψ)` of the tip in `Y`.

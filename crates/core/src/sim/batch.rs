@@ -206,6 +206,20 @@ fn set_start<const L: usize>(
     );
 }
 
+/// `M` and the bias at the lanes' states ([`Start::set_terms`]: no factor), compiled for
+/// `level`.
+fn set_terms<const L: usize>(
+    level: SimdLevel,
+    model: &YawPitch<Lanes<L>>,
+    start: &mut Start<Lanes<L>>,
+    state: &State<Lanes<L>>,
+) {
+    level.run(
+        #[inline(always)]
+        || start.set_terms(model, state),
+    );
+}
+
 /// One step of every lane ([`structured::step`]), compiled for `level`.
 #[allow(clippy::too_many_arguments)] // the step's own arguments and the level
 fn step_lanes<const L: usize>(
@@ -277,6 +291,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
     let mut controller_arms: [YawPitch<f64>; L] =
         std::array::from_fn(|i| loops.get(i).map_or(arms[i], |lane| controller_arm(lane.as_ref(), &arms[i])));
     let mut controller_fast = YawPitch::gather(std::array::from_fn(|i| &controller_arms[i]));
+    // Only its `M` and bias are read (`terms_of`): its factor is not kept up to date.
     let mut controller_start = start;
     loop {
         // Payload events, lane by lane: the plant's model first, then the controller.
@@ -316,7 +331,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             }
         }
         if wants_terms != 0 {
-            set_start(level, &controller_fast, &mut controller_start, &lane_state(&seen));
+            set_terms(level, &controller_fast, &mut controller_start, &lane_state(&seen));
         }
         let state = lane_state(&states);
         set_start(level, &fast, &mut start, &state);

@@ -40,6 +40,14 @@ impl<S: Real> Start<S> {
         self.configuration.set(model, Angles::new(model, &state.q));
         self.bias = self.configuration.bias(model, &state.qd);
     }
+
+    /// [`Start::set`] without the factor of `M` (left as it was): `M` and the bias alone, for
+    /// a controller's terms; not a start to [`step`] from.
+    #[inline(always)]
+    pub fn set_terms(&mut self, model: &YawPitch<S>, state: &State<S>) {
+        self.configuration.set_mass_matrix(model, Angles::new(model, &state.q));
+        self.bias = self.configuration.bias(model, &state.qd);
+    }
 }
 
 /// Lanes whose mass matrix failed to factorise at a stage, with the configuration (rad) of the
