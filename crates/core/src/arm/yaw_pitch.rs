@@ -234,17 +234,24 @@ impl<S: Real> Angles<S> {
     /// At joint angles `q`; the yaw's sine and cosine are left to [`Configuration::tip`].
     #[inline(always)]
     pub fn new(model: &YawPitch<S>, q: &[S; 4]) -> Self {
-        let mut angle = [q[0] + model.offset[0]; 4];
+        let mut angles = Self { angle: [S::splat(0.0); 4], sin: [S::splat(0.0); 4], cos: [S::splat(1.0); 4] };
+        angles.set(model, q);
+        angles
+    }
+
+    /// [`Angles::new`] in place (every entry written: no copy of the whole).
+    #[inline(always)]
+    pub fn set(&mut self, model: &YawPitch<S>, q: &[S; 4]) {
+        let Self { angle, sin, cos } = self;
+        angle[0] = q[0] + model.offset[0];
         angle[1] = model.sign[1] * (q[1] + model.offset[1]);
         for j in 2..4 {
             angle[j] = angle[j - 1] + model.sign[j] * (q[j] + model.offset[j]);
         }
-        let mut sin = [S::splat(0.0); 4];
-        let mut cos = [S::splat(1.0); 4];
+        (sin[0], cos[0]) = (S::splat(0.0), S::splat(1.0));
         for j in 1..4 {
             (sin[j], cos[j]) = angle[j].sin_cos();
         }
-        Self { angle, sin, cos }
     }
 
     /// The same for the joints moved by `delta` (rad): the pitches by angle addition with the
@@ -252,6 +259,14 @@ impl<S: Real> Angles<S> {
     #[inline(always)]
     pub fn shifted(&self, model: &YawPitch<S>, delta: &[S; 4]) -> Self {
         let mut out = *self;
+        self.shift_into(model, delta, &mut out);
+        out
+    }
+
+    /// [`Angles::shifted`] into `out` (every entry written: no copy of the whole).
+    #[inline(always)]
+    pub fn shift_into(&self, model: &YawPitch<S>, delta: &[S; 4], out: &mut Self) {
+        (out.sin[0], out.cos[0]) = (self.sin[0], self.cos[0]);
         out.angle[0] = self.angle[0] + delta[0];
         let mut step = S::splat(0.0);
         for j in 1..4 {
@@ -270,7 +285,6 @@ impl<S: Real> Angles<S> {
                     S::from_fn(|i| if small(i) { cos.lane(i) } else { crate::lanes::sin_cos(angle.lane(i)).1 });
             }
         }
-        out
     }
 }
 
@@ -340,15 +354,23 @@ impl<S: Real> Configuration<S> {
     /// [`Configuration::new`] in place: scratch refilled every stage without moving it.
     #[inline(always)]
     pub fn set(&mut self, model: &YawPitch<S>, angles: Angles<S>) {
-        self.set_mass_matrix(model, angles);
+        self.angles = angles;
+        self.refresh(model);
+    }
+
+    /// Everything of [`Configuration::set`] from the angles already in `self.angles` (written
+    /// in place by [`Angles::set`] or [`Angles::shift_into`], without a copy).
+    #[inline(always)]
+    pub fn refresh(&mut self, model: &YawPitch<S>) {
+        self.refresh_mass_matrix(model);
         self.factor.set(&self.mass_matrix);
     }
 
-    /// [`Configuration::set`] without the factor, which is left as it was: for `M`, the bias
-    /// and the tip alone (a controller's terms), not for accelerations.
+    /// [`Configuration::refresh`] without the factor, which is left as it was: for `M`, the
+    /// bias and the tip alone (a controller's terms), not for accelerations.
     #[inline(always)]
-    pub fn set_mass_matrix(&mut self, model: &YawPitch<S>, angles: Angles<S>) {
-        self.angles = angles;
+    pub fn refresh_mass_matrix(&mut self, model: &YawPitch<S>) {
+        let angles = &self.angles;
         self.point[0] = [S::splat(0.0); 3];
         self.point[1] = model.shoulder;
         self.com[0] = model.com[0];

@@ -266,7 +266,7 @@ impl<const N: usize> Sensors<N> {
 #[inline(always)]
 fn round(x: f64) -> f64 {
     const WHOLE_FROM: f64 = 4_503_599_627_370_496.0; // 2⁵²
-    // Whole already, or ±∞ or NaN (which compares false).
+    // Whole already, ±∞ or NaN.
     if x.abs() >= WHOLE_FROM || x.is_nan() {
         return x;
     }

@@ -37,7 +37,8 @@ impl<S: Real> Start<S> {
     /// [`Start::new`] in place.
     #[inline(always)]
     pub fn set(&mut self, model: &YawPitch<S>, state: &State<S>) {
-        self.configuration.set(model, Angles::new(model, &state.q));
+        self.configuration.angles.set(model, &state.q);
+        self.configuration.refresh(model);
         self.bias = self.configuration.bias(model, &state.qd);
     }
 
@@ -45,7 +46,8 @@ impl<S: Real> Start<S> {
     /// a controller's terms; not a start to [`step`] from.
     #[inline(always)]
     pub fn set_terms(&mut self, model: &YawPitch<S>, state: &State<S>) {
-        self.configuration.set_mass_matrix(model, Angles::new(model, &state.q));
+        self.configuration.angles.set(model, &state.q);
+        self.configuration.refresh_mass_matrix(model);
         self.bias = self.configuration.bias(model, &state.qd);
     }
 }
@@ -80,7 +82,8 @@ fn stage<S: Real, const L: usize>(
     at: &[S; 4],
     failures: &mut Failures<L>,
 ) {
-    scratch.set(model, start.angles.shifted(model, &difference(at, q)));
+    start.angles.shift_into(model, &difference(at, q), &mut scratch.angles);
+    scratch.refresh(model);
     let new = scratch.factor.failed_lanes() & !failures.lanes;
     if new != 0 {
         for lane in (0..S::LANES).filter(|lane| new & (1 << lane) != 0) {
