@@ -512,53 +512,62 @@ fn newton_euler<S: Real, const ACCELERATION: bool>(
     qdd: &[S; 4],
 ) -> [S; 4] {
     let zero = S::splat(0.0);
-    let mut force = [[zero; 3]; 4];
-    let mut moment = [[zero; 3]; 4];
     // ω = (0, w, r), α = (ax, ay, az); the acceleration of the current joint point.
     let (mut w, mut r) = (zero, zero);
     let (mut ax, mut ay, mut az) = (zero, zero, zero);
     let mut point_acceleration = [zero, zero, -model.gravity_z];
-    for j in 0..4 {
-        if j > 0 {
+    // Each body's force and moment, base to tip, as the array's elements are evaluated (in
+    // order): zero-filled arrays written in a loop cost a `memset` call each at 8 lanes, and
+    // `array::from_fn`'s closure is not unrolled.
+    macro_rules! body {
+        ($j:literal) => {{
+            let j: usize = $j;
+            if j > 0 {
+                let norm2 = w * w + r * r;
+                let lever = sub(&at.point[j], &at.point[j - 1]);
+                let spin =
+                    if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
+                let turn = centripetal(w, r, norm2, &lever);
+                point_acceleration = add(&point_acceleration, &add(&spin, &turn));
+                ax -= model.sign[j] * qd[j] * r;
+                if ACCELERATION {
+                    ay += model.sign[j] * qdd[j];
+                }
+                w += model.sign[j] * qd[j];
+            } else {
+                if ACCELERATION {
+                    az += qdd[0];
+                }
+                r = qd[0];
+            }
             let norm2 = w * w + r * r;
-            let lever = sub(&at.point[j], &at.point[j - 1]);
+            let lever = sub(&at.com[j], &at.point[j]);
             let spin =
                 if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
-            let turn = centripetal(w, r, norm2, &lever);
-            point_acceleration = add(&point_acceleration, &add(&spin, &turn));
-            ax -= model.sign[j] * qd[j] * r;
-            if ACCELERATION {
-                ay += model.sign[j] * qdd[j];
-            }
-            w += model.sign[j] * qd[j];
-        } else {
-            if ACCELERATION {
-                az += qdd[0];
-            }
-            r = qd[0];
-        }
-        let norm2 = w * w + r * r;
-        let lever = sub(&at.com[j], &at.point[j]);
-        let spin = if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
-        let com_acceleration = add(&point_acceleration, &add(&spin, &centripetal(w, r, norm2, &lever)));
-        let m = model.mass[j];
-        let f = [com_acceleration[0] * m, com_acceleration[1] * m, com_acceleration[2] * m];
-        let i = &at.inertia[j];
-        let angular = if ACCELERATION {
-            [i.xx * ax + i.xy * ay + i.xz * az, i.xy * ax + i.yy * ay + i.yz * az, i.xz * ax + i.yz * ay + i.zz * az]
-        } else {
-            [i.xx * ax, i.xy * ax, i.xz * ax]
-        };
-        let spun = [i.xy * w + i.xz * r, i.yy * w + i.yz * r, i.yz * w + i.zz * r];
-        let gyroscopic = [w * spun[2] - r * spun[1], r * spun[0], -(w * spun[0])];
-        force[j] = f;
-        moment[j] = add(&cross(&at.com[j], &f), &add(&angular, &gyroscopic));
+            let com_acceleration = add(&point_acceleration, &add(&spin, &centripetal(w, r, norm2, &lever)));
+            let m = model.mass[j];
+            let f = [com_acceleration[0] * m, com_acceleration[1] * m, com_acceleration[2] * m];
+            let i = &at.inertia[j];
+            let angular = if ACCELERATION {
+                [
+                    i.xx * ax + i.xy * ay + i.xz * az,
+                    i.xy * ax + i.yy * ay + i.yz * az,
+                    i.xz * ax + i.yz * ay + i.zz * az,
+                ]
+            } else {
+                [i.xx * ax, i.xy * ax, i.xz * ax]
+            };
+            let spun = [i.xy * w + i.xz * r, i.yy * w + i.yz * r, i.yz * w + i.zz * r];
+            let gyroscopic = [w * spun[2] - r * spun[1], r * spun[0], -(w * spun[0])];
+            (f, add(&cross(&at.com[j], &f), &add(&angular, &gyroscopic)))
+        }};
     }
+    let body: [([S; 3], [S; 3]); 4] = [body!(0), body!(1), body!(2), body!(3)];
     let mut torque = [zero; 4];
     let (mut total_force, mut total_moment) = ([zero; 3], [zero; 3]);
     for j in (0..4).rev() {
-        total_force = add(&total_force, &force[j]);
-        total_moment = add(&total_moment, &moment[j]);
+        total_force = add(&total_force, &body[j].0);
+        total_moment = add(&total_moment, &body[j].1);
         torque[j] = if j == 0 {
             total_moment[2]
         } else {
