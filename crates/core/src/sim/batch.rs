@@ -191,32 +191,21 @@ fn lanes_of<const L: usize>(values: [[f64; 4]; L]) -> [Lanes<L>; 4] {
     std::array::from_fn(|j| Lanes(std::array::from_fn(|i| values[i][j])))
 }
 
-/// The dynamics at the lanes' states, into `start`, compiled for `level`.
+/// The dynamics at the lanes' states, into `start`, compiled for `level`: with the factor of
+/// `M` for a plant's start, or (`with_factor` false) `M` and the bias alone for controllers'
+/// terms ([`Start::set_terms`]).
 fn set_start<const L: usize>(
     level: SimdLevel,
     model: &YawPitch<Lanes<L>>,
     start: &mut Start<Lanes<L>>,
     state: &State<Lanes<L>>,
+    with_factor: bool,
 ) {
     // `inline(always)`: the closure's body is compiled inside pulp's function for the level,
     // with its instructions; a closure of its own would get the baseline's.
     level.run(
         #[inline(always)]
-        || start.set(model, state),
-    );
-}
-
-/// `M` and the bias at the lanes' states ([`Start::set_terms`]: no factor), compiled for
-/// `level`.
-fn set_terms<const L: usize>(
-    level: SimdLevel,
-    model: &YawPitch<Lanes<L>>,
-    start: &mut Start<Lanes<L>>,
-    state: &State<Lanes<L>>,
-) {
-    level.run(
-        #[inline(always)]
-        || start.set_terms(model, state),
+        || if with_factor { start.set(model, state) } else { start.set_terms(model, state) },
     );
 }
 
@@ -331,10 +320,10 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             }
         }
         if wants_terms != 0 {
-            set_terms(level, &controller_fast, &mut controller_start, &lane_state(&seen));
+            set_start(level, &controller_fast, &mut controller_start, &lane_state(&seen), false);
         }
         let state = lane_state(&states);
-        set_start(level, &fast, &mut start, &state);
+        set_start(level, &fast, &mut start, &state, true);
         let tip = start.configuration.tip_in_base();
         let mut active = 0;
         let not_positive_definite = start.configuration.factor.failed_lanes();
