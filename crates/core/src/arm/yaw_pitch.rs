@@ -321,12 +321,16 @@ fn centripetal<S: Real>(w: S, r: S, norm2: S, v: &[S; 3]) -> [S; 3] {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Configuration<S> {
     pub angles: Angles<S>,
-    /// `p_j`: a point on joint j's axis (`p₀ = 0`), m.
-    pub point: [[S; 3]; 4],
+    /// `p_j`: a point on joint j's axis, m, for j = 2, 3 only: `p₀ = 0` and `p₁ = o₀` (the
+    /// model's `shoulder`) are constants, read from the model rather than copied here.
+    point: [[S; 3]; 4],
     /// The tool tip in `Y`, m.
     pub tip: [S; 3],
-    pub com: [[S; 3]; 4],
-    pub inertia: [Sym<S>; 4],
+    /// The centres of mass (m) and inertias (kg·m²) in `Y` of bodies 1..3; body 0's and every
+    /// `yy` entry are constants, read from the model ([`Configuration::com_of`],
+    /// [`Configuration::inertia_of`]), so these entries are not written.
+    com: [[S; 3]; 4],
+    inertia: [Sym<S>; 4],
     /// `M(q)`, both triangles, kg·m².
     pub mass_matrix: [[S; 4]; 4],
     pub factor: Factor<S>,
@@ -370,36 +374,61 @@ impl<S: Real> Configuration<S> {
     /// bias and the tip alone (a controller's terms), not for accelerations.
     #[inline(always)]
     pub fn refresh_mass_matrix(&mut self, model: &YawPitch<S>) {
-        let angles = &self.angles;
-        self.point[0] = [S::splat(0.0); 3];
-        self.point[1] = model.shoulder;
-        self.com[0] = model.com[0];
-        self.inertia[0] = model.inertia[0];
-        for j in 1..4 {
-            let (s, c) = (angles.sin[j], angles.cos[j]);
-            let base = self.point[j];
-            self.com[j] = add(&base, &turn_y(s, c, &model.com[j]));
-            let next = add(&base, &turn_y(s, c, &model.link[j]));
-            if j < 3 {
-                self.point[j + 1] = next;
-            } else {
-                self.tip = next;
-            }
-            // R_y(φ) Î R_y(φ)ᵀ by the double angle (c₂, s₂) = (cos 2φ, sin 2φ).
-            let (c2, s2) = (c * c - s * s, S::splat(2.0) * s * c);
-            let body = &model.inertia[j];
-            let (mean, half) = (model.inertia_mean[j], model.inertia_half[j]);
-            let spin = half * c2 + body.xz * s2;
-            self.inertia[j] = Sym {
-                xx: mean + spin,
-                yy: body.yy,
-                zz: mean - spin,
-                xy: c * body.xy + s * body.yz,
-                xz: body.xz * c2 - half * s2,
-                yz: c * body.yz - s * body.xy,
-            };
+        let Self { angles, point, tip, com, inertia, .. } = self;
+        // Body by body (a macro, so that it is unrolled and every index is a constant), writing
+        // only the entries that move with the configuration.
+        macro_rules! body {
+            ($j:literal) => {{
+                let j: usize = $j;
+                let (s, c) = (angles.sin[j], angles.cos[j]);
+                let base = if j == 1 { model.shoulder } else { point[j] };
+                com[j] = add(&base, &turn_y(s, c, &model.com[j]));
+                let next = add(&base, &turn_y(s, c, &model.link[j]));
+                if j < 3 {
+                    point[j + 1] = next;
+                } else {
+                    *tip = next;
+                }
+                // R_y(φ) Î R_y(φ)ᵀ by the double angle (c₂, s₂) = (cos 2φ, sin 2φ); `yy` is Î's.
+                let (c2, s2) = (c * c - s * s, S::splat(2.0) * s * c);
+                let body = &model.inertia[j];
+                let (mean, half) = (model.inertia_mean[j], model.inertia_half[j]);
+                let spin = half * c2 + body.xz * s2;
+                let turned = &mut inertia[j];
+                turned.xx = mean + spin;
+                turned.zz = mean - spin;
+                turned.xy = c * body.xy + s * body.yz;
+                turned.xz = body.xz * c2 - half * s2;
+                turned.yz = c * body.yz - s * body.xy;
+            }};
         }
-        mass_matrix(model, &self.point, &self.com, &self.inertia, &mut self.mass_matrix);
+        body!(1);
+        body!(2);
+        body!(3);
+        mass_matrix(model, self);
+    }
+
+    /// `p_j`, m: the model's constants for j = 0, 1.
+    #[inline(always)]
+    fn point_of(&self, model: &YawPitch<S>, j: usize) -> [S; 3] {
+        match j {
+            0 => [S::splat(0.0); 3],
+            1 => model.shoulder,
+            _ => self.point[j],
+        }
+    }
+
+    /// Body j's centre of mass in `Y`, m.
+    #[inline(always)]
+    fn com_of<'a>(&'a self, model: &'a YawPitch<S>, j: usize) -> &'a [S; 3] {
+        if j == 0 { &model.com[0] } else { &self.com[j] }
+    }
+
+    /// Body j's inertia in `Y` about its centre of mass, kg·m², but for its `yy` entry, which is
+    /// [`YawPitch::inertia`]'s (`R_y` leaves it alone).
+    #[inline(always)]
+    fn inertia_of<'a>(&'a self, model: &'a YawPitch<S>, j: usize) -> &'a Sym<S> {
+        if j == 0 { &model.inertia[0] } else { &self.inertia[j] }
     }
 
     /// The tool tip in the base frame, m: `R_z(ψ)` of the tip in `Y`.
@@ -458,48 +487,52 @@ fn friction<S: Real>(model: &YawPitch<S>, qd: &[S; 4]) -> [S; 4] {
     })
 }
 
-/// The composite-rigid-body mass matrix of the module's equations.
+/// The composite-rigid-body mass matrix of the module's equations, into `at.mass_matrix`.
 #[inline(always)]
-fn mass_matrix<S: Real>(
-    model: &YawPitch<S>,
-    point: &[[S; 3]; 4],
-    com: &[[S; 3]; 4],
-    inertia: &[Sym<S>; 4],
-    matrix: &mut [[S; 4]; 4],
-) {
+fn mass_matrix<S: Real>(model: &YawPitch<S>, at: &mut Configuration<S>) {
     let zero = S::splat(0.0);
     let mut mass = zero;
     let mut h = [zero; 3];
     let (mut iyy, mut iyz, mut izz) = (zero, zero, zero);
-    for j in (0..4).rev() {
-        let m = model.mass[j];
-        let c = &com[j];
-        mass += m;
-        let weighted = [c[0] * m, c[1] * m, c[2] * m];
-        h = add(&h, &weighted);
-        iyy += inertia[j].yy + (weighted[0] * c[0] + weighted[2] * c[2]);
-        iyz += inertia[j].yz - weighted[1] * c[2];
-        izz += inertia[j].zz + (weighted[0] * c[0] + weighted[1] * c[1]);
-        if j == 0 {
-            matrix[0][0] = izz + model.rotor[0];
-            break;
-        }
-        let p = &point[j];
-        let sign = model.sign[j];
-        let force_x = sign * (h[2] - mass * p[2]);
-        let force_z = sign * (mass * p[0] - h[0]);
-        let moment_y = sign * (iyy - h[0] * p[0] - h[2] * p[2]);
-        let moment_z = sign * (iyz + h[1] * p[2]);
-        for i in 1..j + 1 {
-            let pi = &point[i];
-            let value = model.sign[i] * (moment_y - pi[2] * force_x + pi[0] * force_z);
-            matrix[i][j] = value;
-            matrix[j][i] = value;
-        }
-        matrix[0][j] = moment_z;
-        matrix[j][0] = moment_z;
-        matrix[j][j] += model.rotor[j];
+    // Tip to base, unrolled by a macro so that every index is a constant; every entry of `M` is
+    // written (in place: no copy of the whole).
+    macro_rules! body {
+        ($j:literal) => {{
+            let j: usize = $j;
+            let m = model.mass[j];
+            let c = *at.com_of(model, j);
+            mass += m;
+            let weighted = [c[0] * m, c[1] * m, c[2] * m];
+            h = add(&h, &weighted);
+            let (yz, zz) = (at.inertia_of(model, j).yz, at.inertia_of(model, j).zz);
+            iyy += model.inertia[j].yy + (weighted[0] * c[0] + weighted[2] * c[2]);
+            iyz += yz - weighted[1] * c[2];
+            izz += zz + (weighted[0] * c[0] + weighted[1] * c[1]);
+            if j == 0 {
+                at.mass_matrix[0][0] = izz + model.rotor[0];
+            } else {
+                let p = at.point_of(model, j);
+                let sign = model.sign[j];
+                let force_x = sign * (h[2] - mass * p[2]);
+                let force_z = sign * (mass * p[0] - h[0]);
+                let moment_y = sign * (iyy - h[0] * p[0] - h[2] * p[2]);
+                let moment_z = sign * (iyz + h[1] * p[2]);
+                for i in 1..j + 1 {
+                    let pi = at.point_of(model, i);
+                    let value = model.sign[i] * (moment_y - pi[2] * force_x + pi[0] * force_z);
+                    let value = if i == j { value + model.rotor[j] } else { value };
+                    at.mass_matrix[i][j] = value;
+                    at.mass_matrix[j][i] = value;
+                }
+                at.mass_matrix[0][j] = moment_z;
+                at.mass_matrix[j][0] = moment_z;
+            }
+        }};
     }
+    body!(3);
+    body!(2);
+    body!(1);
+    body!(0);
 }
 
 /// Recursive Newton–Euler in `Y`, sparse as the module explains; `ACCELERATION = false` leaves
@@ -524,7 +557,7 @@ fn newton_euler<S: Real, const ACCELERATION: bool>(
             let j: usize = $j;
             if j > 0 {
                 let norm2 = w * w + r * r;
-                let lever = sub(&at.point[j], &at.point[j - 1]);
+                let lever = sub(&at.point_of(model, j), &at.point_of(model, j - 1));
                 let spin =
                     if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
                 let turn = centripetal(w, r, norm2, &lever);
@@ -541,25 +574,23 @@ fn newton_euler<S: Real, const ACCELERATION: bool>(
                 r = qd[0];
             }
             let norm2 = w * w + r * r;
-            let lever = sub(&at.com[j], &at.point[j]);
+            let com = at.com_of(model, j);
+            let lever = sub(com, &at.point_of(model, j));
             let spin =
                 if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
             let com_acceleration = add(&point_acceleration, &add(&spin, &centripetal(w, r, norm2, &lever)));
             let m = model.mass[j];
             let f = [com_acceleration[0] * m, com_acceleration[1] * m, com_acceleration[2] * m];
-            let i = &at.inertia[j];
+            let i = at.inertia_of(model, j);
+            let yy = model.inertia[j].yy;
             let angular = if ACCELERATION {
-                [
-                    i.xx * ax + i.xy * ay + i.xz * az,
-                    i.xy * ax + i.yy * ay + i.yz * az,
-                    i.xz * ax + i.yz * ay + i.zz * az,
-                ]
+                [i.xx * ax + i.xy * ay + i.xz * az, i.xy * ax + yy * ay + i.yz * az, i.xz * ax + i.yz * ay + i.zz * az]
             } else {
                 [i.xx * ax, i.xy * ax, i.xz * ax]
             };
-            let spun = [i.xy * w + i.xz * r, i.yy * w + i.yz * r, i.yz * w + i.zz * r];
+            let spun = [i.xy * w + i.xz * r, yy * w + i.yz * r, i.yz * w + i.zz * r];
             let gyroscopic = [w * spun[2] - r * spun[1], r * spun[0], -(w * spun[0])];
-            (f, add(&cross(&at.com[j], &f), &add(&angular, &gyroscopic)))
+            (f, add(&cross(com, &f), &add(&angular, &gyroscopic)))
         }};
     }
     let body: [([S; 3], [S; 3]); 4] = [body!(0), body!(1), body!(2), body!(3)];
@@ -571,7 +602,7 @@ fn newton_euler<S: Real, const ACCELERATION: bool>(
         torque[j] = if j == 0 {
             total_moment[2]
         } else {
-            let p = &at.point[j];
+            let p = at.point_of(model, j);
             model.sign[j] * (total_moment[1] - p[2] * total_force[0] + p[0] * total_force[2])
         };
         if ACCELERATION {
