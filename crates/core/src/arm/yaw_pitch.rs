@@ -231,7 +231,7 @@ pub struct Angles<S> {
 }
 
 impl<S: Real> Angles<S> {
-    /// At joint angles `q`; the yaw's sine and cosine are left to [`Configuration::tip`].
+    /// At joint angles `q`; the yaw's sine and cosine are left to [`Configuration::tip_in_base`].
     #[inline(always)]
     pub fn new(model: &YawPitch<S>, q: &[S; 4]) -> Self {
         let mut angles = Self { angle: [S::splat(0.0); 4], sin: [S::splat(0.0); 4], cos: [S::splat(1.0); 4] };
