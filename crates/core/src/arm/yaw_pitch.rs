@@ -627,23 +627,32 @@ impl<S: Real> Factor<S> {
     pub fn set(&mut self, matrix: &[[S; 4]; 4]) {
         let zero = S::splat(0.0);
         let Self { lower, pivot, inverse_pivot } = self;
-        for j in 0..4 {
-            let mut scaled_row = [zero; 4];
-            let mut d = matrix[j][j];
-            for k in 0..j {
-                scaled_row[k] = lower[j][k] * pivot[k];
-                d -= lower[j][k] * scaled_row[k];
-            }
-            pivot[j] = d;
-            inverse_pivot[j] = S::splat(1.0) / d;
-            for i in j + 1..4 {
-                let mut entry = matrix[i][j];
+        // Column by column, unrolled by a macro: a loop over the columns stayed a loop, its
+        // stores waiting on each division with the next column's loads behind them.
+        macro_rules! column {
+            ($j:literal) => {{
+                let j: usize = $j;
+                let mut scaled_row = [zero; 4];
+                let mut d = matrix[j][j];
                 for k in 0..j {
-                    entry -= lower[i][k] * scaled_row[k];
+                    scaled_row[k] = lower[j][k] * pivot[k];
+                    d -= lower[j][k] * scaled_row[k];
                 }
-                lower[i][j] = entry * inverse_pivot[j];
-            }
+                pivot[j] = d;
+                inverse_pivot[j] = S::splat(1.0) / d;
+                for i in j + 1..4 {
+                    let mut entry = matrix[i][j];
+                    for k in 0..j {
+                        entry -= lower[i][k] * scaled_row[k];
+                    }
+                    lower[i][j] = entry * inverse_pivot[j];
+                }
+            }};
         }
+        column!(0);
+        column!(1);
+        column!(2);
+        column!(3);
     }
 
     /// Whether lane `lane` was positive definite: every pivot > 0 (NaN fails) with a finite
