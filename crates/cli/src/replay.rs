@@ -22,6 +22,7 @@ use chessarm_core::arm::model::ArmModel;
 use chessarm_core::nalgebra::Vector3;
 use chessarm_core::sim::StepRecord;
 use serde_json::{Value, json};
+use std::io::Write;
 use std::path::Path;
 
 /// The vendored three.js release (see `assets/three/README.md`).
@@ -348,18 +349,52 @@ pub fn replay_json(replay: &Replay<'_>) -> ReplayData {
     ReplayData { scene, runs: replay.runs.iter().map(|r| run_json(r, replay.table, replay.tolerance)).collect() }
 }
 
-/// The whole page: the viewer with three.js and the data filled in.
-pub fn replay_html(replay: &Replay<'_>) -> String {
-    // In a <script> element only "</script" (and "<!--") can end or disturb the text: JSON
-    // escapes every '<'; the three.js files hold neither (tested).
-    let data = serde_json::to_string(&replay_json(replay))
-        .unwrap_or_else(|_| unreachable!("the replay's data has string keys and finite numbers"))
-        .replace('<', "\\u003c");
-    VIEWER
-        .replacen("/*THREE_CORE*/", THREE_CORE, 1)
-        .replacen("/*THREE_MODULE*/", THREE_MODULE, 1)
-        .replacen("/*CHESSARM_DATA*/", &data, 1)
-        .replacen("<!--TITLE-->", &html_escape(&replay.title), 1)
+/// The viewer's slots, in the order they appear in `assets/replay.html` (each once).
+const SLOTS: [&str; 4] = ["<!--TITLE-->", "/*THREE_CORE*/", "/*THREE_MODULE*/", "/*CHESSARM_DATA*/"];
+
+/// Writes the whole page to `out`: the viewer with the title, three.js and the data filled in,
+/// streamed (the data's JSON is never held as text, nor the page).
+///
+/// In a `<script>` element only `</script` (and `<!--`) can end or disturb the text: the data's
+/// every `<` is written as `\u003c` (JSON's escape for it); the three.js files hold neither
+/// (tested).
+pub fn write_replay_html(out: &mut dyn Write, replay: &Replay<'_>) -> Result<()> {
+    let mut rest = VIEWER;
+    for slot in SLOTS {
+        let (before, after) =
+            rest.split_once(slot).unwrap_or_else(|| unreachable!("the viewer has its slots in order (tested)"));
+        out.write_all(before.as_bytes())?;
+        match slot {
+            "<!--TITLE-->" => out.write_all(html_escape(&replay.title).as_bytes())?,
+            "/*THREE_CORE*/" => out.write_all(THREE_CORE.as_bytes())?,
+            "/*THREE_MODULE*/" => out.write_all(THREE_MODULE.as_bytes())?,
+            _ => serde_json::to_writer(EscapeLessThan(&mut *out), &replay_json(replay))?,
+        }
+        rest = after;
+    }
+    out.write_all(rest.as_bytes())?;
+    Ok(())
+}
+
+/// A writer that passes its bytes on with every `<` as `\u003c`. `<` is ASCII, so it is never
+/// part of a longer UTF-8 sequence, and inside the JSON text it can only be in a string, where
+/// the escape means the same character.
+struct EscapeLessThan<'w>(&'w mut dyn Write);
+
+impl Write for EscapeLessThan<'_> {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        for (k, part) in bytes.split(|b| *b == b'<').enumerate() {
+            if k > 0 {
+                self.0.write_all(b"\\u003c")?;
+            }
+            self.0.write_all(part)?;
+        }
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
 }
 
 fn html_escape(text: &str) -> String {
@@ -368,8 +403,7 @@ fn html_escape(text: &str) -> String {
 
 /// Writes `replay.html` at `path` (temporary file, then rename).
 pub fn write_replay(path: &Path, replay: &Replay<'_>) -> Result<()> {
-    let html = replay_html(replay);
-    write_atomic(path, |out| Ok(out.write_all(html.as_bytes())?))
+    write_atomic(path, |out| write_replay_html(out, replay))
 }
 
 #[cfg(test)]
@@ -404,6 +438,67 @@ mod tests {
             THREE_CORE.contains(&format!("const t=\"{revision}\"")) && THREE_CORE.contains("t as REVISION"),
             "three.core is not r{revision}"
         );
+    }
+
+    /// The streamed page equals the page filled in as text (the viewer's slots replaced one by
+    /// one, the data's `<` escaped afterwards), for a title and names with `<`, `&` and `>`.
+    #[test]
+    fn the_streamed_page_is_the_viewer_with_its_slots_filled_in() {
+        let mut at = 0;
+        for slot in SLOTS {
+            assert_eq!(VIEWER.matches(slot).count(), 1, "{slot} once in the viewer");
+            let found = VIEWER.find(slot).unwrap_or_default();
+            assert!(found >= at, "{slot} after the slot before it");
+            at = found;
+        }
+        let arm = chessarm_core::arm::preset::report_arm();
+        let board = BoardGeometry::default();
+        let pieces = PieceSet::default();
+        let table = Table::from_position(board, &chessarm_chess::shakmaty::Chess::default());
+        let frame = |k: usize| Frame {
+            t: k as f64 * 0.02,
+            q: [0.1 * k as f64, -0.2, 0.3, 1e-6 * k as f64],
+            qd: [0.5, -0.25, 0.0, 2.0],
+            tip_desired: Vector3::new(0.2, -0.1, 0.05 + 1e-3 * k as f64),
+            tip_error: 1e-4 * k as f64,
+        };
+        let moves = vec![ReplayMove {
+            ply: 1,
+            number: "1.".into(),
+            san: "e4 <b>&</b>".into(),
+            uci: "e2e4".into(),
+            by: "robot",
+            start: 0.0,
+            end: 0.2,
+        }];
+        let replay = Replay {
+            title: "a <title> & more".into(),
+            arm: &arm,
+            board: &board,
+            pieces: &pieces,
+            table: &table,
+            tolerance: 0.005,
+            note: "</script><!-- note".into(),
+            runs: vec![ReplayRun {
+                name: "pd </script>".into(),
+                frames: (0..11).map(frame).collect(),
+                handled: Vec::new(),
+                moves,
+            }],
+        };
+        let data = serde_json::to_string(&replay_json(&replay)).unwrap_or_default().replace('<', "\\u003c");
+        let expected = VIEWER
+            .replacen("/*THREE_CORE*/", THREE_CORE, 1)
+            .replacen("/*THREE_MODULE*/", THREE_MODULE, 1)
+            .replacen("/*CHESSARM_DATA*/", &data, 1)
+            .replacen("<!--TITLE-->", &html_escape(&replay.title), 1);
+        let mut page = Vec::new();
+        assert!(write_replay_html(&mut page, &replay).is_ok());
+        assert!(page == expected.as_bytes(), "streamed page differs from the filled-in one");
+        let text = String::from_utf8(page).unwrap_or_default();
+        assert_eq!(text.matches("</script").count(), VIEWER.matches("</script").count(), "the data end no script");
+        assert!(text.contains("a &lt;title&gt; &amp; more"), "the title is escaped");
+        assert!(text.contains("pd \\u003c/script>"), "the data's < is escaped");
     }
 
     #[test]
