@@ -258,6 +258,8 @@ struct CovarianceStep {
     rate: bool,
     angle_gain: Vector3<f64>,
     rate_gain: Vector3<f64>,
+    /// The batch gain the two scalar updates amount to ([`JointKalman::gain`]).
+    gain: Matrix3x2<f64>,
     to: Matrix3<f64>,
 }
 
@@ -272,9 +274,10 @@ impl<const N: usize> PartialEq for Remembered<N> {
     }
 }
 
-/// Bit-for-bit equality (`+0 ≠ −0`, a NaN equals the same NaN).
+/// Bit-for-bit equality (`+0 ≠ −0`, a NaN equals the same NaN): no entry's bits differ, all
+/// nine compared without a branch.
 fn same_bits(a: &Matrix3<f64>, b: &Matrix3<f64>) -> bool {
-    a.iter().zip(b.iter()).all(|(a, b)| a.to_bits() == b.to_bits())
+    a.iter().zip(b.iter()).fold(0, |differ, (a, b)| differ | (a.to_bits() ^ b.to_bits())) == 0
 }
 
 impl<const N: usize> JointKalman<N> {
@@ -472,7 +475,7 @@ impl<const N: usize> JointKalman<N> {
     pub fn update(&mut self, measurement: &Measurement<N>, applied: &JointVector<N>) -> JointState<N> {
         let span = self.delay + 1;
         self.inputs[self.head] = applied.map(|u| if u.is_finite() { u } else { 0.0 });
-        self.head = (self.head + 1) % span;
+        self.head = if self.head + 1 == span { 0 } else { self.head + 1 };
         // Now `inputs[head]` is u_{k−δ−1}, and the next δ slots hold u_{k−δ} … u_{k−1}.
         let oldest = self.inputs[self.head];
         let mut out = JointState { q: JointVector::zeros(), qd: JointVector::zeros() };
@@ -486,28 +489,38 @@ impl<const N: usize> JointKalman<N> {
             let angle = angle.is_finite().then_some(angle);
             let (has_angle, has_rate) = (angle.is_some(), rate.is_some());
             let before = &self.p[j];
-            let known = self.remembered.0[j]
-                .iter()
-                .flatten()
-                .find(|step| step.angle == has_angle && step.rate == has_rate && same_bits(&step.from, before))
-                .copied();
-            let step = known.unwrap_or_else(|| self.covariance_step(j, has_angle, has_rate));
+            let slots = &self.remembered.0[j];
+            let known = |slot: &Option<CovarianceStep>| {
+                slot.as_ref().is_some_and(|step| {
+                    step.angle == has_angle && step.rate == has_rate && same_bits(&step.from, before)
+                })
+            };
+            let slot = if known(&slots[0]) {
+                0
+            } else if known(&slots[1]) {
+                1
+            } else {
+                self.covariance_step(j, has_angle, has_rate);
+                0
+            };
+            let Some(step) = &self.remembered.0[j][slot] else {
+                unreachable!("a remembered slot was found or just filled")
+            };
             self.p[j] = step.to;
-            let (angle_gain, rate_gain) = (step.angle_gain, step.rate_gain);
+            self.gain[j] = step.gain;
             let mut x = self.f * self.x[j] + self.g * oldest[j];
             if let Some(angle) = angle {
-                x += angle_gain * (angle - x[0]);
+                x += step.angle_gain * (angle - x[0]);
             }
             if let Some(rate) = rate {
-                x += rate_gain * (rate - x[1]);
+                x += step.rate_gain * (rate - x[1]);
             }
-            // The two scalar updates as one: x += k₁ r₁ + k₂ (r₂ − k₁[1] r₁).
-            self.gain[j].set_column(0, &(angle_gain - rate_gain * angle_gain[1]));
-            self.gain[j].set_column(1, &rate_gain);
             self.x[j] = x;
 
-            for i in 1..=self.delay {
-                x = self.f * x + self.g * self.inputs[(self.head + i) % span][j];
+            let mut at = self.head;
+            for _ in 0..self.delay {
+                at = if at + 1 == span { 0 } else { at + 1 };
+                x = self.f * x + self.g * self.inputs[at][j];
             }
             self.ahead[j] = x;
             out.q[j] = x[0];
@@ -518,17 +531,20 @@ impl<const N: usize> JointKalman<N> {
 
     /// Joint `j`'s covariance over one sample, with the angle and (`rate`) the rate reading or
     /// without: `P⁻ = F P Fᵀ + Q`, then a Joseph update per reading ([`scalar_gain`]); the
-    /// gain of a reading that did not arrive is zero. Remembers the step.
-    fn covariance_step(&mut self, j: usize, angle: bool, rate: bool) -> CovarianceStep {
+    /// gain of a reading that did not arrive is zero. Remembers the step (newest first).
+    fn covariance_step(&mut self, j: usize, angle: bool, rate: bool) {
         let from = self.p[j];
         let mut to = self.f * from * self.f.transpose() + self.q;
         let angle_gain = if angle { scalar_gain(&mut to, 0, self.angle_variance[j]) } else { Vector3::zeros() };
         let rate_gain = if rate { scalar_gain(&mut to, 1, self.rate_variance[j]) } else { Vector3::zeros() };
-        let step = CovarianceStep { from, angle, rate, angle_gain, rate_gain, to };
+        // The two scalar updates as one: x += k₁ r₁ + k₂ (r₂ − k₁[1] r₁).
+        let mut gain = Matrix3x2::zeros();
+        gain.set_column(0, &(angle_gain - rate_gain * angle_gain[1]));
+        gain.set_column(1, &rate_gain);
+        let step = CovarianceStep { from, angle, rate, angle_gain, rate_gain, gain, to };
         let remembered = &mut self.remembered.0[j];
         remembered[1] = remembered[0];
         remembered[0] = Some(step);
-        step
     }
 
     /// The estimate of the state now (the one [`JointKalman::update`] last returned; after a

@@ -175,6 +175,8 @@ impl<const N: usize> SensorProfile<N> {
 #[derive(Debug, Clone)]
 pub struct Sensors<const N: usize> {
     profile: SensorProfile<N>,
+    /// Per joint, the encoder's count, rad ([`EncoderSpec::resolution`]).
+    resolution: [f64; N],
     rng: SeededRng,
     /// The last `delay_samples + 1` readings, oldest at `head`.
     line: [Measurement<N>; MAX_DELAY_SAMPLES + 1],
@@ -195,7 +197,8 @@ impl<const N: usize> Sensors<N> {
 
     fn unchecked(profile: SensorProfile<N>, seed: u64) -> Self {
         let empty = Measurement { q: JointVector::zeros(), qd: None };
-        Self { profile, rng: SeededRng::new(seed), line: [empty; MAX_DELAY_SAMPLES + 1], head: 0 }
+        let resolution = std::array::from_fn(|j| profile.encoders[j].resolution());
+        Self { profile, resolution, rng: SeededRng::new(seed), line: [empty; MAX_DELAY_SAMPLES + 1], head: 0 }
     }
 
     pub fn profile(&self) -> &SensorProfile<N> {
@@ -224,7 +227,7 @@ impl<const N: usize> Sensors<N> {
         // The line holds the readings of the last delay + 1 samples: the newest replaces the
         // oldest, and the one after it, `delay` samples old, is the one due now.
         self.line[self.head] = reading;
-        self.head = (self.head + 1) % (delay + 1);
+        self.head = if self.head == delay { 0 } else { self.head + 1 };
         self.line[self.head]
     }
 
@@ -237,7 +240,7 @@ impl<const N: usize> Sensors<N> {
             q[j] = match encoder.counts_per_rev {
                 None => angle,
                 Some(_) => {
-                    let resolution = encoder.resolution();
+                    let resolution = self.resolution[j];
                     let noise = if encoder.noise_counts > 0.0 { encoder.noise_counts * self.rng.normal() } else { 0.0 };
                     resolution * round(angle / resolution + noise)
                 }
