@@ -349,8 +349,23 @@ pub fn replay_json(replay: &Replay<'_>) -> ReplayData {
     ReplayData { scene, runs: replay.runs.iter().map(|r| run_json(r, replay.table, replay.tolerance)).collect() }
 }
 
-/// The viewer's slots, in the order they appear in `assets/replay.html` (each once).
-const SLOTS: [&str; 4] = ["<!--TITLE-->", "/*THREE_CORE*/", "/*THREE_MODULE*/", "/*CHESSARM_DATA*/"];
+/// What fills one of the viewer's slots.
+#[derive(Debug, Clone, Copy)]
+enum Slot {
+    Title,
+    ThreeCore,
+    ThreeModule,
+    Data,
+}
+
+/// The viewer's slots and their markers, in the order they appear in `assets/replay.html`
+/// (each once; tested).
+const SLOTS: [(Slot, &str); 4] = [
+    (Slot::Title, "<!--TITLE-->"),
+    (Slot::ThreeCore, "/*THREE_CORE*/"),
+    (Slot::ThreeModule, "/*THREE_MODULE*/"),
+    (Slot::Data, "/*CHESSARM_DATA*/"),
+];
 
 /// Writes the whole page to `out`: the viewer with the title, three.js and the data filled in,
 /// streamed (the data's JSON is never held as text, nor the page).
@@ -360,15 +375,15 @@ const SLOTS: [&str; 4] = ["<!--TITLE-->", "/*THREE_CORE*/", "/*THREE_MODULE*/", 
 /// (tested).
 pub fn write_replay_html(out: &mut dyn Write, replay: &Replay<'_>) -> Result<()> {
     let mut rest = VIEWER;
-    for slot in SLOTS {
+    for (slot, marker) in SLOTS {
         let (before, after) =
-            rest.split_once(slot).unwrap_or_else(|| unreachable!("the viewer has its slots in order (tested)"));
+            rest.split_once(marker).unwrap_or_else(|| unreachable!("the viewer has its slots in order (tested)"));
         out.write_all(before.as_bytes())?;
         match slot {
-            "<!--TITLE-->" => out.write_all(html_escape(&replay.title).as_bytes())?,
-            "/*THREE_CORE*/" => out.write_all(THREE_CORE.as_bytes())?,
-            "/*THREE_MODULE*/" => out.write_all(THREE_MODULE.as_bytes())?,
-            _ => serde_json::to_writer(EscapeLessThan(&mut *out), &replay_json(replay))?,
+            Slot::Title => out.write_all(html_escape(&replay.title).as_bytes())?,
+            Slot::ThreeCore => out.write_all(THREE_CORE.as_bytes())?,
+            Slot::ThreeModule => out.write_all(THREE_MODULE.as_bytes())?,
+            Slot::Data => serde_json::to_writer(EscapeLessThan(&mut *out), &replay_json(replay))?,
         }
         rest = after;
     }
@@ -445,7 +460,7 @@ mod tests {
     #[test]
     fn the_streamed_page_is_the_viewer_with_its_slots_filled_in() {
         let mut at = 0;
-        for slot in SLOTS {
+        for (_, slot) in SLOTS {
             assert_eq!(VIEWER.matches(slot).count(), 1, "{slot} once in the viewer");
             let found = VIEWER.find(slot).unwrap_or_default();
             assert!(found >= at, "{slot} after the slot before it");
@@ -499,6 +514,40 @@ mod tests {
         assert_eq!(text.matches("</script").count(), VIEWER.matches("</script").count(), "the data end no script");
         assert!(text.contains("a &lt;title&gt; &amp; more"), "the title is escaped");
         assert!(text.contains("pd \\u003c/script>"), "the data's < is escaped");
+
+        // A write that fails once, anywhere in the page (in the title, in three.js, in the
+        // data, in the viewer's tail), fails the page: no error is swallowed, so no truncated
+        // page is written as if complete (the writer takes every later write, so a page whose
+        // error was dropped would come back Ok).
+        let data_at = expected.find(&data).unwrap_or_default();
+        let title_at = expected.find("a &lt;title").unwrap_or_default();
+        for fail_at in [0, title_at + 2, title_at + 400, data_at + 1, data_at + data.len() / 2, expected.len() - 1] {
+            let mut flaky = FailsOnce { written: 0, fail_at, failed: false };
+            assert!(write_replay_html(&mut flaky, &replay).is_err(), "a failed write at byte {fail_at} was swallowed");
+            assert!(flaky.failed, "byte {fail_at} reached");
+        }
+    }
+
+    /// A writer whose one write that would reach byte `fail_at` fails; every other write is taken.
+    struct FailsOnce {
+        written: usize,
+        fail_at: usize,
+        failed: bool,
+    }
+
+    impl Write for FailsOnce {
+        fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+            if !self.failed && self.written + bytes.len() > self.fail_at {
+                self.failed = true;
+                return Err(std::io::Error::other("disk full"));
+            }
+            self.written += bytes.len();
+            Ok(bytes.len())
+        }
+
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
     }
 
     #[test]
