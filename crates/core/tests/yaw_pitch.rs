@@ -12,7 +12,7 @@ use chessarm_core::arm::dynamics::{
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::yaw_pitch::YawPitch;
+use chessarm_core::arm::yaw_pitch::{Angles, Configuration, YawPitch};
 use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector3};
 use chessarm_core::sim::{Integrator, Plant};
 use proptest::prelude::*;
@@ -148,6 +148,29 @@ proptest! {
     ) {
         agree_at(&family_arm(&seed, down, reversed, tool_twist), q, qd, qdd)?;
     }
+}
+
+/// A configuration refilled with another model equals one built for that model (its entries
+/// that are the model's constants are not kept, so nothing of the first model is left to see),
+/// and gives the same mass matrix, bias and tip bits.
+#[test]
+fn a_configuration_set_with_another_model_is_that_models_configuration() {
+    let (a, b) = (report_arm(), asymmetric_arm());
+    let (fast_a, fast_b) = (*a.yaw_pitch().unwrap(), *b.yaw_pitch().unwrap());
+    let q = [0.3, -0.7, 1.1, -0.4];
+    let qd = [0.5, -1.0, 0.25, 2.0];
+    let mut reused = Configuration::new(&fast_a, Angles::new(&fast_a, &q));
+    reused.set(&fast_b, Angles::new(&fast_b, &q));
+    let fresh = Configuration::new(&fast_b, Angles::new(&fast_b, &q));
+    assert!(reused == fresh, "{reused:?}\n{fresh:?}");
+    assert_eq!(format!("{reused:?}"), format!("{fresh:?}"));
+    let bits = |c: &Configuration<f64>| {
+        let mut all: Vec<u64> = c.mass_matrix.iter().flatten().map(|v| v.to_bits()).collect();
+        all.extend(c.bias(&fast_b, &qd).iter().map(|v| v.to_bits()));
+        all.extend(c.tip_in_base().iter().map(|v| v.to_bits()));
+        all
+    };
+    assert_eq!(bits(&reused), bits(&fresh));
 }
 
 #[test]

@@ -255,7 +255,7 @@ impl<S: Real> Angles<S> {
     }
 
     /// The same for the joints moved by `delta` (rad): the pitches by angle addition with the
-    /// series of each step when it is below [`SERIES_STEP`], afresh otherwise (lane by lane).
+    /// series of each step when it is below `SERIES_STEP`, afresh otherwise (lane by lane).
     #[inline(always)]
     pub fn shifted(&self, model: &YawPitch<S>, delta: &[S; 4]) -> Self {
         let mut out = *self;
@@ -318,6 +318,11 @@ fn centripetal<S: Real>(w: S, r: S, norm2: S, v: &[S; 3]) -> [S; 3] {
 
 /// Everything about one configuration the dynamics needs: the angles, joint points, centres of
 /// mass and inertias in `Y`, the tool tip in `Y`, `M(q)` and its `L D Lᵀ` factor.
+///
+/// A configuration belongs to the model it was last set or refreshed with: its methods must be
+/// given that model (it holds only what moves with the angles, and reads the model's constants).
+/// The entries it does not hold stay zero, whatever the model, so two configurations of one
+/// model at the same angles are equal (and print the same) however they were reached.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Configuration<S> {
     pub angles: Angles<S>,
@@ -327,8 +332,8 @@ pub struct Configuration<S> {
     /// The tool tip in `Y`, m.
     pub tip: [S; 3],
     /// The centres of mass (m) and inertias (kg·m²) in `Y` of bodies 1..3; body 0's and every
-    /// `yy` entry are constants, read from the model ([`Configuration::com_of`],
-    /// [`Configuration::inertia_of`]), so these entries are not written.
+    /// `yy` entry are constants, read from the model (`com_of`, `inertia_of`), so these entries
+    /// are not written (zero from [`Configuration::new`] on).
     com: [[S; 3]; 4],
     inertia: [Sym<S>; 4],
     /// `M(q)`, both triangles, kg·m².
@@ -347,7 +352,7 @@ impl<S: Real> Configuration<S> {
             point: [[zero; 3]; 4],
             tip: [zero; 3],
             com: [[zero; 3]; 4],
-            inertia: model.inertia,
+            inertia: [Sym { xx: zero, yy: zero, zz: zero, xy: zero, xz: zero, yz: zero }; 4],
             mass_matrix: [[zero; 4]; 4],
             factor: Factor { lower: [[zero; 4]; 4], pivot: [zero; 4], inverse_pivot: [zero; 4] },
         };

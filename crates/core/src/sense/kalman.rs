@@ -751,6 +751,60 @@ mod tests {
         }
     }
 
+    /// A reset forgets everything of the run before: a filter that has run (inputs in its ring,
+    /// its gain and covariance moved by missing readings) and is then reset equals a new filter
+    /// reset to the same state, field by field (the ring of inputs zeroed, the head at 0, the
+    /// steady gain, the start's covariance), and the two give the same bits from then on; the
+    /// same for a reset to a given covariance.
+    #[test]
+    fn a_reset_filter_is_a_new_one() {
+        let angle_std = JointVector::<4>::from_fn(|j, _| 4e-4 * (j + 1) as f64);
+        let cases = [
+            (None, 2, KalmanSettings::DEFAULT),
+            (Some(JointVector::<4>::from_element(0.02)), 3, KalmanSettings::TWO_STATE),
+            (None, 0, KalmanSettings::DEFAULT),
+        ];
+        for (case, (rate_std, delay, settings)) in cases.into_iter().enumerate() {
+            let fresh = JointKalman::new(1e-3, angle_std, rate_std, delay, settings).unwrap();
+            let mut used = fresh.clone();
+            let mut rng = SeededRng::new(case as u64 + 11);
+            let reading = |rng: &mut SeededRng, k: usize| {
+                let q = JointVector::<4>::from_fn(|j, _| {
+                    if rng.unit() < 0.1 { f64::NAN } else { (k as f64 * 1e-2 + j as f64).sin() }
+                });
+                let qd = rate_std.map(|_| JointVector::<4>::from_fn(|j, _| (k as f64 * 1e-2 + j as f64).cos()));
+                (Measurement { q, qd }, JointVector::<4>::from_fn(|j, _| 3.0 + j as f64 + rng.normal()))
+            };
+            for k in 0..50 {
+                let (measurement, applied) = reading(&mut rng, k);
+                used.update(&measurement, &applied);
+            }
+            let start = JointState { q: JointVector::from_fn(|j, _| 0.1 * j as f64), qd: JointVector::repeat(-0.2) };
+            let mut again = fresh.clone();
+            used.reset(&start);
+            again.reset(&start);
+            assert!(used == again, "case {case}: reset after a run differs from a new filter's");
+            let mut p0 = Matrix3::identity() * 1e-6;
+            p0[(0, 1)] = 2e-7;
+            p0[(1, 0)] = 2e-7;
+            let (mut used_p, mut again_p) = (used.clone(), fresh.clone());
+            for k in 0..20 {
+                let (measurement, applied) = reading(&mut rng, k);
+                used_p.update(&measurement, &applied);
+            }
+            assert!(used_p.reset_with_covariance(&start, &p0).is_ok());
+            assert!(again_p.reset_with_covariance(&start, &p0).is_ok());
+            assert!(used_p == again_p, "case {case}: reset to a covariance after a run differs");
+            for k in 0..200 {
+                let (measurement, applied) = reading(&mut rng, k);
+                let bits = |s: JointState<4>| s.q.iter().chain(s.qd.iter()).map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(used.update(&measurement, &applied)), bits(again.update(&measurement, &applied)));
+                let (a, b) = (used_p.update(&measurement, &applied), again_p.update(&measurement, &applied));
+                assert_eq!(bits(a), bits(b), "case {case}, sample {k}");
+            }
+        }
+    }
+
     /// The remembered covariance steps change no bit: a filter that keeps it and one that forgets it
     /// before every sample give the same estimates, gains and covariances, through readings
     /// that go missing (NaN) now and then after the covariance has settled, with and without a

@@ -3,7 +3,7 @@
 //!
 //! The plant of every lane steps on the structured dynamics ([`super::structured`] with
 //! `S = Lanes<L>`); each lane keeps its own controller, sensors, estimator, torque hold, motor
-//! lag, payload events and metrics ([`super::closed_loop::Run`], the scalar simulator's own
+//! lag, payload events and metrics (`closed_loop::Run`, the scalar simulator's own
 //! code). A lane that finishes or fails is masked — its state frozen, its result kept — while
 //! the others go on. Each lane's [`SimSummary`] equals what [`super::simulate_sensed`] computes
 //! for the same run, bit for bit, at every lane count and SIMD level: the kernels are the same
