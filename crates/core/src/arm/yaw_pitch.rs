@@ -430,7 +430,7 @@ impl<S: Real> Configuration<S> {
     }
 
     /// Body j's inertia in `Y` about its centre of mass, kg·m², but for its `yy` entry, which is
-    /// [`YawPitch::inertia`]'s (`R_y` leaves it alone).
+    /// not kept here (zero): `R_y` leaves it alone, so it is [`YawPitch::inertia`]'s.
     #[inline(always)]
     fn inertia_of<'a>(&'a self, model: &'a YawPitch<S>, j: usize) -> &'a Sym<S> {
         if j == 0 { &model.inertia[0] } else { &self.inertia[j] }

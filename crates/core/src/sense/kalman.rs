@@ -257,8 +257,8 @@ struct CovarianceStep {
     angle: bool,
     rate: bool,
     angle_gain: Vector3<f64>,
-    rate_gain: Vector3<f64>,
-    /// The batch gain the two scalar updates amount to ([`JointKalman::gain`]).
+    /// The batch gain the two scalar updates amount to ([`JointKalman::gain`]); its second
+    /// column is the rate reading's gain.
     gain: Matrix3x2<f64>,
     to: Matrix3<f64>,
 }
@@ -513,7 +513,7 @@ impl<const N: usize> JointKalman<N> {
                 x += step.angle_gain * (angle - x[0]);
             }
             if let Some(rate) = rate {
-                x += step.rate_gain * (rate - x[1]);
+                x += step.gain.column(1) * (rate - x[1]);
             }
             self.x[j] = x;
 
@@ -541,7 +541,7 @@ impl<const N: usize> JointKalman<N> {
         let mut gain = Matrix3x2::zeros();
         gain.set_column(0, &(angle_gain - rate_gain * angle_gain[1]));
         gain.set_column(1, &rate_gain);
-        let step = CovarianceStep { from, angle, rate, angle_gain, rate_gain, gain, to };
+        let step = CovarianceStep { from, angle, rate, angle_gain, gain, to };
         let remembered = &mut self.remembered.0[j];
         remembered[1] = remembered[0];
         remembered[0] = Some(step);
