@@ -39,6 +39,37 @@ pub trait Real:
     fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
     /// `(sin x, cos x)` by [`sin_cos`], lane by lane.
     fn sin_cos(self) -> (Self, Self);
+    /// `f` of each lane (one IEEE operation of `f64`'s for a result equal bit for bit).
+    #[inline(always)]
+    fn each(self, f: impl Fn(f64) -> f64) -> Self {
+        Self::from_fn(|i| f(self.lane(i)))
+    }
+    /// `f(a, b)` of each lane pair.
+    #[inline(always)]
+    fn each2(self, other: Self, f: impl Fn(f64, f64) -> f64) -> Self {
+        Self::from_fn(|i| f(self.lane(i), other.lane(i)))
+    }
+    /// `|x|`, lane by lane.
+    #[inline(always)]
+    fn abs(self) -> Self {
+        self.each(f64::abs)
+    }
+    /// `√x` (IEEE, correctly rounded), lane by lane.
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        self.each(f64::sqrt)
+    }
+    /// `f64::max` of each lane pair (a NaN loses to a number).
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        self.each2(other, f64::max)
+    }
+    /// `a` where `a ≥ b`, else `b`, lane by lane: nalgebra's `sup` (a NaN in `a` gives `b`,
+    /// in `b` gives `b`; `+0` against `−0` keeps `a`), which the scalar metrics use.
+    #[inline(always)]
+    fn sup(self, other: Self) -> Self {
+        self.each2(other, |a, b| if a >= b { a } else { b })
+    }
     /// `(sin δ, cos δ)` of a small angle by [`small_angle_sin_cos`] (|δ| ≤ 0.05 rad).
     fn small_sin_cos(self) -> (Self, Self) {
         let d2 = self * self;

@@ -318,3 +318,105 @@ fn a_run_with_a_nan_time_step_gets_the_scalar_simulators_error() {
     let batched = simulate_lanes(&mut runs, LaneCount::Eight, SimdLevel::detect());
     assert_eq!(fingerprint(&batched[0]), expected);
 }
+
+/// A run whose controller's law and metrics a batch computes in lanes: the plain
+/// computed-torque law (PD, the report's PID, the anti-windup PID), the exact state, no motor
+/// lag, on `reference`; the `index`-th random plant, gains (some diverging), torque limits
+/// (some clipping), start and events of `candidate`.
+fn lane_law_candidate<'a>(
+    index: u64,
+    reference: &'a (dyn ReferenceSource<4> + Sync),
+    trajectory: &'a JointTrajectory,
+    hold: &'a Hold,
+    events: &'a [[PayloadEvent; 2]; 3],
+    marks: &'a [f64],
+) -> LaneRun<'a> {
+    let mut run = candidate(index, trajectory, hold, events, marks);
+    let mut draw = Draw(index * 104_729 + 5);
+    let kinds = [ControllerKind::ComputedTorque, ControllerKind::AntiWindupPid];
+    let kind = kinds[(draw.next() * 2.0) as usize % 2];
+    let diverging = draw.next() < 0.15;
+    let (kp, kd) = if diverging {
+        (draw.range(4e6, 8e6), draw.range(3e3, 6e3))
+    } else {
+        (draw.range(20.0, 400.0), draw.range(2.0, 40.0))
+    };
+    // The plain PID (ComputedTorque with an integral) as well as PD.
+    let ki = if draw.next() < 0.5 { draw.range(1.0, 30.0) } else { 0.0 };
+    let spec = ControllerSpec {
+        name: format!("law{index}"),
+        kind,
+        gains: Gains::uniform(kp, kd, ki).unwrap(),
+        knows_friction: false,
+    };
+    run.controller = spec.build(report_arm()).unwrap();
+    run.feedback = Feedback::ideal();
+    run.config.torque_lag = JointVector::zeros();
+    run.config.torque_limits = if diverging {
+        JointVector::repeat(1e4)
+    } else if draw.next() < 0.5 {
+        JointVector::from([3.0, 4.0, 2.0, 0.5])
+    } else {
+        report_arm().torque_limits()
+    };
+    run.reference = reference;
+    if index % 6 == 1 {
+        // The report's start-up: at rest at q = 0, far off the reference, with the anti-windup
+        // PID, whose commands lie beyond its model's limits (the clamping holds the integral).
+        let spec = ControllerSpec {
+            name: format!("windup{index}"),
+            kind: ControllerKind::AntiWindupPid,
+            gains: Gains::uniform(300.0, 25.0, 40.0).unwrap(),
+            knows_friction: false,
+        };
+        run.controller = spec.build(report_arm()).unwrap();
+        run.initial = Some(JointState::at_rest(JointVector::zeros()));
+        run.config.torque_limits = report_arm().torque_limits();
+    }
+    run
+}
+
+#[test]
+fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_bit() {
+    let trajectory = trajectory();
+    // A reference without a desired tip: the metrics take it from the plants' kinematics.
+    let hold = Hold(trajectory.reference(0.0).q + JointVector::repeat(0.05), 0.4);
+    let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
+    let heavy = Some(Payload::upright_cylinder(0.4, 0.06, 0.015, 0.03));
+    let event = |time, payload, knows| PayloadEvent { time, payload, controller_knows: knows };
+    let events = [
+        [event(0.3, pawn, true), event(0.9, None, true)],
+        [event(0.25, heavy, false), event(1.0, None, false)],
+        [event(0.1, pawn, false), event(0.35, None, true)],
+    ];
+    let marks = [0.3, 0.9, 1.1, 0.2];
+    // Three groups of eight on one reference each (a batch shares its reference), the last
+    // with tracking from 0.1 s.
+    let make = || {
+        (0..24)
+            .map(|i| {
+                let reference: &(dyn ReferenceSource<4> + Sync) =
+                    if (8..16).contains(&i) { &hold } else { &trajectory };
+                let mut run = lane_law_candidate(i, reference, &trajectory, &hold, &events, &marks);
+                if i >= 16 {
+                    run.config.tracking_from = 0.1;
+                }
+                run
+            })
+            .collect::<Vec<_>>()
+    };
+    let scalar: Vec<String> = make().iter_mut().map(|run| fingerprint(&run.simulate_alone())).collect();
+    assert!(scalar.iter().any(|f| f.contains("diverged")), "no diverging run: {scalar:#?}");
+    let ok: Vec<&String> = scalar.iter().filter(|f| !f.starts_with("error")).collect();
+    assert!(ok.len() >= 16, "{scalar:#?}");
+    assert!(ok.iter().any(|f| f.split(' ').nth(6).is_some_and(|s| s != "0")), "no clipped run");
+    assert!(ok.iter().any(|f| f.starts_with("400 ")), "no run on the hold");
+    for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
+        for lanes in [LaneCount::Four, LaneCount::Eight] {
+            let batched: Vec<String> = simulate_lanes(&mut make(), lanes, level).iter().map(fingerprint).collect();
+            for (i, (a, b)) in scalar.iter().zip(&batched).enumerate() {
+                assert_eq!(a, b, "run {i}, {} lanes at {}", lanes.get(), level.name());
+            }
+        }
+    }
+}

@@ -305,7 +305,11 @@ impl<const N: usize> Controller<N> for AdaptiveComputedTorque<N> {
             self.update_estimate(state);
         }
         let outer = self.gains.pd_outer_loop(reference, state);
-        let mut torque = super::compensate_friction(&self.model, &state.qd, terms.mass_matrix * outer + terms.bias);
+        let mut torque = super::compensate_friction(
+            &self.model,
+            &state.qd,
+            super::computed_torque::torque_of_terms(terms, &outer.into()).into(),
+        );
         if self.gripping {
             torque += payload_regressor(&self.model, &state.q, &state.qd, &outer) * physical(&self.estimate);
             let limits = self.model.torque_limits();

@@ -40,6 +40,47 @@ use super::gains::{GainError, Gains};
 use super::{Controller, JointState, Reference};
 use crate::arm::dynamics::DynamicsTerms;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
+use crate::lanes::Real;
+
+/// The outer loop `v = q̈_d + kd ė + kp e + ki ∫e`, added in that order, on one run (`S =
+/// f64`) or on `L` side by side ([`crate::lanes::Lanes`]), each lane's bits the scalar's;
+/// `gains` is `[kp, kd, ki]`.
+#[inline(always)]
+pub(crate) fn outer_loop<S: Real, const N: usize>(
+    qdd: &[S; N],
+    gains: &[[S; N]; 3],
+    error: &[S; N],
+    error_rate: &[S; N],
+    integral: &[S; N],
+) -> [S; N] {
+    let mut v = *qdd;
+    for j in 0..N {
+        v[j] = qdd[j] + gains[1][j] * error_rate[j] + gains[0][j] * error[j] + gains[2][j] * integral[j];
+    }
+    v
+}
+
+/// `τ = M̂ v + N̂`: row `i` is `((M̂ᵢ₀ v₀ + M̂ᵢ₁ v₁) + …) + N̂ᵢ`, the columns in order (the
+/// order of nalgebra's matrix–vector product, so the scalar controller's bits are unchanged),
+/// on one run or on `L` side by side. `mass_matrix[r][c]` is `M̂_rc`.
+#[inline(always)]
+pub(crate) fn computed_torque<S: Real, const N: usize>(mass_matrix: &[[S; N]; N], v: &[S; N], bias: &[S; N]) -> [S; N] {
+    let mut torque = *bias;
+    for (i, row) in mass_matrix.iter().enumerate() {
+        let mut sum = row[0] * v[0];
+        for c in 1..N {
+            sum += row[c] * v[c];
+        }
+        torque[i] = sum + bias[i];
+    }
+    torque
+}
+
+/// [`computed_torque`] of one run's terms: `M̂ v + N̂`, N·m.
+pub(crate) fn torque_of_terms<const N: usize>(terms: &DynamicsTerms<N>, v: &[f64; N]) -> [f64; N] {
+    let mass_matrix: [[f64; N]; N] = std::array::from_fn(|r| std::array::from_fn(|c| terms.mass_matrix[(r, c)]));
+    computed_torque(&mass_matrix, v, &terms.bias.into())
+}
 
 /// Error band `b` of the default anti-windup, rad (0.02 rad ≈ 1.1°).
 ///
@@ -148,16 +189,29 @@ impl<const N: usize> ComputedTorque<N> {
         &self.integral
     }
 
-    fn outer_loop(
+    /// `[kp, kd, ki]` as arrays, for [`outer_loop`].
+    pub(crate) fn gain_rows(&self) -> [[f64; N]; 3] {
+        [self.gains.kp.into(), self.gains.kd.into(), self.gains.ki.into()]
+    }
+
+    /// Sets `∫e` and the latest outer-loop acceleration `v` after a batch ran this
+    /// controller's law in lanes ([`Controller::computed_torque`]).
+    pub(crate) fn set_law_state(&mut self, integral: [f64; N], commanded: [f64; N]) {
+        self.integral = integral.into();
+        self.commanded = commanded.into();
+    }
+
+    /// `M̂ v + N̂` with friction compensation, and `v`, for the current integral.
+    fn law(
         &self,
         reference: &Reference<N>,
-        error: &JointVector<N>,
-        error_rate: &JointVector<N>,
-    ) -> JointVector<N> {
-        reference.qdd
-            + self.gains.kd.component_mul(error_rate)
-            + self.gains.kp.component_mul(error)
-            + self.gains.ki.component_mul(&self.integral)
+        state: &JointState<N>,
+        terms: &DynamicsTerms<N>,
+        (error, error_rate): (&[f64; N], &[f64; N]),
+    ) -> (JointVector<N>, JointVector<N>) {
+        let outer = outer_loop(&reference.qdd.into(), &self.gain_rows(), error, error_rate, &self.integral.into());
+        let torque = torque_of_terms(terms, &outer);
+        (super::compensate_friction(&self.model, &state.qd, torque.into()), outer.into())
     }
 }
 
@@ -184,6 +238,10 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
         Some(&self.model)
     }
 
+    fn as_computed_torque(&mut self) -> Option<&mut ComputedTorque<N>> {
+        Some(self)
+    }
+
     fn torque_with_terms(
         &mut self,
         state: &JointState<N>,
@@ -205,8 +263,8 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
                 AntiWindup::None => self.integral += error * period,
             }
         }
-        let mut outer = self.outer_loop(reference, &error, &error_rate);
-        let mut torque = super::compensate_friction(&self.model, &state.qd, terms.mass_matrix * outer + terms.bias);
+        let errors = (&error.into(), &error_rate.into());
+        let (mut torque, mut outer) = self.law(reference, state, terms, errors);
         if integrates {
             let limits = self.model.torque_limits();
             match self.anti_windup {
@@ -222,9 +280,7 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
                         }
                     }
                     if held {
-                        outer = self.outer_loop(reference, &error, &error_rate);
-                        torque =
-                            super::compensate_friction(&self.model, &state.qd, terms.mass_matrix * outer + terms.bias);
+                        (torque, outer) = self.law(reference, state, terms, errors);
                     }
                 }
             }

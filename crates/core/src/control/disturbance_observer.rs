@@ -162,7 +162,11 @@ impl<const N: usize> Controller<N> for DisturbanceObserver<N> {
         }
         let outer = self.gains.pd_outer_loop(reference, state);
         let compensated = outer - self.disturbance;
-        let torque = super::compensate_friction(&self.model, &state.qd, terms.mass_matrix * compensated + terms.bias);
+        let torque = super::compensate_friction(
+            &self.model,
+            &state.qd,
+            super::computed_torque::torque_of_terms(terms, &compensated.into()).into(),
+        );
         let limits = self.model.torque_limits();
         let saturated = (0..N).any(|j| torque[j].abs() > limits[j]);
         let realised = if saturated && let Some(factor) = MassMatrixFactor::new(&terms.mass_matrix) {

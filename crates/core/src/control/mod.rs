@@ -82,6 +82,13 @@ pub trait Controller<const N: usize>: std::fmt::Debug + Send {
     fn dynamics_model(&self) -> Option<&ArmModel<N>> {
         None
     }
+    /// This controller as the plain computed-torque law, if it is one: a batch of such runs
+    /// computes their laws for all lanes at once ([`crate::sim::batch`]), the same operations
+    /// per lane, and hands back the integral and the latest `v` when a run ends
+    /// ([`computed_torque::ComputedTorque`]'s `torque_with_terms` on one run).
+    fn as_computed_torque(&mut self) -> Option<&mut computed_torque::ComputedTorque<N>> {
+        None
+    }
     /// [`Controller::torque`] with `terms`, the mass matrix and bias torques of
     /// [`Controller::dynamics_model`] at `state`, already computed. Must return exactly what
     /// `torque` would.

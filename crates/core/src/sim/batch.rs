@@ -14,6 +14,7 @@
 //! lane count is 1.
 
 use super::closed_loop::{PlantView, ReferenceNow, Run, SimConfig, SimError, SimSummary};
+use super::lane_law::LaneLaw;
 use super::plant::Integrator;
 use super::structured::{self, Failures, Start, State};
 use super::{NoObserver, PayloadEvent, Plant, ReferenceSource};
@@ -21,8 +22,8 @@ use crate::arm::dynamics::{DynamicsError, DynamicsTerms, MassMatrix};
 use crate::arm::model::{ArmModel, JointVector};
 use crate::arm::yaw_pitch::YawPitch;
 use crate::control::{Controller, JointState};
-use crate::lanes::Lanes;
 pub use crate::lanes::SimdLevel;
+use crate::lanes::{Lanes, Real, array4};
 use crate::sense::Feedback;
 use nalgebra::Vector3;
 
@@ -245,6 +246,92 @@ where
     lane.and_then(|lane| lane.controller_model()).and_then(ArmModel::yaw_pitch).copied().unwrap_or(*plant)
 }
 
+/// The controllers' samples, the torques and the metrics of every lane at once ([`LaneLaw`])
+/// at the lanes' `state`, with the plant's and (for the lanes of `own`) the controllers' models'
+/// terms: each lane's torque over the coming step goes to `torques`; a lane that fails (its
+/// plant's `M` not positive definite, a non-finite command) or finishes leaves `loops` with
+/// its result. Returns how many lanes go on.
+#[allow(clippy::too_many_arguments)] // the lanes' loops, results, models, state and terms
+fn control_in_lanes<const L: usize, C, R>(
+    level: SimdLevel,
+    law: &mut LaneLaw<L>,
+    loops: &mut [Option<Run<'_, 4, C, R>>],
+    results: &mut [Option<Result<SimSummary<4>, SimError>>],
+    models: &[ArmModel<4>; L],
+    state: &State<Lanes<L>>,
+    (start, own_terms): (&Start<Lanes<L>>, &Start<Lanes<L>>),
+    own: u64,
+    torques: &mut [[f64; 4]; L],
+) -> usize
+where
+    C: Controller<4> + ?Sized,
+    R: ReferenceSource<4> + ?Sized,
+{
+    let Some(first) = loops.iter().flatten().next() else { return 0 };
+    // Every lane is at the same step of the same reference, with the same control period and
+    // tracking start ([`LaneLaw::of`]).
+    let (now, period, tracked, finished) =
+        (first.reference_now(), first.config.control_period, first.tracked(), first.finished());
+    let raw = level.run(
+        #[inline(always)]
+        || law.torque((&state.q, &state.qd), start, own_terms, own, &now.desired, period),
+    );
+    let not_positive_definite = start.configuration.factor.failed_lanes();
+    for (i, slot) in loops.iter_mut().enumerate() {
+        let Some(lane) = slot.as_mut() else { continue };
+        let outcome = if not_positive_definite & (1 << i) == 0 {
+            lane.sample(&raw.map(|v| v.get(i))).map(|_| ())
+        } else {
+            let q = (0..4).map(|j| state.q[j].get(i)).collect();
+            Err(SimError::Dynamics { time: lane.time(), source: DynamicsError::NotPositiveDefinite(q) })
+        };
+        match outcome {
+            Ok(()) => torques[i] = lane.command().into(),
+            Err(error) => {
+                if let Some(controller) = lane.computed_torque() {
+                    law.hand_back(i, controller);
+                }
+                results[i] = Some(Err(error));
+                *slot = None;
+            }
+        }
+    }
+    // The metrics, as `Run::control_at` records them (no motor lag: the torque is the command).
+    let tip_desired: [Lanes<L>; 3] = match now.tip {
+        Some(desired) => std::array::from_fn(|k| Lanes::splat(desired[k])),
+        None => {
+            let tips: [Vector3<f64>; L] =
+                std::array::from_fn(|i| crate::arm::kinematics::FrameChain::new(&models[i], &now.desired.q).tip());
+            std::array::from_fn(|k| Lanes(std::array::from_fn(|i| tips[i][k])))
+        }
+    };
+    let torque = lanes_of(*torques);
+    let (tip, tip_error) = level.run(
+        #[inline(always)]
+        || {
+            let tip = start.configuration.tip_in_base();
+            let error = array4(|j| Lanes::splat(now.desired.q[j]) - state.q[j]);
+            let tip_error = super::closed_loop::tip_error(&tip, &tip_desired);
+            law.tracking.record(&torque, &error, tip_error, tracked);
+            (tip, tip_error)
+        },
+    );
+    let mut active = 0;
+    for (i, slot) in loops.iter_mut().enumerate() {
+        let Some(lane) = slot.as_mut() else { continue };
+        lane.mark(Vector3::new(tip[0].get(i), tip[1].get(i), tip[2].get(i)), tip_error.get(i));
+        if finished {
+            if let Some(controller) = lane.computed_torque() {
+                law.hand_back(i, controller);
+            }
+            results[i] = slot.take().map(|lane| Ok(lane.summary_with(law.tracking.lane(i))));
+        } else {
+            active += 1;
+        }
+    }
+    active
+}
+
 /// Up to `L` runs (all of the family, with one time step and integrator) side by side; lanes
 /// beyond `runs.len()` are idle from the start. The lanes' arithmetic runs at `level`; the
 /// rest (controllers, sensors, events, metrics) lane by lane.
@@ -282,6 +369,8 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
     let mut controller_fast = YawPitch::gather(std::array::from_fn(|i| &controller_arms[i]));
     // Only its `M` and bias are read (`terms_of`): its factor is not kept up to date.
     let mut controller_start = start;
+    // The controllers' laws and the metrics in lanes, where every run allows it.
+    let mut law = LaneLaw::<L>::of(&mut loops);
     loop {
         // Payload events, lane by lane: the plant's model first, then the controller.
         for i in 0..count {
@@ -305,13 +394,23 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                 set_lane(&mut controller_fast, i, &controller_arms[i]);
             }
         }
+        let state = lane_state(&states);
         // The controllers that compute their own terms this step: their feedback runs now and
         // their terms are computed in lanes, as each would compute them alone.
         let mut seen = states;
         let mut wants_terms = 0u64;
         for i in 0..count {
             let Some(lane) = loops[i].as_mut() else { continue };
-            if let Some((state, model)) = lane.seen_for_terms()
+            if law.is_some() {
+                // Exact feedback: the controller sees the state itself.
+                if !lane.shares_terms() {
+                    debug_assert!(
+                        controller_arm(Some(&*lane), &arms[i]) == controller_arms[i],
+                        "a controller's model changed outside `set_payload`"
+                    );
+                    wants_terms |= 1 << i;
+                }
+            } else if let Some((state, model)) = lane.seen_for_terms()
                 && let Some(arm) = model.yaw_pitch()
             {
                 debug_assert!(*arm == controller_arms[i], "a controller's model changed outside `set_payload`");
@@ -320,47 +419,65 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             }
         }
         if wants_terms != 0 {
-            set_start(level, &controller_fast, &mut controller_start, &lane_state(&seen), false);
+            let seen = if law.is_some() { state } else { lane_state(&seen) };
+            set_start(level, &controller_fast, &mut controller_start, &seen, false);
         }
-        let state = lane_state(&states);
         set_start(level, &fast, &mut start, &state, true);
-        let tip = start.configuration.tip_in_base();
         let mut active = 0;
         let not_positive_definite = start.configuration.factor.failed_lanes();
-        // The reference sample of the last lane that took one: lanes on the same reference
-        // (a sweep's, a campaign's) are at the same step, so they share it.
-        let mut shared: Option<(&(dyn ReferenceSource<4> + Sync), ReferenceNow<4>)> = None;
-        for i in 0..count {
-            let Some(lane) = loops[i].as_mut() else { continue };
-            let time = lane.time();
-            let outcome = if not_positive_definite & (1 << i) == 0 {
-                let view = PlantView {
-                    tip: Vector3::new(tip[0].get(i), tip[1].get(i), tip[2].get(i)),
-                    terms: terms_of(&start, i),
-                };
-                let reference = lane.reference();
-                let now = match shared {
-                    Some((last, now)) if std::ptr::eq(last, reference) => now,
-                    _ => shared.insert((reference, lane.reference_now())).1,
-                };
-                let terms = (wants_terms & (1 << i) != 0).then(|| terms_of(&controller_start, i));
-                lane.control_at(&view, &models[i], &mut NoObserver, &now, terms.as_ref())
-            } else {
-                let q = states[i].q.iter().copied().collect();
-                Err(SimError::Dynamics { time, source: DynamicsError::NotPositiveDefinite(q) })
-            };
-            match outcome {
-                Ok(torque) if !lane.finished() => {
-                    torques[i] = torque.into();
-                    active += 1;
-                }
-                Ok(_) => {
-                    let finished = loops[i].take().map(Run::summary);
-                    results[i] = finished.map(Ok);
-                }
-                Err(error) => {
-                    results[i] = Some(Err(error));
-                    loops[i] = None;
+        match law.as_mut() {
+            Some(law) => {
+                let terms = (&start, &controller_start);
+                active = control_in_lanes(
+                    level,
+                    law,
+                    &mut loops,
+                    &mut results,
+                    &models,
+                    &state,
+                    terms,
+                    wants_terms,
+                    &mut torques,
+                );
+            }
+            None => {
+                let tip = start.configuration.tip_in_base();
+                // The reference sample of the last lane that took one: lanes on the same reference
+                // (a sweep's, a campaign's) are at the same step, so they share it.
+                let mut shared: Option<(&(dyn ReferenceSource<4> + Sync), ReferenceNow<4>)> = None;
+                for i in 0..count {
+                    let Some(lane) = loops[i].as_mut() else { continue };
+                    let time = lane.time();
+                    let outcome = if not_positive_definite & (1 << i) == 0 {
+                        let view = PlantView {
+                            tip: Vector3::new(tip[0].get(i), tip[1].get(i), tip[2].get(i)),
+                            terms: terms_of(&start, i),
+                        };
+                        let reference = lane.reference();
+                        let now = match shared {
+                            Some((last, now)) if std::ptr::eq(last, reference) => now,
+                            _ => shared.insert((reference, lane.reference_now())).1,
+                        };
+                        let terms = (wants_terms & (1 << i) != 0).then(|| terms_of(&controller_start, i));
+                        lane.control_at(&view, &models[i], &mut NoObserver, &now, terms.as_ref())
+                    } else {
+                        let q = states[i].q.iter().copied().collect();
+                        Err(SimError::Dynamics { time, source: DynamicsError::NotPositiveDefinite(q) })
+                    };
+                    match outcome {
+                        Ok(torque) if !lane.finished() => {
+                            torques[i] = torque.into();
+                            active += 1;
+                        }
+                        Ok(_) => {
+                            let finished = loops[i].take().map(Run::summary);
+                            results[i] = finished.map(Ok);
+                        }
+                        Err(error) => {
+                            results[i] = Some(Err(error));
+                            loops[i] = None;
+                        }
+                    }
                 }
             }
         }
@@ -383,6 +500,9 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             match lane.advance(stepped) {
                 Ok(()) => states[i] = lane.state,
                 Err(error) => {
+                    if let (Some(law), Some(controller)) = (law.as_ref(), lane.computed_torque()) {
+                        law.hand_back(i, controller);
+                    }
                     results[i] = Some(Err(error));
                     loops[i] = None;
                 }

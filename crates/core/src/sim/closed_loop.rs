@@ -13,10 +13,99 @@ use crate::arm::dynamics::{DynamicsError, DynamicsTerms};
 use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::{Controller, JointState, Reference};
+use crate::lanes::Real;
 use crate::plan::trajectory::JointTrajectory;
 use crate::sense::Feedback;
 use crate::sim::plant::{Integrator, Plant};
 use nalgebra::Vector3;
+
+/// The running error and torque metrics of one run (`S = f64`) or of `L` side by side
+/// ([`crate::lanes::Lanes`], a batch's lanes), each lane's bits the scalar run's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Tracking<S, const N: usize> {
+    /// Σ e² per joint over the tracked steps, rad².
+    pub squared_joint_error: [S; N],
+    /// max |e| per joint over the tracked steps, rad.
+    pub max_joint_error: [S; N],
+    /// Σ |tip error|² over the tracked steps, m².
+    pub squared_tip_error: S,
+    pub max_tip_error: S,
+    /// Peak |τ| applied per joint, N·m.
+    pub peak_torque: [S; N],
+}
+
+impl<S: Real, const N: usize> Tracking<S, N> {
+    pub fn new() -> Self {
+        let zero = S::splat(0.0);
+        Self {
+            squared_joint_error: [zero; N],
+            max_joint_error: [zero; N],
+            squared_tip_error: zero,
+            max_tip_error: zero,
+            peak_torque: [zero; N],
+        }
+    }
+
+    /// One step's applied `torque` (N·m) and, if the step is `tracked`, its joint errors
+    /// `error = q_d − q` (rad) and tip error (m).
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // the torques and errors indexed by joint, as the metrics
+    pub fn record(&mut self, torque: &[S; N], error: &[S; N], tip_error: S, tracked: bool) {
+        for j in 0..N {
+            self.peak_torque[j] = self.peak_torque[j].sup(torque[j].abs());
+        }
+        if tracked {
+            for j in 0..N {
+                self.squared_joint_error[j] += error[j] * error[j];
+                self.max_joint_error[j] = self.max_joint_error[j].sup(error[j].abs());
+            }
+            self.squared_tip_error += tip_error * tip_error;
+            self.max_tip_error = self.max_tip_error.max(tip_error);
+        }
+    }
+
+    /// Lane `i`'s metrics.
+    pub fn lane(&self, i: usize) -> Tracking<f64, N> {
+        Tracking {
+            squared_joint_error: self.squared_joint_error.map(|v| v.lane(i)),
+            max_joint_error: self.max_joint_error.map(|v| v.lane(i)),
+            squared_tip_error: self.squared_tip_error.lane(i),
+            max_tip_error: self.max_tip_error.lane(i),
+            peak_torque: self.peak_torque.map(|v| v.lane(i)),
+        }
+    }
+}
+
+/// `|tip − desired|` (m) as nalgebra's `norm` computes it: `√((dx² + dy²) + dz²)`.
+#[inline(always)]
+pub(crate) fn tip_error<S: Real>(tip: &[S; 3], desired: &[S; 3]) -> S {
+    let d: [S; 3] = [tip[0] - desired[0], tip[1] - desired[1], tip[2] - desired[2]];
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+}
+
+/// Clips the controller's `raw` torque (N·m) to `±limits` into `command`, counting the joints
+/// it clips in `saturated_per_joint`; whether it clipped any, or why the command is refused
+/// (a non-finite entry), at time `t` (s).
+pub(crate) fn clip_command<const N: usize>(
+    raw: &[f64; N],
+    limits: &JointVector<N>,
+    command: &mut JointVector<N>,
+    saturated_per_joint: &mut [usize; N],
+    t: f64,
+) -> Result<bool, SimError> {
+    let mut clipped = false;
+    for j in 0..N {
+        if !raw[j].is_finite() {
+            return Err(SimError::Diverged { time: t, joint: j + 1, quantity: "torque command", value: raw[j] });
+        }
+        command[j] = raw[j].clamp(-limits[j], limits[j]);
+        if command[j] != raw[j] {
+            saturated_per_joint[j] += 1;
+            clipped = true;
+        }
+    }
+    Ok(clipped)
+}
 
 /// Settings of a closed-loop run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -316,11 +405,7 @@ pub(crate) struct Run<'a, const N: usize, C: ?Sized, R: ?Sized> {
     squared_rate_estimate_error: JointVector<N>,
     samples_taken: usize,
     first_tracked_step: usize,
-    squared_joint_error: JointVector<N>,
-    max_joint_error: JointVector<N>,
-    squared_tip_error: f64,
-    max_tip_error: f64,
-    peak_torque: JointVector<N>,
+    tracking: Tracking<f64, N>,
     saturated_samples: usize,
     saturated_per_joint: [usize; N],
     mark_steps: Vec<usize>,
@@ -411,11 +496,7 @@ where
             squared_rate_estimate_error: JointVector::zeros(),
             samples_taken: 0,
             first_tracked_step,
-            squared_joint_error: JointVector::zeros(),
-            max_joint_error: JointVector::zeros(),
-            squared_tip_error: 0.0,
-            max_tip_error: 0.0,
-            peak_torque: JointVector::zeros(),
+            tracking: Tracking::new(),
             saturated_samples: 0,
             saturated_per_joint: [0; N],
             tip_at_marks: vec![Vector3::repeat(f64::NAN); marks.len()],
@@ -552,25 +633,7 @@ where
                     None => self.controller.torque(&seen, &desired, period),
                 }
             };
-            self.samples_taken += 1;
-            let mut clipped = false;
-            for j in 0..N {
-                if !raw[j].is_finite() {
-                    return Err(SimError::Diverged {
-                        time: t,
-                        joint: j + 1,
-                        quantity: "torque command",
-                        value: raw[j],
-                    });
-                }
-                let limit = self.config.torque_limits[j];
-                self.command[j] = raw[j].clamp(-limit, limit);
-                if self.command[j] != raw[j] {
-                    self.saturated_per_joint[j] += 1;
-                    clipped = true;
-                }
-            }
-            self.saturated_samples += usize::from(clipped);
+            let clipped = self.sample(&raw.into())?;
             if !self.exact {
                 self.applied_acceleration =
                     acceleration_of(&*self.controller, &self.estimate, &self.command, clipped, controller_terms);
@@ -588,21 +651,10 @@ where
             command
         };
         let error = desired.q - state.q;
-        self.peak_torque = self.peak_torque.sup(&torque.abs());
         let tip_desired = now.tip.unwrap_or_else(|| FrameChain::new(plant, &desired.q).tip());
-        let tip_error = (tip - tip_desired).norm();
-        if step >= self.first_tracked_step {
-            self.squared_joint_error += error.component_mul(&error);
-            self.max_joint_error = self.max_joint_error.sup(&error.abs());
-            self.squared_tip_error += tip_error * tip_error;
-            self.max_tip_error = self.max_tip_error.max(tip_error);
-        }
-        for (k, &mark_step) in self.mark_steps.iter().enumerate() {
-            if mark_step == step {
-                self.tip_at_marks[k] = tip;
-                self.tip_error_at_marks[k] = tip_error;
-            }
-        }
+        let tip_error = tip_error(&tip.into(), &tip_desired.into());
+        self.tracking.record(&torque.into(), &error.into(), tip_error, self.tracked());
+        self.mark(tip, tip_error);
         observer.observe(&StepRecord {
             t,
             state,
@@ -613,6 +665,67 @@ where
             tip_desired,
         });
         Ok(torque)
+    }
+
+    /// A controller sample's `raw` torque (N·m): clipped to the torque limits into the command
+    /// held until the next sample, and counted. Whether it clipped, or why it is refused.
+    pub fn sample(&mut self, raw: &[f64; N]) -> Result<bool, SimError> {
+        self.samples_taken += 1;
+        let t = self.time();
+        let clipped =
+            clip_command(raw, &self.config.torque_limits, &mut self.command, &mut self.saturated_per_joint, t)?;
+        self.saturated_samples += usize::from(clipped);
+        Ok(clipped)
+    }
+
+    /// The torque command held over the coming step, N·m.
+    pub fn command(&self) -> JointVector<N> {
+        self.command
+    }
+
+    /// Whether a batch may run this run's controller sample, torque and metrics in lanes
+    /// ([`super::batch`]): the controller sees the exact state at every step, and the motors
+    /// have no lag. (The batch also asks for the plain computed-torque law.)
+    pub fn runs_in_lanes(&self) -> bool {
+        self.exact && self.steps_per_sample == 1 && !self.has_lag
+    }
+
+    /// The first step the RMS and largest errors count.
+    pub fn first_tracked_step(&self) -> usize {
+        self.first_tracked_step
+    }
+
+    /// Whether the controller takes the plant's `M` and `C q̇ + g` (its model is the plant's).
+    pub fn shares_terms(&self) -> bool {
+        self.controller_shares_terms
+    }
+
+    /// The controller as the plain computed-torque law, if it is one
+    /// ([`Controller::as_computed_torque`]).
+    pub fn computed_torque(&mut self) -> Option<&mut crate::control::computed_torque::ComputedTorque<N>> {
+        self.controller.as_computed_torque()
+    }
+
+    /// The metrics of a run whose steps a batch recorded in lanes ([`Run::runs_in_lanes`]):
+    /// `tracking` is its lane's.
+    pub fn summary_with(mut self, tracking: Tracking<f64, N>) -> SimSummary<N> {
+        self.tracking = tracking;
+        self.summary()
+    }
+
+    /// Whether the current step counts in the RMS and largest errors.
+    pub fn tracked(&self) -> bool {
+        self.step >= self.first_tracked_step
+    }
+
+    /// The tip (m) and its error (m) at the current step, if a mark falls on it.
+    pub fn mark(&mut self, tip: Vector3<f64>, tip_error: f64) {
+        for (k, &mark_step) in self.mark_steps.iter().enumerate() {
+            if mark_step == self.step {
+                self.tip_at_marks[k] = tip;
+                self.tip_error_at_marks[k] = tip_error;
+            }
+        }
     }
 
     /// Takes the plant's state after the step (or why the step failed) and moves to the next.
@@ -632,12 +745,12 @@ where
         SimSummary {
             duration: self.steps as f64 * self.dt,
             steps: self.steps,
-            rms_joint_error: (self.squared_joint_error / samples).map(f64::sqrt),
-            max_joint_error: self.max_joint_error,
-            rms_tip_error: (self.squared_tip_error / samples).sqrt(),
-            max_tip_error: self.max_tip_error,
+            rms_joint_error: (JointVector::from(self.tracking.squared_joint_error) / samples).map(f64::sqrt),
+            max_joint_error: self.tracking.max_joint_error.into(),
+            rms_tip_error: (self.tracking.squared_tip_error / samples).sqrt(),
+            max_tip_error: self.tracking.max_tip_error,
             tracked_steps,
-            peak_torque: self.peak_torque,
+            peak_torque: self.tracking.peak_torque.into(),
             saturated_samples: self.saturated_samples,
             saturated_per_joint: self.saturated_per_joint,
             tip_at_marks: self.tip_at_marks,

@@ -3,6 +3,7 @@
 
 pub mod batch;
 pub mod closed_loop;
+mod lane_law;
 pub mod metrics;
 pub mod plant;
 pub mod structured;

@@ -1,0 +1,168 @@
+//! The computed-torque laws of a batch's runs ([`super::batch`]) in lanes: for a batch whose
+//! every run has a plain computed-torque controller ([`ComputedTorque`], PD or PID, without
+//! friction compensation) that sees the exact state at every step, with no motor lag, the
+//! controllers' torques and the runs' error metrics are computed for all lanes at once, by the
+//! formulas the scalar controller and closed loop use ([`computed_torque::outer_loop`],
+//! [`computed_torque::computed_torque`], [`Tracking::record`]), the same IEEE operations in
+//! the same order per lane. Each lane's results are therefore the scalar run's, bit for bit.
+
+// The law indexes several arrays by joint and lane, as its equations do.
+#![allow(clippy::needless_range_loop)]
+
+use super::closed_loop::{Run, Tracking};
+use super::structured::Start;
+use crate::control::computed_torque::{self, AntiWindup, ComputedTorque};
+use crate::control::{Controller, Reference};
+use crate::lanes::{Lanes, Real, array4};
+
+/// The laws' gains and integrals, lane by lane, and the runs' metrics in lanes.
+#[derive(Debug, Clone)]
+pub(crate) struct LaneLaw<const L: usize> {
+    /// `[kp, kd, ki]` per joint.
+    gains: [[Lanes<L>; 4]; 3],
+    /// `∫e`, rad·s, and the latest outer-loop `v`, rad/s².
+    integral: [Lanes<L>; 4],
+    commanded: [Lanes<L>; 4],
+    /// Per lane: its anti-windup where its law integrates (some `ki > 0`), else `None`.
+    integrates: [Option<AntiWindup>; L],
+    /// The controllers' models' torque limits (N·m), for the clamping anti-windup.
+    model_limits: [Lanes<L>; 4],
+    /// The runs' metrics.
+    pub tracking: Tracking<Lanes<L>, 4>,
+}
+
+impl<const L: usize> LaneLaw<L> {
+    /// The laws of `runs` (lane `i` is `runs[i]`, `None` for a lane that never starts), if
+    /// every run that starts can run in lanes: [`Run::runs_in_lanes`], a [`ComputedTorque`]
+    /// controller whose model is of the yaw–pitch family and has no friction, and the same
+    /// reference, step count, first tracked step and control period as the others.
+    pub fn of<C, R>(runs: &mut [Option<Run<'_, 4, C, R>>]) -> Option<Self>
+    where
+        C: Controller<4> + ?Sized,
+        R: super::ReferenceSource<4> + ?Sized,
+    {
+        let first = runs.iter().flatten().next()?;
+        let (reference, steps, tracked_from, period) =
+            (first.reference() as *const R, first.steps, first.first_tracked_step(), first.config.control_period);
+        let mut gains = [[[0.0; L]; 4]; 3];
+        let mut integral = [[0.0; L]; 4];
+        let mut model_limits = [[0.0; L]; 4];
+        let mut integrates = [None; L];
+        for (i, run) in runs.iter_mut().enumerate() {
+            let Some(run) = run else { continue };
+            let same = std::ptr::eq(run.reference(), reference)
+                && run.steps == steps
+                && run.first_tracked_step() == tracked_from
+                && run.config.control_period.to_bits() == period.to_bits()
+                && run.runs_in_lanes();
+            let law = run.computed_torque()?;
+            if !same || law.model().has_friction() || law.model().yaw_pitch().is_none() {
+                return None;
+            }
+            let rows = law.gain_rows();
+            let limits = law.model().torque_limits();
+            for j in 0..4 {
+                for (k, row) in rows.iter().enumerate() {
+                    gains[k][j][i] = row[j];
+                }
+                integral[j][i] = law.integral()[j];
+                model_limits[j][i] = limits[j];
+            }
+            integrates[i] = law.gains().has_integral().then_some(law.anti_windup());
+        }
+        let lanes = |v: [[f64; L]; 4]| v.map(Lanes);
+        Some(Self {
+            gains: gains.map(lanes),
+            integral: lanes(integral),
+            commanded: [Lanes::splat(0.0); 4],
+            integrates,
+            model_limits: lanes(model_limits),
+            tracking: Tracking::new(),
+        })
+    }
+
+    /// Every lane's torque command before clipping (N·m), as its
+    /// [`ComputedTorque::torque_with_terms`] computes it at `state` (rad, rad/s) with the
+    /// terms of `plant` (the plant's) or, for the lanes of `own`, of `own_terms` (the
+    /// controllers' models'), following `reference` with samples of `period` s.
+    #[inline(always)]
+    pub fn torque(
+        &mut self,
+        (q, qd): (&[Lanes<L>; 4], &[Lanes<L>; 4]),
+        plant: &Start<Lanes<L>>,
+        own_terms: &Start<Lanes<L>>,
+        own: u64,
+        reference: &Reference<4>,
+        period: f64,
+    ) -> [Lanes<L>; 4] {
+        let splat = |v: &crate::arm::model::JointVector<4>| -> [Lanes<L>; 4] { array4(|j| Lanes::splat(v[j])) };
+        let (q_d, qd_d, qdd_d) = (splat(&reference.q), splat(&reference.qd), splat(&reference.qdd));
+        let error = array4(|j| q_d[j] - q[j]);
+        let error_rate = array4(|j| qd_d[j] - qd[j]);
+        // The terms each lane's controller takes.
+        let mixed;
+        let (mass_matrix, bias) = if own == 0 {
+            (&plant.configuration.mass_matrix, &plant.bias)
+        } else if own.count_ones() as usize == L {
+            (&own_terms.configuration.mass_matrix, &own_terms.bias)
+        } else {
+            let mut mass_matrix = plant.configuration.mass_matrix;
+            let mut bias = plant.bias;
+            for i in (0..L).filter(|i| own & (1 << i) != 0) {
+                for r in 0..4 {
+                    for c in 0..4 {
+                        mass_matrix[r][c].0[i] = own_terms.configuration.mass_matrix[r][c].0[i];
+                    }
+                    bias[r].0[i] = own_terms.bias[r].0[i];
+                }
+            }
+            mixed = (mass_matrix, bias);
+            (&mixed.0, &mixed.1)
+        };
+        let before = self.integral;
+        for (i, integrates) in self.integrates.iter().enumerate() {
+            match integrates {
+                None => {}
+                Some(AntiWindup::None) => {
+                    for j in 0..4 {
+                        self.integral[j].0[i] += error[j].0[i] * period;
+                    }
+                }
+                Some(AntiWindup::Clamp { error_band }) => {
+                    for j in 0..4 {
+                        self.integral[j].0[i] += error[j].0[i].clamp(-error_band, *error_band) * period;
+                    }
+                }
+            }
+        }
+        let mut outer = computed_torque::outer_loop(&qdd_d, &self.gains, &error, &error_rate, &self.integral);
+        let mut torque = computed_torque::computed_torque(mass_matrix, &outer, bias);
+        // The clamping anti-windup: a joint whose command lies beyond its limit with its error
+        // of the same sign keeps its previous integral, and the command is computed again. A
+        // lane that keeps none gets the same bits again from the same inputs.
+        let mut held = false;
+        for (i, integrates) in self.integrates.iter().enumerate() {
+            if let Some(AntiWindup::Clamp { .. }) = integrates {
+                for j in 0..4 {
+                    let (tau, limit, e) = (torque[j].0[i], self.model_limits[j].0[i], error[j].0[i]);
+                    let deeper = (tau > limit && e > 0.0) || (tau < -limit && e < 0.0);
+                    if deeper && self.gains[2][j].0[i] > 0.0 {
+                        self.integral[j].0[i] = before[j].0[i];
+                        held = true;
+                    }
+                }
+            }
+        }
+        if held {
+            outer = computed_torque::outer_loop(&qdd_d, &self.gains, &error, &error_rate, &self.integral);
+            torque = computed_torque::computed_torque(mass_matrix, &outer, bias);
+        }
+        self.commanded = outer;
+        torque
+    }
+
+    /// Hands lane `i`'s integral and latest `v` back to its controller.
+    pub fn hand_back(&self, i: usize, law: &mut ComputedTorque<4>) {
+        law.set_law_state(self.integral.map(|v| v.0[i]), self.commanded.map(|v| v.0[i]));
+    }
+}
