@@ -13,7 +13,7 @@ use chessarm_core::arm::preset::report_arm;
 use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
-use chessarm_core::control::{JointState, Reference};
+use chessarm_core::control::{Controller, JointState, Reference};
 use chessarm_core::nalgebra::Vector3;
 use chessarm_core::plan::path::CartesianPath;
 use chessarm_core::plan::trajectory::JointTrajectory;
@@ -140,6 +140,11 @@ fn candidate<'a>(
     }
 }
 
+/// A controller of `kind` with `gains` on the report's arm, not told its friction.
+fn controller_of(name: String, kind: ControllerKind, gains: Gains<4>) -> Box<dyn Controller<4>> {
+    ControllerSpec { name, kind, gains, knows_friction: false }.build(report_arm()).unwrap()
+}
+
 /// A fixed adaptive candidate (the random ones rarely reach its payload estimate): `index`'s
 /// plant and settings, the adaptive controller with moderate gains on the whole trajectory,
 /// hobby encoders with the Kalman filter when `sensed`, and the events of `events[which]`.
@@ -153,13 +158,8 @@ fn adaptive_candidate<'a>(
     marks: &'a [f64],
 ) -> LaneRun<'a> {
     let mut run = candidate(index, trajectory, hold, events, marks);
-    let spec = ControllerSpec {
-        name: format!("adaptive{index}"),
-        kind: ControllerKind::Adaptive,
-        gains: Gains::uniform(150.0, 20.0, 0.0).unwrap(),
-        knows_friction: false,
-    };
-    run.controller = spec.build(report_arm()).unwrap();
+    run.controller =
+        controller_of(format!("adaptive{index}"), ControllerKind::Adaptive, Gains::uniform(150.0, 20.0, 0.0).unwrap());
     if sensed {
         run.feedback = hobby_kalman(index);
     }
@@ -168,6 +168,20 @@ fn adaptive_candidate<'a>(
     run.events = &events[which];
     run.config.torque_limits = JointVector::repeat(1e4);
     run
+}
+
+/// Three runs' grips and releases: the pawn at 0.3 s, told, released at 0.9 s; a heavy
+/// piece at 0.25 s, not told, released at 1 s; the pawn gripped and released at the times of
+/// `third`, told or not.
+fn grips(third: [(f64, bool); 2]) -> [[PayloadEvent; 2]; 3] {
+    let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
+    let heavy = Some(Payload::upright_cylinder(0.4, 0.06, 0.015, 0.03));
+    let event = |time, payload, knows| PayloadEvent { time, payload, controller_knows: knows };
+    [
+        [event(0.3, pawn, true), event(0.9, None, true)],
+        [event(0.25, heavy, false), event(1.0, None, false)],
+        [event(third[0].0, pawn, third[0].1), event(third[1].0, None, third[1].1)],
+    ]
 }
 
 /// The summary's numbers, bit for bit, and the error's text.
@@ -201,14 +215,7 @@ fn fingerprint(result: &Result<SimSummary<4>, SimError>) -> String {
 fn every_lane_equals_the_scalar_run_bit_for_bit_at_every_lane_count_and_level() {
     let trajectory = trajectory();
     let hold = Hold(trajectory.reference(0.0).q, 0.37);
-    let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
-    let heavy = Some(Payload::upright_cylinder(0.4, 0.06, 0.015, 0.03));
-    let event = |time, payload, knows| PayloadEvent { time, payload, controller_knows: knows };
-    let events = [
-        [event(0.3, pawn, true), event(0.9, None, true)],
-        [event(0.25, heavy, false), event(1.0, None, false)],
-        [event(0.5, pawn, false), event(5.0, None, false)],
-    ];
+    let events = grips([(0.5, false), (5.0, false)]);
     let marks = [0.3, 0.9, 1.1];
     let count = 27;
     // Then four adaptive runs: sensed and told of the pawn, sensed and not told, ideal sensors
@@ -343,13 +350,7 @@ fn lane_law_candidate<'a>(
     };
     // The plain PID (ComputedTorque with an integral) as well as PD.
     let ki = if draw.next() < 0.5 { draw.range(1.0, 30.0) } else { 0.0 };
-    let spec = ControllerSpec {
-        name: format!("law{index}"),
-        kind,
-        gains: Gains::uniform(kp, kd, ki).unwrap(),
-        knows_friction: false,
-    };
-    run.controller = spec.build(report_arm()).unwrap();
+    run.controller = controller_of(format!("law{index}"), kind, Gains::uniform(kp, kd, ki).unwrap());
     run.feedback = Feedback::ideal();
     run.config.torque_lag = JointVector::zeros();
     run.config.torque_limits = if diverging {
@@ -363,13 +364,8 @@ fn lane_law_candidate<'a>(
     if index % 6 == 1 {
         // The report's start-up: at rest at q = 0, far off the reference, with the anti-windup
         // PID, whose commands lie beyond its model's limits (the clamping holds the integral).
-        let spec = ControllerSpec {
-            name: format!("windup{index}"),
-            kind: ControllerKind::AntiWindupPid,
-            gains: Gains::uniform(300.0, 25.0, 40.0).unwrap(),
-            knows_friction: false,
-        };
-        run.controller = spec.build(report_arm()).unwrap();
+        let gains = Gains::uniform(300.0, 25.0, 40.0).unwrap();
+        run.controller = controller_of(format!("windup{index}"), ControllerKind::AntiWindupPid, gains);
         run.initial = Some(JointState::at_rest(JointVector::zeros()));
         run.config.torque_limits = report_arm().torque_limits();
     }
@@ -381,14 +377,7 @@ fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_
     let trajectory = trajectory();
     // A reference without a desired tip: the metrics take it from the plants' kinematics.
     let hold = Hold(trajectory.reference(0.0).q + JointVector::repeat(0.05), 0.4);
-    let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
-    let heavy = Some(Payload::upright_cylinder(0.4, 0.06, 0.015, 0.03));
-    let event = |time, payload, knows| PayloadEvent { time, payload, controller_knows: knows };
-    let events = [
-        [event(0.3, pawn, true), event(0.9, None, true)],
-        [event(0.25, heavy, false), event(1.0, None, false)],
-        [event(0.1, pawn, false), event(0.35, None, true)],
-    ];
+    let events = grips([(0.1, false), (0.35, true)]);
     let marks = [0.3, 0.9, 1.1, 0.2];
     // Three groups of eight on one reference each (a batch shares its reference), the last
     // with tracking from 0.1 s.

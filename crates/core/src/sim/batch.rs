@@ -248,7 +248,8 @@ where
 
 /// The controllers' samples, the torques and the metrics of every lane at once ([`LaneLaw`])
 /// at the lanes' `state`, with the plant's and (for the lanes of `own`) the controllers' models'
-/// terms: each lane's torque over the coming step goes to `torques`; a lane that fails (its
+/// terms; the lanes of `not_positive_definite` fail (their plant's `M` is not positive
+/// definite). Each lane's torque over the coming step goes to `torques`; a lane that fails (its
 /// plant's `M` not positive definite, a non-finite command) or finishes leaves `loops` with
 /// its result. Returns how many lanes go on.
 #[allow(clippy::too_many_arguments)] // the lanes' loops, results, models, state and terms
@@ -260,7 +261,7 @@ fn control_in_lanes<const L: usize, C, R>(
     models: &[ArmModel<4>; L],
     state: &State<Lanes<L>>,
     (start, own_terms): (&Start<Lanes<L>>, &Start<Lanes<L>>),
-    own: u64,
+    (own, not_positive_definite): (u64, u64),
     torques: &mut [[f64; 4]; L],
 ) -> usize
 where
@@ -276,7 +277,6 @@ where
         #[inline(always)]
         || law.torque((&state.q, &state.qd), start, own_terms, own, &now.desired, period),
     );
-    let not_positive_definite = start.configuration.factor.failed_lanes();
     for (i, slot) in loops.iter_mut().enumerate() {
         let Some(lane) = slot.as_mut() else { continue };
         let outcome = if not_positive_definite & (1 << i) == 0 {
@@ -436,7 +436,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                     &models,
                     &state,
                     terms,
-                    wants_terms,
+                    (wants_terms, not_positive_definite),
                     &mut torques,
                 );
             }
