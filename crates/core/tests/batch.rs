@@ -350,7 +350,12 @@ fn lane_law_candidate<'a>(
     };
     // The plain PID (ComputedTorque with an integral) as well as PD.
     let ki = if draw.next() < 0.5 { draw.range(1.0, 30.0) } else { 0.0 };
-    run.controller = controller_of(format!("law{index}"), kind, Gains::uniform(kp, kd, ki).unwrap());
+    let mut gains = Gains::uniform(kp, kd, ki).unwrap();
+    if draw.next() < 0.3 {
+        // One joint without an integral: the clamping holds only the others.
+        gains.ki[1] = 0.0;
+    }
+    run.controller = controller_of(format!("law{index}"), kind, gains);
     run.feedback = Feedback::ideal();
     run.config.torque_lag = JointVector::zeros();
     run.config.torque_limits = if diverging {
@@ -379,30 +384,52 @@ fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_
     let hold = Hold(trajectory.reference(0.0).q + JointVector::repeat(0.05), 0.4);
     let events = grips([(0.1, false), (0.35, true)]);
     let marks = [0.3, 0.9, 1.1, 0.2];
-    // Three groups of eight on one reference each (a batch shares its reference), the last
-    // with tracking from 0.1 s.
+    // Groups of eight on one reference each (a batch shares its reference): on the trajectory,
+    // on the hold, tracked from 0.1 s, with the controllers' model as the plant (the plant's
+    // terms until a payload the controller is not told of), and three that a batch cannot take
+    // in lanes, for one run each: with a motor lag, tracked from another instant, with sensors.
     let make = || {
-        (0..24)
+        (0..56)
             .map(|i| {
                 let reference: &(dyn ReferenceSource<4> + Sync) =
                     if (8..16).contains(&i) { &hold } else { &trajectory };
                 let mut run = lane_law_candidate(i, reference, &trajectory, &hold, &events, &marks);
-                if i >= 16 {
-                    run.config.tracking_from = 0.1;
+                match i {
+                    16..=23 => run.config.tracking_from = 0.1,
+                    24..=31 => run.plant = report_arm(),
+                    33 => run.config.torque_lag = JointVector::repeat(4e-3),
+                    41 => run.config.tracking_from = 0.2,
+                    49 => run.feedback = hobby_kalman(i),
+                    _ => {}
                 }
                 run
             })
             .collect::<Vec<_>>()
     };
-    let scalar: Vec<String> = make().iter_mut().map(|run| fingerprint(&run.simulate_alone())).collect();
+    // The summary, and the state the run leaves its controller in.
+    let print = |run: &mut LaneRun<'_>, result: &Result<SimSummary<4>, SimError>| {
+        let bits = |v: &JointVector<4>| v.iter().map(|x| format!("{:016x}", x.to_bits())).collect::<Vec<_>>().join(",");
+        let commanded = run.controller.commanded_acceleration().map(|v| bits(&v));
+        let integral = run.controller.as_computed_torque().map(|law| bits(law.integral()));
+        format!("{} | {commanded:?} {integral:?}", fingerprint(result))
+    };
+    let scalar: Vec<String> = make()
+        .iter_mut()
+        .map(|run| {
+            let result = run.simulate_alone();
+            print(run, &result)
+        })
+        .collect();
     assert!(scalar.iter().any(|f| f.contains("diverged")), "no diverging run: {scalar:#?}");
     let ok: Vec<&String> = scalar.iter().filter(|f| !f.starts_with("error")).collect();
-    assert!(ok.len() >= 16, "{scalar:#?}");
+    assert!(ok.len() >= 36, "{scalar:#?}");
     assert!(ok.iter().any(|f| f.split(' ').nth(6).is_some_and(|s| s != "0")), "no clipped run");
     assert!(ok.iter().any(|f| f.starts_with("400 ")), "no run on the hold");
     for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
         for lanes in [LaneCount::Four, LaneCount::Eight] {
-            let batched: Vec<String> = simulate_lanes(&mut make(), lanes, level).iter().map(fingerprint).collect();
+            let mut runs = make();
+            let results = simulate_lanes(&mut runs, lanes, level);
+            let batched: Vec<String> = runs.iter_mut().zip(&results).map(|(run, result)| print(run, result)).collect();
             for (i, (a, b)) in scalar.iter().zip(&batched).enumerate() {
                 assert_eq!(a, b, "run {i}, {} lanes at {}", lanes.get(), level.name());
             }

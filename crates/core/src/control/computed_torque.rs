@@ -195,7 +195,7 @@ impl<const N: usize> ComputedTorque<N> {
     }
 
     /// Sets `∫e` and the latest outer-loop acceleration `v` after a batch ran this
-    /// controller's law in lanes ([`Controller::computed_torque`]).
+    /// controller's law in lanes ([`Controller::as_computed_torque`]).
     pub(crate) fn set_law_state(&mut self, integral: [f64; N], commanded: [f64; N]) {
         self.integral = integral.into();
         self.commanded = commanded.into();

@@ -4,8 +4,10 @@
 //! The plant of every lane steps on the structured dynamics ([`super::structured`] with
 //! `S = Lanes<L>`); each lane keeps its own controller, sensors, estimator, torque hold, motor
 //! lag, payload events and metrics (`closed_loop::Run`, the scalar simulator's own
-//! code). A lane that finishes or fails is masked — its state frozen, its result kept — while
-//! the others go on. Each lane's [`SimSummary`] equals what [`super::simulate_sensed`] computes
+//! code), except in a batch of plain computed-torque runs that see the exact state
+//! (`lane_law`): there the controllers' laws and the metrics are computed in lanes
+//! too, by the same generic formulas as the scalar code's. A lane that finishes or fails is
+//! masked — its state frozen, its result kept — while the others go on. Each lane's [`SimSummary`] equals what [`super::simulate_sensed`] computes
 //! for the same run, bit for bit, at every lane count and SIMD level: the kernels are the same
 //! IEEE operations in the same order (see [`crate::lanes`]).
 //!
@@ -280,17 +282,20 @@ where
     for (i, slot) in loops.iter_mut().enumerate() {
         let Some(lane) = slot.as_mut() else { continue };
         let outcome = if not_positive_definite & (1 << i) == 0 {
-            lane.sample(&raw.map(|v| v.get(i))).map(|_| ())
+            let sampled = lane.sample(&raw.map(|v| v.get(i))).map(|_| ());
+            if sampled.is_err() {
+                law.hand_back(i, lane);
+            }
+            sampled
         } else {
+            // The scalar run fails before its controller's sample.
+            law.hand_back_unsampled(i, lane);
             let q = (0..4).map(|j| state.q[j].get(i)).collect();
             Err(SimError::Dynamics { time: lane.time(), source: DynamicsError::NotPositiveDefinite(q) })
         };
         match outcome {
             Ok(()) => torques[i] = lane.command().into(),
             Err(error) => {
-                if let Some(controller) = lane.computed_torque() {
-                    law.hand_back(i, controller);
-                }
                 results[i] = Some(Err(error));
                 *slot = None;
             }
@@ -300,8 +305,11 @@ where
     let tip_desired: [Lanes<L>; 3] = match now.tip {
         Some(desired) => std::array::from_fn(|k| Lanes::splat(desired[k])),
         None => {
-            let tips: [Vector3<f64>; L] =
-                std::array::from_fn(|i| crate::arm::kinematics::FrameChain::new(&models[i], &now.desired.q).tip());
+            // Only the lanes that go on (a finished or failed lane's tip is not read).
+            let tips: [Vector3<f64>; L] = std::array::from_fn(|i| match loops[i] {
+                Some(_) => crate::arm::kinematics::FrameChain::new(&models[i], &now.desired.q).tip(),
+                None => Vector3::zeros(),
+            });
             std::array::from_fn(|k| Lanes(std::array::from_fn(|i| tips[i][k])))
         }
     };
@@ -321,9 +329,7 @@ where
         let Some(lane) = slot.as_mut() else { continue };
         lane.mark(Vector3::new(tip[0].get(i), tip[1].get(i), tip[2].get(i)), tip_error.get(i));
         if finished {
-            if let Some(controller) = lane.computed_torque() {
-                law.hand_back(i, controller);
-            }
+            law.hand_back(i, lane);
             results[i] = slot.take().map(|lane| Ok(lane.summary_with(law.tracking.lane(i))));
         } else {
             active += 1;
@@ -334,7 +340,8 @@ where
 
 /// Up to `L` runs (all of the family, with one time step and integrator) side by side; lanes
 /// beyond `runs.len()` are idle from the start. The lanes' arithmetic runs at `level`; the
-/// rest (controllers, sensors, events, metrics) lane by lane.
+/// rest (controllers, sensors, events, metrics) lane by lane, or, where [`LaneLaw::of`] takes
+/// the batch, the controllers' laws and the metrics in lanes too ([`control_in_lanes`]).
 fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) -> Vec<Result<SimSummary<4>, SimError>> {
     let count = runs.len();
     let (dt, integrator) = (runs[0].config.dt, runs[0].config.integrator);
@@ -385,6 +392,9 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                     lane.apply_event(&event, &models[i])
                 });
                 if let Err(error) = outcome {
+                    if let Some(law) = law.as_ref() {
+                        law.hand_back(i, lane);
+                    }
                     results[i] = Some(Err(error));
                     loops[i] = None;
                     break;
@@ -500,8 +510,8 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             match lane.advance(stepped) {
                 Ok(()) => states[i] = lane.state,
                 Err(error) => {
-                    if let (Some(law), Some(controller)) = (law.as_ref(), lane.computed_torque()) {
-                        law.hand_back(i, controller);
+                    if let Some(law) = law.as_ref() {
+                        law.hand_back(i, lane);
                     }
                     results[i] = Some(Err(error));
                     loops[i] = None;

@@ -702,7 +702,7 @@ where
 
     /// The controller as the plain computed-torque law, if it is one
     /// ([`Controller::as_computed_torque`]).
-    pub fn computed_torque(&mut self) -> Option<&mut crate::control::computed_torque::ComputedTorque<N>> {
+    pub fn as_computed_torque(&mut self) -> Option<&mut crate::control::computed_torque::ComputedTorque<N>> {
         self.controller.as_computed_torque()
     }
 

@@ -1,6 +1,7 @@
 //! The computed-torque laws of a batch's runs ([`super::batch`]) in lanes: for a batch whose
-//! every run has a plain computed-torque controller ([`ComputedTorque`], PD or PID, without
-//! friction compensation) that sees the exact state at every step, with no motor lag, the
+//! every run has a plain computed-torque controller
+//! ([`ComputedTorque`](computed_torque::ComputedTorque), PD or PID, without friction
+//! compensation) that sees the exact state at every step, with no motor lag, the
 //! controllers' torques and the runs' error metrics are computed for all lanes at once, by the
 //! formulas the scalar controller and closed loop use ([`computed_torque::outer_loop`],
 //! [`computed_torque::computed_torque`], [`Tracking::record`]), the same IEEE operations in
@@ -11,7 +12,7 @@
 
 use super::closed_loop::{Run, Tracking};
 use super::structured::Start;
-use crate::control::computed_torque::{self, AntiWindup, ComputedTorque};
+use crate::control::computed_torque::{self, AntiWindup};
 use crate::control::{Controller, Reference};
 use crate::lanes::{Lanes, Real, array4};
 
@@ -20,9 +21,13 @@ use crate::lanes::{Lanes, Real, array4};
 pub(crate) struct LaneLaw<const L: usize> {
     /// `[kp, kd, ki]` per joint.
     gains: [[Lanes<L>; 4]; 3],
-    /// `∫e`, rad·s, and the latest outer-loop `v`, rad/s².
+    /// `∫e`, rad·s.
     integral: [Lanes<L>; 4],
+    /// The latest outer-loop acceleration `v`, rad/s².
     commanded: [Lanes<L>; 4],
+    /// `integral` and `commanded` before the latest sample, for a lane that fails before
+    /// its controller would have run ([`LaneLaw::hand_back_unsampled`]).
+    previous: ([Lanes<L>; 4], [Lanes<L>; 4]),
     /// Per lane: its anti-windup where its law integrates (some `ki > 0`), else `None`.
     integrates: [Option<AntiWindup>; L],
     /// The controllers' models' torque limits (N·m), for the clamping anti-windup.
@@ -33,7 +38,8 @@ pub(crate) struct LaneLaw<const L: usize> {
 
 impl<const L: usize> LaneLaw<L> {
     /// The laws of `runs` (lane `i` is `runs[i]`, `None` for a lane that never starts), if
-    /// every run that starts can run in lanes: [`Run::runs_in_lanes`], a [`ComputedTorque`]
+    /// every run that starts can run in lanes: [`Run::runs_in_lanes`], a
+    /// [`ComputedTorque`](computed_torque::ComputedTorque)
     /// controller whose model is of the yaw–pitch family and has no friction, and the same
     /// reference, step count, first tracked step and control period as the others.
     pub fn of<C, R>(runs: &mut [Option<Run<'_, 4, C, R>>]) -> Option<Self>
@@ -55,7 +61,7 @@ impl<const L: usize> LaneLaw<L> {
                 && run.first_tracked_step() == tracked_from
                 && run.config.control_period.to_bits() == period.to_bits()
                 && run.runs_in_lanes();
-            let law = run.computed_torque()?;
+            let law = run.as_computed_torque()?;
             if !same || law.model().has_friction() || law.model().yaw_pitch().is_none() {
                 return None;
             }
@@ -75,6 +81,7 @@ impl<const L: usize> LaneLaw<L> {
             gains: gains.map(lanes),
             integral: lanes(integral),
             commanded: [Lanes::splat(0.0); 4],
+            previous: (lanes(integral), [Lanes::splat(0.0); 4]),
             integrates,
             model_limits: lanes(model_limits),
             tracking: Tracking::new(),
@@ -82,7 +89,8 @@ impl<const L: usize> LaneLaw<L> {
     }
 
     /// Every lane's torque command before clipping (N·m), as its
-    /// [`ComputedTorque::torque_with_terms`] computes it at `state` (rad, rad/s) with the
+    /// [`Controller::torque_with_terms`](crate::control::Controller::torque_with_terms)
+    /// computes it at `state` (rad, rad/s) with the
     /// terms of `plant` (the plant's) or, for the lanes of `own`, of `own_terms` (the
     /// controllers' models'), following `reference` with samples of `period` s.
     #[inline(always)]
@@ -120,6 +128,7 @@ impl<const L: usize> LaneLaw<L> {
             (&mixed.0, &mixed.1)
         };
         let before = self.integral;
+        self.previous = (self.integral, self.commanded);
         for (i, integrates) in self.integrates.iter().enumerate() {
             match integrates {
                 None => {}
@@ -161,8 +170,27 @@ impl<const L: usize> LaneLaw<L> {
         torque
     }
 
-    /// Hands lane `i`'s integral and latest `v` back to its controller.
-    pub fn hand_back(&self, i: usize, law: &mut ComputedTorque<4>) {
-        law.set_law_state(self.integral.map(|v| v.0[i]), self.commanded.map(|v| v.0[i]));
+    /// Hands lane `i`'s integral and latest `v` back to its run's controller, as the scalar
+    /// run leaves them: at the end, or where it fails after its latest sample.
+    pub fn hand_back<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
+    where
+        C: Controller<4> + ?Sized,
+        R: super::ReferenceSource<4> + ?Sized,
+    {
+        if let Some(law) = run.as_computed_torque() {
+            law.set_law_state(self.integral.map(|v| v.0[i]), self.commanded.map(|v| v.0[i]));
+        }
+    }
+
+    /// [`LaneLaw::hand_back`] for a lane that fails at the latest sample before its controller
+    /// would run (its plant's `M` not positive definite): the state from before that sample.
+    pub fn hand_back_unsampled<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
+    where
+        C: Controller<4> + ?Sized,
+        R: super::ReferenceSource<4> + ?Sized,
+    {
+        if let Some(law) = run.as_computed_torque() {
+            law.set_law_state(self.previous.0.map(|v| v.0[i]), self.previous.1.map(|v| v.0[i]));
+        }
     }
 }
