@@ -7,9 +7,10 @@
 //! code), except in a batch of plain computed-torque runs that see the exact state
 //! (`lane_law`): there the controllers' laws and the metrics are computed in lanes
 //! too, by the same generic formulas as the scalar code's. A lane that finishes or fails is
-//! masked — its state frozen, its result kept — while the others go on. Each lane's [`SimSummary`] equals what [`super::simulate_sensed`] computes
-//! for the same run, bit for bit, at every lane count and SIMD level: the kernels are the same
-//! IEEE operations in the same order (see [`crate::lanes`]).
+//! masked — its state frozen, its result kept — while the others go on. Each lane's
+//! [`SimSummary`] equals what [`super::simulate_sensed`] computes for the same run, bit for
+//! bit, at every lane count and SIMD level: the kernels are the same IEEE operations in the
+//! same order (see [`crate::lanes`]).
 //!
 //! A run whose plant is not of the yaw–pitch family, or whose time step or integrator differs
 //! from its batch's, is simulated alone by the scalar simulator; so is the whole slice when the
@@ -248,6 +249,11 @@ where
     lane.and_then(|lane| lane.controller_model()).and_then(ArmModel::yaw_pitch).copied().unwrap_or(*plant)
 }
 
+/// The error of a lane whose plant's `M` is not positive definite at `q` (rad), at `time` (s).
+fn not_positive_definite_at(time: f64, q: impl Iterator<Item = f64>) -> SimError {
+    SimError::Dynamics { time, source: DynamicsError::NotPositiveDefinite(q.collect()) }
+}
+
 /// The controllers' samples, the torques and the metrics of every lane at once ([`LaneLaw`])
 /// at the lanes' `state`, with the plant's and (for the lanes of `own`) the controllers' models'
 /// terms; the lanes of `not_positive_definite` fail (their plant's `M` is not positive
@@ -290,8 +296,7 @@ where
         } else {
             // The scalar run fails before its controller's sample.
             law.hand_back_unsampled(i, lane);
-            let q = (0..4).map(|j| state.q[j].get(i)).collect();
-            Err(SimError::Dynamics { time: lane.time(), source: DynamicsError::NotPositiveDefinite(q) })
+            Err(not_positive_definite_at(lane.time(), (0..4).map(|j| state.q[j].get(i))))
         };
         match outcome {
             Ok(()) => torques[i] = lane.command().into(),
@@ -471,8 +476,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                         let terms = (wants_terms & (1 << i) != 0).then(|| terms_of(&controller_start, i));
                         lane.control_at(&view, &models[i], &mut NoObserver, &now, terms.as_ref())
                     } else {
-                        let q = states[i].q.iter().copied().collect();
-                        Err(SimError::Dynamics { time, source: DynamicsError::NotPositiveDefinite(q) })
+                        Err(not_positive_definite_at(time, states[i].q.iter().copied()))
                     };
                     match outcome {
                         Ok(torque) if !lane.finished() => {
