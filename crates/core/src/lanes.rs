@@ -16,6 +16,12 @@ pub fn array4<S>(f: impl Fn(usize) -> S) -> [S; 4] {
     [f(0), f(1), f(2), f(3)]
 }
 
+/// `[f(0), f(1), f(2)]`, always inlined.
+#[inline(always)]
+pub fn array3<S>(f: impl Fn(usize) -> S) -> [S; 3] {
+    [f(0), f(1), f(2)]
+}
+
 /// A number the kernels compute with: `f64` (one run) or [`Lanes`] (`L` runs).
 pub trait Real:
     Copy

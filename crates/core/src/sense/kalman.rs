@@ -74,7 +74,8 @@ use super::sensors::MAX_DELAY_SAMPLES;
 use super::{Measurement, SenseError, invalid};
 use crate::arm::model::JointVector;
 use crate::control::JointState;
-use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix3x2, SMatrix, Vector3};
+use crate::lanes::{Lanes, Real, array3, array4};
+use nalgebra::{ArrayStorage, Matrix2, Matrix2x3, Matrix3, Matrix3x2, SMatrix, Vector3};
 
 /// Tuning of the joint Kalman filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -508,20 +509,18 @@ impl<const N: usize> JointKalman<N> {
             };
             self.p[j] = step.to;
             self.gain[j] = step.gain;
-            let mut x = self.f * self.x[j] + self.g * oldest[j];
-            if let Some(angle) = angle {
-                x += step.angle_gain * (angle - x[0]);
-            }
-            if let Some(rate) = rate {
-                x += step.gain.column(1) * (rate - x[1]);
-            }
-            self.x[j] = x;
+            let model = (&self.f.data.0, &self.g.data.0[0]);
+            let angle = angle.map(|angle| (angle, &step.angle_gain.data.0[0]));
+            let rate = rate.map(|rate| (rate, &step.gain.data.0[1]));
+            let mut x = state_step(model, &self.x[j].data.0[0], oldest[j], angle, rate);
+            self.x[j] = x.into();
 
             let mut at = self.head;
             for _ in 0..self.delay {
                 at = if at + 1 == span { 0 } else { at + 1 };
-                x = self.f * x + self.g * self.inputs[at][j];
+                x = predict(model.0, model.1, &x, self.inputs[at][j]);
             }
+            let x = Vector3::from(x);
             self.ahead[j] = x;
             out.q[j] = x[0];
             out.qd[j] = x[1];
@@ -530,18 +529,19 @@ impl<const N: usize> JointKalman<N> {
     }
 
     /// Joint `j`'s covariance over one sample, with the angle and (`rate`) the rate reading or
-    /// without: `P⁻ = F P Fᵀ + Q`, then a Joseph update per reading ([`scalar_gain`]); the
-    /// gain of a reading that did not arrive is zero. Remembers the step (newest first).
+    /// without ([`covariance_step`]). Remembers the step (newest first).
     fn covariance_step(&mut self, j: usize, angle: bool, rate: bool) {
         let from = self.p[j];
-        let mut to = self.f * from * self.f.transpose() + self.q;
-        let angle_gain = if angle { scalar_gain(&mut to, 0, self.angle_variance[j]) } else { Vector3::zeros() };
-        let rate_gain = if rate { scalar_gain(&mut to, 1, self.rate_variance[j]) } else { Vector3::zeros() };
-        // The two scalar updates as one: x += k₁ r₁ + k₂ (r₂ − k₁[1] r₁).
-        let mut gain = Matrix3x2::zeros();
-        gain.set_column(0, &(angle_gain - rate_gain * angle_gain[1]));
-        gain.set_column(1, &rate_gain);
-        let step = CovarianceStep { from, angle, rate, angle_gain, gain, to };
+        let variances = (self.angle_variance[j], self.rate_variance[j]);
+        let step = covariance_step((&self.f.data.0, &self.q.data.0), &from.data.0, variances, angle, rate);
+        let step = CovarianceStep {
+            from,
+            angle,
+            rate,
+            angle_gain: step.angle_gain.into(),
+            gain: Matrix3x2::from_data(ArrayStorage(step.gain)),
+            to: Matrix3::from_data(ArrayStorage(step.to)),
+        };
         let remembered = &mut self.remembered.0[j];
         remembered[1] = remembered[0];
         remembered[0] = Some(step);
@@ -608,19 +608,260 @@ impl<const N: usize> JointKalman<N> {
     }
 }
 
-/// The covariance update with one scalar reading of state component `row`, variance `r > 0`:
-/// `k = P eᵣ / (Pᵣᵣ + r)`, `P = (I − k eᵣᵀ) P (I − k eᵣᵀ)ᵀ + r k kᵀ`. Returns `k`; the state's
-/// update is `x += k (z − xᵣ)`.
-fn scalar_gain(p: &mut Matrix3<f64>, row: usize, r: f64) -> Vector3<f64> {
-    let innovation_variance = p[(row, row)] + r;
-    let k: Vector3<f64> = p.column(row) / innovation_variance;
-    let mut a = Matrix3::<f64>::identity();
-    for i in 0..3 {
-        a[(i, row)] -= k[i];
+/// A 3×3 matrix of `f64` or of lanes by columns, `m[c][r]`: nalgebra's layout, so a
+/// `Matrix3<f64>` is one as it is (`m.data.0`).
+pub(crate) type Columns<S> = [[S; 3]; 3];
+
+/// `A x`, in nalgebra's order of operations (its `gemv`, column by column):
+/// `yᵣ = (Aᵣ₀ x₀ + Aᵣ₁ x₁) + Aᵣ₂ x₂`.
+#[inline(always)]
+fn times<S: Real>(a: &Columns<S>, x: &[S; 3]) -> [S; 3] {
+    array3(|r| a[0][r] * x[0] + a[1][r] * x[1] + a[2][r] * x[2])
+}
+
+/// `A B`, column by column as [`times`] (nalgebra's `gemm` for fixed sizes).
+#[inline(always)]
+fn product<S: Real>(a: &Columns<S>, b: &Columns<S>) -> Columns<S> {
+    array3(|c| times(a, &b[c]))
+}
+
+#[inline(always)]
+fn transpose<S: Real>(a: &Columns<S>) -> Columns<S> {
+    array3(|c| array3(|r| a[r][c]))
+}
+
+/// `F P Fᵀ + Q`, the covariance's prediction over one sample.
+#[inline(always)]
+fn predicted<S: Real>(f: &Columns<S>, p: &Columns<S>, q: &Columns<S>) -> Columns<S> {
+    let fpf = product(&product(f, p), &transpose(f));
+    array3(|c| array3(|r| fpf[c][r] + q[c][r]))
+}
+
+/// `F x + G u`, the state's prediction over one sample with the input `u` (rad/s²).
+#[inline(always)]
+pub(crate) fn predict<S: Real>(f: &Columns<S>, g: &[S; 3], x: &[S; 3], u: S) -> [S; 3] {
+    let fx = times(f, x);
+    array3(|r| fx[r] + g[r] * u)
+}
+
+/// One joint's state over one sample: `x⁻ = F x + G u`, then `x += k₁ (q̃ − x₀)` with the
+/// angle's gain `k₁` where an angle `q̃` arrived, then `x += k₂ (q̃̇ − x₁)` with the rate's
+/// gain `k₂` (the batch gain's second column) where a rate arrived.
+#[inline(always)]
+pub(crate) fn state_step<S: Real>(
+    (f, g): (&Columns<S>, &[S; 3]),
+    x: &[S; 3],
+    u: S,
+    angle: Option<(S, &[S; 3])>,
+    rate: Option<(S, &[S; 3])>,
+) -> [S; 3] {
+    let mut x = predict(f, g, x, u);
+    if let Some((z, k)) = angle {
+        let innovation = z - x[0];
+        x = array3(|r| x[r] + k[r] * innovation);
     }
-    let joseph: Matrix3<f64> = a * *p * a.transpose() + k * k.transpose() * r;
-    *p = (joseph + joseph.transpose()) * 0.5;
+    if let Some((z, k)) = rate {
+        let innovation = z - x[1];
+        x = array3(|r| x[r] + k[r] * innovation);
+    }
+    x
+}
+
+/// One joint's covariance step: what [`covariance_step`] gives.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CovarianceUpdate<S> {
+    /// The angle reading's gain (zero where it did not arrive).
+    pub angle_gain: [S; 3],
+    /// The batch gain by columns: angle, rate ([`JointKalman::gain`]).
+    pub gain: [[S; 3]; 2],
+    /// The covariance after the step.
+    pub to: Columns<S>,
+}
+
+/// One joint's covariance over one sample from `from`, with the angle and (`rate`) the rate
+/// reading or without: `P⁻ = F P Fᵀ + Q`, then a Joseph update per reading ([`scalar_gain`]), of
+/// variances `angle_variance` and `rate_variance`; the gain of a reading that did not arrive is
+/// zero. The two scalar updates as one batch gain: `x += k₁ r₁ + k₂ (r₂ − k₁[1] r₁)`.
+#[inline(always)]
+pub(crate) fn covariance_step<S: Real>(
+    (f, q): (&Columns<S>, &Columns<S>),
+    from: &Columns<S>,
+    (angle_variance, rate_variance): (S, S),
+    angle: bool,
+    rate: bool,
+) -> CovarianceUpdate<S> {
+    let zero = [S::splat(0.0); 3];
+    let mut to = predicted(f, from, q);
+    let angle_gain = if angle { scalar_gain(&mut to, 0, angle_variance) } else { zero };
+    let rate_gain = if rate { scalar_gain(&mut to, 1, rate_variance) } else { zero };
+    let first = array3(|r| angle_gain[r] - rate_gain[r] * angle_gain[1]);
+    CovarianceUpdate { angle_gain, gain: [first, rate_gain], to }
+}
+
+/// The covariance update with one scalar reading of state component `row`, variance `r > 0`:
+/// `k = P eᵣ / (Pᵣᵣ + r)`, `P = (I − k eᵣᵀ) P (I − k eᵣᵀ)ᵀ + r k kᵀ`, made symmetric
+/// (`(P + Pᵀ)/2`), in nalgebra's order of operations. Returns `k`; the state's update is
+/// `x += k (z − xᵣ)`.
+#[inline(always)]
+fn scalar_gain<S: Real>(p: &mut Columns<S>, row: usize, r: S) -> [S; 3] {
+    let innovation_variance = p[row][row] + r;
+    let k = array3(|i| p[row][i] / innovation_variance);
+    // `I − k eᵣᵀ`: column `row` is `eᵣ − k` (each entry a subtraction, `0 − k` included).
+    let a: Columns<S> = array3(|c| {
+        array3(|i| {
+            let identity = S::splat(if i == c { 1.0 } else { 0.0 });
+            if c == row { identity - k[i] } else { identity }
+        })
+    });
+    let apa = product(&product(&a, p), &transpose(&a));
+    let joseph: Columns<S> = array3(|c| array3(|i| apa[c][i] + k[i] * k[c] * r));
+    *p = array3(|c| array3(|i| (joseph[c][i] + joseph[i][c]) * S::splat(0.5)));
     k
+}
+
+/// The joint Kalman filters of `L` runs side by side ([`crate::sim::batch`]): each lane is one
+/// run's [`JointKalman<4>`], its constants and state gathered into lanes and updated by the
+/// same formulas ([`covariance_step`], [`state_step`], [`predict`]) in the same order, so each
+/// lane's estimates, covariances and gains are its filter's, bit for bit. The covariance step
+/// is computed at every sample for every lane (the scalar filter's remembered steps give the
+/// same bits as computing them). A joint where some lane's reading is missing (not finite) is
+/// updated lane by lane, by the same formulas on `f64`.
+#[derive(Debug, Clone)]
+pub(crate) struct KalmanLanes<const L: usize> {
+    delay: usize,
+    measures_rate: bool,
+    f: Columns<Lanes<L>>,
+    g: [Lanes<L>; 3],
+    q: Columns<Lanes<L>>,
+    angle_variance: [Lanes<L>; 4],
+    rate_variance: [Lanes<L>; 4],
+    x: [[Lanes<L>; 3]; 4],
+    p: [Columns<Lanes<L>>; 4],
+    gain: [[[Lanes<L>; 3]; 2]; 4],
+    ahead: [[Lanes<L>; 3]; 4],
+    inputs: [[Lanes<L>; 4]; MAX_DELAY_SAMPLES + 1],
+    head: usize,
+}
+
+impl<const L: usize> KalmanLanes<L> {
+    /// The filters of `filters` side by side (lane `i` is `filters[i]`; a lane without one
+    /// copies the first's and is never read), if there is one and all have the same delay,
+    /// velocity sensor (or none) and head of their ring of inputs.
+    pub fn of(filters: [Option<&JointKalman<4>>; L]) -> Option<Self> {
+        let first = *filters.iter().flatten().next()?;
+        if filters
+            .iter()
+            .flatten()
+            .any(|k| k.delay != first.delay || k.measures_rate != first.measures_rate || k.head != first.head)
+        {
+            return None;
+        }
+        let lane = |i: usize| filters[i].unwrap_or(first);
+        let lanes = |f: &dyn Fn(&JointKalman<4>) -> f64| Lanes(std::array::from_fn(|i| f(lane(i))));
+        let columns = |f: &dyn Fn(&JointKalman<4>) -> Matrix3<f64>| -> Columns<Lanes<L>> {
+            array3(|c| array3(|r| lanes(&|k| f(k)[(r, c)])))
+        };
+        Some(Self {
+            delay: first.delay,
+            measures_rate: first.measures_rate,
+            f: columns(&|k| k.f),
+            g: array3(|r| lanes(&|k| k.g[r])),
+            q: columns(&|k| k.q),
+            angle_variance: array4(|j| lanes(&|k| k.angle_variance[j])),
+            rate_variance: array4(|j| lanes(&|k| k.rate_variance[j])),
+            x: array4(|j| array3(|r| lanes(&|k| k.x[j][r]))),
+            p: array4(|j| columns(&|k| k.p[j])),
+            gain: array4(|j| [0, 1].map(|c| array3(|r| lanes(&|k| k.gain[j][(r, c)])))),
+            ahead: array4(|j| array3(|r| lanes(&|k| k.ahead[j][r]))),
+            inputs: std::array::from_fn(|slot| array4(|j| lanes(&|k| k.inputs[slot][j]))),
+            head: first.head,
+        })
+    }
+
+    /// [`JointKalman::update`] of every lane: `q` the angle readings (rad), `qd` the rate
+    /// readings (rad/s; read only with a velocity sensor, a missing one NaN), `applied` the
+    /// accelerations commanded over the sample just ended (rad/s²). Returns the estimates of
+    /// the state now, angles and rates.
+    #[inline(always)]
+    pub fn update(
+        &mut self,
+        q: &[Lanes<L>; 4],
+        qd: &[Lanes<L>; 4],
+        applied: &[Lanes<L>; 4],
+    ) -> ([Lanes<L>; 4], [Lanes<L>; 4]) {
+        let span = self.delay + 1;
+        self.inputs[self.head] = applied.map(|u| u.map(|u| if u.is_finite() { u } else { 0.0 }));
+        self.head = if self.head + 1 == span { 0 } else { self.head + 1 };
+        // Now `inputs[head]` is u_{k−δ−1}, and the next δ slots hold u_{k−δ} … u_{k−1}.
+        let oldest = self.inputs[self.head];
+        let finite = |v: &Lanes<L>| v.0.iter().all(|v| v.is_finite());
+        let rate = self.measures_rate;
+        let (mut out_q, mut out_qd) = ([Lanes::splat(0.0); 4], [Lanes::splat(0.0); 4]);
+        for j in 0..4 {
+            if finite(&q[j]) && (!rate || finite(&qd[j])) {
+                let variances = (self.angle_variance[j], self.rate_variance[j]);
+                let step = covariance_step((&self.f, &self.q), &self.p[j], variances, true, rate);
+                self.p[j] = step.to;
+                self.gain[j] = step.gain;
+                let rate = rate.then_some((qd[j], &step.gain[1]));
+                let angle = Some((q[j], &step.angle_gain));
+                self.x[j] = state_step((&self.f, &self.g), &self.x[j], oldest[j], angle, rate);
+            } else {
+                for i in 0..L {
+                    self.update_lane(i, j, (q[j].0[i], qd[j].0[i]), oldest[j].0[i]);
+                }
+            }
+            let mut x = self.x[j];
+            let mut at = self.head;
+            for _ in 0..self.delay {
+                at = if at + 1 == span { 0 } else { at + 1 };
+                x = predict(&self.f, &self.g, &x, self.inputs[at][j]);
+            }
+            self.ahead[j] = x;
+            out_q[j] = x[0];
+            out_qd[j] = x[1];
+        }
+        (out_q, out_qd)
+    }
+
+    /// Lane `i`'s joint `j` over one sample with its readings `(angle, rate)` (either may be
+    /// missing: not finite) and input `u`, as its own filter takes it.
+    fn update_lane(&mut self, i: usize, j: usize, (angle, rate): (f64, f64), u: f64) {
+        let one = |m: &Columns<Lanes<L>>| -> Columns<f64> { array3(|c| array3(|r| m[c][r].0[i])) };
+        let (f, q) = (one(&self.f), one(&self.q));
+        let g = self.g.map(|v| v.0[i]);
+        let has_angle = angle.is_finite();
+        let has_rate = self.measures_rate && rate.is_finite();
+        let variances = (self.angle_variance[j].0[i], self.rate_variance[j].0[i]);
+        let step = covariance_step((&f, &q), &one(&self.p[j]), variances, has_angle, has_rate);
+        let angle = has_angle.then_some((angle, &step.angle_gain));
+        let rate = has_rate.then_some((rate, &step.gain[1]));
+        let x = state_step((&f, &g), &self.x[j].map(|v| v.0[i]), u, angle, rate);
+        for r in 0..3 {
+            self.x[j][r].0[i] = x[r];
+            for c in 0..3 {
+                self.p[j][c][r].0[i] = step.to[c][r];
+            }
+            for c in 0..2 {
+                self.gain[j][c][r].0[i] = step.gain[c][r];
+            }
+        }
+    }
+
+    /// Writes lane `i`'s state (estimates, covariances, gains, inputs) into `filter`, the
+    /// filter it was gathered from: as the filter would be had it taken the same samples.
+    pub fn hand_back(&self, i: usize, filter: &mut JointKalman<4>) {
+        for j in 0..4 {
+            filter.x[j] = Vector3::from(self.x[j].map(|v| v.0[i]));
+            filter.ahead[j] = Vector3::from(self.ahead[j].map(|v| v.0[i]));
+            filter.p[j] = Matrix3::from_fn(|r, c| self.p[j][c][r].0[i]);
+            filter.gain[j] = Matrix3x2::from_fn(|r, c| self.gain[j][c][r].0[i]);
+        }
+        for (slot, inputs) in filter.inputs.iter_mut().zip(&self.inputs) {
+            *slot = JointVector::from_fn(|j, _| inputs[j].0[i]);
+        }
+        filter.head = self.head;
+    }
 }
 
 #[cfg(test)]
@@ -862,5 +1103,81 @@ mod tests {
             }
             assert_eq!(reused, 100, "case {case}: from sample 400 on, every joint's covariance step is one remembered");
         }
+    }
+
+    /// The filters of eight runs side by side equal each run's own filter bit for bit at every
+    /// sample (estimates, and after a hand-back the whole state: covariances, gains, inputs):
+    /// lanes of different encoders, tunings and periods, with and without a rate sensor, at
+    /// delays 0, 1 and 3, through readings that go missing (NaN, ±∞) in some lanes now and
+    /// then, and non-finite inputs.
+    #[test]
+    fn filters_in_lanes_equal_each_filter_bit_for_bit() {
+        let mut rng = SeededRng::new(5);
+        for case in 0..6u64 {
+            let delay = [0, 1, 3][(case % 3) as usize];
+            let rate_std = (case >= 3).then(|| JointVector::<4>::from_fn(|j, _| 0.01 + 0.005 * j as f64));
+            let mut filters: Vec<JointKalman<4>> = (0..8)
+                .map(|lane| {
+                    let settings = if lane % 3 == 0 { KalmanSettings::TWO_STATE } else { KalmanSettings::DEFAULT };
+                    let angle_std = JointVector::<4>::from_fn(|j, _| 1e-4 * (1 + (lane + j) % 5) as f64);
+                    let period = 1e-3 * (1 + lane % 2) as f64;
+                    let mut filter = JointKalman::new(period, angle_std, rate_std, delay, settings).unwrap();
+                    filter.reset(&JointState::at_rest(JointVector::from_fn(|j, _| 0.1 * (lane + j) as f64)));
+                    filter
+                })
+                .collect();
+            let mut lanes = KalmanLanes::<8>::of(std::array::from_fn(|i| Some(&filters[i]))).unwrap();
+            let odd = [f64::NAN, f64::INFINITY, -f64::INFINITY];
+            for k in 0..1500 {
+                let t = k as f64 * 1e-3;
+                let mut reading = |scale: f64, phase: f64| -> [[f64; 8]; 4] {
+                    std::array::from_fn(|j| {
+                        std::array::from_fn(|i| {
+                            if k > 200 && rng.unit() < 0.01 {
+                                odd[(rng.next_u64() % 3) as usize]
+                            } else {
+                                scale * (t + phase + (i + j) as f64).sin() + 1e-3 * rng.normal()
+                            }
+                        })
+                    })
+                };
+                let (q, qd) = (reading(1.0, 0.0), reading(0.5, 1.0));
+                let applied: [[f64; 8]; 4] = std::array::from_fn(|j| {
+                    std::array::from_fn(|i| if rng.unit() < 0.005 { f64::NAN } else { (t * (i + j) as f64).cos() })
+                });
+                let (lane_q, lane_qd) = lanes.update(&q.map(Lanes), &qd.map(Lanes), &applied.map(Lanes));
+                for (i, filter) in filters.iter_mut().enumerate() {
+                    let measurement = Measurement {
+                        q: JointVector::from_fn(|j, _| q[j][i]),
+                        qd: rate_std.map(|_| JointVector::from_fn(|j, _| qd[j][i])),
+                    };
+                    let own = filter.update(&measurement, &JointVector::from_fn(|j, _| applied[j][i]));
+                    for j in 0..4 {
+                        assert_eq!(own.q[j].to_bits(), lane_q[j].0[i].to_bits(), "case {case}, sample {k}, lane {i}");
+                        assert_eq!(own.qd[j].to_bits(), lane_qd[j].0[i].to_bits(), "case {case}, sample {k}, lane {i}");
+                    }
+                    if k % 97 == 0 || k == 1499 {
+                        let mut handed = filter.clone();
+                        handed.reset(&JointState::at_rest(JointVector::repeat(9.0)));
+                        lanes.hand_back(i, &mut handed);
+                        assert!(handed == *filter, "case {case}, sample {k}, lane {i}: the state handed back");
+                        for j in 0..4 {
+                            assert!(same_bits(&handed.p[j], &filter.p[j]), "case {case}, sample {k}, lane {i}");
+                            let gains = handed.gain[j].iter().zip(filter.gain[j].iter());
+                            assert!(gains.clone().all(|(a, b)| a.to_bits() == b.to_bits()), "case {case}, lane {i}");
+                        }
+                    }
+                }
+            }
+        }
+        // Filters of different delays, or with and without a rate sensor, do not share lanes.
+        let angle_std = JointVector::<4>::repeat(1e-3);
+        let a = JointKalman::new(1e-3, angle_std, None, 1, KalmanSettings::DEFAULT).unwrap();
+        let b = JointKalman::new(1e-3, angle_std, None, 2, KalmanSettings::DEFAULT).unwrap();
+        let c = JointKalman::new(1e-3, angle_std, Some(angle_std), 1, KalmanSettings::DEFAULT).unwrap();
+        assert!(KalmanLanes::<4>::of([Some(&a), None, Some(&b), None]).is_none());
+        assert!(KalmanLanes::<4>::of([Some(&a), Some(&c), None, None]).is_none());
+        assert!(KalmanLanes::<4>::of([None; 4]).is_none());
+        assert!(KalmanLanes::<4>::of([None, Some(&a), None, Some(&a)]).is_some());
     }
 }
