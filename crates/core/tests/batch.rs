@@ -436,3 +436,80 @@ fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_
         }
     }
 }
+
+/// Sensors of `profile` (noise seeded by `seed`) with a Kalman filter of `settings` at 1 kHz.
+fn sensed(profile: SensorProfile<4>, settings: KalmanSettings, seed: u64) -> Feedback<4> {
+    let rate_std = profile.rate_noise;
+    let filter = JointKalman::new(1e-3, profile.angle_std(), rate_std, profile.delay_samples, settings).unwrap();
+    Feedback::new(Sensors::new(profile, seed).unwrap(), Estimator::Kalman(Box::new(filter))).unwrap()
+}
+
+#[test]
+fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bit() {
+    let trajectory = trajectory();
+    let hold = Hold(trajectory.reference(0.0).q, 0.4);
+    let events = grips([(0.1, false), (0.35, true)]);
+    let marks = [0.3, 0.9, 1.1];
+    let mut with_rate = SensorProfile::<4>::hobby();
+    with_rate.name = "hobby with tachometers".into();
+    with_rate.rate_noise = Some(JointVector::from([0.01, 0.02, 0.015, 0.03]));
+    with_rate.delay_samples = 2;
+    let mut offset = SensorProfile::<4>::servo();
+    offset.encoders[1].offset = 2e-3;
+    // Groups of eight, each a batch: hobby encoders and the default filter (a delay of one
+    // sample), servo encoders with an offset and the two-state filter (no delay), encoders with
+    // tachometers and a delay of two samples; then a group whose delays differ (hobby and servo
+    // alternating), which the batch must take lane by lane.
+    let make = || {
+        (0..32)
+            .map(|i| {
+                let mut run = lane_law_candidate(i, &trajectory, &trajectory, &hold, &events, &marks);
+                run.feedback = match (i / 8, i % 2) {
+                    (0, _) | (3, 0) => sensed(SensorProfile::hobby(), KalmanSettings::DEFAULT, i),
+                    (1, _) | (3, _) => sensed(offset.clone(), KalmanSettings::TWO_STATE, i),
+                    _ => sensed(with_rate.clone(), KalmanSettings::DEFAULT, i),
+                };
+                run
+            })
+            .collect::<Vec<_>>()
+    };
+    // The summary, and the state the run leaves its controller and its filter in.
+    let print = |run: &mut LaneRun<'_>, result: &Result<SimSummary<4>, SimError>| {
+        let bits = |v: &[f64]| v.iter().map(|x| format!("{:016x}", x.to_bits())).collect::<Vec<_>>().join(",");
+        let commanded = run.controller.commanded_acceleration().map(|v| bits(v.as_slice()));
+        let integral = run.controller.as_computed_torque().map(|law| bits(law.integral().as_slice()));
+        let Estimator::Kalman(filter) = &run.feedback.estimator else { unreachable!("every run has a filter") };
+        let estimate = filter.estimate();
+        let covariances: Vec<String> = (0..4)
+            .map(|j| format!("{} {}", bits(filter.filter_covariance(j).as_slice()), bits(filter.gain(j).as_slice())))
+            .collect();
+        format!(
+            "{} | {commanded:?} {integral:?} | {} {} {} | {covariances:?}",
+            fingerprint(result),
+            bits(estimate.q.as_slice()),
+            bits(estimate.qd.as_slice()),
+            bits(filter.disturbance().as_slice()),
+        )
+    };
+    let scalar: Vec<String> = make()
+        .iter_mut()
+        .map(|run| {
+            let result = run.simulate_alone();
+            print(run, &result)
+        })
+        .collect();
+    assert!(scalar.iter().any(|f| f.contains("diverged")), "no diverging run: {scalar:#?}");
+    let ok: Vec<&String> = scalar.iter().filter(|f| !f.starts_with("error")).collect();
+    assert!(ok.len() >= 20, "{scalar:#?}");
+    assert!(ok.iter().any(|f| f.split(' ').nth(6).is_some_and(|s| s != "0")), "no clipped run");
+    for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
+        for lanes in [LaneCount::Four, LaneCount::Eight] {
+            let mut runs = make();
+            let results = simulate_lanes(&mut runs, lanes, level);
+            let batched: Vec<String> = runs.iter_mut().zip(&results).map(|(run, result)| print(run, result)).collect();
+            for (i, (a, b)) in scalar.iter().zip(&batched).enumerate() {
+                assert_eq!(a, b, "run {i}, {} lanes at {}", lanes.get(), level.name());
+            }
+        }
+    }
+}

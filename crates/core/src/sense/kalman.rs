@@ -616,32 +616,57 @@ pub(crate) type Columns<S> = [[S; 3]; 3];
 /// `yᵣ = (Aᵣ₀ x₀ + Aᵣ₁ x₁) + Aᵣ₂ x₂`.
 #[inline(always)]
 fn times<S: Real>(a: &Columns<S>, x: &[S; 3]) -> [S; 3] {
-    array3(|r| a[0][r] * x[0] + a[1][r] * x[1] + a[2][r] * x[2])
+    array3(
+        #[inline(always)]
+        |r| a[0][r] * x[0] + a[1][r] * x[1] + a[2][r] * x[2],
+    )
 }
 
 /// `A B`, column by column as [`times`] (nalgebra's `gemm` for fixed sizes).
 #[inline(always)]
 fn product<S: Real>(a: &Columns<S>, b: &Columns<S>) -> Columns<S> {
-    array3(|c| times(a, &b[c]))
+    array3(
+        #[inline(always)]
+        |c| times(a, &b[c]),
+    )
 }
 
 #[inline(always)]
 fn transpose<S: Real>(a: &Columns<S>) -> Columns<S> {
-    array3(|c| array3(|r| a[r][c]))
+    array3(
+        #[inline(always)]
+        |c| {
+            array3(
+                #[inline(always)]
+                |r| a[r][c],
+            )
+        },
+    )
 }
 
 /// `F P Fᵀ + Q`, the covariance's prediction over one sample.
 #[inline(always)]
 fn predicted<S: Real>(f: &Columns<S>, p: &Columns<S>, q: &Columns<S>) -> Columns<S> {
     let fpf = product(&product(f, p), &transpose(f));
-    array3(|c| array3(|r| fpf[c][r] + q[c][r]))
+    array3(
+        #[inline(always)]
+        |c| {
+            array3(
+                #[inline(always)]
+                |r| fpf[c][r] + q[c][r],
+            )
+        },
+    )
 }
 
 /// `F x + G u`, the state's prediction over one sample with the input `u` (rad/s²).
 #[inline(always)]
 pub(crate) fn predict<S: Real>(f: &Columns<S>, g: &[S; 3], x: &[S; 3], u: S) -> [S; 3] {
     let fx = times(f, x);
-    array3(|r| fx[r] + g[r] * u)
+    array3(
+        #[inline(always)]
+        |r| fx[r] + g[r] * u,
+    )
 }
 
 /// One joint's state over one sample: `x⁻ = F x + G u`, then `x += k₁ (q̃ − x₀)` with the
@@ -658,11 +683,17 @@ pub(crate) fn state_step<S: Real>(
     let mut x = predict(f, g, x, u);
     if let Some((z, k)) = angle {
         let innovation = z - x[0];
-        x = array3(|r| x[r] + k[r] * innovation);
+        x = array3(
+            #[inline(always)]
+            |r| x[r] + k[r] * innovation,
+        );
     }
     if let Some((z, k)) = rate {
         let innovation = z - x[1];
-        x = array3(|r| x[r] + k[r] * innovation);
+        x = array3(
+            #[inline(always)]
+            |r| x[r] + k[r] * innovation,
+        );
     }
     x
 }
@@ -694,7 +725,10 @@ pub(crate) fn covariance_step<S: Real>(
     let mut to = predicted(f, from, q);
     let angle_gain = if angle { scalar_gain(&mut to, 0, angle_variance) } else { zero };
     let rate_gain = if rate { scalar_gain(&mut to, 1, rate_variance) } else { zero };
-    let first = array3(|r| angle_gain[r] - rate_gain[r] * angle_gain[1]);
+    let first = array3(
+        #[inline(always)]
+        |r| angle_gain[r] - rate_gain[r] * angle_gain[1],
+    );
     CovarianceUpdate { angle_gain, gain: [first, rate_gain], to }
 }
 
@@ -705,17 +739,42 @@ pub(crate) fn covariance_step<S: Real>(
 #[inline(always)]
 fn scalar_gain<S: Real>(p: &mut Columns<S>, row: usize, r: S) -> [S; 3] {
     let innovation_variance = p[row][row] + r;
-    let k = array3(|i| p[row][i] / innovation_variance);
+    let k = array3(
+        #[inline(always)]
+        |i| p[row][i] / innovation_variance,
+    );
     // `I − k eᵣᵀ`: column `row` is `eᵣ − k` (each entry a subtraction, `0 − k` included).
-    let a: Columns<S> = array3(|c| {
-        array3(|i| {
-            let identity = S::splat(if i == c { 1.0 } else { 0.0 });
-            if c == row { identity - k[i] } else { identity }
-        })
-    });
+    let a: Columns<S> = array3(
+        #[inline(always)]
+        |c| {
+            array3(
+                #[inline(always)]
+                |i| {
+                    let identity = S::splat(if i == c { 1.0 } else { 0.0 });
+                    if c == row { identity - k[i] } else { identity }
+                },
+            )
+        },
+    );
     let apa = product(&product(&a, p), &transpose(&a));
-    let joseph: Columns<S> = array3(|c| array3(|i| apa[c][i] + k[i] * k[c] * r));
-    *p = array3(|c| array3(|i| (joseph[c][i] + joseph[i][c]) * S::splat(0.5)));
+    let joseph: Columns<S> = array3(
+        #[inline(always)]
+        |c| {
+            array3(
+                #[inline(always)]
+                |i| apa[c][i] + k[i] * k[c] * r,
+            )
+        },
+    );
+    *p = array3(
+        #[inline(always)]
+        |c| {
+            array3(
+                #[inline(always)]
+                |i| (joseph[c][i] + joseph[i][c]) * S::splat(0.5),
+            )
+        },
+    );
     k
 }
 
@@ -726,6 +785,11 @@ fn scalar_gain<S: Real>(p: &mut Columns<S>, row: usize, r: S) -> [S; 3] {
 /// is computed at every sample for every lane (the scalar filter's remembered steps give the
 /// same bits as computing them). A joint where some lane's reading is missing (not finite) is
 /// updated lane by lane, by the same formulas on `f64`.
+///
+/// Like the scalar filter, it remembers each joint's last two covariance steps (for every lane
+/// at once, with both readings there) and reuses one whose starting covariance has the bits of
+/// every lane's: once the lanes' recursions have settled into their fixed points or cycles of
+/// two, the covariance costs a comparison a sample.
 #[derive(Debug, Clone)]
 pub(crate) struct KalmanLanes<const L: usize> {
     delay: usize,
@@ -741,6 +805,24 @@ pub(crate) struct KalmanLanes<const L: usize> {
     ahead: [[Lanes<L>; 3]; 4],
     inputs: [[Lanes<L>; 4]; MAX_DELAY_SAMPLES + 1],
     head: usize,
+    /// Per joint, the last two covariance steps with every reading there, newest first: the
+    /// covariance they started from, and what they gave.
+    remembered: [[Option<RememberedLanes<L>>; 2]; 4],
+}
+
+/// A covariance step of every lane: the covariance it started from, and what it gave.
+type RememberedLanes<const L: usize> = (Columns<Lanes<L>>, CovarianceUpdate<Lanes<L>>);
+
+/// Whether every entry of `a` has the bits of `b`'s, in every lane (without a branch).
+#[inline(always)]
+fn same_lanes<const L: usize>(a: &Columns<Lanes<L>>, b: &Columns<Lanes<L>>) -> bool {
+    let mut differ = 0;
+    for (a, b) in a.iter().flatten().zip(b.iter().flatten()) {
+        for (a, b) in a.0.iter().zip(&b.0) {
+            differ |= a.to_bits() ^ b.to_bits();
+        }
+    }
+    differ == 0
 }
 
 impl<const L: usize> KalmanLanes<L> {
@@ -775,6 +857,7 @@ impl<const L: usize> KalmanLanes<L> {
             ahead: array4(|j| array3(|r| lanes(&|k| k.ahead[j][r]))),
             inputs: std::array::from_fn(|slot| array4(|j| lanes(&|k| k.inputs[slot][j]))),
             head: first.head,
+            remembered: [[None; 2]; 4],
         })
     }
 
@@ -790,17 +873,38 @@ impl<const L: usize> KalmanLanes<L> {
         applied: &[Lanes<L>; 4],
     ) -> ([Lanes<L>; 4], [Lanes<L>; 4]) {
         let span = self.delay + 1;
-        self.inputs[self.head] = applied.map(|u| u.map(|u| if u.is_finite() { u } else { 0.0 }));
+        self.inputs[self.head] = array4(
+            #[inline(always)]
+            |j| applied[j].each(|u| if u.is_finite() { u } else { 0.0 }),
+        );
         self.head = if self.head + 1 == span { 0 } else { self.head + 1 };
         // Now `inputs[head]` is u_{k−δ−1}, and the next δ slots hold u_{k−δ} … u_{k−1}.
         let oldest = self.inputs[self.head];
-        let finite = |v: &Lanes<L>| v.0.iter().all(|v| v.is_finite());
+        #[inline(always)]
+        fn finite<const L: usize>(v: &Lanes<L>) -> bool {
+            v.0.iter().all(|v| v.is_finite())
+        }
         let rate = self.measures_rate;
         let (mut out_q, mut out_qd) = ([Lanes::splat(0.0); 4], [Lanes::splat(0.0); 4]);
         for j in 0..4 {
             if finite(&q[j]) && (!rate || finite(&qd[j])) {
-                let variances = (self.angle_variance[j], self.rate_variance[j]);
-                let step = covariance_step((&self.f, &self.q), &self.p[j], variances, true, rate);
+                let known = |slot: &Option<RememberedLanes<L>>| {
+                    slot.as_ref().is_some_and(|(from, _)| same_lanes(from, &self.p[j]))
+                };
+                let slot = if known(&self.remembered[j][0]) {
+                    0
+                } else if known(&self.remembered[j][1]) {
+                    1
+                } else {
+                    let variances = (self.angle_variance[j], self.rate_variance[j]);
+                    let step = covariance_step((&self.f, &self.q), &self.p[j], variances, true, rate);
+                    self.remembered[j][1] = self.remembered[j][0];
+                    self.remembered[j][0] = Some((self.p[j], step));
+                    0
+                };
+                let Some((_, step)) = &self.remembered[j][slot] else {
+                    unreachable!("a remembered slot was found or just filled")
+                };
                 self.p[j] = step.to;
                 self.gain[j] = step.gain;
                 let rate = rate.then_some((qd[j], &step.gain[1]));
@@ -837,8 +941,8 @@ impl<const L: usize> KalmanLanes<L> {
         let angle = has_angle.then_some((angle, &step.angle_gain));
         let rate = has_rate.then_some((rate, &step.gain[1]));
         let x = state_step((&f, &g), &self.x[j].map(|v| v.0[i]), u, angle, rate);
-        for r in 0..3 {
-            self.x[j][r].0[i] = x[r];
+        for (r, x) in x.into_iter().enumerate() {
+            self.x[j][r].0[i] = x;
             for c in 0..3 {
                 self.p[j][c][r].0[i] = step.to[c][r];
             }

@@ -254,6 +254,44 @@ fn not_positive_definite_at(time: f64, q: impl Iterator<Item = f64>) -> SimError
     SimError::Dynamics { time, source: DynamicsError::NotPositiveDefinite(q.collect()) }
 }
 
+/// Where a batch runs its runs' Kalman filters in lanes ([`LaneLaw::estimate`]): each lane's
+/// sensors read its plant's state (lane by lane: each run draws its own noise), then the
+/// filters update in lanes, compiled for `level`. A lane of `not_positive_definite` fails
+/// before its sample, as the scalar run does before its sensors read: it reads nothing, and
+/// its filter is handed the state from before the update. Returns the estimates.
+fn estimate_in_lanes<const L: usize, C, R>(
+    level: SimdLevel,
+    law: &mut LaneLaw<L>,
+    loops: &mut [Option<Run<'_, 4, C, R>>],
+    state: &State<Lanes<L>>,
+    not_positive_definite: u64,
+) -> State<Lanes<L>>
+where
+    C: Controller<4> + ?Sized,
+    R: ReferenceSource<4> + ?Sized,
+{
+    // Lanes that read nothing take readings of zero (finite, so the filters stay in lanes).
+    let (mut q, mut qd) = ([Lanes::splat(0.0); 4], [Lanes::splat(0.0); 4]);
+    for (i, slot) in loops.iter_mut().enumerate() {
+        let Some(lane) = slot.as_mut() else { continue };
+        if not_positive_definite & (1 << i) != 0 {
+            law.hand_back_filter(i, lane);
+            continue;
+        }
+        let reading = lane.measure();
+        for j in 0..4 {
+            q[j].0[i] = reading.q[j];
+            qd[j].0[i] = reading.qd.map_or(f64::NAN, |qd| qd[j]);
+        }
+    }
+    level
+        .run(
+            #[inline(always)]
+            || law.estimate((&q, &qd), state),
+        )
+        .unwrap_or_else(|| unreachable!("called where the batch runs the estimators"))
+}
+
 /// The controllers' samples, the torques and the metrics of every lane at once ([`LaneLaw`])
 /// at the lanes' `state`, with the plant's and (for the lanes of `own`) the controllers' models'
 /// terms; the lanes of `not_positive_definite` fail (their plant's `M` is not positive
@@ -267,7 +305,7 @@ fn control_in_lanes<const L: usize, C, R>(
     loops: &mut [Option<Run<'_, 4, C, R>>],
     results: &mut [Option<Result<SimSummary<4>, SimError>>],
     models: &[ArmModel<4>; L],
-    state: &State<Lanes<L>>,
+    (state, seen): (&State<Lanes<L>>, &State<Lanes<L>>),
     (start, own_terms): (&Start<Lanes<L>>, &Start<Lanes<L>>),
     (own, not_positive_definite): (u64, u64),
     torques: &mut [[f64; 4]; L],
@@ -283,16 +321,17 @@ where
         (first.reference_now(), first.config.control_period, first.tracked(), first.finished());
     let raw = level.run(
         #[inline(always)]
-        || law.torque((&state.q, &state.qd), start, own_terms, own, &now.desired, period),
+        || law.torque((&seen.q, &seen.qd), start, own_terms, own, &now.desired, period),
     );
     for (i, slot) in loops.iter_mut().enumerate() {
         let Some(lane) = slot.as_mut() else { continue };
         let outcome = if not_positive_definite & (1 << i) == 0 {
-            let sampled = lane.sample(&raw.map(|v| v.get(i))).map(|_| ());
-            if sampled.is_err() {
-                law.hand_back(i, lane);
+            let sampled = lane.sample(&raw.map(|v| v.get(i)));
+            match sampled {
+                Ok(clipped) => law.sampled(i, clipped, &lane.command(), || terms_of(own_terms, i)),
+                Err(_) => law.hand_back(i, lane),
             }
-            sampled
+            sampled.map(|_| ())
         } else {
             // The scalar run fails before its controller's sample.
             law.hand_back_unsampled(i, lane);
@@ -335,7 +374,7 @@ where
         lane.mark(Vector3::new(tip[0].get(i), tip[1].get(i), tip[2].get(i)), tip_error.get(i));
         if finished {
             law.hand_back(i, lane);
-            results[i] = slot.take().map(|lane| Ok(lane.summary_with(law.tracking.lane(i))));
+            results[i] = slot.take().map(|lane| Ok(lane.summary_with(law.tracking.lane(i), law.estimate_errors(i))));
         } else {
             active += 1;
         }
@@ -410,6 +449,16 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             }
         }
         let state = lane_state(&states);
+        set_start(level, &fast, &mut start, &state, true);
+        let not_positive_definite = start.configuration.factor.failed_lanes();
+        // Where the batch runs the estimators: the sensors' readings lane by lane, the filters
+        // in lanes.
+        let estimate = match law.as_mut() {
+            Some(law) if law.estimates() => {
+                Some(estimate_in_lanes(level, law, &mut loops, &state, not_positive_definite))
+            }
+            _ => None,
+        };
         // The controllers that compute their own terms this step: their feedback runs now and
         // their terms are computed in lanes, as each would compute them alone.
         let mut seen = states;
@@ -417,8 +466,9 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
         for i in 0..count {
             let Some(lane) = loops[i].as_mut() else { continue };
             if law.is_some() {
-                // Exact feedback: the controller sees the state itself.
-                if !lane.shares_terms() {
+                // The exact state, or the estimate computed above; with an estimate the
+                // controller computes its terms at it (as `Run::seen_for_terms` says).
+                if estimate.is_some() || !lane.shares_terms() {
                     debug_assert!(
                         controller_arm(Some(&*lane), &arms[i]) == controller_arms[i],
                         "a controller's model changed outside `set_payload`"
@@ -433,13 +483,15 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                 wants_terms |= 1 << i;
             }
         }
+        let seen = match (&law, estimate) {
+            (Some(_), Some(estimate)) => estimate,
+            (Some(_), None) => state,
+            (None, _) => lane_state(&seen),
+        };
         if wants_terms != 0 {
-            let seen = if law.is_some() { state } else { lane_state(&seen) };
             set_start(level, &controller_fast, &mut controller_start, &seen, false);
         }
-        set_start(level, &fast, &mut start, &state, true);
         let mut active = 0;
-        let not_positive_definite = start.configuration.factor.failed_lanes();
         match law.as_mut() {
             Some(law) => {
                 let terms = (&start, &controller_start);
@@ -449,7 +501,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                     &mut loops,
                     &mut results,
                     &models,
-                    &state,
+                    (&state, &seen),
                     terms,
                     (wants_terms, not_positive_definite),
                     &mut torques,

@@ -15,7 +15,7 @@ use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::{Controller, JointState, Reference};
 use crate::lanes::Real;
 use crate::plan::trajectory::JointTrajectory;
-use crate::sense::Feedback;
+use crate::sense::{Estimator, Feedback, JointKalman, Measurement};
 use crate::sim::plant::{Integrator, Plant};
 use nalgebra::Vector3;
 
@@ -683,11 +683,39 @@ where
         self.command
     }
 
-    /// Whether a batch may run this run's controller sample, torque and metrics in lanes
-    /// ([`super::batch`]): the controller sees the exact state at every step, and the motors
-    /// have no lag. (The batch also asks for the plain computed-torque law.)
+    /// Whether a batch may run this run's feedback, controller sample, torque and metrics in
+    /// lanes ([`super::batch`]): the controller samples at every step, the motors have no lag,
+    /// and the controller sees the exact state or the estimate of a Kalman filter
+    /// ([`Run::kalman`]). (The batch also asks for the plain computed-torque law.)
     pub fn runs_in_lanes(&self) -> bool {
-        self.exact && self.steps_per_sample == 1 && !self.has_lag
+        self.steps_per_sample == 1 && !self.has_lag && (self.exact || self.kalman().is_some())
+    }
+
+    /// Whether the controller sees the plant's exact state.
+    pub fn is_exact(&self) -> bool {
+        self.exact
+    }
+
+    /// The Kalman filter between the sensors and the controller, if that is the estimator.
+    pub fn kalman(&self) -> Option<&JointKalman<N>> {
+        match &self.feedback.estimator {
+            Estimator::Kalman(filter) if !self.exact => Some(filter),
+            _ => None,
+        }
+    }
+
+    /// [`Run::kalman`], to hand it back its state.
+    pub fn kalman_mut(&mut self) -> Option<&mut JointKalman<N>> {
+        match &mut self.feedback.estimator {
+            Estimator::Kalman(filter) if !self.exact => Some(filter),
+            _ => None,
+        }
+    }
+
+    /// The sensors' reading due at this sample ([`crate::sense::Sensors::measure`] of the
+    /// plant's state), for a batch that runs the estimator in lanes.
+    pub fn measure(&mut self) -> Measurement<N> {
+        self.feedback.sensors.measure(&self.state)
     }
 
     /// The first step the RMS and largest errors count.
@@ -707,9 +735,18 @@ where
     }
 
     /// The metrics of a run whose steps a batch recorded in lanes ([`Run::runs_in_lanes`]):
-    /// `tracking` is its lane's.
-    pub fn summary_with(mut self, tracking: Tracking<f64, N>) -> SimSummary<N> {
+    /// `tracking` is its lane's, and `estimate_errors` the sums of the squared angle and rate
+    /// errors of its estimates where the batch ran its estimator (rad², rad²/s²).
+    pub fn summary_with(
+        mut self,
+        tracking: Tracking<f64, N>,
+        estimate_errors: Option<(JointVector<N>, JointVector<N>)>,
+    ) -> SimSummary<N> {
         self.tracking = tracking;
+        if let Some((angle, rate)) = estimate_errors {
+            self.squared_angle_estimate_error = angle;
+            self.squared_rate_estimate_error = rate;
+        }
         self.summary()
     }
 
@@ -780,11 +817,22 @@ fn acceleration_of<const N: usize, C: Controller<N> + ?Sized>(
     match controller.dynamics_model() {
         Some(model) => {
             let terms = terms.copied().unwrap_or_else(|| DynamicsTerms::new(model, &seen.q, &seen.qd));
-            crate::arm::mass_factor::MassMatrixFactor::new(&terms.mass_matrix)
-                .map_or(commanded, |factor| factor.solve(&(clipped_command - terms.bias)))
+            clipped_acceleration(commanded, clipped_command, &terms)
         }
         None => commanded,
     }
+}
+
+/// The acceleration a clipped command produces as the controller's model predicts it,
+/// `M̂⁻¹(τ_clipped − N̂)` with its terms, rad/s²; `commanded` where `M̂` is not positive
+/// definite.
+pub(crate) fn clipped_acceleration<const N: usize>(
+    commanded: JointVector<N>,
+    clipped_command: &JointVector<N>,
+    terms: &DynamicsTerms<N>,
+) -> JointVector<N> {
+    crate::arm::mass_factor::MassMatrixFactor::new(&terms.mass_matrix)
+        .map_or(commanded, |factor| factor.solve(&(clipped_command - terms.bias)))
 }
 
 fn check_state<const N: usize>(state: &JointState<N>, time: f64, runaway_speed: f64) -> Result<(), SimError> {

@@ -6,15 +6,35 @@
 //! formulas the scalar controller and closed loop use ([`computed_torque::outer_loop`],
 //! [`computed_torque::computed_torque`], [`Tracking::record`]), the same IEEE operations in
 //! the same order per lane. Each lane's results are therefore the scalar run's, bit for bit.
+//!
+//! Where every run's controller sees the estimate of a Kalman filter instead (and the filters
+//! share a delay and a velocity sensor or none), the filters run in lanes too
+//! ([`KalmanLanes`]), with the estimates' error statistics; the sensors still read lane by lane
+//! (their noise comes from each run's own generator).
 
 // The law indexes several arrays by joint and lane, as its equations do.
 #![allow(clippy::needless_range_loop)]
 
-use super::closed_loop::{Run, Tracking};
-use super::structured::Start;
+use super::closed_loop::{Run, Tracking, clipped_acceleration};
+use super::structured::{Start, State};
+use crate::arm::dynamics::DynamicsTerms;
+use crate::arm::model::JointVector;
 use crate::control::computed_torque::{self, AntiWindup};
 use crate::control::{Controller, Reference};
 use crate::lanes::{Lanes, Real, array4};
+use crate::sense::kalman::KalmanLanes;
+
+/// The Kalman filters of a batch whose controllers see estimates, with what each scalar run
+/// keeps of its feedback.
+#[derive(Debug, Clone)]
+pub(crate) struct FeedbackLanes<const L: usize> {
+    kalman: KalmanLanes<L>,
+    /// The acceleration each controller commanded over the sample just ended, as its model
+    /// predicts it (the filters' input), rad/s².
+    applied: [Lanes<L>; 4],
+    /// Sums of the squared angle (rad²) and rate (rad²/s²) errors of the estimates.
+    squared_errors: ([Lanes<L>; 4], [Lanes<L>; 4]),
+}
 
 /// The laws' gains and integrals, lane by lane, and the runs' metrics in lanes.
 #[derive(Debug, Clone)]
@@ -34,11 +54,14 @@ pub(crate) struct LaneLaw<const L: usize> {
     model_limits: [Lanes<L>; 4],
     /// The runs' metrics.
     pub tracking: Tracking<Lanes<L>, 4>,
+    /// The runs' Kalman filters, where their controllers see estimates (`None`: the exact state).
+    feedback: Option<FeedbackLanes<L>>,
 }
 
 impl<const L: usize> LaneLaw<L> {
     /// The laws of `runs` (lane `i` is `runs[i]`, `None` for a lane that never starts), if
-    /// every run that starts can run in lanes: [`Run::runs_in_lanes`], a
+    /// every run that starts can run in lanes: [`Run::runs_in_lanes`] (all with the exact
+    /// state, or all with Kalman filters that [`KalmanLanes::of`] takes), a
     /// [`ComputedTorque`](computed_torque::ComputedTorque)
     /// controller whose model is of the yaw–pitch family and has no friction, and the same
     /// reference, step count, first tracked step and control period as the others.
@@ -48,8 +71,13 @@ impl<const L: usize> LaneLaw<L> {
         R: super::ReferenceSource<4> + ?Sized,
     {
         let first = runs.iter().flatten().next()?;
-        let (reference, steps, tracked_from, period) =
-            (first.reference() as *const R, first.steps, first.first_tracked_step(), first.config.control_period);
+        let (reference, steps, tracked_from, period, exact) = (
+            first.reference() as *const R,
+            first.steps,
+            first.first_tracked_step(),
+            first.config.control_period,
+            first.is_exact(),
+        );
         let mut gains = [[[0.0; L]; 4]; 3];
         let mut integral = [[0.0; L]; 4];
         let mut model_limits = [[0.0; L]; 4];
@@ -60,7 +88,8 @@ impl<const L: usize> LaneLaw<L> {
                 && run.steps == steps
                 && run.first_tracked_step() == tracked_from
                 && run.config.control_period.to_bits() == period.to_bits()
-                && run.runs_in_lanes();
+                && run.runs_in_lanes()
+                && run.is_exact() == exact;
             let law = run.as_computed_torque()?;
             if !same || law.model().has_friction() || law.model().yaw_pitch().is_none() {
                 return None;
@@ -76,6 +105,13 @@ impl<const L: usize> LaneLaw<L> {
             }
             integrates[i] = law.gains().has_integral().then_some(law.anti_windup());
         }
+        let feedback = if exact {
+            None
+        } else {
+            let filters = std::array::from_fn(|i| runs.get(i).and_then(Option::as_ref).and_then(Run::kalman));
+            let zero = [Lanes::splat(0.0); 4];
+            Some(FeedbackLanes { kalman: KalmanLanes::of(filters)?, applied: zero, squared_errors: (zero, zero) })
+        };
         let lanes = |v: [[f64; L]; 4]| v.map(Lanes);
         Some(Self {
             gains: gains.map(lanes),
@@ -85,7 +121,75 @@ impl<const L: usize> LaneLaw<L> {
             integrates,
             model_limits: lanes(model_limits),
             tracking: Tracking::new(),
+            feedback,
         })
+    }
+
+    /// Whether the controllers see the estimates of Kalman filters run in lanes
+    /// ([`LaneLaw::estimate`]) rather than the exact state.
+    pub fn estimates(&self) -> bool {
+        self.feedback.is_some()
+    }
+
+    /// Every lane's estimate of the state now from the readings `(q, qd)` due at this sample
+    /// (rad, rad/s; a missing rate NaN), as its run's feedback gives it
+    /// ([`crate::sense::Feedback::observe`]), and the estimates' errors against the plant's
+    /// `state` added up as the run adds them. `None` where the controllers see the exact
+    /// state.
+    #[inline(always)]
+    pub fn estimate(
+        &mut self,
+        (q, qd): (&[Lanes<L>; 4], &[Lanes<L>; 4]),
+        state: &State<Lanes<L>>,
+    ) -> Option<State<Lanes<L>>> {
+        let feedback = self.feedback.as_mut()?;
+        let (estimate_q, estimate_qd) = feedback.kalman.update(q, qd, &feedback.applied);
+        let (angle, rate) = &mut feedback.squared_errors;
+        for j in 0..4 {
+            let (error_q, error_qd) = (estimate_q[j] - state.q[j], estimate_qd[j] - state.qd[j]);
+            angle[j] += error_q * error_q;
+            rate[j] += error_qd * error_qd;
+        }
+        Some(State { q: estimate_q, qd: estimate_qd })
+    }
+
+    /// After lane `i`'s controller sample (its command, after clipping, `command`, N·m): the
+    /// acceleration its filter takes as input over the coming sample, the law's `v` or, where
+    /// the command was `clipped`, what the clipped command gives with the controller's
+    /// `terms` at the state it saw ([`clipped_acceleration`]), as the scalar run computes it.
+    pub fn sampled(
+        &mut self,
+        i: usize,
+        clipped: bool,
+        command: &JointVector<4>,
+        terms: impl FnOnce() -> DynamicsTerms<4>,
+    ) {
+        let Some(feedback) = self.feedback.as_mut() else { return };
+        let commanded = JointVector::from_fn(|j, _| self.commanded[j].0[i]);
+        let applied = if clipped { clipped_acceleration(commanded, command, &terms()) } else { commanded };
+        for j in 0..4 {
+            feedback.applied[j].0[i] = applied[j];
+        }
+    }
+
+    /// Lane `i`'s sums of squared estimate errors ([`Run::summary_with`]), where the batch ran
+    /// the estimators.
+    pub fn estimate_errors(&self, i: usize) -> Option<(JointVector<4>, JointVector<4>)> {
+        let lane = |v: &[Lanes<L>; 4]| JointVector::from_fn(|j, _| v[j].0[i]);
+        self.feedback.as_ref().map(|feedback| (lane(&feedback.squared_errors.0), lane(&feedback.squared_errors.1)))
+    }
+
+    /// Hands lane `i`'s filter state back to its run's Kalman filter (with the batch's
+    /// estimators): as the scalar run leaves it at the latest sample, or, called before the
+    /// sample's update, before it.
+    pub fn hand_back_filter<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
+    where
+        C: Controller<4> + ?Sized,
+        R: super::ReferenceSource<4> + ?Sized,
+    {
+        if let (Some(feedback), Some(filter)) = (self.feedback.as_ref(), run.kalman_mut()) {
+            feedback.kalman.hand_back(i, filter);
+        }
     }
 
     /// Every lane's torque command before clipping (N·m), as its
@@ -170,20 +274,23 @@ impl<const L: usize> LaneLaw<L> {
         torque
     }
 
-    /// Hands lane `i`'s integral and latest `v` back to its run's controller, as the scalar
-    /// run leaves them: at the end, or where it fails after its latest sample.
+    /// Hands lane `i`'s integral and latest `v` back to its run's controller, and its filter
+    /// state to its Kalman filter, as the scalar run leaves them: at the end, or where it fails
+    /// after its latest sample.
     pub fn hand_back<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
     where
         C: Controller<4> + ?Sized,
         R: super::ReferenceSource<4> + ?Sized,
     {
+        self.hand_back_filter(i, run);
         if let Some(law) = run.as_computed_torque() {
             law.set_law_state(self.integral.map(|v| v.0[i]), self.commanded.map(|v| v.0[i]));
         }
     }
 
     /// [`LaneLaw::hand_back`] for a lane that fails at the latest sample before its controller
-    /// would run (its plant's `M` not positive definite): the state from before that sample.
+    /// would run (its plant's `M` not positive definite): the controller's state from before
+    /// that sample (its filter's was handed back before the sample's update).
     pub fn hand_back_unsampled<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
     where
         C: Controller<4> + ?Sized,
