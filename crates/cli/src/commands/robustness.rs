@@ -395,10 +395,10 @@ fn scenario_rows(
                 continue;
             }
         };
-        for spec in specs {
+        for (k, spec) in specs.iter().enumerate() {
             match scenario_run(setup, plan, trial, spec, events, &marks, options.integrator) {
                 Ok(run) => {
-                    pending.push((rows.len(), d.index, trial, spec));
+                    pending.push((k, (rows.len(), d.index, trial, spec)));
                     runs.push(run);
                     rows.push(None);
                 }
@@ -409,6 +409,12 @@ fn scenario_rows(
             }
         }
     }
+    // One controller's runs side by side (its trials in order): a batch of runs of one
+    // computed-torque controller computes its laws in lanes. A run's result does not depend on
+    // its batch, so neither do the rows.
+    let mut side_by_side: Vec<_> = pending.into_iter().zip(runs).collect();
+    side_by_side.sort_by_key(|((controller, _), _)| *controller);
+    let (pending, mut runs): (Vec<_>, Vec<_>) = side_by_side.into_iter().map(|((_, row), run)| (row, run)).unzip();
     for ((slot, index, trial, spec), result) in pending.into_iter().zip(simulate_lanes(&mut runs, lanes, level)) {
         let mut totals = Totals::default();
         let status = match result {

@@ -805,9 +805,14 @@ pub(crate) struct KalmanLanes<const L: usize> {
     ahead: [[Lanes<L>; 3]; 4],
     inputs: [[Lanes<L>; 4]; MAX_DELAY_SAMPLES + 1],
     head: usize,
-    /// Per joint, the last two covariance steps with every reading there, newest first: the
-    /// covariance they started from, and what they gave.
+    /// Per joint, the last two covariance steps with every reading there (the covariance they
+    /// started from, and what they gave), and which of the two is the newest.
     remembered: [[Option<RememberedLanes<L>>; 2]; 4],
+    newest: [usize; 4],
+    /// Per joint, the remembered step whose result is the covariance and gain now, or `None`
+    /// where they are `p` and `gain` (not copied out of the step, which is most of the work a
+    /// sample once the steps repeat).
+    current: [Option<usize>; 4],
 }
 
 /// A covariance step of every lane: the covariance it started from, and what it gave.
@@ -823,6 +828,15 @@ fn same_lanes<const L: usize>(a: &Columns<Lanes<L>>, b: &Columns<Lanes<L>>) -> b
         }
     }
     differ == 0
+}
+
+/// Whether `slot` holds a step from the covariance `now` (bit for bit in every lane).
+#[inline(always)]
+fn knows<const L: usize>(slot: &Option<RememberedLanes<L>>, now: &Columns<Lanes<L>>) -> bool {
+    match slot {
+        Some((from, _)) => same_lanes(from, now),
+        None => false,
+    }
 }
 
 impl<const L: usize> KalmanLanes<L> {
@@ -858,7 +872,35 @@ impl<const L: usize> KalmanLanes<L> {
             inputs: std::array::from_fn(|slot| array4(|j| lanes(&|k| k.inputs[slot][j]))),
             head: first.head,
             remembered: [[None; 2]; 4],
+            newest: [1; 4],
+            current: [None; 4],
         })
+    }
+
+    /// Joint `j`'s covariance now, by columns.
+    #[inline(always)]
+    fn covariance(&self, j: usize) -> &Columns<Lanes<L>> {
+        match self.current[j] {
+            Some(slot) => &self.remembered_step(j, slot).to,
+            None => &self.p[j],
+        }
+    }
+
+    /// Joint `j`'s gain now, by columns.
+    #[inline(always)]
+    fn gain(&self, j: usize) -> &[[Lanes<L>; 3]; 2] {
+        match self.current[j] {
+            Some(slot) => &self.remembered_step(j, slot).gain,
+            None => &self.gain[j],
+        }
+    }
+
+    #[inline(always)]
+    fn remembered_step(&self, j: usize, slot: usize) -> &CovarianceUpdate<Lanes<L>> {
+        match &self.remembered[j][slot] {
+            Some((_, step)) => step,
+            None => unreachable!("a current step is a remembered one"),
+        }
     }
 
     /// [`JointKalman::update`] of every lane: `q` the angle readings (rad), `qd` the rate
@@ -888,25 +930,33 @@ impl<const L: usize> KalmanLanes<L> {
         let (mut out_q, mut out_qd) = ([Lanes::splat(0.0); 4], [Lanes::splat(0.0); 4]);
         for j in 0..4 {
             if finite(&q[j]) && (!rate || finite(&qd[j])) {
-                let known = |slot: &Option<RememberedLanes<L>>| {
-                    slot.as_ref().is_some_and(|(from, _)| same_lanes(from, &self.p[j]))
-                };
-                let slot = if known(&self.remembered[j][0]) {
-                    0
-                } else if known(&self.remembered[j][1]) {
-                    1
+                let now = self.covariance(j);
+                // The newest first: at a fixed point, the only one compared.
+                let (newest, older) = (self.newest[j], 1 - self.newest[j]);
+                let slot = if knows(&self.remembered[j][newest], now) {
+                    Some(newest)
+                } else if knows(&self.remembered[j][older], now) {
+                    Some(older)
                 } else {
-                    let variances = (self.angle_variance[j], self.rate_variance[j]);
-                    let step = covariance_step((&self.f, &self.q), &self.p[j], variances, true, rate);
-                    self.remembered[j][1] = self.remembered[j][0];
-                    self.remembered[j][0] = Some((self.p[j], step));
-                    0
+                    None
                 };
+                let slot = match slot {
+                    Some(slot) => slot,
+                    None => {
+                        let from = *now;
+                        let variances = (self.angle_variance[j], self.rate_variance[j]);
+                        let step = covariance_step((&self.f, &self.q), &from, variances, true, rate);
+                        // The older of the two makes way.
+                        let slot = 1 - self.newest[j];
+                        self.remembered[j][slot] = Some((from, step));
+                        self.newest[j] = slot;
+                        slot
+                    }
+                };
+                self.current[j] = Some(slot);
                 let Some((_, step)) = &self.remembered[j][slot] else {
                     unreachable!("a remembered slot was found or just filled")
                 };
-                self.p[j] = step.to;
-                self.gain[j] = step.gain;
                 let rate = rate.then_some((qd[j], &step.gain[1]));
                 let angle = Some((q[j], &step.angle_gain));
                 self.x[j] = state_step((&self.f, &self.g), &self.x[j], oldest[j], angle, rate);
@@ -931,6 +981,11 @@ impl<const L: usize> KalmanLanes<L> {
     /// Lane `i`'s joint `j` over one sample with its readings `(angle, rate)` (either may be
     /// missing: not finite) and input `u`, as its own filter takes it.
     fn update_lane(&mut self, i: usize, j: usize, (angle, rate): (f64, f64), u: f64) {
+        if self.current[j].is_some() {
+            self.p[j] = *self.covariance(j);
+            self.gain[j] = *self.gain(j);
+            self.current[j] = None;
+        }
         let one = |m: &Columns<Lanes<L>>| -> Columns<f64> { array3(|c| array3(|r| m[c][r].0[i])) };
         let (f, q) = (one(&self.f), one(&self.q));
         let g = self.g.map(|v| v.0[i]);
@@ -958,8 +1013,9 @@ impl<const L: usize> KalmanLanes<L> {
         for j in 0..4 {
             filter.x[j] = Vector3::from(self.x[j].map(|v| v.0[i]));
             filter.ahead[j] = Vector3::from(self.ahead[j].map(|v| v.0[i]));
-            filter.p[j] = Matrix3::from_fn(|r, c| self.p[j][c][r].0[i]);
-            filter.gain[j] = Matrix3x2::from_fn(|r, c| self.gain[j][c][r].0[i]);
+            let (p, gain) = (self.covariance(j), self.gain(j));
+            filter.p[j] = Matrix3::from_fn(|r, c| p[c][r].0[i]);
+            filter.gain[j] = Matrix3x2::from_fn(|r, c| gain[c][r].0[i]);
         }
         for (slot, inputs) in filter.inputs.iter_mut().zip(&self.inputs) {
             *slot = JointVector::from_fn(|j, _| inputs[j].0[i]);
