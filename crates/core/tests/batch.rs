@@ -18,7 +18,7 @@ use chessarm_core::nalgebra::Vector3;
 use chessarm_core::plan::path::CartesianPath;
 use chessarm_core::plan::trajectory::JointTrajectory;
 use chessarm_core::sense::{Estimator, Feedback, JointKalman, KalmanSettings, SensorProfile, Sensors};
-use chessarm_core::sim::batch::{LaneCount, LaneRun, SimdLevel, simulate_lanes};
+use chessarm_core::sim::batch::{LaneCount, LaneRun, SimdLevel, simulate_lanes, takes_in_lanes};
 use chessarm_core::sim::{Integrator, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary};
 
 /// A short pick-and-place-like move: 1.2 s along a line at the board's height.
@@ -456,23 +456,54 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
     with_rate.delay_samples = 2;
     let mut offset = SensorProfile::<4>::servo();
     offset.encoders[1].offset = 2e-3;
+    let poisoned = Poisoned(&trajectory);
+    let bad_payload = Some(Payload::upright_cylinder(f64::NAN, 0.05, 0.012, 0.03));
+    let bad_events = [
+        PayloadEvent { time: 0.2, payload: bad_payload, controller_knows: true },
+        PayloadEvent { time: 0.9, payload: None, controller_knows: true },
+    ];
     // Groups of eight, each a batch: hobby encoders and the default filter (a delay of one
     // sample), servo encoders with an offset and the two-state filter (no delay), encoders with
-    // tachometers and a delay of two samples; then a group whose delays differ (hobby and servo
-    // alternating), which the batch must take lane by lane.
+    // tachometers and a delay of two samples; a group whose filters expect tachometers the
+    // sensors of every other run lack (a missing rate reading: those joints lane by lane), with
+    // a payload of NaN mass at 0.2 s in a quarter (an event's error); hobby encoders on a
+    // reference whose third joint turns NaN after 0.2 s (a sample's error: a batch shares its
+    // reference); then a group whose delays differ (hobby and servo alternating), which the
+    // batch must take lane by lane.
+    let groups = 6;
     let make = || {
-        (0..32)
+        (0..8 * groups)
             .map(|i| {
-                let mut run = lane_law_candidate(i, &trajectory, &trajectory, &hold, &events, &marks);
+                let reference: &(dyn ReferenceSource<4> + Sync) = if i / 8 == 4 { &poisoned } else { &trajectory };
+                let mut run = lane_law_candidate(i, reference, &trajectory, &hold, &events, &marks);
                 run.feedback = match (i / 8, i % 2) {
-                    (0, _) | (3, 0) => sensed(SensorProfile::hobby(), KalmanSettings::DEFAULT, i),
-                    (1, _) | (3, _) => sensed(offset.clone(), KalmanSettings::TWO_STATE, i),
+                    (0 | 4, _) | (5, 0) => sensed(SensorProfile::hobby(), KalmanSettings::DEFAULT, i),
+                    (1, _) | (5, _) => sensed(offset.clone(), KalmanSettings::TWO_STATE, i),
+                    (3, odd) => {
+                        let mut feedback = sensed(with_rate.clone(), KalmanSettings::DEFAULT, i);
+                        if odd == 1 {
+                            // Sensors without tachometers, the filter still expecting them.
+                            let mut profile = with_rate.clone();
+                            profile.rate_noise = None;
+                            feedback.sensors = Sensors::new(profile, i).unwrap();
+                        }
+                        feedback
+                    }
                     _ => sensed(with_rate.clone(), KalmanSettings::DEFAULT, i),
                 };
+                if i / 8 == 3 && i % 4 == 1 {
+                    run.events = &bad_events;
+                }
                 run
             })
             .collect::<Vec<_>>()
     };
+    // The first five groups' batches take their laws and filters in lanes, the last does not.
+    let mut runs = make();
+    for (k, batch) in runs.chunks_mut(8).enumerate() {
+        let expected = if k < 5 { (true, true) } else { (false, false) };
+        assert_eq!(takes_in_lanes(batch), expected, "group {k}");
+    }
     // The summary, and the state the run leaves its controller and its filter in.
     let print = |run: &mut LaneRun<'_>, result: &Result<SimSummary<4>, SimError>| {
         let bits = |v: &[f64]| v.iter().map(|x| format!("{:016x}", x.to_bits())).collect::<Vec<_>>().join(",");
@@ -502,6 +533,10 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
     let ok: Vec<&String> = scalar.iter().filter(|f| !f.starts_with("error")).collect();
     assert!(ok.len() >= 20, "{scalar:#?}");
     assert!(ok.iter().any(|f| f.split(' ').nth(6).is_some_and(|s| s != "0")), "no clipped run");
+    let group = |k: usize| &scalar[8 * k..8 * k + 8];
+    assert!(group(3).iter().any(|f| f.contains("payload")), "no event's error: {:#?}", group(3));
+    let nan_commands = group(4).iter().filter(|f| f.contains("torque command = NaN")).count();
+    assert!(nan_commands >= 4, "too few samples' errors: {:#?}", group(4));
     for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
         for lanes in [LaneCount::Four, LaneCount::Eight] {
             let mut runs = make();
@@ -511,5 +546,22 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
                 assert_eq!(a, b, "run {i}, {} lanes at {}", lanes.get(), level.name());
             }
         }
+    }
+}
+
+/// The trajectory, its third joint's angle NaN after 0.2 s: a controller's command turns NaN.
+struct Poisoned<'a>(&'a JointTrajectory);
+
+impl ReferenceSource<4> for Poisoned<'_> {
+    fn reference(&self, t: f64) -> Reference<4> {
+        let mut reference = self.0.reference(t);
+        if t > 0.2 {
+            reference.q[2] = f64::NAN;
+        }
+        reference
+    }
+
+    fn duration(&self) -> f64 {
+        self.0.duration()
     }
 }

@@ -781,10 +781,10 @@ fn scalar_gain<S: Real>(p: &mut Columns<S>, row: usize, r: S) -> [S; 3] {
 /// The joint Kalman filters of `L` runs side by side ([`crate::sim::batch`]): each lane is one
 /// run's [`JointKalman<4>`], its constants and state gathered into lanes and updated by the
 /// same formulas ([`covariance_step`], [`state_step`], [`predict`]) in the same order, so each
-/// lane's estimates, covariances and gains are its filter's, bit for bit. The covariance step
-/// is computed at every sample for every lane (the scalar filter's remembered steps give the
-/// same bits as computing them). A joint where some lane's reading is missing (not finite) is
-/// updated lane by lane, by the same formulas on `f64`.
+/// lane's estimates, covariances and gains are its filter's, bit for bit. A joint where some
+/// lane's reading is missing (not finite) is updated lane by lane, by the same formulas on
+/// `f64`. Idle lanes are computed too: their readings must be finite (zeros will do), or they
+/// send every joint down the lane-by-lane path.
 ///
 /// Like the scalar filter, it remembers each joint's last two covariance steps (for every lane
 /// at once, with both readings there) and reuses one whose starting covariance has the bits of
@@ -841,7 +841,7 @@ fn knows<const L: usize>(slot: &Option<RememberedLanes<L>>, now: &Columns<Lanes<
 
 impl<const L: usize> KalmanLanes<L> {
     /// The filters of `filters` side by side (lane `i` is `filters[i]`; a lane without one
-    /// copies the first's and is never read), if there is one and all have the same delay,
+    /// copies the first's, and its results are not read), if there is one and all have the same delay,
     /// velocity sensor (or none) and head of their ring of inputs.
     pub fn of(filters: [Option<&JointKalman<4>>; L]) -> Option<Self> {
         let first = *filters.iter().flatten().next()?;
@@ -872,6 +872,7 @@ impl<const L: usize> KalmanLanes<L> {
             inputs: std::array::from_fn(|slot| array4(|j| lanes(&|k| k.inputs[slot][j]))),
             head: first.head,
             remembered: [[None; 2]; 4],
+            // So that the first step computed goes to slot 0.
             newest: [1; 4],
             current: [None; 4],
         })
@@ -1267,7 +1268,7 @@ mod tests {
 
     /// The filters of eight runs side by side equal each run's own filter bit for bit at every
     /// sample (estimates, and after a hand-back the whole state: covariances, gains, inputs):
-    /// lanes of different encoders, tunings and periods, with and without a rate sensor, at
+    /// lanes of different angle σ, tunings and periods, with and without a rate sensor, at
     /// delays 0, 1 and 3, through readings that go missing (NaN, ±∞) in some lanes now and
     /// then, and non-finite inputs.
     #[test]

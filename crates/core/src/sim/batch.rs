@@ -4,9 +4,10 @@
 //! The plant of every lane steps on the structured dynamics ([`super::structured`] with
 //! `S = Lanes<L>`); each lane keeps its own controller, sensors, estimator, torque hold, motor
 //! lag, payload events and metrics (`closed_loop::Run`, the scalar simulator's own
-//! code), except in a batch of plain computed-torque runs that see the exact state
-//! (`lane_law`): there the controllers' laws and the metrics are computed in lanes
-//! too, by the same generic formulas as the scalar code's. A lane that finishes or fails is
+//! code), except in a batch of plain computed-torque runs that see the exact state or Kalman
+//! estimates (`lane_law`): there the controllers' laws, the filters and the metrics are
+//! computed in lanes too, by the same generic formulas as the scalar code's (the sensors
+//! still read lane by lane). A lane that finishes or fails is
 //! masked — its state frozen, its result kept — while the others go on. Each lane's
 //! [`SimSummary`] equals what [`super::simulate_sensed`] computes for the same run, bit for
 //! bit, at every lane count and SIMD level: the kernels are the same IEEE operations in the
@@ -140,6 +141,24 @@ pub fn simulate_lanes(
         }
     }
     results
+}
+
+/// Whether a batch of `runs` (at most 8) would compute its controllers' laws in lanes, and
+/// whether also its Kalman filters (`(laws, filters)`), as [`simulate_lanes`] decides: for
+/// tests that the fast paths are taken. Resets the runs' controllers and feedback.
+#[doc(hidden)]
+pub fn takes_in_lanes(runs: &mut [LaneRun<'_>]) -> (bool, bool) {
+    let mut loops: Vec<_> = runs
+        .iter_mut()
+        .map(|run| {
+            let LaneRun { plant, feedback, controller, reference, initial, events, marks, config } = run;
+            Run::new(feedback, controller.as_mut(), *reference, *initial, events, marks, config, plant).ok()
+        })
+        .collect();
+    match LaneLaw::<8>::of(&mut loops) {
+        Some(law) => (true, law.estimates()),
+        None => (false, false),
+    }
 }
 
 /// Writes lane `lane` of the batch's constants from one arm's.
@@ -293,7 +312,8 @@ where
 }
 
 /// The controllers' samples, the torques and the metrics of every lane at once ([`LaneLaw`])
-/// at the lanes' `state`, with the plant's and (for the lanes of `own`) the controllers' models'
+/// at the plant's `state` (the metrics) as the controllers `seen` it (the exact state, or the
+/// filters' estimates), with the plant's and (for the lanes of `own`) the controllers' models'
 /// terms; the lanes of `not_positive_definite` fail (their plant's `M` is not positive
 /// definite). Each lane's torque over the coming step goes to `torques`; a lane that fails (its
 /// plant's `M` not positive definite, a non-finite command) or finishes leaves `loops` with
@@ -385,7 +405,8 @@ where
 /// Up to `L` runs (all of the family, with one time step and integrator) side by side; lanes
 /// beyond `runs.len()` are idle from the start. The lanes' arithmetic runs at `level`; the
 /// rest (controllers, sensors, events, metrics) lane by lane, or, where [`LaneLaw::of`] takes
-/// the batch, the controllers' laws and the metrics in lanes too ([`control_in_lanes`]).
+/// the batch, the controllers' laws, their Kalman filters ([`estimate_in_lanes`]) and the
+/// metrics in lanes too ([`control_in_lanes`]).
 fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) -> Vec<Result<SimSummary<4>, SimError>> {
     let count = runs.len();
     let (dt, integrator) = (runs[0].config.dt, runs[0].config.integrator);
