@@ -413,28 +413,12 @@ fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_
         let integral = run.controller.as_computed_torque().map(|law| bits(law.integral()));
         format!("{} | {commanded:?} {integral:?}", fingerprint(result))
     };
-    let scalar: Vec<String> = make()
-        .iter_mut()
-        .map(|run| {
-            let result = run.simulate_alone();
-            print(run, &result)
-        })
-        .collect();
+    let scalar = alone_equals_batched(&make, &print);
     assert!(scalar.iter().any(|f| f.contains("diverged")), "no diverging run: {scalar:#?}");
     let ok: Vec<&String> = scalar.iter().filter(|f| !f.starts_with("error")).collect();
     assert!(ok.len() >= 36, "{scalar:#?}");
     assert!(ok.iter().any(|f| f.split(' ').nth(6).is_some_and(|s| s != "0")), "no clipped run");
     assert!(ok.iter().any(|f| f.starts_with("400 ")), "no run on the hold");
-    for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
-        for lanes in [LaneCount::Four, LaneCount::Eight] {
-            let mut runs = make();
-            let results = simulate_lanes(&mut runs, lanes, level);
-            let batched: Vec<String> = runs.iter_mut().zip(&results).map(|(run, result)| print(run, result)).collect();
-            for (i, (a, b)) in scalar.iter().zip(&batched).enumerate() {
-                assert_eq!(a, b, "run {i}, {} lanes at {}", lanes.get(), level.name());
-            }
-        }
-    }
 }
 
 /// Sensors of `profile` (noise seeded by `seed`) with a Kalman filter of `settings` at 1 kHz.
@@ -522,13 +506,7 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
             bits(filter.disturbance().as_slice()),
         )
     };
-    let scalar: Vec<String> = make()
-        .iter_mut()
-        .map(|run| {
-            let result = run.simulate_alone();
-            print(run, &result)
-        })
-        .collect();
+    let scalar = alone_equals_batched(&make, &print);
     assert!(scalar.iter().any(|f| f.contains("diverged")), "no diverging run: {scalar:#?}");
     let ok: Vec<&String> = scalar.iter().filter(|f| !f.starts_with("error")).collect();
     assert!(ok.len() >= 20, "{scalar:#?}");
@@ -537,16 +515,6 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
     assert!(group(3).iter().any(|f| f.contains("payload")), "no event's error: {:#?}", group(3));
     let nan_commands = group(4).iter().filter(|f| f.contains("torque command = NaN")).count();
     assert!(nan_commands >= 4, "too few samples' errors: {:#?}", group(4));
-    for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
-        for lanes in [LaneCount::Four, LaneCount::Eight] {
-            let mut runs = make();
-            let results = simulate_lanes(&mut runs, lanes, level);
-            let batched: Vec<String> = runs.iter_mut().zip(&results).map(|(run, result)| print(run, result)).collect();
-            for (i, (a, b)) in scalar.iter().zip(&batched).enumerate() {
-                assert_eq!(a, b, "run {i}, {} lanes at {}", lanes.get(), level.name());
-            }
-        }
-    }
 }
 
 /// The trajectory, its third joint's angle NaN after 0.2 s: a controller's command turns NaN.
@@ -564,4 +532,31 @@ impl ReferenceSource<4> for Poisoned<'_> {
     fn duration(&self) -> f64 {
         self.0.duration()
     }
+}
+
+/// Each run of `make()` alone, as `print` shows it (its summary and what it leaves behind), and
+/// the same runs batched at 4 and 8 lanes at every SIMD level this CPU has, which must show the
+/// same. Returns the runs alone.
+fn alone_equals_batched<'a>(
+    make: &dyn Fn() -> Vec<LaneRun<'a>>,
+    print: &dyn Fn(&mut LaneRun<'a>, &Result<SimSummary<4>, SimError>) -> String,
+) -> Vec<String> {
+    let scalar: Vec<String> = make()
+        .iter_mut()
+        .map(|run| {
+            let result = run.simulate_alone();
+            print(run, &result)
+        })
+        .collect();
+    for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
+        for lanes in [LaneCount::Four, LaneCount::Eight] {
+            let mut runs = make();
+            let results = simulate_lanes(&mut runs, lanes, level);
+            let batched: Vec<String> = runs.iter_mut().zip(&results).map(|(run, result)| print(run, result)).collect();
+            for (i, (a, b)) in scalar.iter().zip(&batched).enumerate() {
+                assert_eq!(a, b, "run {i}, {} lanes at {}", lanes.get(), level.name());
+            }
+        }
+    }
+    scalar
 }
