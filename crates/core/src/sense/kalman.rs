@@ -841,8 +841,8 @@ fn knows<const L: usize>(slot: &Option<RememberedLanes<L>>, now: &Columns<Lanes<
 
 impl<const L: usize> KalmanLanes<L> {
     /// The filters of `filters` side by side (lane `i` is `filters[i]`; a lane without one
-    /// copies the first's, and its results are not read), if there is one and all have the same delay,
-    /// velocity sensor (or none) and head of their ring of inputs.
+    /// copies the first's, and its results are not read), if there is one and all have the
+    /// same delay, velocity sensor (or none) and head of their ring of inputs.
     pub fn of(filters: [Option<&JointKalman<4>>; L]) -> Option<Self> {
         let first = *filters.iter().flatten().next()?;
         if filters
@@ -932,27 +932,20 @@ impl<const L: usize> KalmanLanes<L> {
         for j in 0..4 {
             if finite(&q[j]) && (!rate || finite(&qd[j])) {
                 let now = self.covariance(j);
-                // The newest first: at a fixed point, the only one compared.
+                // The newest first: at a fixed point, the only one compared. A step not
+                // remembered replaces the older.
                 let (newest, older) = (self.newest[j], 1 - self.newest[j]);
                 let slot = if knows(&self.remembered[j][newest], now) {
-                    Some(newest)
+                    newest
                 } else if knows(&self.remembered[j][older], now) {
-                    Some(older)
+                    older
                 } else {
-                    None
-                };
-                let slot = match slot {
-                    Some(slot) => slot,
-                    None => {
-                        let from = *now;
-                        let variances = (self.angle_variance[j], self.rate_variance[j]);
-                        let step = covariance_step((&self.f, &self.q), &from, variances, true, rate);
-                        // The older of the two makes way.
-                        let slot = 1 - self.newest[j];
-                        self.remembered[j][slot] = Some((from, step));
-                        self.newest[j] = slot;
-                        slot
-                    }
+                    let from = *now;
+                    let variances = (self.angle_variance[j], self.rate_variance[j]);
+                    let step = covariance_step((&self.f, &self.q), &from, variances, true, rate);
+                    self.remembered[j][older] = Some((from, step));
+                    self.newest[j] = older;
+                    older
                 };
                 self.current[j] = Some(slot);
                 let Some((_, step)) = &self.remembered[j][slot] else {

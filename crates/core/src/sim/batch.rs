@@ -504,10 +504,12 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                 wants_terms |= 1 << i;
             }
         }
-        let seen = match (&law, estimate) {
-            (Some(_), Some(estimate)) => estimate,
-            (Some(_), None) => state,
-            (None, _) => lane_state(&seen),
+        // What the controllers see: the filters' estimates, the exact state (with the lane law),
+        // or each lane's view gathered, which only the controllers' terms read.
+        let seen = match estimate {
+            Some(estimate) => estimate,
+            None if law.is_some() || wants_terms == 0 => state,
+            None => lane_state(&seen),
         };
         if wants_terms != 0 {
             set_start(level, &controller_fast, &mut controller_start, &seen, false);
