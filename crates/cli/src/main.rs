@@ -27,7 +27,9 @@ fn main() -> ExitCode {
     if let Err(error) = chessarm::output::remove_temporaries_on_signal() {
         chessarm::tell(&format!("warning: {}\n", chessarm::one_line(&error)));
     }
-    match chessarm::run(cli) {
+    let result = chessarm::run(cli);
+    chessarm::output::await_signal_handler();
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         // The reader of our standard output has gone (`| head`): nothing more to say to anyone.
         Err(error) if chessarm::is_closed_pipe(&error) => ExitCode::SUCCESS,

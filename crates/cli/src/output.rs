@@ -34,16 +34,27 @@ pub const SIGNAL_EXIT_CODE: i32 = 130;
 /// When the handler cannot be installed.
 pub fn remove_temporaries_on_signal() -> Result<()> {
     ctrlc::set_handler(|| {
+        // Held until exit: no rename can start after the files are gone, and the main thread,
+        // which sees the engines die, waits in `await_signal_handler` instead of exiting first
+        // with an error of its own.
+        let files = pending();
         // Engines run in process groups of their own, which the terminal's Ctrl-C misses.
         chessarm_chess::opponent::kill_all_engines();
-        // Holding the lock until exit: no rename can start after the files are gone.
-        let files = pending();
+        test_pause("CHESSARM_TEST_SLOW_SIGNAL_MS");
         for file in files.iter() {
             let _ = std::fs::remove_file(file);
         }
         std::process::exit(SIGNAL_EXIT_CODE);
     })
     .context("cannot install the signal handler")
+}
+
+/// Returns at once unless the signal handler has started, in which case it never returns: the
+/// handler holds the lock of the temporary files until it exits with [`SIGNAL_EXIT_CODE`].
+/// Called before the program reports its result, so that an error the signal caused (an engine
+/// the handler killed) is not printed and does not replace the signal's exit code.
+pub fn await_signal_handler() {
+    drop(pending());
 }
 
 const TEMPORARY_PREFIX: &str = ".chessarm-";
@@ -80,10 +91,12 @@ fn sweep_stale_temporaries(dir: &Path) {
     }
 }
 
-/// Test hook: `CHESSARM_TEST_SLOW_WRITES_MS` makes every file write pause that long after its
-/// temporary file exists, so tests can interrupt a write at a known point.
-fn test_pause() {
-    if let Some(ms) = std::env::var("CHESSARM_TEST_SLOW_WRITES_MS").ok().and_then(|v| v.parse::<u64>().ok()) {
+/// Test hooks: the variable `name` (in ms) makes a step pause that long, so tests can
+/// interrupt it at a known point: `CHESSARM_TEST_SLOW_WRITES_MS` every file write once its
+/// temporary file exists, `CHESSARM_TEST_SLOW_SIGNAL_MS` the signal handler once it has
+/// killed the engines (the main thread then sees them die before the handler exits).
+fn test_pause(name: &str) {
+    if let Some(ms) = std::env::var(name).ok().and_then(|v| v.parse::<u64>().ok()) {
         std::thread::sleep(std::time::Duration::from_millis(ms));
     }
 }
@@ -241,7 +254,7 @@ pub fn claim(path: &Path) -> Result<()> {
 pub fn write_atomic(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     claim(path)?;
     let temporary = temporary_in(parent_of(path), ".part")?;
-    test_pause();
+    test_pause("CHESSARM_TEST_SLOW_WRITES_MS");
     let written = (|| {
         let mut writer = BufWriter::new(temporary.as_file());
         write(&mut writer).with_context(|| format!("while writing {}", path.display()))?;
@@ -256,7 +269,7 @@ pub fn render_atomic(path: &Path, render: impl FnOnce(&Path) -> Result<()>) -> R
     claim(path)?;
     let extension = path.extension().map(|e| format!(".part.{}", e.to_string_lossy())).unwrap_or(".part".into());
     let temporary = temporary_in(parent_of(path), &extension)?;
-    test_pause();
+    test_pause("CHESSARM_TEST_SLOW_WRITES_MS");
     let rendered = render(temporary.path()).with_context(|| format!("while rendering {}", path.display()));
     finish(temporary, path, rendered)
 }

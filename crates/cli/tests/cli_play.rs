@@ -250,6 +250,9 @@ fn ctrl_c_during_an_engine_game_takes_the_engine_s_helpers_with_it() {
     let out = dir.path().join("out");
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))
         .args(["play", "--engine", &engine, "--robot", "white", "--plies", "4", "--out", out.to_str().unwrap()])
+        // The handler pauses between killing the engine and exiting: the main thread sees the
+        // engine die meanwhile and must wait for the handler, not exit with "engine died" (2).
+        .env("CHESSARM_TEST_SLOW_SIGNAL_MS", "500")
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
