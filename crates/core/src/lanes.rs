@@ -45,6 +45,14 @@ pub trait Real:
     fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
     /// `(sin x, cos x)` by [`sin_cos`], lane by lane.
     fn sin_cos(self) -> (Self, Self);
+    /// The lanes where `f` of the lane pair holds, bit `i` for lane `i`: all lanes at once,
+    /// without branches, so that the comparisons vectorise.
+    fn lanes_where2(self, other: Self, f: impl Fn(f64, f64) -> bool) -> u64;
+    /// The lanes where `f` holds, bit `i` for lane `i` ([`Real::lanes_where2`]).
+    #[inline(always)]
+    fn lanes_where(self, f: impl Fn(f64) -> bool) -> u64 {
+        self.lanes_where2(self, |a, _| f(a))
+    }
     /// `f` of each lane (one IEEE operation of `f64`'s for a result equal bit for bit).
     #[inline(always)]
     fn each(self, f: impl Fn(f64) -> f64) -> Self {
@@ -113,6 +121,11 @@ impl Real for f64 {
     #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
         sin_cos(self)
+    }
+
+    #[inline(always)]
+    fn lanes_where2(self, other: Self, f: impl Fn(f64, f64) -> bool) -> u64 {
+        u64::from(f(self, other))
     }
 }
 
@@ -217,6 +230,17 @@ impl<const L: usize> Real for Lanes<L> {
             *slot = f(i);
         }
         Self(out)
+    }
+
+    #[inline(always)]
+    fn lanes_where2(self, other: Self, f: impl Fn(f64, f64) -> bool) -> u64 {
+        // Each lane's bit in a lane of its own, then one OR over the lanes: the comparisons,
+        // shifts and the reduction vectorise (a loop that ORs into one word does not).
+        let mut bits = [0u64; L];
+        for (i, bit) in bits.iter_mut().enumerate() {
+            *bit = u64::from(f(self.0[i], other.0[i])) << i;
+        }
+        bits.into_iter().fold(0, |all, bit| all | bit)
     }
 
     #[inline(always)]

@@ -276,7 +276,7 @@ impl<S: Real> Angles<S> {
             let (sin, cos) = (self.sin[j] * cd + self.cos[j] * sd, self.cos[j] * cd - self.sin[j] * sd);
             let angle = out.angle[j];
             let small = |i: usize| step.lane(i).abs() <= SERIES_STEP;
-            if (0..S::LANES).all(small) {
+            if step.lanes_where(|s| !(s.abs() <= SERIES_STEP)) == 0 {
                 (out.sin[j], out.cos[j]) = (sin, cos);
             } else {
                 out.sin[j] =
@@ -672,13 +672,9 @@ impl<S: Real> Factor<S> {
     #[inline(always)]
     pub fn failed_lanes(&self) -> u64 {
         let mut failed = 0u64;
-        for lane in 0..S::LANES {
-            let mut ok = true;
-            for j in 0..4 {
-                // `d > 0` is false for NaN; `|1/d| ≠ ∞` is `!is_infinite()`.
-                ok &= (self.pivot[j].lane(lane) > 0.0) & (self.inverse_pivot[j].lane(lane).abs() != f64::INFINITY);
-            }
-            failed |= u64::from(!ok) << lane;
+        for j in 0..4 {
+            // `d > 0` is false for NaN; `|1/d| = ∞` is `is_infinite()`.
+            failed |= self.pivot[j].lanes_where2(self.inverse_pivot[j], |d, r| !(d > 0.0) | (r.abs() == f64::INFINITY));
         }
         failed
     }
