@@ -246,11 +246,12 @@ impl<const L: usize> Real for Lanes<L> {
     #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
         // The same steps as the scalar `sin_cos`, the polynomial on all lanes at once.
-        let mut quadrant = self.0;
+        let mut quadrant = [0u64; L];
         let mut reduced = self.0;
         for i in 0..L {
-            quadrant[i] = quadrant_of(self.0[i]);
-            reduced[i] = reduce(self.0[i], quadrant[i]);
+            let k;
+            (k, quadrant[i]) = quadrant_of(self.0[i]);
+            reduced[i] = reduce(self.0[i], k);
         }
         let (sin, cos) = reduced_sin_cos(Self(reduced));
         let (mut out_sin, mut out_cos) = (sin.0, cos.0);
@@ -272,10 +273,13 @@ const PIO2_3: f64 = 2.022_266_248_711_166_5e-21;
 /// baseline, which has no rounding instruction).
 const ROUNDER: f64 = 6_755_399_441_055_744.0;
 
-/// The nearest multiple `k` of π/2 to `x`, as a float.
+/// The nearest multiple `k` of π/2 to `x`, as a float, and `y = x·2/π + 1.5·2⁵²`, whose bits
+/// hold `k` (two's complement) in the low bits of its significand for |k| < 2⁵¹: `y` lies in
+/// [2⁵², 2⁵³), where the significand's unit is 1, so `y = 2⁵² + 2⁵¹ + k` exactly.
 #[inline(always)]
-fn quadrant_of(x: f64) -> f64 {
-    (x * std::f64::consts::FRAC_2_PI + ROUNDER) - ROUNDER
+fn quadrant_of(x: f64) -> (f64, u64) {
+    let y = x * std::f64::consts::FRAC_2_PI + ROUNDER;
+    (y - ROUNDER, y.to_bits())
 }
 
 /// `x − k π/2`, |result| ≤ π/4 (+ rounding), by Cody and Waite's three-part subtraction.
@@ -308,16 +312,19 @@ fn reduced_sin_cos<S: Real>(r: S) -> (S, S) {
     (sin, cos)
 }
 
-/// `(sin x, cos x)` from those of `r = x − k π/2`: by `k mod 4`, `(s, c)`, `(c, −s)`, `(−s, −c)`,
-/// `(−c, s)`. Without branches (a swap and two sign flips, the sign flips as IEEE negation
-/// does them, on the sign bit), so that lanes vectorise; a NaN or infinite `x` is NaN already.
+/// `(sin x, cos x)` from those of `r = x − k π/2`: by `k mod 4` (the low bits of `y`, from
+/// [`quadrant_of`]), `(s, c)`, `(c, −s)`, `(−s, −c)`, `(−c, s)`. Integer operations on the
+/// bits alone (a swap by masks and two sign flips, as IEEE negation does them, on the sign
+/// bit), so that lanes vectorise (x86-64 before AVX-512 has no packed float-to-integer
+/// conversion); a NaN or infinite `x` is NaN already.
 #[inline(always)]
-fn by_quadrant(sin: f64, cos: f64, k: f64) -> (f64, f64) {
-    let n = k as i64 as u64; // two's complement: n mod 4 is right for negative k too
-    let (a, b) = if n & 1 == 0 { (sin, cos) } else { (cos, sin) };
-    let sin_sign = (n & 2) << 62;
-    let cos_sign = (n.wrapping_add(1) & 2) << 62;
-    (f64::from_bits(a.to_bits() ^ sin_sign), f64::from_bits(b.to_bits() ^ cos_sign))
+fn by_quadrant(sin: f64, cos: f64, y: u64) -> (f64, f64) {
+    let swap = 0u64.wrapping_sub(y & 1); // all ones for odd k
+    let (s, c) = (sin.to_bits(), cos.to_bits());
+    let (a, b) = ((s & !swap) | (c & swap), (c & !swap) | (s & swap));
+    let sin_sign = (y & 2) << 62;
+    let cos_sign = (y.wrapping_add(1) & 2) << 62;
+    (f64::from_bits(a ^ sin_sign), f64::from_bits(b ^ cos_sign))
 }
 
 /// `(sin x, cos x)`, within 2 ulp of the exact values for |x| ≤ 1.6·10⁶ rad (joint
@@ -326,9 +333,9 @@ fn by_quadrant(sin: f64, cos: f64, k: f64) -> (f64, f64) {
 /// which picks its code by the CPU it runs on.
 #[inline(always)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
-    let k = quadrant_of(x);
+    let (k, y) = quadrant_of(x);
     let (sin, cos) = reduced_sin_cos(reduce(x, k));
-    by_quadrant(sin, cos, k)
+    by_quadrant(sin, cos, y)
 }
 
 /// Which SIMD instructions the kernels (a plant's step, a batch's lanes, the dynamics
@@ -447,6 +454,33 @@ mod tests {
             let (s, c) = sin_cos(x);
             let (sn, cn) = sin_cos(-x);
             assert_eq!((s, c), (-sn, cn));
+        }
+    }
+
+    /// The quadrant read from the rounder's bits is `k mod 4` of the integer `k` (what an
+    /// integer conversion gives), for angles across ±10⁶ rad, every quadrant's edges and the
+    /// last `k` the bits hold.
+    #[test]
+    fn the_quadrant_in_the_rounders_bits_is_k_mod_4() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut xs: Vec<f64> = (0..20_000).map(|_| (next() - 0.5) * 2e6).collect();
+        for k in -9..=9 {
+            let edge = (f64::from(k) + 0.5) * std::f64::consts::FRAC_PI_2;
+            xs.extend([edge, edge.next_up(), edge.next_down(), f64::from(k) * std::f64::consts::FRAC_PI_2]);
+        }
+        let last = ((1u64 << 51) - 1) as f64;
+        xs.extend([0.0, -0.0, last / std::f64::consts::FRAC_2_PI, -last / std::f64::consts::FRAC_2_PI]);
+        for x in xs {
+            let (k, y) = quadrant_of(x);
+            assert_eq!(k, k.round(), "{x}");
+            assert!(k.abs() < 2f64.powi(51), "{x}");
+            assert_eq!(y & 3, (k as i64 as u64) & 3, "{x}: k = {k}");
         }
     }
 

@@ -265,6 +265,7 @@ impl<S: Real> Angles<S> {
 
     /// [`Angles::shifted`] into `out` (every entry written: no copy of the whole).
     #[inline(always)]
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(|s| ≤ step)` takes NaN, as `all(small)` did
     pub fn shift_into(&self, model: &YawPitch<S>, delta: &[S; 4], out: &mut Self) {
         (out.sin[0], out.cos[0]) = (self.sin[0], self.cos[0]);
         out.angle[0] = self.angle[0] + delta[0];
@@ -276,6 +277,7 @@ impl<S: Real> Angles<S> {
             let (sin, cos) = (self.sin[j] * cd + self.cos[j] * sd, self.cos[j] * cd - self.sin[j] * sd);
             let angle = out.angle[j];
             let small = |i: usize| step.lane(i).abs() <= SERIES_STEP;
+            // A NaN step is not small: the lane's sine is computed afresh (and is NaN).
             if step.lanes_where(|s| !(s.abs() <= SERIES_STEP)) == 0 {
                 (out.sin[j], out.cos[j]) = (sin, cos);
             } else {
@@ -670,10 +672,11 @@ impl<S: Real> Factor<S> {
     /// The lanes that were not positive definite, bit `i` for lane `i`: all lanes at once,
     /// without branches, so that it vectorises.
     #[inline(always)]
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(d > 0)` is what catches NaN
     pub fn failed_lanes(&self) -> u64 {
         let mut failed = 0u64;
         for j in 0..4 {
-            // `d > 0` is false for NaN; `|1/d| = ∞` is `is_infinite()`.
+            // `d > 0` is false for NaN, so `!(d > 0)` takes NaN; `|1/d| = ∞` is `is_infinite()`.
             failed |= self.pivot[j].lanes_where2(self.inverse_pivot[j], |d, r| !(d > 0.0) | (r.abs() == f64::INFINITY));
         }
         failed

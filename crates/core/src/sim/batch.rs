@@ -17,7 +17,7 @@
 //! from its batch's, is simulated alone by the scalar simulator; so is the whole slice when the
 //! lane count is 1.
 
-use super::closed_loop::{PlantView, ReferenceNow, Run, SimConfig, SimError, SimSummary};
+use super::closed_loop::{PlantView, ReferenceNow, Run, SimConfig, SimError, SimSummary, diverged_lanes, limit_torque};
 use super::lane_law::LaneLaw;
 use super::plant::Integrator;
 use super::structured::{self, Failures, Start, State};
@@ -242,7 +242,9 @@ fn set_start<const L: usize>(
     )
 }
 
-/// One step of every lane ([`structured::step`]), compiled for `level`.
+/// One step of every lane ([`structured::step`]), compiled for `level`, with the lanes whose
+/// new state diverged, faster than their `runaway_speed` (rad/s) or not finite
+/// ([`diverged_lanes`]).
 #[allow(clippy::too_many_arguments)] // the step's own arguments and the level
 fn step_lanes<const L: usize>(
     level: SimdLevel,
@@ -250,13 +252,16 @@ fn step_lanes<const L: usize>(
     start: &mut Start<Lanes<L>>,
     state: &State<Lanes<L>>,
     torque: &[Lanes<L>; 4],
-    dt: f64,
-    integrator: Integrator,
+    (dt, integrator, runaway_speed): (f64, Integrator, Lanes<L>),
     failures: &mut Failures<L>,
-) -> State<Lanes<L>> {
+) -> (State<Lanes<L>>, u64) {
     level.run(
         #[inline(always)]
-        || structured::step(model, start, state, torque, dt, integrator, failures),
+        || {
+            let next = structured::step(model, start, state, torque, dt, integrator, failures);
+            let diverged = diverged_lanes(&next.q, &next.qd, runaway_speed);
+            (next, diverged)
+        },
     )
 }
 
@@ -338,6 +343,7 @@ fn control_in_lanes<const L: usize, C, R>(
     (state, seen): (&State<Lanes<L>>, &State<Lanes<L>>),
     (start, own_terms): (&Start<Lanes<L>>, &Start<Lanes<L>>),
     (own, not_positive_definite): (u64, u64),
+    limits: &[Lanes<L>; 4],
     torques: &mut [[f64; 4]; L],
 ) -> usize
 where
@@ -349,14 +355,27 @@ where
     // tracking start ([`LaneLaw::of`]).
     let (now, period, tracked, finished) =
         (first.reference_now(), first.config.control_period, first.tracked(), first.finished());
-    let raw = level.run(
+    // The torques, and their clipping as each run's `sample` clips them: the lanes whose
+    // command is not finite (`refused`) are sampled by their run, which refuses them.
+    let (raw, command, clipped, refused) = level.run(
         #[inline(always)]
-        || law.torque((&seen.q, &seen.qd), start, own_terms, own, &now.desired, period),
+        || {
+            let raw = law.torque((&seen.q, &seen.qd), start, own_terms, own, &now.desired, period);
+            let command = array4(|j| raw[j].each2(limits[j], limit_torque));
+            let clipped = array4(|j| command[j].lanes_where2(raw[j], |command, raw| command != raw));
+            let refused = raw.iter().fold(0, |lanes, raw| lanes | raw.lanes_where(|raw| !raw.is_finite()));
+            (raw, command, clipped, refused)
+        },
     );
     for (i, slot) in loops.iter_mut().enumerate() {
         let Some(lane) = slot.as_mut() else { continue };
         let outcome = if not_positive_definite & (1 << i) == 0 {
-            let sampled = lane.sample(&raw.map(|v| v.get(i)));
+            let sampled = if refused & (1 << i) == 0 {
+                let joints = (0..4).fold(0, |joints, j| joints | ((clipped[j] >> i) & 1) << j);
+                Ok(lane.take_clipped(JointVector::from_fn(|j, _| command[j].get(i)), joints))
+            } else {
+                lane.sample(&raw.map(|v| v.get(i)))
+            };
             match sampled {
                 Ok(clipped) => law.sampled(i, clipped, &lane.command(), || terms_of(own_terms, i)),
                 Err(_) => law.hand_back(i, lane),
@@ -442,6 +461,13 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
         _ => loops.iter().flatten().next().map_or(JointState::at_rest(JointVector::zeros()), |lane| lane.state),
     });
     let mut torques = [[0.0; 4]; L];
+    // Each lane's torque limits (N·m) and runaway speed (rad/s); a lane without a run takes
+    // another's (it is never read), or 1 where no run started.
+    let config = |i: usize| {
+        loops.get(i).and_then(Option::as_ref).or_else(|| loops.iter().flatten().next()).map(|lane| lane.config)
+    };
+    let limits: [Lanes<L>; 4] = array4(|j| Lanes::from_fn(|i| config(i).map_or(1.0, |c| c.torque_limits[j])));
+    let runaway_speed = Lanes::from_fn(|i| config(i).map_or(1.0, |c| c.runaway_speed));
     let mut start = Start::new(&fast, &lane_state(&states));
     // The controllers' models where they are of the family (the plant's arm elsewhere, unused),
     // for their terms at the states they see, all lanes at once; refreshed when a payload
@@ -536,6 +562,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                     (&state, &seen),
                     terms,
                     (wants_terms, not_positive_definite),
+                    &limits,
                     &mut torques,
                 );
             }
@@ -584,18 +611,24 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
         }
         let torque = lanes_of(torques);
         let mut failures = Failures::<L> { lanes: 0, at: [[0.0; 4]; L] };
-        let next = step_lanes(level, &fast, &mut start, &state, &torque, dt, integrator, &mut failures);
+        let (next, diverged) =
+            step_lanes(level, &fast, &mut start, &state, &torque, (dt, integrator, runaway_speed), &mut failures);
         for i in 0..count {
             let Some(lane) = loops[i].as_mut() else { continue };
-            let stepped = if failures.lanes & (1 << i) != 0 {
-                Err(DynamicsError::NotPositiveDefinite(failures.at[i].to_vec()))
-            } else {
-                Ok(JointState {
-                    q: JointVector::from_fn(|j, _| next.q[j].get(i)),
-                    qd: JointVector::from_fn(|j, _| next.qd[j].get(i)),
-                })
+            let stepped = JointState {
+                q: JointVector::from_fn(|j, _| next.q[j].get(i)),
+                qd: JointVector::from_fn(|j, _| next.qd[j].get(i)),
             };
-            match lane.advance(stepped) {
+            let advanced = if failures.lanes & (1 << i) != 0 {
+                lane.advance(Err(DynamicsError::NotPositiveDefinite(failures.at[i].to_vec())))
+            } else if diverged & (1 << i) != 0 {
+                // The run's own check says why.
+                lane.advance(Ok(stepped))
+            } else {
+                lane.advance_checked(stepped);
+                Ok(())
+            };
+            match advanced {
                 Ok(()) => states[i] = lane.state,
                 Err(error) => {
                     if let Some(law) = law.as_ref() {

@@ -83,6 +83,20 @@ pub(crate) fn tip_error<S: Real>(tip: &[S; 3], desired: &[S; 3]) -> S {
     (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
 }
 
+/// `raw` clipped to `±limit`: `f64::clamp`'s steps (without its check of the bounds, which
+/// are validated positive), so a batch's lanes clip as a run does.
+#[inline(always)]
+pub(crate) fn limit_torque(raw: f64, limit: f64) -> f64 {
+    let mut torque = raw;
+    if torque < -limit {
+        torque = -limit;
+    }
+    if torque > limit {
+        torque = limit;
+    }
+    torque
+}
+
 /// Clips the controller's `raw` torque (N·m) to `±limits` into `command`, counting the joints
 /// it clips in `saturated_per_joint`; whether it clipped any, or why the command is refused
 /// (a non-finite entry), at time `t` (s).
@@ -98,7 +112,7 @@ pub(crate) fn clip_command<const N: usize>(
         if !raw[j].is_finite() {
             return Err(SimError::Diverged { time: t, joint: j + 1, quantity: "torque command", value: raw[j] });
         }
-        command[j] = raw[j].clamp(-limits[j], limits[j]);
+        command[j] = limit_torque(raw[j], limits[j]);
         if command[j] != raw[j] {
             saturated_per_joint[j] += 1;
             clipped = true;
@@ -678,6 +692,20 @@ where
         Ok(clipped)
     }
 
+    /// [`Run::sample`] of a finite raw command that a batch clipped in lanes, as
+    /// [`clip_command`] does: `command` (N·m) is the clipped command, bit `j` of
+    /// `clipped_joints` whether joint `j`'s was clipped. Returns whether any was.
+    pub(crate) fn take_clipped(&mut self, command: JointVector<N>, clipped_joints: u64) -> bool {
+        self.samples_taken += 1;
+        self.command = command;
+        for (j, count) in self.saturated_per_joint.iter_mut().enumerate() {
+            *count += ((clipped_joints >> j) & 1) as usize;
+        }
+        let clipped = clipped_joints != 0;
+        self.saturated_samples += usize::from(clipped);
+        clipped
+    }
+
     /// The torque command held over the coming step, N·m.
     pub fn command(&self) -> JointVector<N> {
         self.command
@@ -774,6 +802,13 @@ where
         Ok(())
     }
 
+    /// [`Run::advance`] to a `state` after the step that a batch checked in lanes, as
+    /// [`check_state`] does ([`diverged_lanes`]).
+    pub(crate) fn advance_checked(&mut self, state: JointState<N>) {
+        self.state = state;
+        self.step += 1;
+    }
+
     /// The metrics of the finished run.
     pub fn summary(self) -> SimSummary<N> {
         let tracked_steps = self.steps + 1 - self.first_tracked_step;
@@ -835,6 +870,18 @@ pub(crate) fn clipped_acceleration<const N: usize>(
         .map_or(commanded, |factor| factor.solve(&(clipped_command - terms.bias)))
 }
 
+/// The lanes whose state [`check_state`] refuses (bit `i` for lane `i`): a non-finite angle,
+/// or a rate that is NaN or faster than the lane's `runaway_speed` (rad/s).
+#[inline(always)]
+pub(crate) fn diverged_lanes<S: Real>(q: &[S; 4], qd: &[S; 4], runaway_speed: S) -> u64 {
+    let mut diverged = 0;
+    for j in 0..4 {
+        diverged |= q[j].lanes_where(|q| !q.is_finite())
+            | qd[j].lanes_where2(runaway_speed, |qd, runaway| qd.is_nan() || qd.abs() > runaway);
+    }
+    diverged
+}
+
 fn check_state<const N: usize>(state: &JointState<N>, time: f64, runaway_speed: f64) -> Result<(), SimError> {
     for j in 0..N {
         if !state.q[j].is_finite() {
@@ -845,4 +892,64 @@ fn check_state<const N: usize>(state: &JointState<N>, time: f64, runaway_speed: 
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lanes::Lanes;
+
+    /// The batch's checks in lanes refuse what the run's own refuse: `diverged_lanes` against
+    /// `check_state`, and `limit_torque` against `f64::clamp`, on values around the bounds
+    /// and the special ones.
+    #[test]
+    fn the_checks_in_lanes_equal_the_runs() {
+        let values = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            99.9,
+            100.0,
+            100.0f64.next_up(),
+            -100.5,
+            1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        let runaway = 100.0;
+        let mut diverged_seen = 0;
+        for (a, &q) in values.iter().enumerate() {
+            for (b, &qd) in values.iter().enumerate() {
+                // Eight lanes, each a state with `q` or `qd` in one joint of four.
+                let lane_state = |i: usize| {
+                    let mut state = JointState::<4>::at_rest(JointVector::from_element(0.5));
+                    let j = i % 4;
+                    if i < 4 {
+                        state.q[j] = q
+                    } else {
+                        state.qd[j] = qd
+                    }
+                    state
+                };
+                let qs: [Lanes<8>; 4] = std::array::from_fn(|j| Lanes::from_fn(|i| lane_state(i).q[j]));
+                let qds: [Lanes<8>; 4] = std::array::from_fn(|j| Lanes::from_fn(|i| lane_state(i).qd[j]));
+                let lanes = diverged_lanes(&qs, &qds, Lanes::splat(runaway));
+                for i in 0..8 {
+                    let refused = check_state(&lane_state(i), 0.0, runaway).is_err();
+                    assert_eq!(lanes & (1 << i) != 0, refused, "q {q}, qd {qd} (pair {a}, {b}), lane {i}");
+                    diverged_seen += usize::from(refused);
+                }
+            }
+            for limit in [1.0, 100.0, 1e-3] {
+                if q.is_nan() {
+                    assert!(limit_torque(q, limit).is_nan());
+                } else {
+                    assert_eq!(limit_torque(q, limit).to_bits(), q.clamp(-limit, limit).to_bits(), "{q} to {limit}");
+                }
+            }
+        }
+        assert!(diverged_seen > 0);
+    }
 }
