@@ -138,7 +138,14 @@ pub fn small_angle_sin_cos(d: f64) -> (f64, f64) {
 }
 
 /// `L` numbers side by side, one per independent run.
+///
+/// Aligned to 64 bytes, a cache line: an AVX-512 register of 8 lanes then loads and stores
+/// within one line. At the default 8-byte alignment most of the kernels' 512-bit stores
+/// split across two lines; measured on a 2-vCPU Xeon (Emerald Rapids), a 16 × 16 sweep on one
+/// thread took 834 ms split and 689 ms aligned, and the AVX2 batches of 4 lanes (padded to
+/// 64 bytes) 848 and 836 ms. The arithmetic, and so every result, is the same.
 #[derive(Clone, Copy, PartialEq)]
+#[repr(align(64))]
 pub struct Lanes<const L: usize>(pub [f64; L]);
 
 impl<const L: usize> std::fmt::Debug for Lanes<L> {
