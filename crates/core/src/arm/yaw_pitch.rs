@@ -1,5 +1,5 @@
 //! The dynamics of the arm family chessarm plans for — a base yaw joint, then three pitch
-//! joints with parallel horizontal axes, then the tool — in a form that exploits it.
+//! joints with parallel horizontal axes, then the tool — in closed form.
 //!
 //! **The yaw frame.** Let `Y` be the base frame turned by the yaw angle `ψ = q₁ + θ₁` about the
 //! vertical: the base axis is `Y`'s z axis, every pitch axis is `±y`, and every body's pose in
@@ -8,23 +8,37 @@
 //! (`φ₀ = 0`, `σ_j = −sin β_{j−1} = ±1` the direction of joint j's axis along `y`), frame j is
 //! `R_j = R_y(φ_j) R_x(β_j)` with origin `o_j = o_{j−1} + R_y(φ_j) ℓ_j`,
 //! `ℓ_j = R_x(β_{j−1}) (a_j, 0, d_j)` (0-based: `o₀ = (a₀, 0, d₀)`). So forward kinematics is
-//! three planar rotations `R_y(φ)v = (c v_x + s v_z, v_y, −s v_x + c v_z)` of constant vectors,
-//! each body's centre of mass is `c_j = o_{j−1} + R_y(φ_j) ĉ_j` and its inertia
-//! `R_y(φ_j) Î_j R_y(φ_j)ᵀ` with `ĉ_j`, `Î_j` fixed once per model. Torques do not depend on
-//! `ψ` (gravity is vertical), so the dynamics is computed in `Y` and `ψ` enters the tool tip only.
+//! three planar rotations `R_y(φ)v = (c v_x + s v_z, v_y, −s v_x + c v_z)` of constant vectors:
+//! body j's centre of mass is `c_j = o_{j−1} + R_y(φ_j) ĉ_j` and its inertia
+//! `R_y(φ_j) Î_j R_y(φ_j)ᵀ`, with `ĉ_j`, `Î_j` fixed once per model. Every `y` coordinate is a
+//! constant (`y_j` of body j), and `d/dφ (R_y(φ)v)_x = (R_y(φ)v)_z`, `d/dφ (R_y(φ)v)_z =
+//! −(R_y(φ)v)_x`. Torques do not depend on `ψ` (gravity is vertical).
 //!
-//! **Mass matrix** (composite rigid bodies in `Y`): with the composite mass `m`, first moment
-//! `h = Σ m c` and rotational inertia `Ī = Σ (I_c + m(|c|²E − c cᵀ))` of bodies `j..4` about
-//! `Y`'s origin, joint j's unit motion `S_j = (σ_j y, σ_j p_j × y)` gives the force
-//! `f = σ_j (h_z − m p_z, 0, m p_x − h_x)` and the moment components
-//! `n_y = σ_j (Ī_yy − h_x p_x − h_z p_z)`, `n_z = σ_j (Ī_yz + h_y p_z)`, hence
-//! `M_ij = σ_i (n_y − p_iz f_x + p_ix f_z)` for pitch joints `i ≤ j`, `M_1j = n_z` and
-//! `M_11 = Ī_zz` (all bodies), plus the rotor inertias on the diagonal.
+//! **Kinetic energy** in the coordinates `u = (ψ, φ₁, φ₂, φ₃)`, rates `r = ψ̇`, `w_k = φ̇_k`:
+//! a point at `(x, y, z)` of `Y` moves at `(ẋ − r y, r x, ż)` and body j spins at `(0, w_j, r)`,
+//! so `T = ½ M_ψψ r² + r Σ_k M_ψk w_k + ½ Σ_kl M_kl w_k w_l` with
+//! - `M_ψψ = Σ_j m_j (x_j² + y_j²) + I_zz,j(φ_j)` (body 0 a constant),
+//! - `M_ψk = I_yz,k(φ_k) − (R_y(φ_k) E_k)_z`, `E_k = Σ_{j≥k} m_j y_j a_k^{(j)}`,
+//! - `M_kk = Σ_{j≥k} m_j |a_k^{(j)}|² + Î_yy,k` (constant) and, for `k < l`,
+//!   `M_kl = u_k · g_l` with `u_k = R_y(φ_k) ℓ_k`, `g_l = R_y(φ_l) G_l`, `G_l = Σ_{j≥l} m_j a_l^{(j)}`,
 //!
-//! **Bias torques** (recursive Newton–Euler in `Y`): the angular velocity is `ω = (0, w, r)`
-//! (`r = q̇₁`, `w = Σ σ_j q̇_j`) and, with `q̈ = 0`, the angular acceleration is `α = (−r w, 0, 0)`,
-//! so every cross product of the recursion is sparse; with `q̈` it is `α = (−r w, Σ σ_j q̈_j, q̈₁)`.
-//! The torques are `τ₁ = (Σ N)_z` and `τ_j = σ_j ((Σ N)_y − p_jz (Σ F)_x + p_jx (Σ F)_z)`.
+//! where `a_k^{(j)}` is `ĉ_k` for `j = k` and `ℓ_k` for `j > k` (planar `x, z` parts in the
+//! dot products), and the rotated inertia has `I_zz(φ) = Ī − (h cos 2φ + Î_xz sin 2φ)`,
+//! `I_yz(φ) = Î_yz cos φ − Î_xy sin φ`, `I_xy(φ) = Î_xy cos φ + Î_yz sin φ` (`Ī`, `h` the mean
+//! and half difference of `Î_xx` and `Î_zz`).
+//!
+//! **Bias torques** from Lagrange's equations: `M_kl` depends on `φ_l − φ_k` only and `M_ψk` on
+//! `φ_k` only, so the Coriolis terms collapse to squares of the rates:
+//! `b_ψ = r Σ_k D_k w_k + Σ_k K_k w_k²`,
+//! `b_k = Σ_{l≠k} P_kl w_l² − ½ D_k r² + g_z (R_y(φ_k) G_k)_x`, with
+//! `D_k = ∂M_ψψ/∂φ_k = 2 (m_k x_k (R_y(φ_k) ĉ_k)_z + (u_k)_z Σ_{j>k} m_j x_j) + I_zz,k′`,
+//! `K_k = dM_ψk/dφ_k = (R_y(φ_k) E_k)_x − I_xy,k(φ_k)` and `P_kl = ∂M_kl/∂φ_l = (u_k × g_l)_y`
+//! (`u_kx g_lz − u_kz g_lx`, and `P_lk = −P_kl`).
+//!
+//! **Joint coordinates**: `u̇ = S q̇` with `S` the signs `σ` summed down the pitch joints, so
+//! `M(q) = Sᵀ M_u S + diag(rotor)` (`M_ij = σ_i σ_j Σ_{k≥i, l≥j} M_kl`) and `τ_bias = Sᵀ b`
+//! (`τ_i = σ_i Σ_{k≥i} b_k`). A configuration costs three sines and cosines and ~200 flops; a
+//! bias at it ~45 flops, inverse dynamics `M q̈ + τ_bias` 16 more.
 //!
 //! Every kernel is written once over [`Real`]: one run (`f64`) or several side by side
 //! ([`crate::lanes::Lanes`]), the same operations in the same order, so a lane equals the scalar
@@ -61,7 +75,8 @@ pub struct Sym<S> {
 }
 
 /// The constants of one arm of the family (or of `L` arms, one per lane), fixed once per
-/// model: the yaw-frame quantities of the module's equations, SI units.
+/// model: the yaw-frame quantities of the module's equations, SI units. Index `j` is joint
+/// (body) `j`, 0-based; the pitch quantities use 1..3 and leave entry 0 zero.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct YawPitch<S> {
     /// `θ_j`, the DH angle offsets, rad.
@@ -70,12 +85,28 @@ pub struct YawPitch<S> {
     pub sign: [S; 4],
     /// `o₀`: the point of joint 2 in `Y`, m.
     pub shoulder: [S; 3],
-    /// `ℓ_j` (j = 1..3): the next frame's origin before `R_y(φ_j)`, m; `link[0]` unused (zero).
+    /// `ℓ_j` (j = 1..3): the next frame's origin before `R_y(φ_j)`, m.
     pub link: [[S; 3]; 4],
-    /// Body 0's centre of mass in `Y`; for j ≥ 1, `ĉ_j` (before `R_y(φ_j)`, from `o_{j−1}`), m.
+    /// For j ≥ 1, `ĉ_j` (before `R_y(φ_j)`, from `o_{j−1}`); body 0's centre of mass in `Y`, m.
     pub com: [[S; 3]; 4],
     /// Body masses (links, motors, payload), kg.
     pub mass: [S; 4],
+    /// `G_k = m_k ĉ_k + (Σ_{j>k} m_j) ℓ_k`, its `x` and `z`, kg·m.
+    pub moment: [[S; 2]; 4],
+    /// `E_k = m_k y_k ĉ_k + (Σ_{j>k} m_j y_j) ℓ_k`, its `x` and `z`, kg·m².
+    pub coupling: [[S; 2]; 4],
+    /// `M_kk`, the constant diagonal of the pitch block in `u`, kg·m².
+    pub pitch_inertia: [S; 4],
+    /// The constant part of `M(q)`'s pitch block: `σ_i σ_j Σ_{k≥max(i,j)} M_kk` plus the rotor
+    /// inertia on the diagonal, kg·m² (row and column 0 zero).
+    pub pitch_base: [[S; 4]; 4],
+    /// `σ_i σ_j`.
+    pub pair_sign: [[S; 4]; 4],
+    /// The constant part of `M(q)₁₁`: body 0's `I_zz + m₀ (x₀² + y₀²)`, `Σ_{j≥1} m_j y_j²` and
+    /// the base rotor, kg·m².
+    pub yaw_inertia: S,
+    /// The tool tip's `y` in `Y`, m.
+    pub tip_y: S,
     /// Body 0's inertia about its centre of mass in `Y`; for j ≥ 1, `Î_j`, kg·m².
     pub inertia: [Sym<S>; 4],
     /// For j ≥ 1: `(Î_xx + Î_zz)/2` and `(Î_xx − Î_zz)/2`, for the double-angle rotation.
@@ -164,17 +195,61 @@ impl YawPitch<f64> {
             }
         }
         let links = model.links();
+        let mass: [f64; 4] = std::array::from_fn(|j| model.body(j).mass);
+        let rotor: [f64; 4] = std::array::from_fn(|j| links[j].rotor_inertia);
+        // y_j, the constant y of body j's centre of mass, and the sums over the bodies beyond k.
+        let mut height = [0.0; 4];
+        let mut y_so_far = shoulder[1];
+        for j in 1..4 {
+            height[j] = y_so_far + com[j][1];
+            y_so_far += link[j][1];
+        }
+        let beyond = |k: usize, f: &dyn Fn(usize) -> f64| (k + 1..4).map(f).sum::<f64>();
+        let planar = |v: &[f64; 3]| v[0] * v[0] + v[2] * v[2];
+        let mut moment = [[0.0; 2]; 4];
+        let mut coupling = [[0.0; 2]; 4];
+        let mut pitch_inertia = [0.0; 4];
+        for k in 1..4 {
+            let (distal_mass, distal_height) = (beyond(k, &|j| mass[j]), beyond(k, &|j| mass[j] * height[j]));
+            let (c, l) = (&com[k], &link[k]);
+            moment[k] = [mass[k] * c[0] + distal_mass * l[0], mass[k] * c[2] + distal_mass * l[2]];
+            let own = mass[k] * height[k];
+            coupling[k] = [own * c[0] + distal_height * l[0], own * c[2] + distal_height * l[2]];
+            pitch_inertia[k] = mass[k] * planar(c) + distal_mass * planar(l) + inertia[k].yy;
+        }
+        let mut pitch_base = [[0.0; 4]; 4];
+        let mut pair_sign = [[0.0; 4]; 4];
+        for i in 0..4 {
+            for j in 0..4 {
+                pair_sign[i][j] = sign[i] * sign[j];
+                if i > 0 && j > 0 {
+                    let shared: f64 = (i.max(j)..4).map(|k| pitch_inertia[k]).sum();
+                    pitch_base[i][j] = pair_sign[i][j] * shared + if i == j { rotor[i] } else { 0.0 };
+                }
+            }
+        }
+        let yaw_inertia = inertia[0].zz
+            + mass[0] * (com[0][0] * com[0][0] + com[0][1] * com[0][1])
+            + (1..4).map(|j| mass[j] * height[j] * height[j]).sum::<f64>()
+            + rotor[0];
         Ok(Self {
             offset: std::array::from_fn(|j| dh(j).theta_offset),
             sign,
             shoulder,
             link,
             com,
-            mass: std::array::from_fn(|j| model.body(j).mass),
+            mass,
+            moment,
+            coupling,
+            pitch_inertia,
+            pitch_base,
+            pair_sign,
+            yaw_inertia,
+            tip_y: y_so_far,
             inertia,
             inertia_mean,
             inertia_half,
-            rotor: std::array::from_fn(|j| links[j].rotor_inertia),
+            rotor,
             gravity_z: g.z,
             viscous: std::array::from_fn(|j| links[j].friction.viscous),
             coulomb: std::array::from_fn(|j| links[j].friction.coulomb),
@@ -190,6 +265,10 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
         let lanes = |f: &dyn Fn(&YawPitch<f64>) -> f64| Lanes(arms.map(f));
         let v4 = |f: &dyn Fn(&YawPitch<f64>, usize) -> f64| std::array::from_fn(|j| lanes(&|a| f(a, j)));
         let v3 = |f: &dyn Fn(&YawPitch<f64>, usize) -> f64| std::array::from_fn(|k| lanes(&|a| f(a, k)));
+        let v2 = |f: &dyn Fn(&YawPitch<f64>, usize) -> f64| std::array::from_fn(|k| lanes(&|a| f(a, k)));
+        let m4 = |f: &dyn Fn(&YawPitch<f64>, usize, usize) -> f64| {
+            std::array::from_fn(|i| std::array::from_fn(|j| lanes(&|a| f(a, i, j))))
+        };
         let tensor = |j: usize| Sym {
             xx: lanes(&|a| a.inertia[j].xx),
             yy: lanes(&|a| a.inertia[j].yy),
@@ -205,6 +284,13 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
             link: std::array::from_fn(|j| v3(&|a, k| a.link[j][k])),
             com: std::array::from_fn(|j| v3(&|a, k| a.com[j][k])),
             mass: v4(&|a, j| a.mass[j]),
+            moment: std::array::from_fn(|j| v2(&|a, k| a.moment[j][k])),
+            coupling: std::array::from_fn(|j| v2(&|a, k| a.coupling[j][k])),
+            pitch_inertia: v4(&|a, j| a.pitch_inertia[j]),
+            pitch_base: m4(&|a, i, j| a.pitch_base[i][j]),
+            pair_sign: m4(&|a, i, j| a.pair_sign[i][j]),
+            yaw_inertia: lanes(&|a| a.yaw_inertia),
+            tip_y: lanes(&|a| a.tip_y),
             inertia: std::array::from_fn(tensor),
             inertia_mean: v4(&|a, j| a.inertia_mean[j]),
             inertia_half: v4(&|a, j| a.inertia_half[j]),
@@ -213,6 +299,45 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
             viscous: v4(&|a, j| a.viscous[j]),
             coulomb: v4(&|a, j| a.coulomb[j]),
             has_friction: arms.iter().any(|a| a.has_friction),
+        }
+    }
+
+    /// Lane `i`'s constants (as they were gathered; `has_friction` from the lane's own values).
+    pub fn lane(&self, i: usize) -> YawPitch<f64> {
+        let v2 = |v: &[crate::lanes::Lanes<L>; 2]| v.map(|x| x.get(i));
+        let v3 = |v: &[crate::lanes::Lanes<L>; 3]| v.map(|x| x.get(i));
+        let v4 = |v: &[crate::lanes::Lanes<L>; 4]| v.map(|x| x.get(i));
+        let viscous = v4(&self.viscous);
+        let coulomb = v4(&self.coulomb);
+        YawPitch {
+            offset: v4(&self.offset),
+            sign: v4(&self.sign),
+            shoulder: v3(&self.shoulder),
+            link: self.link.map(|v| v3(&v)),
+            com: self.com.map(|v| v3(&v)),
+            mass: v4(&self.mass),
+            moment: self.moment.map(|v| v2(&v)),
+            coupling: self.coupling.map(|v| v2(&v)),
+            pitch_inertia: v4(&self.pitch_inertia),
+            pitch_base: self.pitch_base.map(|row| v4(&row)),
+            pair_sign: self.pair_sign.map(|row| v4(&row)),
+            yaw_inertia: self.yaw_inertia.get(i),
+            tip_y: self.tip_y.get(i),
+            inertia: self.inertia.map(|t| Sym {
+                xx: t.xx.get(i),
+                yy: t.yy.get(i),
+                zz: t.zz.get(i),
+                xy: t.xy.get(i),
+                xz: t.xz.get(i),
+                yz: t.yz.get(i),
+            }),
+            inertia_mean: v4(&self.inertia_mean),
+            inertia_half: v4(&self.inertia_half),
+            rotor: v4(&self.rotor),
+            gravity_z: self.gravity_z.get(i),
+            viscous,
+            coulomb,
+            has_friction: viscous.iter().chain(&coulomb).any(|v| *v != 0.0),
         }
     }
 }
@@ -290,54 +415,32 @@ impl<S: Real> Angles<S> {
     }
 }
 
-/// `R_y(φ) v` for `(sin φ, cos φ) = (s, c)`.
+/// `R_y(φ) v` in the plane, `(x, z)`, for `(sin φ, cos φ) = (s, c)` and `v = (x, ·, z)`.
 #[inline(always)]
-fn turn_y<S: Real>(s: S, c: S, v: &[S; 3]) -> [S; 3] {
-    [c * v[0] + s * v[2], v[1], c * v[2] - s * v[0]]
+fn turn<S: Real>(s: S, c: S, x: S, z: S) -> [S; 2] {
+    [c * x + s * z, c * z - s * x]
 }
 
-#[inline(always)]
-fn add<S: Real>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-#[inline(always)]
-fn sub<S: Real>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline(always)]
-fn cross<S: Real>(a: &[S; 3], b: &[S; 3]) -> [S; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-/// `ω × (ω × v) = ω (ω·v) − v |ω|²` for `ω = (0, w, r)` with `|ω|² = norm2`.
-#[inline(always)]
-fn centripetal<S: Real>(w: S, r: S, norm2: S, v: &[S; 3]) -> [S; 3] {
-    let d = w * v[1] + r * v[2];
-    [-(v[0] * norm2), w * d - v[1] * norm2, r * d - v[2] * norm2]
-}
-
-/// Everything about one configuration the dynamics needs: the angles, joint points, centres of
-/// mass and inertias in `Y`, the tool tip in `Y`, `M(q)` and its `L D Lᵀ` factor.
+/// Everything about one configuration the dynamics needs: the angles, the tool tip in `Y`,
+/// `M(q)` and its `L D Lᵀ` factor, and the derivatives of `M_u` and the gravity levers of the
+/// module's bias torques.
 ///
-/// A configuration belongs to the model it was last set or refreshed with: its methods must be
-/// given that model (it holds only what moves with the angles, and reads the model's constants).
-/// The entries it does not hold stay zero, whatever the model, so two configurations of one
-/// model at the same angles are equal (and print the same) however they were reached.
+/// Every entry is written by [`Configuration::refresh`] (those of index 0 of the pitch arrays
+/// stay zero), so two configurations of one model at the same angles are equal (and print the
+/// same) however they were reached.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Configuration<S> {
     pub angles: Angles<S>,
-    /// `p_j`: a point on joint j's axis, m, for j = 2, 3 only: `p₀ = 0` and `p₁ = o₀` (the
-    /// model's `shoulder`) are constants, read from the model rather than copied here.
-    point: [[S; 3]; 4],
     /// The tool tip in `Y`, m.
     pub tip: [S; 3],
-    /// The centres of mass (m) and inertias (kg·m²) in `Y` of bodies 1..3; body 0's and every
-    /// `yy` entry are constants, read from the model (`com_of`, `inertia_of`), so these entries
-    /// are not written (zero from [`Configuration::new`] on).
-    com: [[S; 3]; 4],
-    inertia: [Sym<S>; 4],
+    /// `D_k = ∂M_ψψ/∂φ_k`, kg·m²/rad (k = 1..3).
+    yaw_slope: [S; 4],
+    /// `K_k = dM_ψk/dφ_k`, kg·m²/rad (k = 1..3).
+    coupling_slope: [S; 4],
+    /// `P_kl = ∂M_kl/∂φ_l` for `(k, l)` = (1, 2), (1, 3), (2, 3), kg·m²/rad.
+    pitch_slope: [S; 3],
+    /// `(R_y(φ_k) G_k)_x`, kg·m: `g_z` times it is pitch k's gravity torque in `u`.
+    lever: [S; 4],
     /// `M(q)`, both triangles, kg·m².
     pub mass_matrix: [[S; 4]; 4],
     pub factor: Factor<S>,
@@ -351,10 +454,11 @@ impl<S: Real> Configuration<S> {
         let zero = S::splat(0.0);
         let mut configuration = Self {
             angles,
-            point: [[zero; 3]; 4],
             tip: [zero; 3],
-            com: [[zero; 3]; 4],
-            inertia: [Sym { xx: zero, yy: zero, zz: zero, xy: zero, xz: zero, yz: zero }; 4],
+            yaw_slope: [zero; 4],
+            coupling_slope: [zero; 4],
+            pitch_slope: [zero; 3],
+            lever: [zero; 4],
             mass_matrix: [[zero; 4]; 4],
             factor: Factor { lower: [[zero; 4]; 4], pivot: [zero; 4], inverse_pivot: [zero; 4] },
         };
@@ -381,61 +485,83 @@ impl<S: Real> Configuration<S> {
     /// bias and the tip alone (a controller's terms), not for accelerations.
     #[inline(always)]
     pub fn refresh_mass_matrix(&mut self, model: &YawPitch<S>) {
-        let Self { angles, point, tip, com, inertia, .. } = self;
-        // Body by body (a macro, so that it is unrolled and every index is a constant), writing
-        // only the entries that move with the configuration.
+        let two = S::splat(2.0);
+        let Self { angles, tip, yaw_slope, coupling_slope, pitch_slope, lever, mass_matrix, .. } = self;
+        // Per pitch body k (a macro, so that every index is a constant): the rotated link `u_k`,
+        // centre of mass `R ĉ_k`, first moment `g_k` and coupling `R E_k`, and the rotated
+        // inertia's `I_zz`, its derivative, `I_yz` and `I_xy` (double angle for the first two).
         macro_rules! body {
-            ($j:literal) => {{
-                let j: usize = $j;
-                let (s, c) = (angles.sin[j], angles.cos[j]);
-                let base = if j == 1 { model.shoulder } else { point[j] };
-                com[j] = add(&base, &turn_y(s, c, &model.com[j]));
-                let next = add(&base, &turn_y(s, c, &model.link[j]));
-                if j < 3 {
-                    point[j + 1] = next;
-                } else {
-                    *tip = next;
-                }
-                // R_y(φ) Î R_y(φ)ᵀ by the double angle (c₂, s₂) = (cos 2φ, sin 2φ); `yy` is Î's.
-                let (c2, s2) = (c * c - s * s, S::splat(2.0) * s * c);
-                let body = &model.inertia[j];
-                let (mean, half) = (model.inertia_mean[j], model.inertia_half[j]);
-                let spin = half * c2 + body.xz * s2;
-                let turned = &mut inertia[j];
-                turned.xx = mean + spin;
-                turned.zz = mean - spin;
-                turned.xy = c * body.xy + s * body.yz;
-                turned.xz = body.xz * c2 - half * s2;
-                turned.yz = c * body.yz - s * body.xy;
+            ($k:literal) => {{
+                let k: usize = $k;
+                let (s, c) = (angles.sin[k], angles.cos[k]);
+                let (l, h) = (&model.link[k], &model.com[k]);
+                let (g, e) = (&model.moment[k], &model.coupling[k]);
+                let (c2, s2) = (c * c - s * s, two * s * c);
+                let body = &model.inertia[k];
+                let half = model.inertia_half[k];
+                let zz = model.inertia_mean[k] - (half * c2 + body.xz * s2);
+                let zz_slope = two * (half * s2 - body.xz * c2);
+                let yz = c * body.yz - s * body.xy;
+                let xy = c * body.xy + s * body.yz;
+                (
+                    turn(s, c, l[0], l[2]),
+                    turn(s, c, h[0], h[2]),
+                    turn(s, c, g[0], g[1]),
+                    turn(s, c, e[0], e[1]),
+                    zz,
+                    zz_slope,
+                    yz,
+                    xy,
+                )
             }};
         }
-        body!(1);
-        body!(2);
-        body!(3);
-        mass_matrix(model, self);
-    }
-
-    /// `p_j`, m: the model's constants for j = 0, 1.
-    #[inline(always)]
-    fn point_of(&self, model: &YawPitch<S>, j: usize) -> [S; 3] {
-        match j {
-            0 => [S::splat(0.0); 3],
-            1 => model.shoulder,
-            _ => self.point[j],
+        let (u1, c1, g1, e1, zz1, zz_slope1, yz1, xy1) = body!(1);
+        let (u2, c2, g2, e2, zz2, zz_slope2, yz2, xy2) = body!(2);
+        let (u3, c3, g3, e3, zz3, zz_slope3, yz3, xy3) = body!(3);
+        // Forward kinematics in the plane: the joint points' and centres' x, the tip.
+        let o1 = [model.shoulder[0] + u1[0], model.shoulder[2] + u1[1]];
+        let o2 = [o1[0] + u2[0], o1[1] + u2[1]];
+        *tip = [o2[0] + u3[0], model.tip_y, o2[1] + u3[1]];
+        let x1 = model.shoulder[0] + c1[0];
+        let x2 = o1[0] + c2[0];
+        let x3 = o2[0] + c3[0];
+        let (mx1, mx2, mx3) = (model.mass[1] * x1, model.mass[2] * x2, model.mass[3] * x3);
+        // M_u's yaw row and its derivatives.
+        let yaw = model.yaw_inertia + (mx1 * x1 + zz1) + (mx2 * x2 + zz2) + (mx3 * x3 + zz3);
+        *yaw_slope = [
+            S::splat(0.0),
+            two * (mx1 * c1[1] + u1[1] * (mx2 + mx3)) + zz_slope1,
+            two * (mx2 * c2[1] + u2[1] * mx3) + zz_slope2,
+            two * (mx3 * c3[1]) + zz_slope3,
+        ];
+        let couple = [yz1 - e1[1], yz2 - e2[1], yz3 - e3[1]];
+        *coupling_slope = [S::splat(0.0), e1[0] - xy1, e2[0] - xy2, e3[0] - xy3];
+        // M_u's pitch block off the diagonal, and its derivatives.
+        let dot = |u: &[S; 2], g: &[S; 2]| u[0] * g[0] + u[1] * g[1];
+        let cross = |u: &[S; 2], g: &[S; 2]| u[0] * g[1] - u[1] * g[0];
+        let (a12, a13, a23) = (dot(&u1, &g2), dot(&u1, &g3), dot(&u2, &g3));
+        *pitch_slope = [cross(&u1, &g2), cross(&u1, &g3), cross(&u2, &g3)];
+        *lever = [S::splat(0.0), g1[0], g2[0], g3[0]];
+        // M(q) = Sᵀ M_u S + rotors: the sums down the pitch joints, signed.
+        let base = &model.pitch_base;
+        let sign = &model.pair_sign;
+        let twice23 = a23 + a23;
+        let m = mass_matrix;
+        m[0][0] = yaw;
+        m[0][3] = model.sign[3] * couple[2];
+        m[0][2] = model.sign[2] * (couple[1] + couple[2]);
+        m[0][1] = model.sign[1] * (couple[0] + (couple[1] + couple[2]));
+        m[3][3] = base[3][3];
+        m[2][3] = base[2][3] + sign[2][3] * a23;
+        m[2][2] = base[2][2] + twice23;
+        m[1][3] = base[1][3] + sign[1][3] * (a13 + a23);
+        m[1][2] = base[1][2] + sign[1][2] * ((a12 + a13) + twice23);
+        m[1][1] = base[1][1] + two * ((a12 + a13) + a23);
+        for i in 0..4 {
+            for j in i + 1..4 {
+                m[j][i] = m[i][j];
+            }
         }
-    }
-
-    /// Body j's centre of mass in `Y`, m.
-    #[inline(always)]
-    fn com_of<'a>(&'a self, model: &'a YawPitch<S>, j: usize) -> &'a [S; 3] {
-        if j == 0 { &model.com[0] } else { &self.com[j] }
-    }
-
-    /// Body j's inertia in `Y` about its centre of mass, kg·m², but for its `yy` entry, which is
-    /// not kept here (zero): `R_y` leaves it alone, so it is [`YawPitch::inertia`]'s.
-    #[inline(always)]
-    fn inertia_of<'a>(&'a self, model: &'a YawPitch<S>, j: usize) -> &'a Sym<S> {
-        if j == 0 { &model.inertia[0] } else { &self.inertia[j] }
     }
 
     /// The tool tip in the base frame, m: `R_z(ψ)` of the tip in `Y`.
@@ -445,16 +571,32 @@ impl<S: Real> Configuration<S> {
         [c * self.tip[0] - s * self.tip[1], s * self.tip[0] + c * self.tip[1], self.tip[2]]
     }
 
-    /// `C(q, q̇) q̇ + g(q)`, N·m.
+    /// `C(q, q̇) q̇ + g(q)`, N·m: the module's `b` from the rates, then `Sᵀ b`.
     #[inline(always)]
     pub fn bias(&self, model: &YawPitch<S>, qd: &[S; 4]) -> [S; 4] {
-        newton_euler::<S, false>(model, self, qd, &[S::splat(0.0); 4])
+        let sign = &model.sign;
+        let r = qd[0];
+        let w1 = sign[1] * qd[1];
+        let w2 = w1 + sign[2] * qd[2];
+        let w3 = w2 + sign[3] * qd[3];
+        let (s1, s2, s3) = (w1 * w1, w2 * w2, w3 * w3);
+        let half_r2 = r * r * S::splat(0.5);
+        let (d, k, p, g) = (&self.yaw_slope, &self.coupling_slope, &self.pitch_slope, &self.lever);
+        let gz = model.gravity_z;
+        let yaw = r * (d[1] * w1 + d[2] * w2 + d[3] * w3) + (k[1] * s1 + k[2] * s2 + k[3] * s3);
+        let b1 = gz * g[1] + (p[0] * s2 + p[1] * s3) - d[1] * half_r2;
+        let b2 = gz * g[2] + (p[2] * s3 - p[0] * s1) - d[2] * half_r2;
+        let b3 = gz * g[3] - (p[1] * s1 + p[2] * s2) - d[3] * half_r2;
+        let b23 = b2 + b3;
+        [yaw, sign[1] * (b1 + b23), sign[2] * b23, sign[3] * b3]
     }
 
-    /// `M q̈ + C q̇ + g` by the recursion with `q̈`, N·m (friction not included).
+    /// `M q̈ + C q̇ + g`, N·m (friction not included; the rotors' inertia is in `M`).
     #[inline(always)]
     pub fn inverse_dynamics(&self, model: &YawPitch<S>, qd: &[S; 4], qdd: &[S; 4]) -> [S; 4] {
-        newton_euler::<S, true>(model, self, qd, qdd)
+        let bias = self.bias(model, qd);
+        let m = &self.mass_matrix;
+        crate::lanes::array4(|i| bias[i] + (m[i][0] * qdd[0] + m[i][1] * qdd[1] + m[i][2] * qdd[2] + m[i][3] * qdd[3]))
     }
 
     /// `q̈ = M⁻¹ (τ + τ_friction(q̇) − bias)`, rad/s².
@@ -492,131 +634,6 @@ fn friction<S: Real>(model: &YawPitch<S>, qd: &[S; 4]) -> [S; 4] {
         });
         -(model.viscous[j] * qd[j] + coulomb)
     })
-}
-
-/// The composite-rigid-body mass matrix of the module's equations, into `at.mass_matrix`.
-#[inline(always)]
-fn mass_matrix<S: Real>(model: &YawPitch<S>, at: &mut Configuration<S>) {
-    let zero = S::splat(0.0);
-    let mut mass = zero;
-    let mut h = [zero; 3];
-    let (mut iyy, mut iyz, mut izz) = (zero, zero, zero);
-    // Tip to base, unrolled by a macro so that every index is a constant; every entry of `M` is
-    // written (in place: no copy of the whole).
-    macro_rules! body {
-        ($j:literal) => {{
-            let j: usize = $j;
-            let m = model.mass[j];
-            let c = *at.com_of(model, j);
-            mass += m;
-            let weighted = [c[0] * m, c[1] * m, c[2] * m];
-            h = add(&h, &weighted);
-            let (yz, zz) = (at.inertia_of(model, j).yz, at.inertia_of(model, j).zz);
-            iyy += model.inertia[j].yy + (weighted[0] * c[0] + weighted[2] * c[2]);
-            iyz += yz - weighted[1] * c[2];
-            izz += zz + (weighted[0] * c[0] + weighted[1] * c[1]);
-            if j == 0 {
-                at.mass_matrix[0][0] = izz + model.rotor[0];
-            } else {
-                let p = at.point_of(model, j);
-                let sign = model.sign[j];
-                let force_x = sign * (h[2] - mass * p[2]);
-                let force_z = sign * (mass * p[0] - h[0]);
-                let moment_y = sign * (iyy - h[0] * p[0] - h[2] * p[2]);
-                let moment_z = sign * (iyz + h[1] * p[2]);
-                for i in 1..j + 1 {
-                    let pi = at.point_of(model, i);
-                    let value = model.sign[i] * (moment_y - pi[2] * force_x + pi[0] * force_z);
-                    let value = if i == j { value + model.rotor[j] } else { value };
-                    at.mass_matrix[i][j] = value;
-                    at.mass_matrix[j][i] = value;
-                }
-                at.mass_matrix[0][j] = moment_z;
-                at.mass_matrix[j][0] = moment_z;
-            }
-        }};
-    }
-    body!(3);
-    body!(2);
-    body!(1);
-    body!(0);
-}
-
-/// Recursive Newton–Euler in `Y`, sparse as the module explains; `ACCELERATION = false` leaves
-/// the terms in `q̈` out (the bias torques), rather than multiplying by zero.
-#[inline(always)]
-fn newton_euler<S: Real, const ACCELERATION: bool>(
-    model: &YawPitch<S>,
-    at: &Configuration<S>,
-    qd: &[S; 4],
-    qdd: &[S; 4],
-) -> [S; 4] {
-    let zero = S::splat(0.0);
-    // ω = (0, w, r), α = (ax, ay, az); the acceleration of the current joint point.
-    let (mut w, mut r) = (zero, zero);
-    let (mut ax, mut ay, mut az) = (zero, zero, zero);
-    let mut point_acceleration = [zero, zero, -model.gravity_z];
-    // Each body's force and moment, base to tip, as the array's elements are evaluated (in
-    // order): zero-filled arrays written in a loop cost a `memset` call each at 8 lanes, and
-    // `array::from_fn`'s closure is not unrolled.
-    macro_rules! body {
-        ($j:literal) => {{
-            let j: usize = $j;
-            if j > 0 {
-                let norm2 = w * w + r * r;
-                let lever = sub(&at.point_of(model, j), &at.point_of(model, j - 1));
-                let spin =
-                    if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
-                let turn = centripetal(w, r, norm2, &lever);
-                point_acceleration = add(&point_acceleration, &add(&spin, &turn));
-                ax -= model.sign[j] * qd[j] * r;
-                if ACCELERATION {
-                    ay += model.sign[j] * qdd[j];
-                }
-                w += model.sign[j] * qd[j];
-            } else {
-                if ACCELERATION {
-                    az += qdd[0];
-                }
-                r = qd[0];
-            }
-            let norm2 = w * w + r * r;
-            let com = at.com_of(model, j);
-            let lever = sub(com, &at.point_of(model, j));
-            let spin =
-                if ACCELERATION { cross(&[ax, ay, az], &lever) } else { [zero, -(ax * lever[2]), ax * lever[1]] };
-            let com_acceleration = add(&point_acceleration, &add(&spin, &centripetal(w, r, norm2, &lever)));
-            let m = model.mass[j];
-            let f = [com_acceleration[0] * m, com_acceleration[1] * m, com_acceleration[2] * m];
-            let i = at.inertia_of(model, j);
-            let yy = model.inertia[j].yy;
-            let angular = if ACCELERATION {
-                [i.xx * ax + i.xy * ay + i.xz * az, i.xy * ax + yy * ay + i.yz * az, i.xz * ax + i.yz * ay + i.zz * az]
-            } else {
-                [i.xx * ax, i.xy * ax, i.xz * ax]
-            };
-            let spun = [i.xy * w + i.xz * r, yy * w + i.yz * r, i.yz * w + i.zz * r];
-            let gyroscopic = [w * spun[2] - r * spun[1], r * spun[0], -(w * spun[0])];
-            (f, add(&cross(com, &f), &add(&angular, &gyroscopic)))
-        }};
-    }
-    let body: [([S; 3], [S; 3]); 4] = [body!(0), body!(1), body!(2), body!(3)];
-    let mut torque = [zero; 4];
-    let (mut total_force, mut total_moment) = ([zero; 3], [zero; 3]);
-    for j in (0..4).rev() {
-        total_force = add(&total_force, &body[j].0);
-        total_moment = add(&total_moment, &body[j].1);
-        torque[j] = if j == 0 {
-            total_moment[2]
-        } else {
-            let p = at.point_of(model, j);
-            model.sign[j] * (total_moment[1] - p[2] * total_force[0] + p[0] * total_force[2])
-        };
-        if ACCELERATION {
-            torque[j] += model.rotor[j] * qdd[j];
-        }
-    }
-    torque
 }
 
 /// `M = L D Lᵀ` of a 4×4 symmetric matrix, with the reciprocals of the pivots, as

@@ -174,32 +174,7 @@ fn set_lane<const L: usize>(batch: &mut YawPitch<Lanes<L>>, lane: usize, arm: &Y
 
 /// Lane `i` of a batch's constants.
 fn lane_of<const L: usize>(batch: &YawPitch<Lanes<L>>, i: usize) -> YawPitch<f64> {
-    let v3 = |v: &[Lanes<L>; 3]| v.map(|x| x.get(i));
-    let v4 = |v: &[Lanes<L>; 4]| v.map(|x| x.get(i));
-    YawPitch {
-        offset: v4(&batch.offset),
-        sign: v4(&batch.sign),
-        shoulder: v3(&batch.shoulder),
-        link: batch.link.map(|v| v3(&v)),
-        com: batch.com.map(|v| v3(&v)),
-        mass: v4(&batch.mass),
-        inertia: batch.inertia.map(|t| crate::arm::yaw_pitch::Sym {
-            xx: t.xx.get(i),
-            yy: t.yy.get(i),
-            zz: t.zz.get(i),
-            xy: t.xy.get(i),
-            xz: t.xz.get(i),
-            yz: t.yz.get(i),
-        }),
-        inertia_mean: v4(&batch.inertia_mean),
-        inertia_half: v4(&batch.inertia_half),
-        rotor: v4(&batch.rotor),
-        gravity_z: batch.gravity_z.get(i),
-        viscous: v4(&batch.viscous),
-        coulomb: v4(&batch.coulomb),
-        // Recomputed by `gather` from the lanes' own values.
-        has_friction: v4(&batch.viscous).iter().chain(&v4(&batch.coulomb)).any(|v| *v != 0.0),
-    }
+    batch.lane(i)
 }
 
 /// The lanes' joint states side by side.
