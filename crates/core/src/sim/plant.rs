@@ -16,9 +16,9 @@ use nalgebra::Vector3;
 /// start and at its stage configurations), so a step allocates and moves nothing large.
 ///
 /// An arm of the yaw–pitch family steps on the structured dynamics
-/// ([`crate::arm::yaw_pitch`], [`super::structured`]), compiled for the best SIMD level the CPU
-/// has ([`Plant::with_simd_level`] picks another; the results are the same bits at every
-/// level); any other arm on the general recursive algorithms.
+/// ([`crate::arm::yaw_pitch`], [`super::structured`]), compiled for one run's SIMD level
+/// ([`SimdLevel::for_one_run`]; [`Plant::with_simd_level`] picks another; the results are the
+/// same bits at every level); any other arm on the general recursive algorithms.
 #[derive(Debug, Clone)]
 pub struct Plant<const N: usize> {
     model: ArmModel<N>,
@@ -54,7 +54,7 @@ impl<const N: usize> Plant<N> {
             middle: configuration.clone(),
             end: configuration,
             structured_start: None,
-            simd: SimdLevel::detect(),
+            simd: SimdLevel::for_one_run(),
         }
     }
 
