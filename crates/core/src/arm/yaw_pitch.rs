@@ -65,7 +65,7 @@ pub struct NotYawPitch(pub String);
 
 /// A symmetric 3×3 tensor by its six entries, kg·m².
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sym<S> {
+struct Sym<S> {
     pub xx: S,
     pub yy: S,
     pub zz: S,
@@ -93,7 +93,8 @@ pub struct YawPitch<S> {
     pub mass: [S; 4],
     /// `G_k = m_k ĉ_k + (Σ_{j>k} m_j) ℓ_k`, its `x` and `z`, kg·m.
     pub moment: [[S; 2]; 4],
-    /// `E_k = m_k y_k ĉ_k + (Σ_{j>k} m_j y_j) ℓ_k`, its `x` and `z`, kg·m².
+    /// The yaw coupling's constants `(Î_xy − E_x, Î_yz − E_z)` of body k, with
+    /// `E_k = m_k y_k ĉ_k + (Σ_{j>k} m_j y_j) ℓ_k`, kg·m²: `R_y(φ_k)` of them is `(−K_k, M_ψk)`.
     pub coupling: [[S; 2]; 4],
     /// `M_kk`, the constant diagonal of the pitch block in `u`, kg·m².
     pub pitch_inertia: [S; 4],
@@ -102,16 +103,14 @@ pub struct YawPitch<S> {
     pub pitch_base: [[S; 4]; 4],
     /// `σ_i σ_j`.
     pub pair_sign: [[S; 4]; 4],
-    /// The constant part of `M(q)₁₁`: body 0's `I_zz + m₀ (x₀² + y₀²)`, `Σ_{j≥1} m_j y_j²` and
-    /// the base rotor, kg·m².
+    /// The constant part of `M(q)₁₁`: body 0's `I_zz + m₀ (x₀² + y₀²)`, `Σ_{j≥1} (m_j y_j² + Ī_j)`
+    /// and the base rotor, kg·m².
     pub yaw_inertia: S,
     /// The tool tip's `y` in `Y`, m.
     pub tip_y: S,
-    /// Body 0's inertia about its centre of mass in `Y`; for j ≥ 1, `Î_j`, kg·m².
-    pub inertia: [Sym<S>; 4],
-    /// For j ≥ 1: `(Î_xx + Î_zz)/2` and `(Î_xx − Î_zz)/2`, for the double-angle rotation.
-    pub inertia_mean: [S; 4],
-    pub inertia_half: [S; 4],
+    /// `(h_j, Î_xz,j)` (j ≥ 1), `h = (Î_xx − Î_zz)/2`: `R_y(2φ_j)` of them is
+    /// `(Ī_j − I_zz,j(φ_j), −I_zz,j′(φ_j)/2)`, kg·m².
+    pub spin: [[S; 2]; 4],
     /// Rotor inertias (armature), kg·m².
     pub rotor: [S; 4],
     /// Gravity along the base z axis, m/s² (−9.8 for the report).
@@ -178,7 +177,7 @@ impl YawPitch<f64> {
         let mut link = [[0.0; 3]; 4];
         let mut com = [[0.0; 3]; 4];
         let mut inertia = [sym(&Matrix3::zeros()); 4];
-        let (mut inertia_mean, mut inertia_half) = ([0.0; 4], [0.0; 4]);
+        let (mut inertia_mean, mut spin) = ([0.0; 4], [[0.0; 2]; 4]);
         for j in 0..4 {
             let body = model.body(j);
             let rotation = turn(j);
@@ -191,7 +190,7 @@ impl YawPitch<f64> {
                 link[j] = array(offset);
                 com[j] = array(offset + rotation * body.com);
                 inertia_mean[j] = 0.5 * (turned[(0, 0)] + turned[(2, 2)]);
-                inertia_half[j] = 0.5 * (turned[(0, 0)] - turned[(2, 2)]);
+                spin[j] = [0.5 * (turned[(0, 0)] - turned[(2, 2)]), turned[(0, 2)]];
             }
         }
         let links = model.links();
@@ -214,7 +213,8 @@ impl YawPitch<f64> {
             let (c, l) = (&com[k], &link[k]);
             moment[k] = [mass[k] * c[0] + distal_mass * l[0], mass[k] * c[2] + distal_mass * l[2]];
             let own = mass[k] * height[k];
-            coupling[k] = [own * c[0] + distal_height * l[0], own * c[2] + distal_height * l[2]];
+            let e = [own * c[0] + distal_height * l[0], own * c[2] + distal_height * l[2]];
+            coupling[k] = [inertia[k].xy - e[0], inertia[k].yz - e[1]];
             pitch_inertia[k] = mass[k] * planar(c) + distal_mass * planar(l) + inertia[k].yy;
         }
         let mut pitch_base = [[0.0; 4]; 4];
@@ -230,7 +230,7 @@ impl YawPitch<f64> {
         }
         let yaw_inertia = inertia[0].zz
             + mass[0] * (com[0][0] * com[0][0] + com[0][1] * com[0][1])
-            + (1..4).map(|j| mass[j] * height[j] * height[j]).sum::<f64>()
+            + (1..4).map(|j| mass[j] * height[j] * height[j] + inertia_mean[j]).sum::<f64>()
             + rotor[0];
         Ok(Self {
             offset: std::array::from_fn(|j| dh(j).theta_offset),
@@ -246,9 +246,7 @@ impl YawPitch<f64> {
             pair_sign,
             yaw_inertia,
             tip_y: y_so_far,
-            inertia,
-            inertia_mean,
-            inertia_half,
+            spin,
             rotor,
             gravity_z: g.z,
             viscous: std::array::from_fn(|j| links[j].friction.viscous),
@@ -269,14 +267,6 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
         let m4 = |f: &dyn Fn(&YawPitch<f64>, usize, usize) -> f64| {
             std::array::from_fn(|i| std::array::from_fn(|j| lanes(&|a| f(a, i, j))))
         };
-        let tensor = |j: usize| Sym {
-            xx: lanes(&|a| a.inertia[j].xx),
-            yy: lanes(&|a| a.inertia[j].yy),
-            zz: lanes(&|a| a.inertia[j].zz),
-            xy: lanes(&|a| a.inertia[j].xy),
-            xz: lanes(&|a| a.inertia[j].xz),
-            yz: lanes(&|a| a.inertia[j].yz),
-        };
         Self {
             offset: v4(&|a, j| a.offset[j]),
             sign: v4(&|a, j| a.sign[j]),
@@ -291,9 +281,7 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
             pair_sign: m4(&|a, i, j| a.pair_sign[i][j]),
             yaw_inertia: lanes(&|a| a.yaw_inertia),
             tip_y: lanes(&|a| a.tip_y),
-            inertia: std::array::from_fn(tensor),
-            inertia_mean: v4(&|a, j| a.inertia_mean[j]),
-            inertia_half: v4(&|a, j| a.inertia_half[j]),
+            spin: std::array::from_fn(|j| v2(&|a, k| a.spin[j][k])),
             rotor: v4(&|a, j| a.rotor[j]),
             gravity_z: lanes(&|a| a.gravity_z),
             viscous: v4(&|a, j| a.viscous[j]),
@@ -323,16 +311,7 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
             pair_sign: self.pair_sign.map(|row| v4(&row)),
             yaw_inertia: self.yaw_inertia.get(i),
             tip_y: self.tip_y.get(i),
-            inertia: self.inertia.map(|t| Sym {
-                xx: t.xx.get(i),
-                yy: t.yy.get(i),
-                zz: t.zz.get(i),
-                xy: t.xy.get(i),
-                xz: t.xz.get(i),
-                yz: t.yz.get(i),
-            }),
-            inertia_mean: v4(&self.inertia_mean),
-            inertia_half: v4(&self.inertia_half),
+            spin: self.spin.map(|v| v2(&v)),
             rotor: v4(&self.rotor),
             gravity_z: self.gravity_z.get(i),
             viscous,
@@ -488,36 +467,27 @@ impl<S: Real> Configuration<S> {
         let two = S::splat(2.0);
         let Self { angles, tip, yaw_slope, coupling_slope, pitch_slope, lever, mass_matrix, .. } = self;
         // Per pitch body k (a macro, so that every index is a constant): the rotated link `u_k`,
-        // centre of mass `R ĉ_k`, first moment `g_k` and coupling `R E_k`, and the rotated
-        // inertia's `I_zz`, its derivative, `I_yz` and `I_xy` (double angle for the first two).
+        // centre of mass `R ĉ_k` and first moment `g_k`, the yaw coupling `(−K_k, M_ψk)` and, by the
+        // double angle, the inertia's `(Ī_k − I_zz,k, −I_zz,k′/2)`.
         macro_rules! body {
             ($k:literal) => {{
                 let k: usize = $k;
                 let (s, c) = (angles.sin[k], angles.cos[k]);
-                let (l, h) = (&model.link[k], &model.com[k]);
-                let (g, e) = (&model.moment[k], &model.coupling[k]);
+                let (l, h, g) = (&model.link[k], &model.com[k], &model.moment[k]);
+                let (e, i) = (&model.coupling[k], &model.spin[k]);
                 let (c2, s2) = (c * c - s * s, two * s * c);
-                let body = &model.inertia[k];
-                let half = model.inertia_half[k];
-                let zz = model.inertia_mean[k] - (half * c2 + body.xz * s2);
-                let zz_slope = two * (half * s2 - body.xz * c2);
-                let yz = c * body.yz - s * body.xy;
-                let xy = c * body.xy + s * body.yz;
                 (
                     turn(s, c, l[0], l[2]),
                     turn(s, c, h[0], h[2]),
                     turn(s, c, g[0], g[1]),
                     turn(s, c, e[0], e[1]),
-                    zz,
-                    zz_slope,
-                    yz,
-                    xy,
+                    turn(s2, c2, i[0], i[1]),
                 )
             }};
         }
-        let (u1, c1, g1, e1, zz1, zz_slope1, yz1, xy1) = body!(1);
-        let (u2, c2, g2, e2, zz2, zz_slope2, yz2, xy2) = body!(2);
-        let (u3, c3, g3, e3, zz3, zz_slope3, yz3, xy3) = body!(3);
+        let (u1, c1, g1, e1, i1) = body!(1);
+        let (u2, c2, g2, e2, i2) = body!(2);
+        let (u3, c3, g3, e3, i3) = body!(3);
         // Forward kinematics in the plane: the joint points' and centres' x, the tip.
         let o1 = [model.shoulder[0] + u1[0], model.shoulder[2] + u1[1]];
         let o2 = [o1[0] + u2[0], o1[1] + u2[1]];
@@ -527,15 +497,15 @@ impl<S: Real> Configuration<S> {
         let x3 = o2[0] + c3[0];
         let (mx1, mx2, mx3) = (model.mass[1] * x1, model.mass[2] * x2, model.mass[3] * x3);
         // M_u's yaw row and its derivatives.
-        let yaw = model.yaw_inertia + (mx1 * x1 + zz1) + (mx2 * x2 + zz2) + (mx3 * x3 + zz3);
+        let yaw = model.yaw_inertia + ((mx1 * x1 - i1[0]) + (mx2 * x2 - i2[0]) + (mx3 * x3 - i3[0]));
         *yaw_slope = [
             S::splat(0.0),
-            two * (mx1 * c1[1] + u1[1] * (mx2 + mx3)) + zz_slope1,
-            two * (mx2 * c2[1] + u2[1] * mx3) + zz_slope2,
-            two * (mx3 * c3[1]) + zz_slope3,
+            two * ((mx1 * c1[1] + u1[1] * (mx2 + mx3)) - i1[1]),
+            two * ((mx2 * c2[1] + u2[1] * mx3) - i2[1]),
+            two * (mx3 * c3[1] - i3[1]),
         ];
-        let couple = [yz1 - e1[1], yz2 - e2[1], yz3 - e3[1]];
-        *coupling_slope = [S::splat(0.0), e1[0] - xy1, e2[0] - xy2, e3[0] - xy3];
+        let couple = [e1[1], e2[1], e3[1]];
+        *coupling_slope = [S::splat(0.0), -e1[0], -e2[0], -e3[0]];
         // M_u's pitch block off the diagonal, and its derivatives.
         let dot = |u: &[S; 2], g: &[S; 2]| u[0] * g[0] + u[1] * g[1];
         let cross = |u: &[S; 2], g: &[S; 2]| u[0] * g[1] - u[1] * g[0];
