@@ -366,11 +366,13 @@ impl SimdLevel {
         *BEST.get_or_init(|| Self::ALL.into_iter().find(|level| level.available()).unwrap_or(SimdLevel::Baseline))
     }
 
-    /// The level for one run's kernels (`f64`, no lanes): AVX2 where the CPU has it, else the
-    /// best it has. Scalar code gains nothing from 512-bit registers, and compiled for AVX-512
-    /// it ran slower (2-vCPU Intel Xeon, the scenario's single run: 5.42 ms against 4.3 ms at
-    /// AVX2, 4.5 ms at SSE2, forward dynamics likewise); the results are the same bits.
-    pub fn for_one_run() -> Self {
+    /// The level for simulations (a plant's steps, a batch's lanes): AVX2 where the CPU has it,
+    /// else the best it has. Compiled for AVX-512 they ran slower on the 2-vCPU Intel Xeon VM
+    /// (the scenario's single run 5.42 ms against 4.31 ms at AVX2 and 4.5 ms at SSE2; 8 lanes
+    /// 115–118 against 104–110 ns a run-step; the 40 × 40 sweep and a 1000-trial campaign
+    /// 15 % slower), and only a few per cent faster at 8 lanes on the AMD EPYC before. The
+    /// results are the same bits at every level; `CHESSARM_SIMD` picks another.
+    pub fn for_simulation() -> Self {
         if SimdLevel::Avx2.available() { SimdLevel::Avx2 } else { Self::detect() }
     }
 
