@@ -455,7 +455,7 @@ pub struct GainArgs {
 /// How the plant is integrated over each time step (all fixed-step, torque held per step).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum IntegratorChoice {
-    /// Nyström's fourth-order Runge–Kutta: 3 mass matrices and 4 RNEA per step.
+    /// Nyström's fourth-order Runge–Kutta: 3 mass matrices and 4 bias evaluations per step.
     #[default]
     Rkn4,
     /// Classical fourth-order Runge–Kutta: 4 of each.

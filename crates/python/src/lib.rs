@@ -294,7 +294,8 @@ impl Arm {
         self.map::<16>(py, &[("q", &q)], &[4, 4], |model, s| Ok(row_major(&mass_matrix(model, &s[0]))))
     }
 
-    /// Inverse dynamics (recursive Newton–Euler): τ = M(q) a + C(q, v) v + g(q), N·m.
+    /// Inverse dynamics (closed form for the yaw–pitch family, recursive Newton–Euler otherwise):
+    /// τ = M(q) a + C(q, v) v + g(q), N·m.
     fn rnea<'py>(
         &self,
         py: Python<'py>,
