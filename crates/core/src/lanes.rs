@@ -263,7 +263,7 @@ impl<const L: usize> Real for Lanes<L> {
         let (sin, cos) = reduced_sin_cos(Self(reduced));
         let (mut out_sin, mut out_cos) = (sin.0, cos.0);
         for i in 0..L {
-            (out_sin[i], out_cos[i]) = by_quadrant(sin.0[i], cos.0[i], quadrant[i]);
+            (out_sin[i], out_cos[i]) = within_limit(self.0[i], by_quadrant(sin.0[i], cos.0[i], quadrant[i]));
         }
         (Self(out_sin), Self(out_cos))
     }
@@ -334,15 +334,26 @@ fn by_quadrant(sin: f64, cos: f64, y: u64) -> (f64, f64) {
     (f64::from_bits(a ^ sin_sign), f64::from_bits(b ^ cos_sign))
 }
 
-/// `(sin x, cos x)`, within 2 ulp of the exact values for |x| ≤ 1.6·10⁶ rad (joint
-/// angles are a few radians), by Cody–Waite reduction to |r| ≤ π/4 and Taylor polynomials.
-/// Pure `+ − ×` and one rounding: the same bits on every machine, unlike the C library's,
-/// which picks its code by the CPU it runs on.
+/// `(sin x, cos x)`, within 2 ulp of the exact values for |x| ≤ [`SIN_COS_LIMIT`] (joint
+/// angles are a few radians), by Cody–Waite reduction to |r| ≤ π/4 and Taylor polynomials;
+/// NaN beyond it (and for NaN and ±∞), where the reduction would give numbers that are not
+/// sines. Pure `+ − ×` and one rounding: the same bits on every machine, unlike the C
+/// library's, which picks its code by the CPU it runs on.
 #[inline(always)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
     let (k, y) = quadrant_of(x);
     let (sin, cos) = reduced_sin_cos(reduce(x, k));
-    by_quadrant(sin, cos, y)
+    within_limit(x, by_quadrant(sin, cos, y))
+}
+
+/// The largest |x| (rad) [`sin_cos`] reduces: `k · PIO2_1` stays exact for |k| < 2²⁰, i.e.
+/// |x| < 2²⁰ π/2 ≈ 1.647·10⁶.
+pub const SIN_COS_LIMIT: f64 = 1.6e6;
+
+/// `sin_cos` where |x| ≤ [`SIN_COS_LIMIT`], NaN beyond (a select, so that lanes vectorise).
+#[inline(always)]
+fn within_limit(x: f64, sin_cos: (f64, f64)) -> (f64, f64) {
+    if x.abs() <= SIN_COS_LIMIT { sin_cos } else { (f64::NAN, f64::NAN) }
 }
 
 /// Which SIMD instructions the kernels (a plant's step, a batch's lanes, the dynamics
@@ -453,6 +464,43 @@ mod tests {
             }
         }
         assert!(worst <= 2.0, "worst {worst} ulps");
+    }
+
+    /// The promise holds out to the limit (random angles up to ±1.6·10⁶ rad and the limit
+    /// itself), and beyond it the result is NaN, not a number that is no sine (before the
+    /// limit was enforced, `sin_cos(1e20)` gave (1.4e34, 3.2e32)), in lanes as in the scalar.
+    #[test]
+    fn large_angles_within_the_limit_and_nan_beyond() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut worst = 0.0f64;
+        let mut xs: Vec<f64> = (0..100_000)
+            .map(|_| {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2.0 * SIN_COS_LIMIT
+            })
+            .collect();
+        xs.extend([SIN_COS_LIMIT, -SIN_COS_LIMIT]);
+        for x in xs {
+            let (s, c) = sin_cos(x);
+            let (s0, c0) = x.sin_cos();
+            for (mine, theirs) in [(s, s0), (c, c0)] {
+                let error = if theirs.abs() < 0.25 { (mine - theirs).abs() / f64::EPSILON } else { ulps(mine, theirs) };
+                worst = worst.max(error);
+            }
+        }
+        assert!(worst <= 2.0, "worst {worst} ulps");
+        let beyond = [SIN_COS_LIMIT.next_up(), -1.7e6, 1e20, -1e300, f64::MAX];
+        for x in beyond {
+            let (s, c) = sin_cos(x);
+            assert!(s.is_nan() && c.is_nan(), "{x}: ({s}, {c})");
+        }
+        let (s, c) = Lanes([1e20, 0.5, -SIN_COS_LIMIT, 2e6]).sin_cos();
+        assert!(s.get(0).is_nan() && c.get(0).is_nan() && s.get(3).is_nan() && c.get(3).is_nan());
+        assert_eq!((s.get(1).to_bits(), c.get(1).to_bits()), (sin_cos(0.5).0.to_bits(), sin_cos(0.5).1.to_bits()));
+        let limit = sin_cos(-SIN_COS_LIMIT);
+        assert_eq!((s.get(2).to_bits(), c.get(2).to_bits()), (limit.0.to_bits(), limit.1.to_bits()));
     }
 
     #[test]

@@ -1,9 +1,9 @@
 //! Rigid-body dynamics of the chain: `τ = M(q) q̈ + C(q, q̇) q̇ + g(q)`.
 //!
 //! An arm of the yaw–pitch family (a base yaw, parallel pitch joints, a vertical gravity: the
-//! arms chessarm supports; [`super::yaw_pitch::YawPitch::new`] says which) takes the structured
-//! path of [`super::yaw_pitch`]: the same equations in the yaw frame, where the pitch chain is
-//! planar and half of every product vanishes. The free functions here pick it by themselves
+//! arms chessarm supports; [`super::yaw_pitch::YawPitch::new`] says which) takes the closed
+//! form of [`super::yaw_pitch`]: Lagrange's equations in the yaw frame and the cumulative pitch
+//! angles, where the pitch chain is planar. The free functions here pick it by themselves
 //! whenever [`ArmModel::yaw_pitch`] is `Some`; the general path below serves every other arm,
 //! [`ArmModel::with_general_dynamics`], and the tests as the oracle (the two agree to 1e-12).
 //!

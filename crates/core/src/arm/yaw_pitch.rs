@@ -32,8 +32,8 @@
 //! `b_ψ = r Σ_k D_k w_k + Σ_k K_k w_k²`,
 //! `b_k = Σ_{l≠k} P_kl w_l² − ½ D_k r² + g_z (R_y(φ_k) G_k)_x`, with
 //! `D_k = ∂M_ψψ/∂φ_k = 2 (m_k x_k (R_y(φ_k) ĉ_k)_z + (u_k)_z Σ_{j>k} m_j x_j) + I_zz,k′`,
-//! `K_k = dM_ψk/dφ_k = (R_y(φ_k) E_k)_x − I_xy,k(φ_k)` and `P_kl = ∂M_kl/∂φ_l = (u_k × g_l)_y`
-//! (`u_kx g_lz − u_kz g_lx`, and `P_lk = −P_kl`).
+//! `K_k = dM_ψk/dφ_k = (R_y(φ_k) E_k)_x − I_xy,k(φ_k)` and `P_kl = ∂M_kl/∂φ_l =
+//! u_kx g_lz − u_kz g_lx` (`= −(u_k × g_l)_y`; and `P_lk = −P_kl`).
 //!
 //! **Joint coordinates**: `u̇ = S q̇` with `S` the signs `σ` summed down the pitch joints, so
 //! `M(q) = Sᵀ M_u S + diag(rotor)` (`M_ij = σ_i σ_j Σ_{k≥i, l≥j} M_kl`) and `τ_bias = Sᵀ b`
