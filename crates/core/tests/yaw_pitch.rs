@@ -13,6 +13,7 @@ use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::arm::yaw_pitch::{Angles, Configuration, YawPitch};
+use chessarm_core::lanes::Lanes;
 use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector3};
 use chessarm_core::sim::{Integrator, Plant};
 use proptest::prelude::*;
@@ -156,6 +157,31 @@ proptest! {
     ) {
         agree_at(&family_arm(&seed, down, reversed, tool_twist), q, qd, qdd)?;
     }
+}
+
+/// `YawPitch::lane` gives back, entry for entry, each arm `gather` put in its lane (friction
+/// or none), and gathering those lanes again gives the same batch.
+#[test]
+fn a_lane_of_gathered_constants_is_its_arm() {
+    let seeds: [[f64; 24]; 2] = [
+        std::array::from_fn(|k| ((k as f64 * 1.9).cos() * 1.1).clamp(-1.0, 1.0)),
+        std::array::from_fn(|k| ((k as f64 * 0.3 + 2.0).sin() * 1.4).clamp(-1.0, 1.0)),
+    ];
+    let arms = [
+        report_arm(),
+        asymmetric_arm(),
+        family_arm(&seeds[0], false, [false, true], -1.2),
+        family_arm(&seeds[1], true, [true, true], 2.5),
+    ];
+    let constants: [YawPitch<f64>; 4] = std::array::from_fn(|i| *arms[i].yaw_pitch().unwrap());
+    assert!(!constants[0].has_friction && constants[1].has_friction, "both kinds of lane are covered");
+    let batch = YawPitch::<Lanes<4>>::gather(std::array::from_fn(|i| &constants[i]));
+    for (i, arm) in constants.iter().enumerate() {
+        let lane = batch.lane(i);
+        assert!(lane == *arm, "lane {i}: {lane:?}\n{arm:?}");
+    }
+    let lanes: [YawPitch<f64>; 4] = std::array::from_fn(|i| batch.lane(i));
+    assert!(YawPitch::<Lanes<4>>::gather(std::array::from_fn(|i| &lanes[i])) == batch);
 }
 
 /// A configuration refilled with another model equals one built for that model (its entries
