@@ -95,9 +95,10 @@ pub fn worker_threads(requested: Option<usize>) -> Result<usize> {
 }
 
 /// How sweeps and campaigns batch their runs: `CHESSARM_LANES` (1, 4 or 8 runs side by side;
-/// 8 when unset) and `CHESSARM_SIMD` (`avx512`, `avx2` or `sse2`; when unset AVX2 where the
-/// CPU has it, else the best it has: `SimdLevel::for_simulation`). Neither changes a result, only the speed: every run's metrics are the same bit for
-/// bit (see `chessarm_core::sim::batch`).
+/// 8 when unset) and `CHESSARM_SIMD` (`avx512`, `avx2` or `sse2`; when unset AVX2 where
+/// the CPU has it, else the best it has: `SimdLevel::for_simulation`). Neither changes a
+/// result, only the speed: every run's metrics are the same bit for bit (see
+/// `chessarm_core::sim::batch`).
 ///
 /// # Errors
 ///

@@ -336,8 +336,8 @@ fn by_quadrant(sin: f64, cos: f64, y: u64) -> (f64, f64) {
 
 /// `(sin x, cos x)`, within 2 ulp of the exact values for |x| ≤ [`SIN_COS_LIMIT`] (joint
 /// angles are a few radians), by Cody–Waite reduction to |r| ≤ π/4 and Taylor polynomials;
-/// NaN beyond it (and for NaN and ±∞), where the reduction would give numbers that are not
-/// sines. Pure `+ − ×` and one rounding: the same bits on every machine, unlike the C
+/// NaN beyond it (and for NaN and ±∞): there the promise fails (at 10⁷ rad the error is
+/// ~10⁻⁹), and past ~3.5·10¹⁵ rad the reduction gives numbers that are not sines at all. Pure `+ − ×` and one rounding: the same bits on every machine, unlike the C
 /// library's, which picks its code by the CPU it runs on.
 #[inline(always)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
@@ -380,9 +380,10 @@ impl SimdLevel {
     /// The level for simulations (a plant's steps, a batch's lanes): AVX2 where the CPU has it,
     /// else the best it has. Compiled for AVX-512 they ran slower on the 2-vCPU Intel Xeon VM
     /// (the scenario's single run 5.42 ms against 4.31 ms at AVX2 and 4.5 ms at SSE2; 8 lanes
-    /// 115–118 against 104–110 ns a run-step; the 40 × 40 sweep and a 1000-trial campaign
+    /// 115–121 against 104–110 ns a run-step; the 40 × 40 sweep and a 1000-trial campaign
     /// 15 % slower), and only a few per cent faster at 8 lanes on the AMD EPYC before. The
-    /// results are the same bits at every level; `CHESSARM_SIMD` picks another.
+    /// results are the same bits at every level; `CHESSARM_SIMD` picks another for `tune` and
+    /// `robustness`.
     pub fn for_simulation() -> Self {
         if SimdLevel::Avx2.available() { SimdLevel::Avx2 } else { Self::detect() }
     }

@@ -1,7 +1,10 @@
 //! The seeded random numbers of sensor noise and model draws: xoshiro256++ (Blackman & Vigna,
 //! "Scrambled linear pseudorandom number generators", 2021) seeded through SplitMix64, and
 //! standard normal deviates by the Box–Muller transform. Small, fast, and the same sequence on
-//! every machine and thread count: a run's randomness is a function of its seed alone.
+//! every thread count: a run's randomness is a function of its seed alone. The transform's
+//! sine and cosine are [`crate::lanes::sin_cos`] (the same bits on every machine); its
+//! logarithm is the C library's, correctly rounded in glibc's current versions but not promised
+//! to give the same bits on every machine.
 
 /// SplitMix64's output function on `state` (Steele, Lea & Flood 2014): a bijective mix of 64
 /// bits, used to seed xoshiro and to derive the seed of trial `k` from a study's seed.
@@ -69,7 +72,9 @@ impl SeededRng {
         let u1 = 1.0 - self.unit();
         let u2 = self.unit();
         let radius = (-2.0 * u1.ln()).sqrt();
-        let (sin, cos) = (std::f64::consts::TAU * u2).sin_cos();
+        // Our own sine and cosine (the same bits on every machine; the C library's pick their
+        // code by the CPU) and faster than the C library's here.
+        let (sin, cos) = crate::lanes::sin_cos(std::f64::consts::TAU * u2);
         self.spare_normal = Some(radius * sin);
         radius * cos
     }
