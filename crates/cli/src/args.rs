@@ -20,6 +20,22 @@ fn four_unescaped(text: &str) -> Result<[f64; 4], String> {
     parse_numbers::<4>(text)
 }
 
+/// Four joint angles, rad: finite, and within ±[`SIN_COS_LIMIT`] (1.6·10⁶ rad), beyond which
+/// the sines and cosines the kinematics and dynamics take would be NaN.
+///
+/// [`SIN_COS_LIMIT`]: chessarm_core::lanes::SIN_COS_LIMIT
+fn angles_unescaped(text: &str) -> Result<[f64; 4], String> {
+    let values = parse_numbers::<4>(text)?;
+    let limit = chessarm_core::lanes::SIN_COS_LIMIT;
+    match values.iter().position(|v| v.abs() > limit) {
+        Some(j) => Err(format!(
+            "'{}' rad is beyond ±{limit:e} rad, where sines lose their accuracy (in '{text}')",
+            text.split(',').nth(j).unwrap_or_default().trim()
+        )),
+        None => Ok(values),
+    }
+}
+
 fn three_unescaped(text: &str) -> Result<[f64; 3], String> {
     parse_numbers::<3>(text)
 }
@@ -176,6 +192,7 @@ macro_rules! escaped {
 
 escaped! {
     four => four_unescaped -> [f64; 4];
+    angles => angles_unescaped -> [f64; 4];
     three => three_unescaped -> [f64; 3];
     non_negative => non_negative_unescaped -> f64;
     positive => positive_unescaped -> f64;

@@ -409,7 +409,7 @@ pub struct TuneArgs {
     #[command(flatten)]
     pub motion: MotionArgs,
     /// Initial joint angles (rad), at rest; default: on the trajectory's first point.
-    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
     pub q0: Option<[f64; 4]>,
     /// Metric to rank candidates by and to draw.
     #[arg(long, value_enum, default_value_t = Metric::MaxTipError)]
@@ -516,7 +516,7 @@ pub enum ControllerChoice {
 #[derive(Debug, Args)]
 pub struct DynamicsArgs {
     /// Joint angles q1,q2,q3,q4 in rad.
-    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
     pub q: [f64; 4],
     /// Joint rates in rad/s.
     #[arg(long, value_name = "QD1,QD2,QD3,QD4", value_parser = args::four, allow_hyphen_values = true, default_value = "0,0,0,0")]
@@ -548,7 +548,7 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 1000.0, value_parser = args::positive, allow_hyphen_values = true)]
     pub control_rate: f64,
     /// Initial joint angles (rad), at rest; default: on the trajectory's first point.
-    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
     pub q0: Option<[f64; 4]>,
     /// Mass of the gripped piece (pawn-sized), kg, carried from grip to release.
     #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, allow_hyphen_values = true)]
@@ -574,7 +574,7 @@ pub struct DemoArgs {
 #[derive(Debug, Args)]
 pub struct FkArgs {
     /// Joint angles q1,q2,q3,q4 in rad.
-    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::four, allow_hyphen_values = true)]
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
     pub q: [f64; 4],
 }
 

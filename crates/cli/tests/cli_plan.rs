@@ -42,6 +42,9 @@ fn bad_kinematics_input_is_one_line_with_exit_code_2() {
     assert_one_line_error(&chessarm(&["fk", "--q", "1,2,x,4"]), &["'x'"]);
     assert_one_line_error(&chessarm(&["fk", "--q", "1,2,3"]), &["expected 4", "'1,2,3'"]);
     assert_one_line_error(&chessarm(&["fk", "--q", "1,2,3,NaN"]), &["not finite"]);
+    // Beyond ±1.6e6 rad the sines the kinematics take would be NaN: an error naming the flag.
+    assert_one_line_error(&chessarm(&["fk", "--q", "1,-2e6,3,4"]), &["--q", "'-2e6'", "beyond"]);
+    assert_one_line_error(&chessarm(&["simulate", "--q0", "0,0,0,1e20"]), &["--q0", "'1e20'", "beyond"]);
     assert_one_line_error(&chessarm(&["plan", "--scenario", "sicilian"]), &["unknown scenario 'sicilian'"]);
     assert_one_line_error(&chessarm(&["plan", "--dt", "-1"]), &["-1"]);
     assert_one_line_error(&chessarm(&["frobnicate"]), &["frobnicate"]);

@@ -114,6 +114,13 @@ fn states(name: &str, array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyRes
     if let Some((i, row)) = rows.iter().enumerate().find(|(_, row)| row.iter().any(|v| !v.is_finite())) {
         return Err(PyValueError::new_err(format!("{name}[{i}] = {row:?} is not finite")));
     }
+    // Joint angles beyond ±1.6e6 rad would give NaN sines in the kinematics and dynamics.
+    let limit = chessarm_core::lanes::SIN_COS_LIMIT;
+    if name == "q"
+        && let Some((i, row)) = rows.iter().enumerate().find(|(_, row)| row.iter().any(|v| v.abs() > limit))
+    {
+        return Err(PyValueError::new_err(format!("{name}[{i}] = {row:?} rad: an angle is beyond ±{limit:e} rad")));
+    }
     Ok(States { rows, single: shape.len() == 1 })
 }
 

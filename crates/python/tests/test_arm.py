@@ -128,6 +128,10 @@ def test_errors_are_python_exceptions_with_the_clis_messages(tmp_path):
         arm.rnea(STATES[:3], STATES[:2], STATES[:3])
     with pytest.raises(ValueError, match="not finite"):
         arm.gravity([0.0, float("nan"), 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"q\[1\] = .* rad: an angle is beyond"):
+        arm.fk([[0.0, 0.0, 0.0, 0.0], [0.0, 2e6, 0.0, 0.0]])
+    # Rates are not angles: large ones are the dynamics' to answer.
+    assert np.all(np.isfinite(arm.rnea([0.0, 0.1, 0.2, 0.3], [3e6, 0.0, 0.0, 0.0], [0.0] * 4)))
     bad = tmp_path / "bad.urdf"
     bad.write_text(EXAMPLE_URDF.read_text().replace('name="elbow" type="revolute"', 'name="elbow" type="prismatic"'))
     with pytest.raises(chessarm.ModelError, match=r"line \d+: <joint name=\"elbow\">: type=\"prismatic\""):
