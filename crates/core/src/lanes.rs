@@ -337,8 +337,9 @@ fn by_quadrant(sin: f64, cos: f64, y: u64) -> (f64, f64) {
 /// `(sin x, cos x)`, within 2 ulp of the exact values for |x| ≤ [`SIN_COS_LIMIT`] (joint
 /// angles are a few radians), by Cody–Waite reduction to |r| ≤ π/4 and Taylor polynomials;
 /// NaN beyond it (and for NaN and ±∞): there the promise fails (at 10⁷ rad the error is
-/// ~10⁻⁹), and past ~3.5·10¹⁵ rad the reduction gives numbers that are not sines at all. Pure `+ − ×` and one rounding: the same bits on every machine, unlike the C
-/// library's, which picks its code by the CPU it runs on.
+/// ~10⁻⁹), and past ~3.5·10¹⁵ rad the reduction gives numbers that are not sines at all.
+/// Pure `+ − ×` and one rounding: the same bits on every machine, unlike the C library's,
+/// which picks its code by the CPU it runs on.
 #[inline(always)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
     let (k, y) = quadrant_of(x);

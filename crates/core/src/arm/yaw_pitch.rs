@@ -96,13 +96,10 @@ pub struct YawPitch<S> {
     /// The yaw coupling's constants `(Î_xy − E_x, Î_yz − E_z)` of body k, with
     /// `E_k = m_k y_k ĉ_k + (Σ_{j>k} m_j y_j) ℓ_k`, kg·m²: `R_y(φ_k)` of them is `(−K_k, M_ψk)`.
     pub coupling: [[S; 2]; 4],
-    /// `M_kk`, the constant diagonal of the pitch block in `u`, kg·m².
-    pub pitch_inertia: [S; 4],
-    /// The constant part of `M(q)`'s pitch block: `σ_i σ_j Σ_{k≥max(i,j)} M_kk` plus the rotor
-    /// inertia on the diagonal, kg·m² (row and column 0 zero).
+    /// The constant part of `M(q)`'s pitch block: `σ_i σ_j Σ_{k≥max(i,j)} M_kk`, with `M_kk`
+    /// the constant diagonal of the pitch block in `u`, plus the rotor inertia on the diagonal,
+    /// kg·m² (row and column 0 zero).
     pub pitch_base: [[S; 4]; 4],
-    /// `σ_i σ_j`.
-    pub pair_sign: [[S; 4]; 4],
     /// The constant part of `M(q)₁₁`: body 0's `I_zz + m₀ (x₀² + y₀²)`, `Σ_{j≥1} (m_j y_j² + Ī_j)`
     /// and the base rotor, kg·m².
     pub yaw_inertia: S,
@@ -218,14 +215,10 @@ impl YawPitch<f64> {
             pitch_inertia[k] = mass[k] * planar(c) + distal_mass * planar(l) + inertia[k].yy;
         }
         let mut pitch_base = [[0.0; 4]; 4];
-        let mut pair_sign = [[0.0; 4]; 4];
-        for i in 0..4 {
-            for j in 0..4 {
-                pair_sign[i][j] = sign[i] * sign[j];
-                if i > 0 && j > 0 {
-                    let shared: f64 = (i.max(j)..4).map(|k| pitch_inertia[k]).sum();
-                    pitch_base[i][j] = pair_sign[i][j] * shared + if i == j { rotor[i] } else { 0.0 };
-                }
+        for i in 1..4 {
+            for j in 1..4 {
+                let shared: f64 = (i.max(j)..4).map(|k| pitch_inertia[k]).sum();
+                pitch_base[i][j] = sign[i] * sign[j] * shared + if i == j { rotor[i] } else { 0.0 };
             }
         }
         let yaw_inertia = inertia[0].zz
@@ -241,9 +234,7 @@ impl YawPitch<f64> {
             mass,
             moment,
             coupling,
-            pitch_inertia,
             pitch_base,
-            pair_sign,
             yaw_inertia,
             tip_y: y_so_far,
             spin,
@@ -276,9 +267,7 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
             mass: v4(&|a, j| a.mass[j]),
             moment: std::array::from_fn(|j| v2(&|a, k| a.moment[j][k])),
             coupling: std::array::from_fn(|j| v2(&|a, k| a.coupling[j][k])),
-            pitch_inertia: v4(&|a, j| a.pitch_inertia[j]),
             pitch_base: m4(&|a, i, j| a.pitch_base[i][j]),
-            pair_sign: m4(&|a, i, j| a.pair_sign[i][j]),
             yaw_inertia: lanes(&|a| a.yaw_inertia),
             tip_y: lanes(&|a| a.tip_y),
             spin: std::array::from_fn(|j| v2(&|a, k| a.spin[j][k])),
@@ -306,9 +295,7 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
             mass: v4(&self.mass),
             moment: self.moment.map(|v| v2(&v)),
             coupling: self.coupling.map(|v| v2(&v)),
-            pitch_inertia: v4(&self.pitch_inertia),
             pitch_base: self.pitch_base.map(|row| v4(&row)),
-            pair_sign: self.pair_sign.map(|row| v4(&row)),
             yaw_inertia: self.yaw_inertia.get(i),
             tip_y: self.tip_y.get(i),
             spin: self.spin.map(|v| v2(&v)),
@@ -514,18 +501,18 @@ impl<S: Real> Configuration<S> {
         *lever = [S::splat(0.0), g1[0], g2[0], g3[0]];
         // M(q) = Sᵀ M_u S + rotors: the sums down the pitch joints, signed.
         let base = &model.pitch_base;
-        let sign = &model.pair_sign;
+        let sign = &model.sign;
         let twice23 = a23 + a23;
         let m = mass_matrix;
         m[0][0] = yaw;
-        m[0][3] = model.sign[3] * couple[2];
-        m[0][2] = model.sign[2] * (couple[1] + couple[2]);
-        m[0][1] = model.sign[1] * (couple[0] + (couple[1] + couple[2]));
+        m[0][3] = sign[3] * couple[2];
+        m[0][2] = sign[2] * (couple[1] + couple[2]);
+        m[0][1] = sign[1] * (couple[0] + (couple[1] + couple[2]));
         m[3][3] = base[3][3];
-        m[2][3] = base[2][3] + sign[2][3] * a23;
+        m[2][3] = base[2][3] + (sign[2] * sign[3]) * a23;
         m[2][2] = base[2][2] + twice23;
-        m[1][3] = base[1][3] + sign[1][3] * (a13 + a23);
-        m[1][2] = base[1][2] + sign[1][2] * ((a12 + a13) + twice23);
+        m[1][3] = base[1][3] + (sign[1] * sign[3]) * (a13 + a23);
+        m[1][2] = base[1][2] + (sign[1] * sign[2]) * ((a12 + a13) + twice23);
         m[1][1] = base[1][1] + two * ((a12 + a13) + a23);
         for i in 0..4 {
             for j in i + 1..4 {

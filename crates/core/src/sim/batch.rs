@@ -166,15 +166,10 @@ fn set_lane<const L: usize>(batch: &mut YawPitch<Lanes<L>>, lane: usize, arm: &Y
     let mut lanes: [YawPitch<f64>; L] = [*arm; L];
     for (i, slot) in lanes.iter_mut().enumerate() {
         if i != lane {
-            *slot = lane_of(batch, i);
+            *slot = batch.lane(i);
         }
     }
     *batch = YawPitch::gather(std::array::from_fn(|i| &lanes[i]));
-}
-
-/// Lane `i` of a batch's constants.
-fn lane_of<const L: usize>(batch: &YawPitch<Lanes<L>>, i: usize) -> YawPitch<f64> {
-    batch.lane(i)
 }
 
 /// The lanes' joint states side by side.
