@@ -419,7 +419,7 @@ pub fn forward_dynamics<const N: usize>(
                 #[inline(always)]
                 |at| {
                     // No closure inside: it would be compiled apart, for the baseline.
-                    if at.factor.positive_definite(0) {
+                    if at.inverse.positive_definite(0) {
                         Some(at.acceleration(fast, &to_array(qd), &to_array(torque)))
                     } else {
                         None

@@ -184,9 +184,9 @@ fn lanes_of<const L: usize>(values: [[f64; 4]; L]) -> [Lanes<L>; 4] {
     std::array::from_fn(|j| Lanes(std::array::from_fn(|i| values[i][j])))
 }
 
-/// The dynamics at the lanes' states, into `start`, compiled for `level`: with the factor of
-/// `M` for a plant's start, or (`with_factor` false) `M` and the bias alone for controllers'
-/// terms ([`Start::set_terms`]). Returns, with the factor, the lanes whose `M` is not
+/// The dynamics at the lanes' states, into `start`, compiled for `level`: with the inverse of
+/// `M` for a plant's start, or (`with_inverse` false) `M` and the bias alone for controllers'
+/// terms ([`Start::set_terms`]). Returns, with the inverse, the lanes whose `M` is not
 /// positive definite (tested at the level too: the baseline's compare takes ~250
 /// instructions for 4 lanes).
 fn set_start<const L: usize>(
@@ -194,20 +194,28 @@ fn set_start<const L: usize>(
     model: &YawPitch<Lanes<L>>,
     start: &mut Start<Lanes<L>>,
     state: &State<Lanes<L>>,
-    with_factor: bool,
+    with_inverse: bool,
 ) -> u64 {
     // `inline(always)`: the closure's body is compiled inside pulp's function for the level,
-    // with its instructions; a closure of its own would get the baseline's.
+    // with its instructions; a closure of its own would get the baseline's. Two functions, not
+    // one: compiled together for 8 lanes at AVX2, the sines and cosines, `M` and its inverse
+    // left LLVM splitting lanes 1 + 4 + 2 + 1 and spilling, 3.2 k instructions a batch-step
+    // against 2.0 k apart (callgrind, `lanes_once 8 8`).
     level.run(
         #[inline(always)]
         || {
-            if with_factor {
-                start.set(model, state);
-                start.configuration.factor.failed_lanes()
-            } else {
-                start.set_terms(model, state);
-                0
-            }
+            start.set_terms(model, state);
+        },
+    );
+    if !with_inverse {
+        return 0;
+    }
+    level.run(
+        #[inline(always)]
+        || {
+            let configuration = &mut start.configuration;
+            configuration.inverse.set(&configuration.mass_matrix);
+            configuration.inverse.failed_lanes()
         },
     )
 }
@@ -445,7 +453,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
     let mut controller_arms: [YawPitch<f64>; L] =
         std::array::from_fn(|i| loops.get(i).map_or(arms[i], |lane| controller_arm(lane.as_ref(), &arms[i])));
     let mut controller_fast = YawPitch::gather(std::array::from_fn(|i| &controller_arms[i]));
-    // Only its `M` and bias are read (`terms_of`): its factor is not kept up to date.
+    // Only its `M` and bias are read (`terms_of`): its inverse is not kept up to date.
     let mut controller_start = start;
     // The controllers' laws and the metrics in lanes, where every run allows it.
     let mut law = LaneLaw::<L>::of(&mut loops);

@@ -12,7 +12,7 @@ use crate::sim::structured::{self, Failures, Start, State};
 use nalgebra::Vector3;
 
 /// The physical arm being simulated: its model (with the gripped payload) and the scratch its
-/// integrators fill in place every step (frames, mass matrices and factors at the step's
+/// integrators fill in place every step (frames, mass matrices and their factors or inverses at the step's
 /// start and at its stage configurations), so a step allocates and moves nothing large.
 ///
 /// An arm of the yaw–pitch family steps on the structured dynamics
@@ -80,7 +80,7 @@ impl<const N: usize> Plant<N> {
         Ok(())
     }
 
-    /// The plant's kinematics, mass matrix (factorised) and bias torques at `state`: the first
+    /// The plant's kinematics, mass matrix (factorised or inverted) and bias torques at `state`: the first
     /// stage of every integrator, and what a controller with the same model needs. Kept for
     /// the [`Plant::step`] from `state` that follows.
     pub fn evaluate(&mut self, state: &JointState<N>) -> Result<&StateDynamics<N>, DynamicsError> {
@@ -102,7 +102,7 @@ impl<const N: usize> Plant<N> {
                     // The first evaluation fills the scratch (the same bits at any level).
                     None => self.structured_start.insert(Start::new(fast, &here)),
                 };
-                if !start.configuration.factor.positive_definite(0) {
+                if !start.configuration.inverse.positive_definite(0) {
                     return Err(DynamicsError::NotPositiveDefinite(state.q.iter().copied().collect()));
                 }
                 self.start = StateDynamics {

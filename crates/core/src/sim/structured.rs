@@ -42,7 +42,7 @@ impl<S: Real> Start<S> {
         self.bias = self.configuration.bias(model, &state.qd);
     }
 
-    /// [`Start::set`] without the factor of `M` (left as it was): `M` and the bias alone, for
+    /// [`Start::set`] without the inverse of `M` (left as it was): `M` and the bias alone, for
     /// a controller's terms; not a start to [`step`] from.
     #[inline(always)]
     pub fn set_terms(&mut self, model: &YawPitch<S>, state: &State<S>) {
@@ -52,7 +52,7 @@ impl<S: Real> Start<S> {
     }
 }
 
-/// Lanes whose mass matrix failed to factorise at a stage, with the configuration (rad) of the
+/// Lanes whose mass matrix was not positive definite at a stage, with the configuration (rad) of the
 /// first such stage: bit `i` of `lanes` for lane `i`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Failures<const L: usize> {
@@ -84,7 +84,7 @@ fn stage<S: Real, const L: usize>(
 ) {
     start.angles.shift_into(model, &difference(at, q), &mut scratch.angles);
     scratch.refresh(model);
-    let new = scratch.factor.failed_lanes() & !failures.lanes;
+    let new = scratch.inverse.failed_lanes() & !failures.lanes;
     if new != 0 {
         for lane in (0..S::LANES).filter(|lane| new & (1 << lane) != 0) {
             failures.at[lane] = at.map(|v| v.lane(lane));
