@@ -36,6 +36,6 @@ fn main() {
         black_box(configuration.bias(&fast, black_box(&qd)));
     });
     time("solve", n, |_| {
-        black_box(configuration.factor.solve(black_box(&qd)));
+        black_box(configuration.inverse.solve(black_box(&qd)));
     });
 }
