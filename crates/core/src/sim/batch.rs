@@ -348,14 +348,21 @@ where
     for (i, slot) in loops.iter_mut().enumerate() {
         let Some(lane) = slot.as_mut() else { continue };
         let outcome = if not_positive_definite & (1 << i) == 0 {
+            // The lane's command from the lanes where they clipped it, not read back from the
+            // run (the run stores it entry by entry; a wider load right after them waits for
+            // the stores to retire: ~4 % of a sweep's time).
             let sampled = if refused & (1 << i) == 0 {
                 let joints = (0..4).fold(0, |joints, j| joints | ((clipped[j] >> i) & 1) << j);
-                Ok(lane.take_clipped(JointVector::from_fn(|j, _| command[j].get(i)), joints))
+                let lane_command = JointVector::from_fn(|j, _| command[j].get(i));
+                Ok((lane.take_clipped(lane_command, joints), lane_command))
             } else {
-                lane.sample(&raw.map(|v| v.get(i)))
+                lane.sample(&raw.map(|v| v.get(i))).map(|clipped| (clipped, lane.command()))
             };
             match sampled {
-                Ok(clipped) => law.sampled(i, clipped, &lane.command(), || terms_of(own_terms, i)),
+                Ok((clipped, lane_command)) => {
+                    law.sampled(i, clipped, &lane_command, || terms_of(own_terms, i));
+                    torques[i] = lane_command.into();
+                }
                 Err(_) => law.hand_back(i, lane),
             }
             sampled.map(|_| ())
@@ -364,12 +371,9 @@ where
             law.hand_back_unsampled(i, lane);
             Err(not_positive_definite_at(lane.time(), (0..4).map(|j| state.q[j].get(i))))
         };
-        match outcome {
-            Ok(()) => torques[i] = lane.command().into(),
-            Err(error) => {
-                results[i] = Some(Err(error));
-                *slot = None;
-            }
+        if let Err(error) = outcome {
+            results[i] = Some(Err(error));
+            *slot = None;
         }
     }
     // The metrics, as `Run::control_at` records them (no motor lag: the torque is the command).
@@ -607,7 +611,9 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                 Ok(())
             };
             match advanced {
-                Ok(()) => states[i] = lane.state,
+                // The state the run now holds (`stepped`), not read back from it: a load right
+                // after the run's entry-by-entry stores waits for them (~3 % of a sweep).
+                Ok(()) => states[i] = stepped,
                 Err(error) => {
                     if let Some(law) = law.as_ref() {
                         law.hand_back(i, lane);

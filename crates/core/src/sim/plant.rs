@@ -89,20 +89,29 @@ impl<const N: usize> Plant<N> {
             if let Some(fast) = self.model.yaw_pitch() {
                 let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
                 let simd = self.simd;
-                let start = match &mut self.structured_start {
+                // Whether `M` is positive definite, tested inside the level's function: read
+                // back outside it, the minors (stored one by one) stalled the wider loads.
+                let (start, positive_definite) = match &mut self.structured_start {
                     Some(start) => {
                         // `inline(always)`: compiled inside the level's function, with its
                         // instructions.
-                        simd.run(
+                        let positive_definite = simd.run(
                             #[inline(always)]
-                            || start.set(fast, &here),
+                            || {
+                                start.set(fast, &here);
+                                start.configuration.inverse.positive_definite(0)
+                            },
                         );
-                        start
+                        (start, positive_definite)
                     }
                     // The first evaluation fills the scratch (the same bits at any level).
-                    None => self.structured_start.insert(Start::new(fast, &here)),
+                    None => {
+                        let start = self.structured_start.insert(Start::new(fast, &here));
+                        let positive_definite = start.configuration.inverse.positive_definite(0);
+                        (start, positive_definite)
+                    }
                 };
-                if !start.configuration.inverse.positive_definite(0) {
+                if !positive_definite {
                     return Err(DynamicsError::NotPositiveDefinite(state.q.iter().copied().collect()));
                 }
                 self.start = StateDynamics {
