@@ -212,7 +212,7 @@ impl<const N: usize> Sensors<N> {
         self.head = 0;
         let delay = self.profile.delay_samples;
         for k in 0..=delay {
-            self.line[k] = self.read(state);
+            self.read_into(state, k);
         }
         self.line[1 % (delay + 1)]
     }
@@ -220,42 +220,43 @@ impl<const N: usize> Sensors<N> {
     /// One sample: reads `state` now and returns the reading of `delay_samples` samples ago.
     pub fn measure(&mut self, state: &JointState<N>) -> Measurement<N> {
         let delay = self.profile.delay_samples;
-        let reading = self.read(state);
-        if delay == 0 {
-            return reading;
-        }
         // The line holds the readings of the last delay + 1 samples: the newest replaces the
-        // oldest, and the one after it, `delay` samples old, is the one due now.
-        self.line[self.head] = reading;
+        // oldest, and the one after it, `delay` samples old, is the one due now. (Read into
+        // its slot in place: a reading returned and then copied there was loaded right after
+        // its entries' stores, and waited on them.)
+        self.read_into(state, self.head);
+        if delay == 0 {
+            return self.line[self.head];
+        }
         self.head = if self.head == delay { 0 } else { self.head + 1 };
         self.line[self.head]
     }
 
-    /// The reading of `state` now, without delay.
-    fn read(&mut self, state: &JointState<N>) -> Measurement<N> {
-        let mut q = JointVector::<N>::zeros();
+    /// The reading of `state` now, without delay, into slot `slot` of the line.
+    fn read_into(&mut self, state: &JointState<N>, slot: usize) {
+        let Self { profile, resolution, rng, line, .. } = self;
+        let out = &mut line[slot];
         for j in 0..N {
-            let encoder = &self.profile.encoders[j];
+            let encoder = &profile.encoders[j];
             let angle = state.q[j] + encoder.offset;
-            q[j] = match encoder.counts_per_rev {
+            out.q[j] = match encoder.counts_per_rev {
                 None => angle,
                 Some(_) => {
-                    let resolution = self.resolution[j];
-                    let noise = if encoder.noise_counts > 0.0 { encoder.noise_counts * self.rng.normal() } else { 0.0 };
+                    let resolution = resolution[j];
+                    let noise = if encoder.noise_counts > 0.0 { encoder.noise_counts * rng.normal() } else { 0.0 };
                     resolution * round(angle / resolution + noise)
                 }
             };
         }
-        let qd = self.profile.rate_noise.map(|noise| {
+        out.qd = profile.rate_noise.map(|noise| {
             let mut qd = state.qd;
             for j in 0..N {
                 if noise[j] > 0.0 {
-                    qd[j] += noise[j] * self.rng.normal();
+                    qd[j] += noise[j] * rng.normal();
                 }
             }
             qd
         });
-        Measurement { q, qd }
     }
 }
 

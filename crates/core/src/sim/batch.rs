@@ -180,6 +180,13 @@ fn lane_state<const L: usize>(states: &[JointState<4>; L]) -> State<Lanes<L>> {
     }
 }
 
+/// Lane `i` of four lane vectors, entry by entry into registers (`from_fn` stored the entries
+/// one by one, and the copies that followed waited on the stores).
+#[inline(always)]
+fn lane_vector<const L: usize>(values: &[Lanes<L>; 4], i: usize) -> JointVector<4> {
+    JointVector::<4>::from([values[0].get(i), values[1].get(i), values[2].get(i), values[3].get(i)])
+}
+
 fn lanes_of<const L: usize>(values: [[f64; 4]; L]) -> [Lanes<L>; 4] {
     std::array::from_fn(|j| Lanes(std::array::from_fn(|i| values[i][j])))
 }
@@ -353,7 +360,7 @@ where
             // the stores to retire: ~4 % of a sweep's time).
             let sampled = if refused & (1 << i) == 0 {
                 let joints = (0..4).fold(0, |joints, j| joints | ((clipped[j] >> i) & 1) << j);
-                let lane_command = JointVector::from_fn(|j, _| command[j].get(i));
+                let lane_command = lane_vector(&command, i);
                 Ok((lane.take_clipped(lane_command, joints), lane_command))
             } else {
                 lane.sample(&raw.map(|v| v.get(i))).map(|clipped| (clipped, lane.command()))
@@ -597,10 +604,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             step_lanes(level, &fast, &mut start, &state, &torque, (dt, integrator, runaway_speed), &mut failures);
         for i in 0..count {
             let Some(lane) = loops[i].as_mut() else { continue };
-            let stepped = JointState {
-                q: JointVector::from_fn(|j, _| next.q[j].get(i)),
-                qd: JointVector::from_fn(|j, _| next.qd[j].get(i)),
-            };
+            let stepped = JointState { q: lane_vector(&next.q, i), qd: lane_vector(&next.qd, i) };
             let advanced = if failures.lanes & (1 << i) != 0 {
                 lane.advance(Err(DynamicsError::NotPositiveDefinite(failures.at[i].to_vec())))
             } else if diverged & (1 << i) != 0 {

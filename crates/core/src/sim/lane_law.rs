@@ -165,10 +165,17 @@ impl<const L: usize> LaneLaw<L> {
         terms: impl FnOnce() -> DynamicsTerms<4>,
     ) {
         let Some(feedback) = self.feedback.as_mut() else { return };
-        let commanded = JointVector::from_fn(|j, _| self.commanded[j].0[i]);
-        let applied = if clipped { clipped_acceleration(commanded, command, &terms()) } else { commanded };
-        for j in 0..4 {
-            feedback.applied[j].0[i] = applied[j];
+        if clipped {
+            let commanded = JointVector::from_fn(|j, _| self.commanded[j].0[i]);
+            let applied = clipped_acceleration(commanded, command, &terms());
+            for j in 0..4 {
+                feedback.applied[j].0[i] = applied[j];
+            }
+        } else {
+            // Lane to lane, without a vector between (whose copy waited on its stores).
+            for j in 0..4 {
+                feedback.applied[j].0[i] = self.commanded[j].0[i];
+            }
         }
     }
 
