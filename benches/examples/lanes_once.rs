@@ -10,7 +10,8 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let lanes = args.next().and_then(|n| n.parse().ok()).and_then(LaneCount::from_count).unwrap_or_default();
     let runs: usize = args.next().and_then(|n| n.parse().ok()).unwrap_or(8);
-    let level = args.next().and_then(|name| SimdLevel::from_name(&name)).unwrap_or_else(SimdLevel::for_simulation);
+    let level =
+        args.next().and_then(|name| SimdLevel::from_name(&name)).unwrap_or_else(|| SimdLevel::for_lanes(lanes.get()));
     let model = report_arm();
     let trajectory = scenario_trajectory(&model);
     let mut batch = pd_scenario_runs(model, &trajectory, runs);

@@ -14,7 +14,7 @@ use chessarm_core::sim::{NoObserver, Plant, SimConfig, simulate};
 fn main() {
     let runs: usize = std::env::args().nth(1).and_then(|n| n.parse().ok()).unwrap_or(1);
     let level =
-        std::env::args().nth(2).and_then(|name| SimdLevel::from_name(&name)).unwrap_or_else(SimdLevel::for_simulation);
+        std::env::args().nth(2).and_then(|name| SimdLevel::from_name(&name)).unwrap_or_else(SimdLevel::for_one_run);
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid scenario");

@@ -95,8 +95,8 @@ pub fn worker_threads(requested: Option<usize>) -> Result<usize> {
 }
 
 /// How sweeps and campaigns batch their runs: `CHESSARM_LANES` (1, 4 or 8 runs side by side;
-/// 8 when unset) and `CHESSARM_SIMD` (`avx512`, `avx2` or `sse2`; when unset AVX2 where
-/// the CPU has it, else the best it has: `SimdLevel::for_simulation`). Neither changes a
+/// 8 when unset) and `CHESSARM_SIMD` (`avx512`, `avx2` or `sse2`; when unset the best the
+/// CPU has for 8 lanes, else AVX2 where it has it: `SimdLevel::for_lanes`). Neither changes a
 /// result, only the speed: every run's metrics are the same bit for bit (see
 /// `chessarm_core::sim::batch`).
 ///
@@ -121,7 +121,7 @@ pub fn batching() -> Result<(chessarm_core::sim::batch::LaneCount, chessarm_core
             .ok_or_else(|| anyhow::anyhow!("CHESSARM_LANES={typed:?}: the runs side by side are 1, 4 or 8"))?,
     };
     let level = match read("CHESSARM_SIMD")? {
-        None => SimdLevel::for_simulation(),
+        None => SimdLevel::for_lanes(lanes.get()),
         Some(typed) => {
             let available: Vec<&str> =
                 SimdLevel::ALL.into_iter().filter(|level| level.available()).map(SimdLevel::name).collect();

@@ -371,15 +371,23 @@ impl SimdLevel {
         *BEST.get_or_init(|| Self::ALL.into_iter().find(|level| level.available()).unwrap_or(SimdLevel::Baseline))
     }
 
-    /// The level for simulations (a plant's steps, a batch's lanes): AVX2 where the CPU has it,
-    /// else the best it has. Compiled for AVX-512 they ran slower on the 2-vCPU Intel Xeon VM
-    /// (the scenario's single run 5.42 ms against 4.31 ms at AVX2 and 4.5 ms at SSE2; 8 lanes
-    /// 115–121 against 104–110 ns a run-step; the 40 × 40 sweep and a 1000-trial campaign
-    /// 15 % slower), and only a few per cent faster at 8 lanes on the AMD EPYC before. The
-    /// results are the same bits at every level; `CHESSARM_SIMD` picks another for `tune` and
-    /// `robustness`.
-    pub fn for_simulation() -> Self {
+    /// The level for one run (a plant's steps, a batch of 1 or 4 lanes): AVX2 where the CPU has
+    /// it, else the best it has. Code whose values fill at most a 256-bit register ran slower
+    /// compiled for AVX-512 on the 2-vCPU Intel Xeon VM (the scenario's single run 5.2 ms
+    /// against 3.8 ms at AVX2 and at SSE2; 4 lanes 137–143 against 104–111 ns a run-step).
+    /// The results are the same bits at every level.
+    pub fn for_one_run() -> Self {
         if SimdLevel::Avx2.available() { SimdLevel::Avx2 } else { Self::detect() }
+    }
+
+    /// The level for a batch of `lanes` runs side by side: the best the CPU has where the lanes
+    /// fill an AVX-512 register (8), else [`SimdLevel::for_one_run`]'s. At 8 lanes on the Xeon
+    /// VM: 91–96 against 102–108 ns a run-step at AVX2, the 40 × 40 sweep 0.99–1.01 against
+    /// 1.11–1.13 s, a 1000-trial campaign the same within noise. (Before the inverse of `M` and
+    /// the stalls fixed in the batch's glue, AVX-512 was the slower of the two there.)
+    /// `CHESSARM_SIMD` picks another for `tune` and `robustness`.
+    pub fn for_lanes(lanes: usize) -> Self {
+        if lanes >= 8 { Self::detect() } else { Self::for_one_run() }
     }
 
     /// Whether this CPU can run the level.

@@ -52,7 +52,7 @@ impl std::fmt::Debug for LaneRun<'_> {
 impl LaneRun<'_> {
     /// This run alone, on the scalar simulator.
     pub fn simulate_alone(&mut self) -> Result<SimSummary<4>, SimError> {
-        self.simulate_alone_at(SimdLevel::for_simulation())
+        self.simulate_alone_at(SimdLevel::for_one_run())
     }
 
     /// [`LaneRun::simulate_alone`] with the plant's kernels at `level`.

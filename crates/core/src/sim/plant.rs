@@ -17,7 +17,7 @@ use nalgebra::Vector3;
 ///
 /// An arm of the yaw–pitch family steps on the structured dynamics
 /// ([`crate::arm::yaw_pitch`], [`super::structured`]), compiled for the simulations' SIMD level
-/// ([`SimdLevel::for_simulation`]; [`Plant::with_simd_level`] picks another; the results are the
+/// ([`SimdLevel::for_one_run`]; [`Plant::with_simd_level`] picks another; the results are the
 /// same bits at every level); any other arm on the general recursive algorithms.
 #[derive(Debug, Clone)]
 pub struct Plant<const N: usize> {
@@ -54,7 +54,7 @@ impl<const N: usize> Plant<N> {
             middle: configuration.clone(),
             end: configuration,
             structured_start: None,
-            simd: SimdLevel::for_simulation(),
+            simd: SimdLevel::for_one_run(),
         }
     }
 
