@@ -268,7 +268,8 @@ pub enum Integrator {
     /// `q̈₃ = f(Q, q̇ + h/2 q̈₂)`; `q̈₄ = f(q + h q̇ + h²/2 q̈₃, q̇ + h q̈₃)`;
     /// `q⁺ = q + h q̇ + h²/6 (q̈₁ + q̈₂ + q̈₃)`, `q̇⁺ = q̇ + h/6 (q̈₁ + 2q̈₂ + 2q̈₃ + q̈₄)`.
     /// The same updates as RK4 with stages 2 and 3 at one configuration, so the mass matrix,
-    /// its factor and the kinematics are computed 3 times per step instead of 4; global
+    /// its factor (its inverse for the yaw–pitch family) and the kinematics are computed 3 times
+    /// per step instead of 4; global
     /// error O(dt⁴). The default.
     #[default]
     RungeKuttaNystrom4,
