@@ -355,20 +355,22 @@ where
     for (i, slot) in loops.iter_mut().enumerate() {
         let Some(lane) = slot.as_mut() else { continue };
         let outcome = if not_positive_definite & (1 << i) == 0 {
-            // The lane's command from the lanes where they clipped it, not read back from the
-            // run (the run stores it entry by entry; a wider load right after them waits for
-            // the stores to retire: ~4 % of a sweep's time).
-            let sampled = if refused & (1 << i) == 0 {
+            // The lane's command from the lanes where they clipped it, never read back from the
+            // run or from a value just built with it (each stores it entry by entry, and a wider
+            // load right after waits for the stores to retire: ~4 % of a sweep's time).
+            let in_lanes = refused & (1 << i) == 0;
+            let sampled = if in_lanes {
                 let joints = (0..4).fold(0, |joints, j| joints | ((clipped[j] >> i) & 1) << j);
-                let lane_command = lane_vector(&command, i);
-                Ok((lane.take_clipped(lane_command, joints), lane_command))
+                Ok(lane.take_clipped(lane_vector(&command, i), joints))
             } else {
-                lane.sample(&raw.map(|v| v.get(i))).map(|clipped| (clipped, lane.command()))
+                lane.sample(&raw.map(|v| v.get(i)))
             };
             match sampled {
-                Ok((clipped, lane_command)) => {
+                Ok(clipped) => {
+                    let lane_command = if in_lanes { lane_vector(&command, i) } else { lane.command() };
                     law.sampled(i, clipped, &lane_command, || terms_of(own_terms, i));
-                    torques[i] = lane_command.into();
+                    torques[i] =
+                        if in_lanes { std::array::from_fn(|j| command[j].get(i)) } else { lane_command.into() };
                 }
                 Err(_) => law.hand_back(i, lane),
             }
