@@ -126,9 +126,9 @@ impl Real for f64 {
 }
 
 /// `(sin δ, cos δ)` for a small angle δ (rad) by their Taylor series up to δ⁹ and δ⁸, by
-/// Estrin's scheme in δ² (multiplications only; two products deep where Horner's form is four,
-/// which matters: every integrator stage waits for it). For |δ| ≤ 0.05 rad the first omitted terms,
-/// δ¹¹/11! and δ¹⁰/10!, are below 3·10⁻²⁰: exact to rounding.
+/// Estrin's scheme in δ² (multiplications only; two products deep where Horner's form is four:
+/// every integrator stage waits for it). For |δ| ≤ 0.05 rad the first omitted terms, δ¹¹/11!
+/// and δ¹⁰/10!, are below 3·10⁻²⁰: exact to rounding.
 #[inline(always)]
 pub fn small_angle_sin_cos(d: f64) -> (f64, f64) {
     d.small_sin_cos()
@@ -294,8 +294,8 @@ fn reduce(x: f64, k: f64) -> f64 {
 
 /// `(sin r, cos r)` for |r| ≤ π/4 by Taylor polynomials to r¹⁷ and r¹⁶ in `z = r²`, evaluated
 /// by Estrin's scheme (pairs, then pairs of pairs with `z²`, `z⁴`): three products deep where
-/// Horner's form is seven, for one run's start, whose sines wait for the step before. The first
-/// omitted terms are below 10⁻¹⁹ and 2·10⁻¹⁸ there.
+/// Horner's form is seven (one run ~1.5 % faster with both polynomials so, near this VM's
+/// noise). The first omitted terms are below 10⁻¹⁹ and 2·10⁻¹⁸ there.
 #[inline(always)]
 fn reduced_sin_cos<S: Real>(r: S) -> (S, S) {
     let c = S::splat;

@@ -12,8 +12,9 @@ use crate::sim::structured::{self, Failures, Start, State};
 use nalgebra::Vector3;
 
 /// The physical arm being simulated: its model (with the gripped payload) and the scratch its
-/// integrators fill in place every step (frames, mass matrices and their factors or inverses at the step's
-/// start and at its stage configurations), so a step allocates and moves nothing large.
+/// integrators fill in place every step (frames, mass matrices and their factors or inverses
+/// at the step's start and at its stage configurations), so a step allocates and moves
+/// nothing large.
 ///
 /// An arm of the yaw–pitch family steps on the structured dynamics
 /// ([`crate::arm::yaw_pitch`], [`super::structured`]), compiled for the simulations' SIMD level
@@ -80,9 +81,9 @@ impl<const N: usize> Plant<N> {
         Ok(())
     }
 
-    /// The plant's kinematics, mass matrix (factorised or inverted) and bias torques at `state`: the first
-    /// stage of every integrator, and what a controller with the same model needs. Kept for
-    /// the [`Plant::step`] from `state` that follows.
+    /// The plant's kinematics, mass matrix (factorised or inverted) and bias torques at
+    /// `state`: the first stage of every integrator, and what a controller with the same model
+    /// needs. Kept for the [`Plant::step`] from `state` that follows.
     pub fn evaluate(&mut self, state: &JointState<N>) -> Result<&StateDynamics<N>, DynamicsError> {
         if self.evaluated_at != Some(*state) {
             self.evaluated_at = None;
@@ -269,8 +270,7 @@ pub enum Integrator {
     /// `q⁺ = q + h q̇ + h²/6 (q̈₁ + q̈₂ + q̈₃)`, `q̇⁺ = q̇ + h/6 (q̈₁ + 2q̈₂ + 2q̈₃ + q̈₄)`.
     /// The same updates as RK4 with stages 2 and 3 at one configuration, so the mass matrix,
     /// its factor (its inverse for the yaw–pitch family) and the kinematics are computed 3 times
-    /// per step instead of 4; global
-    /// error O(dt⁴). The default.
+    /// per step instead of 4; global error O(dt⁴). The default.
     #[default]
     RungeKuttaNystrom4,
     /// Explicit midpoint rule, a second-order Runge–Kutta method:
