@@ -45,6 +45,13 @@ pub trait Real:
     fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
     /// `(sin x, cos x)` by [`sin_cos`], lane by lane.
     fn sin_cos(self) -> (Self, Self);
+    /// `ln x` by [`ln`], lane by lane.
+    fn ln(self) -> Self;
+    /// `x` to the nearest whole number, halves away from zero, by [`round`], lane by lane.
+    #[inline(always)]
+    fn round(self) -> Self {
+        self.each(round)
+    }
     /// The lanes where `f` of the lane pair holds, bit `i` for lane `i`: all lanes at once,
     /// without branches, so that the comparisons vectorise.
     fn lanes_where2(self, other: Self, f: impl Fn(f64, f64) -> bool) -> u64;
@@ -117,6 +124,11 @@ impl Real for f64 {
     #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
         sin_cos(self)
+    }
+
+    #[inline(always)]
+    fn ln(self) -> Self {
+        ln(self)
     }
 
     #[inline(always)]
@@ -264,6 +276,21 @@ impl<const L: usize> Real for Lanes<L> {
         }
         (Self(out_sin), Self(out_cos))
     }
+
+    #[inline(always)]
+    fn ln(self) -> Self {
+        // The same steps as the scalar `ln`, the polynomial on all lanes at once.
+        let (mut k, mut f) = (self.0, self.0);
+        for i in 0..L {
+            (k[i], f[i]) = log_parts(self.0[i]);
+        }
+        let log = log_of_parts(Self(k), Self(f));
+        let mut out = log.0;
+        for i in 0..L {
+            out[i] = log_special(self.0[i], log.0[i]);
+        }
+        Self(out)
+    }
 }
 
 // π/2 in three parts of 33 bits each (fdlibm's `pio2_1`, `pio2_2`, `pio2_3`): `k · part` is
@@ -348,6 +375,107 @@ pub const SIN_COS_LIMIT: f64 = 1.6e6;
 #[inline(always)]
 fn within_limit(x: f64, sin_cos: (f64, f64)) -> (f64, f64) {
     if x.abs() <= SIN_COS_LIMIT { sin_cos } else { (f64::NAN, f64::NAN) }
+}
+
+// The natural logarithm, by fdlibm's `__ieee754_log` method (Sun Microsystems, 1993): with
+// `x = 2ᵏ (1 + f)`, `1 + f ∈ [√2/2, √2]` and `s = f/(2 + f)`,
+// `ln(1 + f) = 2 atanh s = f − f²/2 + s (f²/2 + R)`, where `R = Lg₁z + … + Lg₇z⁷`, `z = s²`,
+// is a Remez fit of `(2 atanh s − 2s)/s` over `|s| ≤ 0.1716` (within 2⁻⁵⁸·⁴⁵, fdlibm states);
+// `k ln 2` in two parts, the first with 11 trailing zero bits, so that `k · LN2_HI` is exact.
+const LN2_HI: f64 = 6.931_471_803_691_238_164_9e-1; // 0x3fe62e42fee00000
+const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10; // 0x3dea39ef35793c76
+const LG: [f64; 7] = [
+    6.666_666_666_666_735_13e-1,
+    3.999_999_999_940_941_908e-1,
+    2.857_142_874_366_239_149e-1,
+    2.222_219_843_214_978_396e-1,
+    1.818_357_216_161_805_012e-1,
+    1.531_383_769_920_937_332e-1,
+    1.479_819_860_511_658_591e-1,
+];
+/// 2⁵², 2⁵⁴.
+const TWO_52: f64 = 4_503_599_627_370_496.0;
+const TWO_54: f64 = 18_014_398_509_481_984.0;
+/// The significand bits of √2 (rounded up: 1 + this/2⁵² > √2).
+const SQRT2_SIGNIFICAND: u64 = 0x6_a09e_667f_3bcd;
+const SIGNIFICAND: u64 = (1 << 52) - 1;
+
+/// `(k, f)` with `x = 2ᵏ (1 + f)` and `1 + f ∈ [√2/2, √2]` for a positive finite `x` (a
+/// subnormal scaled by 2⁵⁴ first); other `x` give numbers [`log_special`] replaces. Integer
+/// operations on the bits and exact subtractions only, so that lanes vectorise (`k` is built
+/// as a float from the exponent's bits: x86-64 before AVX-512 has no packed integer-to-float
+/// conversion).
+#[inline(always)]
+fn log_parts(x: f64) -> (f64, f64) {
+    let subnormal = x < f64::MIN_POSITIVE;
+    let scaled = if subnormal { x * TWO_54 } else { x };
+    let bits = scaled.to_bits();
+    let significand = bits & SIGNIFICAND;
+    // `1 + f` halved (its exponent one less, `k` one more) where it is beyond √2.
+    let halve = u64::from(significand > SQRT2_SIGNIFICAND);
+    let one_plus_f = f64::from_bits(significand | ((1023 - halve) << 52));
+    // The biased exponent (11 bits), exactly, as a float: 2⁵² + e − 2⁵².
+    let biased = f64::from_bits(TWO_52.to_bits() | (((bits >> 52) & 0x7ff) + halve)) - TWO_52;
+    let k = (biased - 1023.0) - if subnormal { 54.0 } else { 0.0 };
+    // Exact (Sterbenz: 1 + f is within a factor 2 of 1).
+    (k, one_plus_f - 1.0)
+}
+
+/// `ln(2ᵏ (1 + f))` from [`log_parts`].
+#[inline(always)]
+fn log_of_parts<S: Real>(k: S, f: S) -> S {
+    let c = S::splat;
+    let s = f / (c(2.0) + f);
+    let z = s * s;
+    let w = z * z;
+    // The odd and even halves of R side by side (fdlibm's split).
+    let even = w * (c(LG[1]) + w * (c(LG[3]) + w * c(LG[5])));
+    let odd = z * (c(LG[0]) + w * (c(LG[2]) + w * (c(LG[4]) + w * c(LG[6]))));
+    let r = odd + even;
+    let half_f2 = c(0.5) * f * f;
+    k * c(LN2_HI) - ((half_f2 - (s * (half_f2 + r) + k * c(LN2_LO))) - f)
+}
+
+/// `log` for a positive finite `x`; otherwise `ln 0 = −∞`, `ln ∞ = ∞`, NaN for a negative `x`
+/// or NaN (selects, so that lanes vectorise).
+#[inline(always)]
+fn log_special(x: f64, log: f64) -> f64 {
+    if x > 0.0 && x < f64::INFINITY {
+        log
+    } else if x == 0.0 {
+        f64::NEG_INFINITY
+    } else if x == f64::INFINITY {
+        x
+    } else {
+        f64::NAN
+    }
+}
+
+/// `ln x`, within 1 ulp of the C library's (glibc's, correctly rounded but for rare cases)
+/// over every positive `f64` (tests); `ln 0 = −∞` (either zero), `ln ∞ = ∞`, NaN for a
+/// negative `x` or NaN. Pure `+ − × ÷` and bit operations: the same bits on every machine, and
+/// in lanes as in the scalar.
+#[inline(always)]
+pub fn ln(x: f64) -> f64 {
+    let (k, f) = log_parts(x);
+    log_special(x, log_of_parts(k, f))
+}
+
+/// `x.round()`: to the nearest whole number, halves away from zero, the same bits, without
+/// the library call `f64::round` is on x86-64 (whose rounding instructions have no such mode)
+/// and in selects that vectorise.
+///
+/// Below 2⁵² in magnitude, `(|x| + 2⁵²) − 2⁵²` is `|x|` rounded to the nearest whole number,
+/// ties to even (the sum lies in [2⁵², 2⁵³), where the spacing is 1), and `|x|` minus it is
+/// exact; where that remainder is ½ a tie went down and takes one more. The sign is `x`'s, so
+/// −0.3 rounds to −0. From 2⁵² on every `f64` is whole, and ±∞ and NaN are returned as they are.
+#[inline(always)]
+pub fn round(x: f64) -> f64 {
+    let magnitude = x.abs();
+    let nearest_even = (magnitude + TWO_52) - TWO_52;
+    let up = if magnitude - nearest_even >= 0.5 { 1.0 } else { 0.0 };
+    let rounded = (nearest_even + up).copysign(x);
+    if magnitude < TWO_52 { rounded } else { x }
 }
 
 /// Which SIMD instructions the kernels (a plant's step, a batch's lanes, the dynamics
@@ -549,12 +677,99 @@ mod tests {
         }
     }
 
+    /// Random `f64`s from random bits (every exponent, subnormals too), `1 − u` for the
+    /// uniform `u` of the Box–Muller transform, and the neighbourhoods of 1, √2/2, √2 and the
+    /// powers of two: within 1 ulp of the C library's `ln` (glibc's, correctly rounded but for
+    /// rare cases: so within ~1.5 ulp of the exact value).
+    #[test]
+    fn ln_within_one_ulp_of_the_c_library() {
+        let mut rng = crate::sense::rng::SeededRng::new(11);
+        let mut xs = Vec::new();
+        for _ in 0..400_000 {
+            xs.push(f64::from_bits(rng.next_u64() >> 1));
+            xs.push(1.0 - rng.unit());
+        }
+        for centre in [1.0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::SQRT_2, 0.5, 2.0, 1e-300, 5e-324] {
+            let (mut up, mut down) = (centre, centre);
+            for _ in 0..2000 {
+                xs.extend([up, down]);
+                (up, down) = (up.next_up(), down.next_down());
+            }
+        }
+        let mut worst = (0.0f64, 0.0);
+        let mut differ = 0;
+        for &x in xs.iter().filter(|x| **x > 0.0 && x.is_finite()) {
+            let (mine, theirs) = (ln(x), x.ln());
+            let error = ulps(mine, theirs);
+            differ += usize::from(error > 0.0);
+            if error > worst.0 {
+                worst = (error, x);
+            }
+        }
+        assert!(worst.0 <= 1.0, "worst {} ulps at {:e}", worst.0, worst.1);
+        // Not the C library's bits themselves: they differ somewhere (else this test
+        // would not say what it measures).
+        assert!(differ > 0);
+    }
+
+    #[test]
+    fn ln_of_special_values() {
+        assert_eq!(ln(1.0).to_bits(), 0.0f64.to_bits());
+        assert_eq!(ln(0.0), f64::NEG_INFINITY);
+        assert_eq!(ln(-0.0), f64::NEG_INFINITY);
+        assert_eq!(ln(f64::INFINITY), f64::INFINITY);
+        for x in [-1.0, -5e-324, f64::NEG_INFINITY, f64::NAN] {
+            assert!(ln(x).is_nan(), "{x}");
+        }
+        assert_eq!(ln(std::f64::consts::E), 1.0);
+        assert_eq!(ln(5e-324), 5e-324f64.ln());
+        assert_eq!(ln(f64::MAX), f64::MAX.ln());
+        for k in -1074..=1023 {
+            let x =
+                if k >= -1022 { f64::from_bits(((k + 1023) as u64) << 52) } else { f64::from_bits(1 << (k + 1074)) };
+            assert!(ulps(ln(x), x.ln()) <= 1.0, "2^{k}");
+        }
+    }
+
+    fn same_round(x: f64) {
+        assert_eq!(round(x).to_bits(), x.round().to_bits(), "round({x:e})");
+    }
+
+    /// Halves, neighbours of halves, signed zeros, the edges of 2⁵² and 2⁶³, ±∞, NaN, and
+    /// random values of every magnitude: the same bits as `f64::round`.
+    #[test]
+    fn round_gives_the_bits_of_the_library_round() {
+        for base in [0.0, 0.5, 1.0, 1.5, 2.5, 1e6 + 0.5, 2f64.powi(51) + 0.5, 2f64.powi(52), 2f64.powi(63), 1e300] {
+            for x in [base, base.next_up(), base.next_down(), f64::INFINITY, f64::MIN_POSITIVE, 5e-324] {
+                same_round(x);
+                same_round(-x);
+            }
+        }
+        same_round(0.499_999_999_999_999_94);
+        same_round(TWO_52 - 0.5);
+        assert!(round(f64::NAN).is_nan());
+        let mut rng = crate::sense::rng::SeededRng::new(7);
+        for _ in 0..200_000 {
+            let x = f64::from_bits(rng.next_u64());
+            if !x.is_nan() {
+                same_round(x);
+            }
+            let y = (rng.unit() - 0.5) * 10f64.powi((rng.unit() * 40.0) as i32 - 10);
+            same_round(y);
+            same_round((y * 2.0).round() / 2.0);
+        }
+    }
+
     #[test]
     fn lanes_equal_the_scalar_bit_for_bit() {
         let xs = [0.1, -2.5, 3.2, 1e-9, 100.0, -0.785, f64::NAN, 5.0];
         let (s, c) = Lanes(xs).sin_cos();
         let (ss, sc) = Lanes(xs).small_sin_cos();
+        let positive = [0.1, 2.5, 3.2, 1e-9, 1e-310, 0.0, f64::INFINITY, 1.0 - 1e-16];
+        let (log, rounded) = (Lanes(positive).ln(), Lanes(xs.map(|x| x * 3.5)).round());
         for (i, x) in xs.iter().enumerate() {
+            assert_eq!(log.get(i).to_bits(), ln(positive[i]).to_bits());
+            assert_eq!(rounded.get(i).to_bits(), round(x * 3.5).to_bits());
             let (s0, c0) = sin_cos(*x);
             assert_eq!(s.get(i).to_bits(), s0.to_bits());
             assert_eq!(c.get(i).to_bits(), c0.to_bits());

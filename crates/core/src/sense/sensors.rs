@@ -244,7 +244,7 @@ impl<const N: usize> Sensors<N> {
                 Some(_) => {
                     let resolution = resolution[j];
                     let noise = if encoder.noise_counts > 0.0 { encoder.noise_counts * rng.normal() } else { 0.0 };
-                    resolution * round(angle / resolution + noise)
+                    resolution * crate::lanes::round(angle / resolution + noise)
                 }
             };
         }
@@ -257,60 +257,5 @@ impl<const N: usize> Sensors<N> {
             }
             qd
         });
-    }
-}
-
-/// `x.round()`, to the nearest whole number with halves away from zero, the same bits, without
-/// the library call `f64::round` is on x86-64 (whose rounding instruction has no such mode).
-///
-/// Below 2⁵² in magnitude the truncation `t = x as i64` is exact and so is the fraction
-/// `x − t` (it is representable, so the subtraction is exact), whose magnitude decides:
-/// `t ± 1` from ½ up. The sign of the result is `x`'s, so −0.3 rounds to −0. From 2⁵² on every
-/// `f64` is whole, and ±∞ and NaN are returned as they are.
-#[inline(always)]
-fn round(x: f64) -> f64 {
-    const WHOLE_FROM: f64 = 4_503_599_627_370_496.0; // 2⁵²
-    // Whole already, ±∞ or NaN.
-    if x.abs() >= WHOLE_FROM || x.is_nan() {
-        return x;
-    }
-    let whole = x as i64 as f64;
-    // Branch-free (noise makes the branch unpredictable): `whole ± 0` is `whole`, and the sign
-    // of a zero is mended by the `copysign`.
-    let step = f64::from(u8::from((x - whole).abs() >= 0.5));
-    (whole + step.copysign(x)).copysign(x)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::round;
-    use crate::sense::rng::SeededRng;
-
-    fn same(x: f64) {
-        assert_eq!(round(x).to_bits(), x.round().to_bits(), "round({x:e})");
-    }
-
-    /// Halves, neighbours of halves, signed zeros, the edges of 2⁵² and 2⁶³, ±∞, NaN, and
-    /// random values of every magnitude: the same bits as `f64::round`.
-    #[test]
-    fn round_gives_the_bits_of_the_library_round() {
-        for base in [0.0, 0.5, 1.0, 1.5, 2.5, 1e6 + 0.5, 2f64.powi(51) + 0.5, 2f64.powi(52), 2f64.powi(63), 1e300] {
-            for x in [base, base.next_up(), base.next_down(), f64::INFINITY, f64::MIN_POSITIVE, 5e-324] {
-                same(x);
-                same(-x);
-            }
-        }
-        same(0.499_999_999_999_999_94);
-        assert!(round(f64::NAN).is_nan());
-        let mut rng = SeededRng::new(7);
-        for _ in 0..200_000 {
-            let x = f64::from_bits(rng.next_u64());
-            if !x.is_nan() {
-                same(x);
-            }
-            let y = (rng.unit() - 0.5) * 10f64.powi((rng.unit() * 40.0) as i32 - 10);
-            same(y);
-            same((y * 2.0).round() / 2.0);
-        }
     }
 }
