@@ -440,6 +440,8 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
     with_rate.delay_samples = 2;
     let mut offset = SensorProfile::<4>::servo();
     offset.encoders[1].offset = 2e-3;
+    // An encoder that quantises without noise (an exact one has no Kalman filter).
+    offset.encoders[3].noise_counts = 0.0;
     let poisoned = Poisoned(&trajectory);
     let bad_payload = Some(Payload::upright_cylinder(f64::NAN, 0.05, 0.012, 0.03));
     let bad_events = [
@@ -473,7 +475,15 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
                         }
                         feedback
                     }
-                    _ => sensed(with_rate.clone(), KalmanSettings::DEFAULT, i),
+                    _ => {
+                        // Each lane's own counts, noise levels and offsets (drawn alike).
+                        let mut profile = with_rate.clone();
+                        profile.encoders[0].counts_per_rev = Some(4096.0 * (1 + i % 3) as f64);
+                        profile.encoders[1].noise_counts = 0.25 + 0.1 * (i % 4) as f64;
+                        profile.encoders[3].offset = -1e-3 * (i % 5) as f64;
+                        profile.rate_noise = profile.rate_noise.map(|noise| noise * (1.0 + 0.5 * (i % 3) as f64));
+                        sensed(profile, KalmanSettings::DEFAULT, i)
+                    }
                 };
                 if i / 8 == 3 && i % 4 == 1 {
                     run.events = &bad_events;
@@ -482,13 +492,18 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
             })
             .collect::<Vec<_>>()
     };
-    // The first five groups' batches take their laws and filters in lanes, the last does not.
+    // The first five groups' batches take their laws and filters in lanes, and but for the
+    // fourth (sensors with and without tachometers) their sensors; the last takes none.
     let mut runs = make();
     for (k, batch) in runs.chunks_mut(8).enumerate() {
-        let expected = if k < 5 { (true, true) } else { (false, false) };
+        let expected = match k {
+            3 => (true, true, false),
+            5 => (false, false, false),
+            _ => (true, true, true),
+        };
         assert_eq!(takes_in_lanes(batch), expected, "group {k}");
     }
-    // The summary, and the state the run leaves its controller and its filter in.
+    // The summary, and the state the run leaves its controller, its filter and its sensors in.
     let print = |run: &mut LaneRun<'_>, result: &Result<SimSummary<4>, SimError>| {
         let bits = |v: &[f64]| v.iter().map(|x| format!("{:016x}", x.to_bits())).collect::<Vec<_>>().join(",");
         let commanded = run.controller.commanded_acceleration().map(|v| bits(v.as_slice()));
@@ -499,11 +514,12 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
             .map(|j| format!("{} {}", bits(filter.filter_covariance(j).as_slice()), bits(filter.gain(j).as_slice())))
             .collect();
         format!(
-            "{} | {commanded:?} {integral:?} | {} {} {} | {covariances:?}",
+            "{} | {commanded:?} {integral:?} | {} {} {} | {covariances:?} | {:?}",
             fingerprint(result),
             bits(estimate.q.as_slice()),
             bits(estimate.qd.as_slice()),
             bits(filter.disturbance().as_slice()),
+            run.feedback.sensors,
         )
     };
     let scalar = alone_equals_batched(&make, &print);

@@ -16,10 +16,12 @@
 //! | `hobby` | 12-bit magnetic (AS5600 class), 4096 counts/rev | 1.534 | σ = 0.5 count | 1 sample | none |
 //! | `servo` | 17-bit absolute, 131 072 counts/rev | 0.0479 | σ = 0.5 count | 0 | none |
 
-use super::rng::SeededRng;
+use super::rng::{RngLanes, SeededRng};
 use super::{Measurement, SenseError, invalid};
 use crate::arm::model::JointVector;
 use crate::control::JointState;
+use crate::lanes::{Lanes, Real, array4};
+
 use std::f64::consts::TAU;
 
 /// Longest measurement delay a profile may have, samples.
@@ -244,6 +246,7 @@ impl<const N: usize> Sensors<N> {
                 Some(_) => {
                     let resolution = resolution[j];
                     let noise = if encoder.noise_counts > 0.0 { encoder.noise_counts * rng.normal() } else { 0.0 };
+                    // Ours, not `f64::round` (a library call on x86-64): the same bits.
                     resolution * crate::lanes::round(angle / resolution + noise)
                 }
             };
@@ -257,5 +260,229 @@ impl<const N: usize> Sensors<N> {
             }
             qd
         });
+    }
+}
+
+/// One sample's readings of `L` runs' sensors side by side: the angles (rad) and the rates
+/// (rad/s; NaN without a velocity sensor).
+pub(crate) type ReadingLanes<const L: usize> = ([Lanes<L>; 4], [Lanes<L>; 4]);
+
+/// The sensors of `L` runs side by side, for a batch whose runs' sensors draw alike: the same
+/// delay, the same joints quantised and noisy, a velocity sensor on all or none, with the same
+/// joints noisy. The counts, noise levels, offsets and seeds are each lane's own. Each lane
+/// reads what its run's [`Sensors`] would, bit for bit: the same operations in the same order,
+/// its generator's deviates ([`RngLanes`]).
+#[derive(Debug, Clone)]
+pub(crate) struct SensorLanes<const L: usize> {
+    /// Per joint, whether the encoder quantises, and whether it adds noise before.
+    quantised: [bool; 4],
+    noisy: [bool; 4],
+    /// Per joint, whether the velocity sensor adds noise; `None`: no velocity sensor.
+    noisy_rate: Option<[bool; 4]>,
+    /// Per joint, one count (rad), the noise σ (counts), the calibration offset (rad) and the
+    /// velocity sensor's σ (rad/s).
+    resolution: [Lanes<L>; 4],
+    noise_counts: [Lanes<L>; 4],
+    offset: [Lanes<L>; 4],
+    rate_noise: [Lanes<L>; 4],
+    rng: RngLanes<L>,
+    /// The last `delay_samples + 1` readings, oldest at `head` ([`Sensors`]' line).
+    line: Vec<ReadingLanes<L>>,
+    head: usize,
+}
+
+impl<const L: usize> SensorLanes<L> {
+    /// The sensors of `sensors` side by side (lane `i` is `sensors[i]`; a lane without copies
+    /// the first's, and its readings are not read), if there is one and they draw alike, and
+    /// are at the same place in their delay lines.
+    pub fn of(sensors: [Option<&Sensors<4>>; L]) -> Option<Self> {
+        let first = *sensors.iter().flatten().next()?;
+        let shape = |s: &Sensors<4>| {
+            let profile = &s.profile;
+            (
+                profile.delay_samples,
+                s.head,
+                profile.encoders.map(|e| (e.counts_per_rev.is_some(), e.noise_counts > 0.0)),
+                profile.rate_noise.map(|noise| noise.map(|v| v > 0.0)),
+            )
+        };
+        if sensors.iter().flatten().any(|s| shape(s) != shape(first)) {
+            return None;
+        }
+        let lane = |i: usize| sensors[i].unwrap_or(first);
+        let rng = RngLanes::of(std::array::from_fn(|i| &lane(i).rng))?;
+        let lanes = |f: &dyn Fn(&Sensors<4>, usize) -> f64| array4(|j| Lanes(std::array::from_fn(|i| f(lane(i), j))));
+        let profile = &first.profile;
+        let line = (0..=profile.delay_samples)
+            .map(|k| {
+                let reading = |i: usize| &lane(i).line[k];
+                (
+                    array4(|j| Lanes(std::array::from_fn(|i| reading(i).q[j]))),
+                    array4(|j| Lanes(std::array::from_fn(|i| reading(i).qd.map_or(f64::NAN, |qd| qd[j])))),
+                )
+            })
+            .collect();
+        Some(Self {
+            quantised: profile.encoders.map(|e| e.counts_per_rev.is_some()),
+            noisy: profile.encoders.map(|e| e.noise_counts > 0.0),
+            noisy_rate: profile.rate_noise.map(|noise| noise.map(|v| v > 0.0).into()),
+            resolution: lanes(&|s, j| s.resolution[j]),
+            noise_counts: lanes(&|s, j| s.profile.encoders[j].noise_counts),
+            offset: lanes(&|s, j| s.profile.encoders[j].offset),
+            rate_noise: lanes(&|s, j| s.profile.rate_noise.map_or(0.0, |noise| noise[j])),
+            rng,
+            line,
+            head: first.head,
+        })
+    }
+
+    /// One sample of every lane: reads `(q, qd)` now (rad, rad/s) and returns the readings of
+    /// `delay_samples` samples ago ([`Sensors::measure`]).
+    #[inline(always)]
+    pub fn measure(&mut self, (q, qd): (&[Lanes<L>; 4], &[Lanes<L>; 4])) -> ReadingLanes<L> {
+        let delay = self.line.len() - 1;
+        let reading = self.read(q, qd);
+        self.line[self.head] = reading;
+        if delay == 0 {
+            return reading;
+        }
+        self.head = if self.head == delay { 0 } else { self.head + 1 };
+        self.line[self.head]
+    }
+
+    /// Every lane's reading of `(q, qd)` now, without delay ([`Sensors`]' `read_into`: the
+    /// angles joint by joint, then the rates, each drawing its deviates in that order).
+    #[inline(always)]
+    fn read(&mut self, q: &[Lanes<L>; 4], qd: &[Lanes<L>; 4]) -> ReadingLanes<L> {
+        let mut angles = [Lanes::splat(0.0); 4];
+        for j in 0..4 {
+            let angle = q[j] + self.offset[j];
+            angles[j] = if self.quantised[j] {
+                let noise = if self.noisy[j] { self.noise_counts[j] * self.rng.normal() } else { Lanes::splat(0.0) };
+                self.resolution[j] * (angle / self.resolution[j] + noise).round()
+            } else {
+                angle
+            };
+        }
+        let rates = match self.noisy_rate {
+            None => [Lanes::splat(f64::NAN); 4],
+            Some(noisy) => {
+                let mut rates = *qd;
+                for j in 0..4 {
+                    if noisy[j] {
+                        rates[j] += self.rate_noise[j] * self.rng.normal();
+                    }
+                }
+                rates
+            }
+        };
+        (angles, rates)
+    }
+
+    /// Hands lane `i`'s generator and delay line back to `sensors` (its run's), as they would
+    /// be had it read alone.
+    pub fn hand_back(&self, i: usize, sensors: &mut Sensors<4>) {
+        sensors.rng = self.rng.lane(i);
+        sensors.head = self.head;
+        for (slot, (q, qd)) in sensors.line.iter_mut().zip(&self.line) {
+            *slot = Measurement {
+                q: JointVector::from_fn(|j, _| q[j].get(i)),
+                qd: self.noisy_rate.map(|_| JointVector::from_fn(|j, _| qd[j].get(i))),
+            };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Profiles of every shape (exact, quantised, noisy encoders; no, exact and noisy rate
+    /// sensors; delays 0 to 3), each lane with its own counts, noise, offsets and seed: the
+    /// lanes read what each lane's sensors read alone, sample by sample, and hand back the state
+    /// those are left in. Sensors that do not draw alike are refused.
+    #[test]
+    fn lanes_read_what_each_lanes_sensors_read() {
+        let mut rng = SeededRng::new(9);
+        for case in 0..24 {
+            let delay = case % 4;
+            let kinds: [usize; 4] = std::array::from_fn(|j| (case / 4 + j) % 3);
+            let rates = match case % 3 {
+                0 => None,
+                1 => Some([0.0; 4]),
+                _ => Some([0.02, 0.0, 0.01, 0.03]),
+            };
+            let mut alone: Vec<Sensors<4>> = (0..8u32)
+                .map(|i| {
+                    let scale = 1.0 + 0.3 * f64::from(i);
+                    let encoders = std::array::from_fn(|j| match kinds[j] {
+                        0 => EncoderSpec { offset: 1e-3 * scale, ..EncoderSpec::EXACT },
+                        1 => EncoderSpec { offset: -2e-4 * scale, ..EncoderSpec::counts(1024.0 * scale.round(), 0.0) },
+                        _ => EncoderSpec::counts(4096.0, 0.2 * scale),
+                    });
+                    let profile = SensorProfile {
+                        name: format!("case {case}"),
+                        encoders,
+                        delay_samples: delay,
+                        rate_noise: rates.map(|r| JointVector::from(r) * scale),
+                    };
+                    Sensors::new(profile, 100 * case as u64 + u64::from(i)).unwrap()
+                })
+                .collect();
+            let start = JointState { q: JointVector::from([0.1, -0.4, 1.2, 0.3]), qd: JointVector::repeat(0.2) };
+            for sensors in &mut alone {
+                sensors.reset(&start);
+            }
+            let mut lanes = SensorLanes::<8>::of(std::array::from_fn(|i| Some(&alone[i]))).unwrap();
+            for sample in 0..300 {
+                let states: Vec<JointState<4>> = (0..8)
+                    .map(|_| JointState {
+                        q: JointVector::from_fn(|_, _| rng.uniform(-3.0, 3.0)),
+                        qd: JointVector::from_fn(|_, _| rng.uniform(-2.0, 2.0)),
+                    })
+                    .collect();
+                let q = array4(|j| Lanes(std::array::from_fn(|i| states[i].q[j])));
+                let qd = array4(|j| Lanes(std::array::from_fn(|i| states[i].qd[j])));
+                let (angles, rates) = lanes.measure((&q, &qd));
+                for (i, sensors) in alone.iter_mut().enumerate() {
+                    let reading = sensors.measure(&states[i]);
+                    for j in 0..4 {
+                        assert_eq!(angles[j].get(i).to_bits(), reading.q[j].to_bits(), "case {case}, sample {sample}");
+                        let rate = reading.qd.map_or(f64::NAN, |qd| qd[j]);
+                        assert_eq!(rates[j].get(i).to_bits(), rate.to_bits(), "case {case}, sample {sample}");
+                    }
+                }
+            }
+            for (i, sensors) in alone.iter().enumerate() {
+                let mut handed = Sensors::new(sensors.profile.clone(), 0).unwrap();
+                lanes.hand_back(i, &mut handed);
+                assert_eq!(format!("{handed:?}"), format!("{sensors:?}"), "case {case}, lane {i}");
+            }
+        }
+        // Shapes that differ: a delay, a noisy encoder against a quiet one, a velocity sensor
+        // against none, a noisy rate against an exact one, the place in the delay line.
+        let base = SensorProfile::<4>::hobby();
+        let sensors = |edit: &dyn Fn(&mut SensorProfile<4>)| {
+            let mut profile = base.clone();
+            edit(&mut profile);
+            Sensors::new(profile, 1).unwrap()
+        };
+        let a = sensors(&|_| {});
+        let with_rate = sensors(&|p| p.rate_noise = Some(JointVector::repeat(0.01)));
+        let others = [
+            sensors(&|p| p.delay_samples = 2),
+            sensors(&|p| p.encoders[2].noise_counts = 0.0),
+            with_rate.clone(),
+        ];
+        for other in &others {
+            assert!(SensorLanes::<4>::of([Some(&a), None, Some(other), None]).is_none());
+        }
+        let exact_rate = sensors(&|p| p.rate_noise = Some(JointVector::from([0.01, 0.0, 0.01, 0.01])));
+        assert!(SensorLanes::<4>::of([Some(&with_rate), Some(&exact_rate), None, None]).is_none());
+        let mut moved = a.clone();
+        moved.measure(&JointState::at_rest(JointVector::zeros()));
+        assert!(SensorLanes::<4>::of([Some(&a), Some(&moved), None, None]).is_none());
+        assert!(SensorLanes::<4>::of([None, Some(&a), None, Some(&sensors(&|p| p.encoders[0].offset = 0.1))]).is_some());
+        assert!(SensorLanes::<4>::of([None; 4]).is_none());
     }
 }

@@ -6,8 +6,8 @@
 //! lag, payload events and metrics (`closed_loop::Run`, the scalar simulator's own
 //! code), except in a batch of plain computed-torque runs that see the exact state or Kalman
 //! estimates (`lane_law`): there the controllers' laws, the filters and the metrics are
-//! computed in lanes too, by the same generic formulas as the scalar code's (the sensors
-//! still read lane by lane). A lane that finishes or fails is
+//! computed in lanes too, by the same generic formulas as the scalar code's, and the sensors
+//! too where they draw alike (each lane's noise from its run's own generator). A lane that finishes or fails is
 //! masked — its state frozen, its result kept — while the others go on. Each lane's
 //! [`SimSummary`] equals what [`super::simulate_sensed`] computes for the same run, bit for
 //! bit, at every lane count and SIMD level: the kernels are the same IEEE operations in the
@@ -143,11 +143,12 @@ pub fn simulate_lanes(
     results
 }
 
-/// Whether a batch of `runs` (at most 8) would compute its controllers' laws in lanes, and
-/// whether also its Kalman filters (`(laws, filters)`), as [`simulate_lanes`] decides: for
-/// tests that the fast paths are taken. Resets the runs' controllers and feedback.
+/// Whether a batch of `runs` (at most 8) would compute its controllers' laws in lanes, whether
+/// also its Kalman filters, and whether also its sensors (`(laws, filters, sensors)`), as
+/// [`simulate_lanes`] decides: for tests that the fast paths are taken. Resets the runs'
+/// controllers and feedback.
 #[doc(hidden)]
-pub fn takes_in_lanes(runs: &mut [LaneRun<'_>]) -> (bool, bool) {
+pub fn takes_in_lanes(runs: &mut [LaneRun<'_>]) -> (bool, bool, bool) {
     let mut loops: Vec<_> = runs
         .iter_mut()
         .map(|run| {
@@ -156,8 +157,8 @@ pub fn takes_in_lanes(runs: &mut [LaneRun<'_>]) -> (bool, bool) {
         })
         .collect();
     match LaneLaw::<8>::of(&mut loops) {
-        Some(law) => (true, law.estimates()),
-        None => (false, false),
+        Some(law) => (true, law.estimates(), law.reads()),
+        None => (false, false, false),
     }
 }
 
@@ -274,10 +275,11 @@ fn not_positive_definite_at(time: f64, q: impl Iterator<Item = f64>) -> SimError
 }
 
 /// Where a batch runs its runs' Kalman filters in lanes ([`LaneLaw::estimate`]): each lane's
-/// sensors read its plant's state (lane by lane: each run draws its own noise), then the
-/// filters update in lanes, compiled for `level`. A lane of `not_positive_definite` fails
-/// before its sample, as the scalar run does before its sensors read: it reads nothing, and
-/// its filter is handed the state from before the update. Returns the estimates.
+/// sensors read its plant's state (in lanes where the runs' sensors draw alike,
+/// [`LaneLaw::read_and_estimate`], else lane by lane), then the filters update in lanes,
+/// compiled for `level`. A lane of `not_positive_definite` fails before its sample, as the
+/// scalar run does before its sensors read: its filter and sensors are handed their state from
+/// before the sample (in lanes they read on, unread). Returns the estimates.
 fn estimate_in_lanes<const L: usize, C, R>(
     level: SimdLevel,
     law: &mut LaneLaw<L>,
@@ -289,24 +291,25 @@ where
     C: Controller<4> + ?Sized,
     R: ReferenceSource<4> + ?Sized,
 {
+    let in_lanes = law.reads();
     // Lanes that read nothing take readings of zero (finite, so the filters stay in lanes).
     let (mut q, mut qd) = ([Lanes::splat(0.0); 4], [Lanes::splat(0.0); 4]);
     for (i, slot) in loops.iter_mut().enumerate() {
         let Some(lane) = slot.as_mut() else { continue };
         if not_positive_definite & (1 << i) != 0 {
-            law.hand_back_filter(i, lane);
-            continue;
-        }
-        let reading = lane.measure();
-        for j in 0..4 {
-            q[j].0[i] = reading.q[j];
-            qd[j].0[i] = reading.qd.map_or(f64::NAN, |qd| qd[j]);
+            law.hand_back_feedback(i, lane);
+        } else if !in_lanes {
+            let reading = lane.measure();
+            for j in 0..4 {
+                q[j].0[i] = reading.q[j];
+                qd[j].0[i] = reading.qd.map_or(f64::NAN, |qd| qd[j]);
+            }
         }
     }
     level
         .run(
             #[inline(always)]
-            || law.estimate((&q, &qd), state),
+            || if in_lanes { law.read_and_estimate(state) } else { law.estimate((&q, &qd), state) },
         )
         .unwrap_or_else(|| unreachable!("called where the batch runs the estimators"))
 }
@@ -425,8 +428,8 @@ where
 /// Up to `L` runs (all of the family, with one time step and integrator) side by side; lanes
 /// beyond `runs.len()` are idle from the start. The lanes' arithmetic runs at `level`; the
 /// rest (controllers, sensors, events, metrics) lane by lane, or, where [`LaneLaw::of`] takes
-/// the batch, the controllers' laws, their Kalman filters ([`estimate_in_lanes`]) and the
-/// metrics in lanes too ([`control_in_lanes`]).
+/// the batch, the controllers' laws, their Kalman filters and sensors ([`estimate_in_lanes`])
+/// and the metrics in lanes too ([`control_in_lanes`]).
 fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) -> Vec<Result<SimSummary<4>, SimError>> {
     let count = runs.len();
     let (dt, integrator) = (runs[0].config.dt, runs[0].config.integrator);
@@ -498,8 +501,8 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
         }
         let state = lane_state(&states);
         let not_positive_definite = set_start(level, &fast, &mut start, &state, true);
-        // Where the batch runs the estimators: the sensors' readings lane by lane, the filters
-        // in lanes.
+        // Where the batch runs the estimators: the sensors' readings (in lanes or lane by lane),
+        // the filters in lanes.
         let estimate = match law.as_mut() {
             Some(law) if law.estimates() => {
                 Some(estimate_in_lanes(level, law, &mut loops, &state, not_positive_definite))

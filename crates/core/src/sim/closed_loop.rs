@@ -746,6 +746,16 @@ where
         self.feedback.sensors.measure(&self.state)
     }
 
+    /// The run's sensors, for a batch that reads them in lanes.
+    pub(crate) fn sensors(&self) -> &crate::sense::Sensors<N> {
+        &self.feedback.sensors
+    }
+
+    /// [`Run::sensors`], to hand them back their state.
+    pub(crate) fn sensors_mut(&mut self) -> &mut crate::sense::Sensors<N> {
+        &mut self.feedback.sensors
+    }
+
     /// The first step the RMS and largest errors count.
     pub fn first_tracked_step(&self) -> usize {
         self.first_tracked_step

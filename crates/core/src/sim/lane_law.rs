@@ -9,8 +9,9 @@
 //!
 //! Where every run's controller sees the estimate of a Kalman filter instead (and the filters
 //! share a delay and a velocity sensor or none), the filters run in lanes too
-//! ([`KalmanLanes`]), with the estimates' error statistics; the sensors still read lane by lane
-//! (their noise comes from each run's own generator).
+//! ([`KalmanLanes`]), with the estimates' error statistics, and where the runs' sensors draw
+//! alike, the sensors too ([`SensorLanes`]: each lane's noise from its run's own generator,
+//! the generators side by side).
 
 // The law indexes several arrays by joint and lane, as its equations do.
 #![allow(clippy::needless_range_loop)]
@@ -23,12 +24,15 @@ use crate::control::computed_torque::{self, AntiWindup};
 use crate::control::{Controller, Reference};
 use crate::lanes::{Lanes, Real, array4};
 use crate::sense::kalman::KalmanLanes;
+use crate::sense::sensors::{ReadingLanes, SensorLanes};
 
 /// The Kalman filters of a batch whose controllers see estimates, with what each scalar run
 /// keeps of its feedback.
 #[derive(Debug, Clone)]
 pub(crate) struct FeedbackLanes<const L: usize> {
     kalman: KalmanLanes<L>,
+    /// The runs' sensors, where they draw alike (`None`: each run's read lane by lane).
+    sensors: Option<SensorLanes<L>>,
     /// The acceleration each controller commanded over the sample just ended, as its model
     /// predicts it (the filters' input), rad/s².
     applied: [Lanes<L>; 4],
@@ -108,9 +112,16 @@ impl<const L: usize> LaneLaw<L> {
         let feedback = if exact {
             None
         } else {
-            let filters = std::array::from_fn(|i| runs.get(i).and_then(Option::as_ref).and_then(Run::kalman));
+            let run = |i: usize| runs.get(i).and_then(Option::as_ref);
+            let filters = std::array::from_fn(|i| run(i).and_then(Run::kalman));
+            let sensors = SensorLanes::of(std::array::from_fn(|i| run(i).map(Run::sensors)));
             let zero = [Lanes::splat(0.0); 4];
-            Some(FeedbackLanes { kalman: KalmanLanes::of(filters)?, applied: zero, squared_errors: (zero, zero) })
+            Some(FeedbackLanes {
+                kalman: KalmanLanes::of(filters)?,
+                sensors,
+                applied: zero,
+                squared_errors: (zero, zero),
+            })
         };
         let lanes = |v: [[f64; L]; 4]| v.map(Lanes);
         Some(Self {
@@ -129,6 +140,20 @@ impl<const L: usize> LaneLaw<L> {
     /// ([`LaneLaw::estimate`]) rather than the exact state.
     pub fn estimates(&self) -> bool {
         self.feedback.is_some()
+    }
+
+    /// Whether the runs' sensors read in lanes too ([`LaneLaw::read_and_estimate`]).
+    pub fn reads(&self) -> bool {
+        self.feedback.as_ref().is_some_and(|feedback| feedback.sensors.is_some())
+    }
+
+    /// Where the sensors read in lanes ([`LaneLaw::reads`]): every lane's reading of the
+    /// plant's `state` now, and its estimate from the reading due ([`LaneLaw::estimate`]).
+    /// `None` where they do not.
+    #[inline(always)]
+    pub fn read_and_estimate(&mut self, state: &State<Lanes<L>>) -> Option<State<Lanes<L>>> {
+        let (q, qd): ReadingLanes<L> = self.feedback.as_mut()?.sensors.as_mut()?.measure((&state.q, &state.qd));
+        self.estimate((&q, &qd), state)
     }
 
     /// Every lane's estimate of the state now from the readings `(q, qd)` due at this sample
@@ -186,16 +211,20 @@ impl<const L: usize> LaneLaw<L> {
         self.feedback.as_ref().map(|feedback| (lane(&feedback.squared_errors.0), lane(&feedback.squared_errors.1)))
     }
 
-    /// Hands lane `i`'s filter state back to its run's Kalman filter (with the batch's
-    /// estimators): as the scalar run leaves it at the latest sample, or, called before the
-    /// sample's update, before it.
-    pub fn hand_back_filter<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
+    /// Hands lane `i`'s filter state back to its run's Kalman filter, and its sensors' to its
+    /// sensors where they read in lanes (with the batch's estimators): as the scalar run leaves
+    /// them at the latest sample, or, called before the sample's reading and update, before it.
+    pub fn hand_back_feedback<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
     where
         C: Controller<4> + ?Sized,
         R: super::ReferenceSource<4> + ?Sized,
     {
-        if let (Some(feedback), Some(filter)) = (self.feedback.as_ref(), run.kalman_mut()) {
+        let Some(feedback) = self.feedback.as_ref() else { return };
+        if let Some(filter) = run.kalman_mut() {
             feedback.kalman.hand_back(i, filter);
+        }
+        if let Some(sensors) = feedback.sensors.as_ref() {
+            sensors.hand_back(i, run.sensors_mut());
         }
     }
 
@@ -281,15 +310,15 @@ impl<const L: usize> LaneLaw<L> {
         torque
     }
 
-    /// Hands lane `i`'s integral and latest `v` back to its run's controller, and its filter
-    /// state to its Kalman filter, as the scalar run leaves them: at the end, or where it fails
+    /// Hands lane `i`'s integral and latest `v` back to its run's controller, and its filter's
+    /// and sensors' state to them ([`LaneLaw::hand_back_feedback`]), as the scalar run leaves them: at the end, or where it fails
     /// after its latest sample.
     pub fn hand_back<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
     where
         C: Controller<4> + ?Sized,
         R: super::ReferenceSource<4> + ?Sized,
     {
-        self.hand_back_filter(i, run);
+        self.hand_back_feedback(i, run);
         if let Some(law) = run.as_computed_torque() {
             law.set_law_state(self.integral.map(|v| v.0[i]), self.commanded.map(|v| v.0[i]));
         }
