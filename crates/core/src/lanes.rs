@@ -397,27 +397,32 @@ const LG: [f64; 7] = [
 /// 2⁵², 2⁵⁴.
 const TWO_52: f64 = 4_503_599_627_370_496.0;
 const TWO_54: f64 = 18_014_398_509_481_984.0;
-/// The significand bits of √2 (rounded up: 1 + this/2⁵² > √2).
-const SQRT2_SIGNIFICAND: u64 = 0x6_a09e_667f_3bcd;
 const SIGNIFICAND: u64 = (1 << 52) - 1;
 
-/// `(k, f)` with `x = 2ᵏ (1 + f)` and `1 + f ∈ [√2/2, √2]` for a positive finite `x` (a
-/// subnormal scaled by 2⁵⁴ first); other `x` give numbers [`log_special`] replaces. Integer
-/// operations on the bits and exact subtractions only, so that lanes vectorise (`k` is built
-/// as a float from the exponent's bits: x86-64 before AVX-512 has no packed integer-to-float
-/// conversion).
+/// `(k, f)` with `x = 2ᵏ (1 + f)` and `1 + f ∈ [√2/2, √2)` for a positive finite `x` (a
+/// subnormal scaled by 2⁵⁴ first); other `x` give numbers [`log_special`] replaces.
+///
+/// Adding `1 − √2/2`'s distance in bits to `x`'s bits carries into the exponent field exactly
+/// where the significand is `≥ √2`: that field is then `k`'s (biased), and `x`'s bits minus it
+/// plus `1`'s exponent are those of `1 + f`, the significand halved where it carried. Integer
+/// adds and masks, a float compare and selects, and exact float operations only: lanes
+/// vectorise (`k` is built as a float from the field's bits, x86-64 before AVX-512 having no
+/// packed integer-to-float conversion; integer compares per lane had left LLVM computing the
+/// whole logarithm lane by lane).
 #[inline(always)]
 fn log_parts(x: f64) -> (f64, f64) {
+    const ONE: u64 = 0x3ff0_0000_0000_0000;
+    const TO_SQRT2: u64 = ONE - 0x3fe6_a09e_667f_3bcd; // 1.0's bits minus (√2/2)'s
     let subnormal = x < f64::MIN_POSITIVE;
     let scaled = if subnormal { x * TWO_54 } else { x };
     let bits = scaled.to_bits();
-    let significand = bits & SIGNIFICAND;
-    // `1 + f` halved (its exponent one less, `k` one more) where it is beyond √2.
-    let halve = u64::from(significand > SQRT2_SIGNIFICAND);
-    let one_plus_f = f64::from_bits(significand | ((1023 - halve) << 52));
-    // The biased exponent (11 bits), exactly, as a float: 2⁵² + e − 2⁵².
-    let biased = f64::from_bits(TWO_52.to_bits() | (((bits >> 52) & 0x7ff) + halve)) - TWO_52;
-    let k = (biased - 1023.0) - if subnormal { 54.0 } else { 0.0 };
+    let carried = bits.wrapping_add(TO_SQRT2);
+    let exponent = carried & !SIGNIFICAND;
+    let one_plus_f = f64::from_bits(bits.wrapping_sub(exponent).wrapping_add(ONE));
+    // The biased exponent (and, for a negative `x`, the sign bit above it), exactly, as a
+    // float: (2⁵² + e) − 2⁵².
+    let biased = f64::from_bits(TWO_52.to_bits() | (carried >> 52)) - TWO_52;
+    let k = biased - if subnormal { 1023.0 + 54.0 } else { 1023.0 };
     // Exact (Sterbenz: 1 + f is within a factor 2 of 1).
     (k, one_plus_f - 1.0)
 }
@@ -438,18 +443,13 @@ fn log_of_parts<S: Real>(k: S, f: S) -> S {
 }
 
 /// `log` for a positive finite `x`; otherwise `ln 0 = −∞`, `ln ∞ = ∞`, NaN for a negative `x`
-/// or NaN (selects, so that lanes vectorise).
+/// or NaN. Selects on single compares, so that lanes vectorise: a branch, or a compound test
+/// LLVM reads as a class test of the bits, was computed lane by lane.
 #[inline(always)]
 fn log_special(x: f64, log: f64) -> f64 {
-    if x > 0.0 && x < f64::INFINITY {
-        log
-    } else if x == 0.0 {
-        f64::NEG_INFINITY
-    } else if x == f64::INFINITY {
-        x
-    } else {
-        f64::NAN
-    }
+    let positive = if x == f64::INFINITY { x } else { log };
+    let zero_or_not = if x == 0.0 { f64::NEG_INFINITY } else { f64::NAN };
+    if x > 0.0 { positive } else { zero_or_not }
 }
 
 /// `ln x`, within 1 ulp of the C library's (glibc's, correctly rounded but for rare cases)
@@ -728,7 +728,6 @@ mod tests {
         assert_eq!(LG.map(f64::to_bits), bits);
         assert_eq!(LN2_HI.to_bits(), 0x3fe6_2e42_fee0_0000);
         assert_eq!(LN2_LO.to_bits(), 0x3dea_39ef_3579_3c76);
-        assert_eq!(SQRT2_SIGNIFICAND, std::f64::consts::SQRT_2.to_bits() & SIGNIFICAND);
     }
 
     #[test]

@@ -469,11 +469,8 @@ mod tests {
         };
         let a = sensors(&|_| {});
         let with_rate = sensors(&|p| p.rate_noise = Some(JointVector::repeat(0.01)));
-        let others = [
-            sensors(&|p| p.delay_samples = 2),
-            sensors(&|p| p.encoders[2].noise_counts = 0.0),
-            with_rate.clone(),
-        ];
+        let others =
+            [sensors(&|p| p.delay_samples = 2), sensors(&|p| p.encoders[2].noise_counts = 0.0), with_rate.clone()];
         for other in &others {
             assert!(SensorLanes::<4>::of([Some(&a), None, Some(other), None]).is_none());
         }
@@ -482,7 +479,9 @@ mod tests {
         let mut moved = a.clone();
         moved.measure(&JointState::at_rest(JointVector::zeros()));
         assert!(SensorLanes::<4>::of([Some(&a), Some(&moved), None, None]).is_none());
-        assert!(SensorLanes::<4>::of([None, Some(&a), None, Some(&sensors(&|p| p.encoders[0].offset = 0.1))]).is_some());
+        assert!(
+            SensorLanes::<4>::of([None, Some(&a), None, Some(&sensors(&|p| p.encoders[0].offset = 0.1))]).is_some()
+        );
         assert!(SensorLanes::<4>::of([None; 4]).is_none());
     }
 }
