@@ -222,8 +222,7 @@ fn set_start<const L: usize>(
         #[inline(always)]
         || {
             let configuration = &mut start.configuration;
-            configuration.inverse.set(&configuration.mass_matrix);
-            configuration.inverse.failed_lanes()
+            configuration.inverse.set(&configuration.mass_matrix)
         },
     )
 }
@@ -341,14 +340,18 @@ where
     let Some(first) = loops.iter().flatten().next() else { return 0 };
     // Every lane is at the same step of the same reference, with the same control period and
     // tracking start ([`LaneLaw::of`]).
-    let (now, period, tracked, finished) =
-        (first.reference_now(), first.config.control_period, first.tracked(), first.finished());
+    let (period, tracked, finished) = (first.config.control_period, first.tracked(), first.finished());
+    // The reference sample where the reference writes it, not copied into a `ReferenceNow`:
+    // the copy's wide loads right after its entry-by-entry stores waited for them (a quarter
+    // of this function's own samples).
+    let time = first.time();
+    let (desired, desired_tip) = (first.reference().reference(time), first.reference().desired_tip(time));
     // The torques, and their clipping as each run's `sample` clips them: the lanes whose
     // command is not finite (`refused`) are sampled by their run, which refuses them.
     let (raw, command, clipped, refused) = level.run(
         #[inline(always)]
         || {
-            let raw = law.torque((&seen.q, &seen.qd), start, own_terms, own, &now.desired, period);
+            let raw = law.torque((&seen.q, &seen.qd), start, own_terms, own, &desired, period);
             let command = array4(|j| raw[j].each2(limits[j], limit_torque));
             let clipped = array4(|j| command[j].lanes_where2(raw[j], |command, raw| command != raw));
             let refused = raw.iter().fold(0, |lanes, raw| lanes | raw.lanes_where(|raw| !raw.is_finite()));
@@ -389,12 +392,12 @@ where
         }
     }
     // The metrics, as `Run::control_at` records them (no motor lag: the torque is the command).
-    let tip_desired: [Lanes<L>; 3] = match now.tip {
+    let tip_desired: [Lanes<L>; 3] = match desired_tip {
         Some(desired) => std::array::from_fn(|k| Lanes::splat(desired[k])),
         None => {
             // Only the lanes that go on (a finished or failed lane's tip is not read).
             let tips: [Vector3<f64>; L] = std::array::from_fn(|i| match loops[i] {
-                Some(_) => crate::arm::kinematics::FrameChain::new(&models[i], &now.desired.q).tip(),
+                Some(_) => crate::arm::kinematics::FrameChain::new(&models[i], &desired.q).tip(),
                 None => Vector3::zeros(),
             });
             std::array::from_fn(|k| Lanes(std::array::from_fn(|i| tips[i][k])))
@@ -405,7 +408,7 @@ where
         #[inline(always)]
         || {
             let tip = start.configuration.tip_in_base();
-            let error = array4(|j| Lanes::splat(now.desired.q[j]) - state.q[j]);
+            let error = array4(|j| Lanes::splat(desired.q[j]) - state.q[j]);
             let tip_error = super::closed_loop::tip_error(&tip, &tip_desired);
             law.tracking.record(&torque, &error, tip_error, tracked);
             (tip, tip_error)

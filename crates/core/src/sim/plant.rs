@@ -98,10 +98,7 @@ impl<const N: usize> Plant<N> {
                         // instructions.
                         let positive_definite = simd.run(
                             #[inline(always)]
-                            || {
-                                start.set(fast, &here);
-                                start.configuration.inverse.positive_definite(0)
-                            },
+                            || start.set(fast, &here) == 0,
                         );
                         (start, positive_definite)
                     }

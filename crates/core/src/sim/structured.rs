@@ -34,12 +34,14 @@ impl<S: Real> Start<S> {
         Self { configuration, bias, middle: configuration, end: configuration }
     }
 
-    /// [`Start::new`] in place.
+    /// [`Start::new`] in place. Returns the lanes whose `M` is not positive definite
+    /// ([`crate::arm::yaw_pitch::Inverse::set`]).
     #[inline(always)]
-    pub fn set(&mut self, model: &YawPitch<S>, state: &State<S>) {
+    pub fn set(&mut self, model: &YawPitch<S>, state: &State<S>) -> u64 {
         self.configuration.angles.set(model, &state.q);
-        self.configuration.refresh(model);
+        let failed = self.configuration.refresh(model);
         self.bias = self.configuration.bias(model, &state.qd);
+        failed
     }
 
     /// [`Start::set`] without the inverse of `M` (left as it was): `M` and the bias alone, for
@@ -83,8 +85,7 @@ fn stage<S: Real, const L: usize>(
     failures: &mut Failures<L>,
 ) {
     start.angles.shift_into(model, &difference(at, q), &mut scratch.angles);
-    scratch.refresh(model);
-    let new = scratch.inverse.failed_lanes() & !failures.lanes;
+    let new = scratch.refresh(model) & !failures.lanes;
     if new != 0 {
         for lane in (0..S::LANES).filter(|lane| new & (1 << lane) != 0) {
             failures.at[lane] = at.map(|v| v.lane(lane));
