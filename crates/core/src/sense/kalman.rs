@@ -923,9 +923,10 @@ impl<const L: usize> KalmanLanes<L> {
         self.head = if self.head + 1 == span { 0 } else { self.head + 1 };
         // Now `inputs[head]` is u_{k−δ−1}, and the next δ slots hold u_{k−δ} … u_{k−1}.
         let oldest = self.inputs[self.head];
+        // Every lane at once: `all` stops at the first lane that is not, a branch per lane.
         #[inline(always)]
         fn finite<const L: usize>(v: &Lanes<L>) -> bool {
-            v.0.iter().all(|v| v.is_finite())
+            v.lanes_where(|v| !v.is_finite()) == 0
         }
         let rate = self.measures_rate;
         let (mut out_q, mut out_qd) = ([Lanes::splat(0.0); 4], [Lanes::splat(0.0); 4]);
