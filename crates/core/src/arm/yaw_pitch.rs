@@ -737,7 +737,9 @@ pub(crate) fn from_array<const N: usize>(v: [f64; 4]) -> JointVector<N> {
 #[inline(always)]
 #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(d > 0)` is what catches NaN
 fn failed_of<S: Real>(minors: &[S; 4], reciprocal: S) -> u64 {
-    let mut failed = reciprocal.lanes_where(|r| r.abs() == f64::INFINITY || r == 0.0);
+    // Each its own compare: `|r| = ∞ or r = 0` as one test became a class test of the bits,
+    // lane by lane.
+    let mut failed = reciprocal.lanes_where(|r| r.abs() == f64::INFINITY) | reciprocal.lanes_where(|r| r == 0.0);
     for minor in minors {
         failed |= minor.lanes_where(|d| !(d > 0.0));
     }
