@@ -813,7 +813,14 @@ pub(crate) struct KalmanLanes<const L: usize> {
     /// where they are `p` and `gain` (not copied out of the step, which is most of the work a
     /// sample once the steps repeat).
     current: [Option<usize>; 4],
+    /// Per joint and remembered step, the remembered step that starts from its result (bit for
+    /// bit in every lane), [`NO_STEP`] where none does: found when a step is remembered, so
+    /// that a sample after a remembered step compares no covariances.
+    follows: [[usize; 2]; 4],
 }
+
+/// In [`KalmanLanes`]' `follows`: no remembered step starts there.
+const NO_STEP: usize = 2;
 
 /// A covariance step of every lane: the covariance it started from, and what it gave.
 type RememberedLanes<const L: usize> = (Columns<Lanes<L>>, CovarianceUpdate<Lanes<L>>);
@@ -875,6 +882,7 @@ impl<const L: usize> KalmanLanes<L> {
             // So that the first step computed goes to slot 0.
             newest: [1; 4],
             current: [None; 4],
+            follows: [[NO_STEP; 2]; 4],
         })
     }
 
@@ -933,19 +941,25 @@ impl<const L: usize> KalmanLanes<L> {
         for j in 0..4 {
             if finite(&q[j]) && (!rate || finite(&qd[j])) {
                 let now = self.covariance(j);
-                // The newest first: at a fixed point, the only one compared. A step not
-                // remembered replaces the older.
+                // After a remembered step, the one that follows it, if any (known without a
+                // compare); else the newest first, then the older. A step not remembered
+                // replaces the older.
                 let (newest, older) = (self.newest[j], 1 - self.newest[j]);
-                let slot = if knows(&self.remembered[j][newest], now) {
-                    newest
-                } else if knows(&self.remembered[j][older], now) {
-                    older
+                let known = match self.current[j] {
+                    Some(slot) => self.follows[j][slot],
+                    None if knows(&self.remembered[j][newest], now) => newest,
+                    None if knows(&self.remembered[j][older], now) => older,
+                    None => NO_STEP,
+                };
+                let slot = if known != NO_STEP {
+                    known
                 } else {
                     let from = *now;
                     let variances = (self.angle_variance[j], self.rate_variance[j]);
                     let step = covariance_step((&self.f, &self.q), &from, variances, true, rate);
                     self.remembered[j][older] = Some((from, step));
                     self.newest[j] = older;
+                    self.link(j);
                     older
                 };
                 self.current[j] = Some(slot);
@@ -971,6 +985,19 @@ impl<const L: usize> KalmanLanes<L> {
             out_qd[j] = x[1];
         }
         (out_q, out_qd)
+    }
+
+    /// Finds, for each of joint `j`'s remembered steps, the remembered step that starts from
+    /// its result (`follows`), the newest first, as a sample's search would.
+    fn link(&mut self, j: usize) {
+        let (newest, older) = (self.newest[j], 1 - self.newest[j]);
+        for slot in 0..2 {
+            self.follows[j][slot] = match &self.remembered[j][slot] {
+                Some((_, step)) if knows(&self.remembered[j][newest], &step.to) => newest,
+                Some((_, step)) if knows(&self.remembered[j][older], &step.to) => older,
+                _ => NO_STEP,
+            };
+        }
     }
 
     /// Lane `i`'s joint `j` over one sample with its readings `(angle, rate)` (either may be
