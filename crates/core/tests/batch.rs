@@ -448,22 +448,28 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
         PayloadEvent { time: 0.2, payload: bad_payload, controller_knows: true },
         PayloadEvent { time: 0.9, payload: None, controller_knows: true },
     ];
+    // A payload of 1e200 kg the controller is not told of: the plant's `Δ₃ Δ` overflows, and
+    // its `M` is refused (not positive definite) from 0.2 s.
+    let huge = Some(Payload::upright_cylinder(1e200, 0.05, 0.012, 0.03));
+    let huge_events = [PayloadEvent { time: 0.2, payload: huge, controller_knows: false }];
     // Groups of eight, each a batch: hobby encoders and the default filter (a delay of one
     // sample), servo encoders with an offset and the two-state filter (no delay), encoders with
     // tachometers and a delay of two samples; a group whose filters expect tachometers the
     // sensors of every other run lack (a missing rate reading: those joints lane by lane), with
     // a payload of NaN mass at 0.2 s in a quarter (an event's error); hobby encoders on a
     // reference whose third joint turns NaN after 0.2 s (a sample's error: a batch shares its
-    // reference); then a group whose delays differ (hobby and servo alternating), which the
-    // batch must take lane by lane.
-    let groups = 6;
+    // reference); a group whose delays differ (hobby and servo alternating), which the
+    // batch must take lane by lane; then hobby encoders read in lanes with, in a quarter each,
+    // the NaN-mass payload (an event's error) and a payload so heavy that the plant's `M` is
+    // refused (each lane's sensors and filter handed back before the sample's reading).
+    let groups = 7;
     let make = || {
         (0..8 * groups)
             .map(|i| {
                 let reference: &(dyn ReferenceSource<4> + Sync) = if i / 8 == 4 { &poisoned } else { &trajectory };
                 let mut run = lane_law_candidate(i, reference, &trajectory, &hold, &events, &marks);
                 run.feedback = match (i / 8, i % 2) {
-                    (0 | 4, _) | (5, 0) => sensed(SensorProfile::hobby(), KalmanSettings::DEFAULT, i),
+                    (0 | 4 | 6, _) | (5, 0) => sensed(SensorProfile::hobby(), KalmanSettings::DEFAULT, i),
                     (1, _) | (5, _) => sensed(offset.clone(), KalmanSettings::TWO_STATE, i),
                     (3, odd) => {
                         let mut feedback = sensed(with_rate.clone(), KalmanSettings::DEFAULT, i);
@@ -485,15 +491,19 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
                         sensed(profile, KalmanSettings::DEFAULT, i)
                     }
                 };
-                if i / 8 == 3 && i % 4 == 1 {
+                if (i / 8 == 3 || i / 8 == 6) && i % 4 == 1 {
                     run.events = &bad_events;
+                }
+                if i / 8 == 6 && i % 4 == 2 {
+                    run.events = &huge_events;
                 }
                 run
             })
             .collect::<Vec<_>>()
     };
-    // The first five groups' batches take their laws and filters in lanes, and but for the
-    // fourth (sensors with and without tachometers) their sensors; the last takes none.
+    // The first five groups' batches and the last take their laws and filters in lanes, and
+    // but for the fourth (sensors with and without tachometers) their sensors; the sixth takes
+    // none.
     let mut runs = make();
     for (k, batch) in runs.chunks_mut(8).enumerate() {
         let expected = match k {
@@ -531,6 +541,9 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
     assert!(group(3).iter().any(|f| f.contains("payload")), "no event's error: {:#?}", group(3));
     let nan_commands = group(4).iter().filter(|f| f.contains("torque command = NaN")).count();
     assert!(nan_commands >= 4, "too few samples' errors: {:#?}", group(4));
+    assert!(group(6).iter().any(|f| f.contains("payload")), "no event's error: {:#?}", group(6));
+    let refused = group(6).iter().filter(|f| f.contains("not positive definite")).count();
+    assert!(refused >= 2, "too few refused mass matrices: {:#?}", group(6));
 }
 
 /// The trajectory, its third joint's angle NaN after 0.2 s: a controller's command turns NaN.

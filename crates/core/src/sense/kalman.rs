@@ -1292,6 +1292,89 @@ mod tests {
     /// lanes of different angle σ, tunings and periods, with and without a rate sensor, at
     /// delays 0, 1 and 3, through readings that go missing (NaN, ±∞) in some lanes now and
     /// then, and non-finite inputs.
+    /// Filters that settle (each covariance at a fixed point or in a cycle of two), then a
+    /// reading missing in one lane, which moves that joint off its remembered steps, then
+    /// settle again and return to them, several times: the lanes equal each filter, bit for bit,
+    /// throughout, and each remembered step's `follows` is what a search would find (one not
+    /// refreshed when the other slot is replaced can point at a step that no longer follows it).
+    /// Also counts, per joint, the samples whose covariance step was a
+    /// cycle of two, so that the test says it reached one.
+    #[test]
+    fn filters_in_lanes_return_to_their_remembered_steps_bit_for_bit() {
+        let mut rng = SeededRng::new(17);
+        let mut cycles_of_two = 0;
+        for case in 0..4u64 {
+            let rate_std = (case % 2 == 1).then(|| JointVector::<4>::from_fn(|j, _| 0.01 + 0.005 * j as f64));
+            let mut filters: Vec<JointKalman<4>> = (0..8)
+                .map(|lane| {
+                    let settings = if (lane + case as usize) % 3 == 0 {
+                        KalmanSettings::TWO_STATE
+                    } else {
+                        KalmanSettings::DEFAULT
+                    };
+                    let angle_std = JointVector::<4>::from_fn(|j, _| 1e-4 * (1 + (lane + j) % 5) as f64);
+                    let mut filter =
+                        JointKalman::new(1e-3, angle_std, rate_std, (case / 2) as usize, settings).unwrap();
+                    filter.reset(&JointState::at_rest(JointVector::zeros()));
+                    filter
+                })
+                .collect();
+            let mut lanes = KalmanLanes::<8>::of(std::array::from_fn(|i| Some(&filters[i]))).unwrap();
+            let mut history: Vec<[Matrix3<f64>; 4]> = Vec::new();
+            for k in 0..3000 {
+                let t = k as f64 * 1e-3;
+                // A missing angle in lane k/400 mod 8, joint k/400 mod 4, every 400 samples.
+                let missing = (k % 400 == 399).then_some(((k / 400) % 8, (k / 400) % 4));
+                let q: [[f64; 8]; 4] = std::array::from_fn(|j| {
+                    std::array::from_fn(|i| {
+                        if missing == Some((i, j)) {
+                            f64::NAN
+                        } else {
+                            (t + (i + j) as f64).sin() + 1e-4 * rng.normal()
+                        }
+                    })
+                });
+                let qd: [[f64; 8]; 4] =
+                    std::array::from_fn(|j| std::array::from_fn(|i| (t + j as f64).cos() + 0.01 * (i as f64)));
+                let applied: [[f64; 8]; 4] =
+                    std::array::from_fn(|j| std::array::from_fn(|i| (t * (i + j) as f64).cos()));
+                let (lane_q, lane_qd) = lanes.update(&q.map(Lanes), &qd.map(Lanes), &applied.map(Lanes));
+                // Each remembered step's `follows` is what a search from its result finds now.
+                for j in 0..4 {
+                    let (newest, older) = (lanes.newest[j], 1 - lanes.newest[j]);
+                    for slot in 0..2 {
+                        let Some((_, step)) = &lanes.remembered[j][slot] else { continue };
+                        let found = if knows(&lanes.remembered[j][newest], &step.to) {
+                            newest
+                        } else if knows(&lanes.remembered[j][older], &step.to) {
+                            older
+                        } else {
+                            NO_STEP
+                        };
+                        assert_eq!(lanes.follows[j][slot], found, "case {case}, sample {k}, joint {j}, slot {slot}");
+                    }
+                }
+                for (i, filter) in filters.iter_mut().enumerate() {
+                    let measurement = Measurement {
+                        q: JointVector::from_fn(|j, _| q[j][i]),
+                        qd: rate_std.map(|_| JointVector::from_fn(|j, _| qd[j][i])),
+                    };
+                    let own = filter.update(&measurement, &JointVector::from_fn(|j, _| applied[j][i]));
+                    for j in 0..4 {
+                        assert_eq!(own.q[j].to_bits(), lane_q[j].0[i].to_bits(), "case {case}, sample {k}, lane {i}");
+                        assert_eq!(own.qd[j].to_bits(), lane_qd[j].0[i].to_bits(), "case {case}, sample {k}, lane {i}");
+                    }
+                }
+                // Lane 1's covariances (none of its readings is missing before sample 799).
+                history.push(std::array::from_fn(|j| filters[1].p[j]));
+                if let [.., a, b, c] = history.as_slice() {
+                    cycles_of_two += (0..4).filter(|&j| same_bits(&a[j], &c[j]) && !same_bits(&a[j], &b[j])).count();
+                }
+            }
+        }
+        assert!(cycles_of_two > 0, "no covariance reached a cycle of two");
+    }
+
     #[test]
     fn filters_in_lanes_equal_each_filter_bit_for_bit() {
         let mut rng = SeededRng::new(5);
