@@ -1307,7 +1307,7 @@ mod tests {
             let rate_std = (case % 2 == 1).then(|| JointVector::<4>::from_fn(|j, _| 0.01 + 0.005 * j as f64));
             let mut filters: Vec<JointKalman<4>> = (0..8)
                 .map(|lane| {
-                    let settings = if (lane + case as usize) % 3 == 0 {
+                    let settings = if (lane + case as usize).is_multiple_of(3) {
                         KalmanSettings::TWO_STATE
                     } else {
                         KalmanSettings::DEFAULT
