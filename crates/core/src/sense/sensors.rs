@@ -293,8 +293,9 @@ pub(crate) struct SensorLanes<const L: usize> {
 
 impl<const L: usize> SensorLanes<L> {
     /// The sensors of `sensors` side by side (lane `i` is `sensors[i]`; a lane without copies
-    /// the first's, and its readings are not read), if there is one and they draw alike, and
-    /// are at the same place in their delay lines.
+    /// the first's, and its readings are not read), if there is one and they draw alike, are
+    /// at the same place in their delay lines, and their generators hold a spare deviate in all
+    /// or none ([`RngLanes::of`]).
     pub fn of(sensors: [Option<&Sensors<4>>; L]) -> Option<Self> {
         let first = *sensors.iter().flatten().next()?;
         let shape = |s: &Sensors<4>| {
