@@ -356,9 +356,10 @@ fn by_quadrant(sin: f64, cos: f64, y: u64) -> (f64, f64) {
 
 /// `(sin x, cos x)` for |x| ≤ [`SIN_COS_LIMIT`] (joint angles are a few radians): within 2 ulp
 /// of the C library's where |sin|, |cos| ≥ 0.25, and within 2·2⁻⁵² absolutely nearer their
-/// zeros (where ulps are finer: at 3π/2 the cosine is 10 ulp from the rounded value), by Cody–Waite reduction to |r| ≤ π/4 and Taylor polynomials;
-/// NaN beyond it (and for NaN and ±∞): there the promise fails (at 10⁷ rad the error is
-/// ~10⁻⁹), and past ~3.5·10¹⁵ rad the reduction gives numbers that are not sines at all.
+/// zeros (where ulps are finer: at 3π/2 the cosine is 10 ulp from the rounded value), by
+/// Cody–Waite reduction to |r| ≤ π/4 and Taylor polynomials; NaN beyond it (and for NaN and
+/// ±∞): there the promise fails (at 10⁷ rad the error is ~10⁻⁹), and past ~3.5·10¹⁵ rad the
+/// reduction gives numbers that are not sines at all.
 /// Pure `+ − ×` and one rounding: the same bits on every machine, unlike the C library's,
 /// which picks its code by the CPU it runs on.
 #[inline(always)]
@@ -379,10 +380,11 @@ fn within_limit(x: f64, sin_cos: (f64, f64)) -> (f64, f64) {
 }
 
 // The natural logarithm, by fdlibm's `__ieee754_log` method (Sun Microsystems, 1993): with
-// `x = 2ᵏ (1 + f)`, `1 + f ∈ [√2/2, √2]` and `s = f/(2 + f)`,
+// `x = 2ᵏ (1 + f)`, `1 + f ∈ [√2/2, √2)` and `s = f/(2 + f)`,
 // `ln(1 + f) = 2 atanh s = f − f²/2 + s (f²/2 + R)`, where `R = Lg₁z + … + Lg₇z⁷`, `z = s²`,
 // is a Remez fit of `(2 atanh s − 2s)/s` over `|s| ≤ 0.1716` (within 2⁻⁵⁸·⁴⁵, fdlibm states);
-// `k ln 2` in two parts, the first with 11 trailing zero bits, so that `k · LN2_HI` is exact.
+// `k ln 2` in two parts, the first with 21 trailing zero bits, so that `k · LN2_HI` is exact
+// for every `k` an `f64` has (|k| ≤ 1077).
 const LN2_HI: f64 = 0.693_147_180_369_123_8; // 0x3fe62e42fee00000
 const LN2_LO: f64 = 1.908_214_929_270_587_7e-10; // 0x3dea39ef35793c76
 /// fdlibm's `Lg1` … `Lg7` (their bits are tested).
@@ -395,8 +397,8 @@ const LG: [f64; 7] = [
     0.153_138_376_992_093_73,
     0.147_981_986_051_165_86,
 ];
-/// 2⁵², 2⁵⁴.
-const TWO_52: f64 = 4_503_599_627_370_496.0;
+/// 2⁵² (from which every `f64` is whole), 2⁵⁴.
+pub(crate) const TWO_52: f64 = 4_503_599_627_370_496.0;
 const TWO_54: f64 = 18_014_398_509_481_984.0;
 const SIGNIFICAND: u64 = (1 << 52) - 1;
 

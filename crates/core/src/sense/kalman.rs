@@ -944,16 +944,14 @@ impl<const L: usize> KalmanLanes<L> {
                 // After a remembered step, the one that follows it, if any (known without a
                 // compare); else the newest first, then the older. A step not remembered
                 // replaces the older.
-                let (newest, older) = (self.newest[j], 1 - self.newest[j]);
                 let known = match self.current[j] {
                     Some(slot) => self.follows[j][slot],
-                    None if knows(&self.remembered[j][newest], now) => newest,
-                    None if knows(&self.remembered[j][older], now) => older,
-                    None => NO_STEP,
+                    None => self.starting_at(j, now),
                 };
                 let slot = if known != NO_STEP {
                     known
                 } else {
+                    let older = 1 - self.newest[j];
                     let from = *now;
                     let variances = (self.angle_variance[j], self.rate_variance[j]);
                     let step = covariance_step((&self.f, &self.q), &from, variances, true, rate);
@@ -987,15 +985,27 @@ impl<const L: usize> KalmanLanes<L> {
         (out_q, out_qd)
     }
 
-    /// Finds, for each of joint `j`'s remembered steps, the remembered step that starts from
-    /// its result (`follows`), the newest first, as a sample's search would.
-    fn link(&mut self, j: usize) {
+    /// Joint `j`'s remembered step that starts from `covariance` (bit for bit in every lane),
+    /// the newest first: at a fixed point the only one compared. [`NO_STEP`] where none does.
+    #[inline(always)]
+    fn starting_at(&self, j: usize, covariance: &Columns<Lanes<L>>) -> usize {
         let (newest, older) = (self.newest[j], 1 - self.newest[j]);
+        if knows(&self.remembered[j][newest], covariance) {
+            newest
+        } else if knows(&self.remembered[j][older], covariance) {
+            older
+        } else {
+            NO_STEP
+        }
+    }
+
+    /// Finds, for each of joint `j`'s remembered steps, the remembered step that starts from
+    /// its result (`follows`), as a sample's search would.
+    fn link(&mut self, j: usize) {
         for slot in 0..2 {
             self.follows[j][slot] = match &self.remembered[j][slot] {
-                Some((_, step)) if knows(&self.remembered[j][newest], &step.to) => newest,
-                Some((_, step)) if knows(&self.remembered[j][older], &step.to) => older,
-                _ => NO_STEP,
+                Some((_, step)) => self.starting_at(j, &step.to),
+                None => NO_STEP,
             };
         }
     }
@@ -1287,11 +1297,33 @@ mod tests {
         }
     }
 
-    /// The filters of eight runs side by side equal each run's own filter bit for bit at every
-    /// sample (estimates, and after a hand-back the whole state: covariances, gains, inputs):
-    /// lanes of different angle σ, tunings and periods, with and without a rate sensor, at
-    /// delays 0, 1 and 3, through readings that go missing (NaN, ±∞) in some lanes now and
-    /// then, and non-finite inputs.
+    /// Per joint, a value of each of eight lanes.
+    type PerLane = [[f64; 8]; 4];
+
+    /// Updates the filters in lanes and each lane's own filter with its readings `(q, qd)`
+    /// (read only with a rate sensor) and input `applied`, and asserts each filter's estimate
+    /// has the bits its lane's has.
+    fn update_side_by_side(
+        lanes: &mut KalmanLanes<8>,
+        filters: &mut [JointKalman<4>],
+        (q, qd, applied): (&PerLane, &PerLane, &PerLane),
+        measures_rate: bool,
+        context: &str,
+    ) {
+        let (lane_q, lane_qd) = lanes.update(&q.map(Lanes), &qd.map(Lanes), &applied.map(Lanes));
+        for (i, filter) in filters.iter_mut().enumerate() {
+            let measurement = Measurement {
+                q: JointVector::from_fn(|j, _| q[j][i]),
+                qd: measures_rate.then(|| JointVector::from_fn(|j, _| qd[j][i])),
+            };
+            let own = filter.update(&measurement, &JointVector::from_fn(|j, _| applied[j][i]));
+            for j in 0..4 {
+                assert_eq!(own.q[j].to_bits(), lane_q[j].0[i].to_bits(), "{context}, lane {i}");
+                assert_eq!(own.qd[j].to_bits(), lane_qd[j].0[i].to_bits(), "{context}, lane {i}");
+            }
+        }
+    }
+
     /// Filters that settle (each covariance at a fixed point or in a cycle of two), then a
     /// reading missing in one lane, which moves that joint off its remembered steps, then
     /// settle again and return to them, several times: the lanes equal each filter, bit for bit,
@@ -1338,31 +1370,14 @@ mod tests {
                     std::array::from_fn(|j| std::array::from_fn(|i| (t + j as f64).cos() + 0.01 * (i as f64)));
                 let applied: [[f64; 8]; 4] =
                     std::array::from_fn(|j| std::array::from_fn(|i| (t * (i + j) as f64).cos()));
-                let (lane_q, lane_qd) = lanes.update(&q.map(Lanes), &qd.map(Lanes), &applied.map(Lanes));
+                let context = format!("case {case}, sample {k}");
+                update_side_by_side(&mut lanes, &mut filters, (&q, &qd, &applied), rate_std.is_some(), &context);
                 // Each remembered step's `follows` is what a search from its result finds now.
                 for j in 0..4 {
-                    let (newest, older) = (lanes.newest[j], 1 - lanes.newest[j]);
                     for slot in 0..2 {
                         let Some((_, step)) = &lanes.remembered[j][slot] else { continue };
-                        let found = if knows(&lanes.remembered[j][newest], &step.to) {
-                            newest
-                        } else if knows(&lanes.remembered[j][older], &step.to) {
-                            older
-                        } else {
-                            NO_STEP
-                        };
+                        let found = lanes.starting_at(j, &step.to);
                         assert_eq!(lanes.follows[j][slot], found, "case {case}, sample {k}, joint {j}, slot {slot}");
-                    }
-                }
-                for (i, filter) in filters.iter_mut().enumerate() {
-                    let measurement = Measurement {
-                        q: JointVector::from_fn(|j, _| q[j][i]),
-                        qd: rate_std.map(|_| JointVector::from_fn(|j, _| qd[j][i])),
-                    };
-                    let own = filter.update(&measurement, &JointVector::from_fn(|j, _| applied[j][i]));
-                    for j in 0..4 {
-                        assert_eq!(own.q[j].to_bits(), lane_q[j].0[i].to_bits(), "case {case}, sample {k}, lane {i}");
-                        assert_eq!(own.qd[j].to_bits(), lane_qd[j].0[i].to_bits(), "case {case}, sample {k}, lane {i}");
                     }
                 }
                 // Lane 1's covariances (none of its readings is missing before sample 799).
@@ -1375,6 +1390,11 @@ mod tests {
         assert!(cycles_of_two > 0, "no covariance reached a cycle of two");
     }
 
+    /// The filters of eight runs side by side equal each run's own filter bit for bit at every
+    /// sample (estimates, and after a hand-back the whole state: covariances, gains, inputs):
+    /// lanes of different angle σ, tunings and periods, with and without a rate sensor, at
+    /// delays 0, 1 and 3, through readings that go missing (NaN, ±∞) in some lanes now and
+    /// then, and non-finite inputs.
     #[test]
     fn filters_in_lanes_equal_each_filter_bit_for_bit() {
         let mut rng = SeededRng::new(5);
@@ -1410,18 +1430,10 @@ mod tests {
                 let applied: [[f64; 8]; 4] = std::array::from_fn(|j| {
                     std::array::from_fn(|i| if rng.unit() < 0.005 { f64::NAN } else { (t * (i + j) as f64).cos() })
                 });
-                let (lane_q, lane_qd) = lanes.update(&q.map(Lanes), &qd.map(Lanes), &applied.map(Lanes));
-                for (i, filter) in filters.iter_mut().enumerate() {
-                    let measurement = Measurement {
-                        q: JointVector::from_fn(|j, _| q[j][i]),
-                        qd: rate_std.map(|_| JointVector::from_fn(|j, _| qd[j][i])),
-                    };
-                    let own = filter.update(&measurement, &JointVector::from_fn(|j, _| applied[j][i]));
-                    for j in 0..4 {
-                        assert_eq!(own.q[j].to_bits(), lane_q[j].0[i].to_bits(), "case {case}, sample {k}, lane {i}");
-                        assert_eq!(own.qd[j].to_bits(), lane_qd[j].0[i].to_bits(), "case {case}, sample {k}, lane {i}");
-                    }
-                    if k % 97 == 0 || k == 1499 {
+                let context = format!("case {case}, sample {k}");
+                update_side_by_side(&mut lanes, &mut filters, (&q, &qd, &applied), rate_std.is_some(), &context);
+                if k % 97 == 0 || k == 1499 {
+                    for (i, filter) in filters.iter().enumerate() {
                         let mut handed = filter.clone();
                         handed.reset(&JointState::at_rest(JointVector::repeat(9.0)));
                         lanes.hand_back(i, &mut handed);

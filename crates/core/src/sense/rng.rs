@@ -6,7 +6,7 @@
 //! C library's (which picks its code by the CPU): the same bits on every machine, and in SIMD
 //! lanes ([`RngLanes`]: `L` generators side by side) as one at a time.
 
-use crate::lanes::{Lanes, Real};
+use crate::lanes::{Lanes, Real, TWO_52};
 
 /// SplitMix64's output function on `state` (Steele, Lea & Flood 2014): a bijective mix of 64
 /// bits, used to seed xoshiro and to derive the seed of trial `k` from a study's seed.
@@ -43,16 +43,8 @@ impl SeededRng {
 
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        let s = &mut self.state;
-        let result = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
-        let t = s[1] << 17;
-        s[2] ^= s[0];
-        s[3] ^= s[1];
-        s[1] ^= s[2];
-        s[0] ^= s[3];
-        s[2] ^= t;
-        s[3] = s[3].rotate_left(45);
-        result
+        let [s0, s1, s2, s3] = &mut self.state;
+        xoshiro_step(s0, s1, s2, s3)
     }
 
     /// Uniform on [0, 1), 53 random bits.
@@ -77,6 +69,20 @@ impl SeededRng {
         self.spare_normal = Some(second);
         first
     }
+}
+
+/// One step of xoshiro256++ on its four words of state: returns the output and advances them.
+#[inline(always)]
+fn xoshiro_step(s0: &mut u64, s1: &mut u64, s2: &mut u64, s3: &mut u64) -> u64 {
+    let result = s0.wrapping_add(*s3).rotate_left(23).wrapping_add(*s0);
+    let t = *s1 << 17;
+    *s2 ^= *s0;
+    *s3 ^= *s1;
+    *s1 ^= *s2;
+    *s0 ^= *s3;
+    *s2 ^= t;
+    *s3 = s3.rotate_left(45);
+    result
 }
 
 /// Two independent standard normal deviates from two uniform ones, `u₁ ∈ (0, 1]` and
@@ -122,14 +128,7 @@ impl<const L: usize> RngLanes<L> {
         let [s0, s1, s2, s3] = &mut self.state;
         let mut unit = [0.0; L];
         for i in 0..L {
-            let result = s0[i].wrapping_add(s3[i]).rotate_left(23).wrapping_add(s0[i]);
-            let t = s1[i] << 17;
-            s2[i] ^= s0[i];
-            s3[i] ^= s1[i];
-            s1[i] ^= s2[i];
-            s0[i] ^= s3[i];
-            s2[i] ^= t;
-            s3[i] = s3[i].rotate_left(45);
+            let result = xoshiro_step(&mut s0[i], &mut s1[i], &mut s2[i], &mut s3[i]);
             unit[i] = whole_53(result >> 11) * (1.0 / (1u64 << 53) as f64);
         }
         Lanes(unit)
@@ -154,7 +153,6 @@ impl<const L: usize> RngLanes<L> {
 /// and an exact sum, which vectorise where x86-64 before AVX-512 has no packed conversion.
 #[inline(always)]
 fn whole_53(n: u64) -> f64 {
-    const TWO_52: f64 = 4_503_599_627_370_496.0;
     const TWO_84: f64 = 19_342_813_113_834_066_795_298_816.0;
     let low = f64::from_bits(TWO_52.to_bits() | (n & 0xffff_ffff)) - TWO_52;
     let high = f64::from_bits(TWO_84.to_bits() | (n >> 32)) - TWO_84;

@@ -21,7 +21,6 @@ use super::{Measurement, SenseError, invalid};
 use crate::arm::model::JointVector;
 use crate::control::JointState;
 use crate::lanes::{Lanes, Real, array4};
-
 use std::f64::consts::TAU;
 
 /// Longest measurement delay a profile may have, samples.
@@ -307,14 +306,14 @@ impl<const L: usize> SensorLanes<L> {
                 profile.rate_noise.map(|noise| noise.map(|v| v > 0.0)),
             )
         };
-        if sensors.iter().flatten().any(|s| shape(s) != shape(first)) {
+        let (delay, head, encoders, noisy_rate) = shape(first);
+        if sensors.iter().flatten().any(|s| shape(s) != (delay, head, encoders, noisy_rate)) {
             return None;
         }
         let lane = |i: usize| sensors[i].unwrap_or(first);
         let rng = RngLanes::of(std::array::from_fn(|i| &lane(i).rng))?;
         let lanes = |f: &dyn Fn(&Sensors<4>, usize) -> f64| array4(|j| Lanes(std::array::from_fn(|i| f(lane(i), j))));
-        let profile = &first.profile;
-        let line = (0..=profile.delay_samples)
+        let line = (0..=delay)
             .map(|k| {
                 let reading = |i: usize| &lane(i).line[k];
                 (
@@ -324,16 +323,16 @@ impl<const L: usize> SensorLanes<L> {
             })
             .collect();
         Some(Self {
-            quantised: profile.encoders.map(|e| e.counts_per_rev.is_some()),
-            noisy: profile.encoders.map(|e| e.noise_counts > 0.0),
-            noisy_rate: profile.rate_noise.map(|noise| noise.map(|v| v > 0.0).into()),
+            quantised: encoders.map(|(quantised, _)| quantised),
+            noisy: encoders.map(|(_, noisy)| noisy),
+            noisy_rate: noisy_rate.map(Into::into),
             resolution: lanes(&|s, j| s.resolution[j]),
             noise_counts: lanes(&|s, j| s.profile.encoders[j].noise_counts),
             offset: lanes(&|s, j| s.profile.encoders[j].offset),
             rate_noise: lanes(&|s, j| s.profile.rate_noise.map_or(0.0, |noise| noise[j])),
             rng,
             line,
-            head: first.head,
+            head,
         })
     }
 

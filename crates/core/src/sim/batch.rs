@@ -7,8 +7,8 @@
 //! code), except in a batch of plain computed-torque runs that see the exact state or Kalman
 //! estimates (`lane_law`): there the controllers' laws, the filters and the metrics are
 //! computed in lanes too, by the same generic formulas as the scalar code's, and the sensors
-//! too where they draw alike (each lane's noise from its run's own generator). A lane that finishes or fails is
-//! masked — its state frozen, its result kept — while the others go on. Each lane's
+//! too where they draw alike (each lane's noise from its run's own generator). A lane that
+//! finishes or fails is masked — its state frozen, its result kept — while the others go on. Each lane's
 //! [`SimSummary`] equals what [`super::simulate_sensed`] computes for the same run, bit for
 //! bit, at every lane count and SIMD level: the kernels are the same IEEE operations in the
 //! same order (see [`crate::lanes`]).

@@ -311,8 +311,8 @@ impl<const L: usize> LaneLaw<L> {
     }
 
     /// Hands lane `i`'s integral and latest `v` back to its run's controller, and its filter's
-    /// and sensors' state to them ([`LaneLaw::hand_back_feedback`]), as the scalar run leaves them: at the end, or where it fails
-    /// after its latest sample.
+    /// and sensors' state to them ([`LaneLaw::hand_back_feedback`]), as the scalar run leaves
+    /// them: at the end, or where it fails after its latest sample.
     pub fn hand_back<C, R>(&self, i: usize, run: &mut Run<'_, 4, C, R>)
     where
         C: Controller<4> + ?Sized,
