@@ -572,9 +572,10 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                     let Some(lane) = loops[i].as_mut() else { continue };
                     let time = lane.time();
                     let outcome = if not_positive_definite & (1 << i) == 0 {
+                        let plant_terms = terms_of(&start, i);
                         let view = PlantView {
                             tip: Vector3::new(tip[0].get(i), tip[1].get(i), tip[2].get(i)),
-                            terms: terms_of(&start, i),
+                            terms: &plant_terms,
                         };
                         let reference = lane.reference();
                         let now = match shared {

@@ -97,16 +97,16 @@ pub(crate) fn limit_torque(raw: f64, limit: f64) -> f64 {
     torque
 }
 
-/// Clips the controller's `raw` torque (N·m) to `±limits` into `command`, counting the joints
-/// it clips in `saturated_per_joint`; whether it clipped any, or why the command is refused
-/// (a non-finite entry), at time `t` (s).
+/// The controller's `raw` torque (N·m) clipped to `±limits`, counting the joints it clips in
+/// `saturated_per_joint`, and whether it clipped any; or why the command is refused (a
+/// non-finite entry), at time `t` (s).
 pub(crate) fn clip_command<const N: usize>(
     raw: &[f64; N],
     limits: &JointVector<N>,
-    command: &mut JointVector<N>,
     saturated_per_joint: &mut [usize; N],
     t: f64,
-) -> Result<bool, SimError> {
+) -> Result<(JointVector<N>, bool), SimError> {
+    let mut command = JointVector::<N>::zeros();
     let mut clipped = false;
     for j in 0..N {
         if !raw[j].is_finite() {
@@ -118,7 +118,7 @@ pub(crate) fn clip_command<const N: usize>(
             clipped = true;
         }
     }
-    Ok(clipped)
+    Ok((command, clipped))
 }
 
 /// Settings of a closed-loop run.
@@ -362,7 +362,8 @@ where
             plant.set_payload(event.payload).map_err(|source| SimError::Payload { time: run.time(), source })?;
             run.apply_event(&event, plant.model())?;
         }
-        let at_state = plant.evaluate(&run.state).map_err(|source| SimError::Dynamics { time: run.time(), source })?;
+        plant.evaluate(&run.state).map_err(|source| SimError::Dynamics { time: run.time(), source })?;
+        let at_state = plant.evaluated();
         let view = PlantView { tip: at_state.tip(), terms: at_state.terms() };
         let torque = run.control(&view, plant.model(), observer)?;
         if run.finished() {
@@ -377,9 +378,11 @@ where
 /// What the closed loop needs of the plant at the current state: the tool tip (m) and the
 /// plant's `M` and `C q̇ + g` (handed to a controller with the plant's model).
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct PlantView<const N: usize> {
+pub(crate) struct PlantView<'a, const N: usize> {
     pub tip: Vector3<f64>,
-    pub terms: crate::arm::dynamics::DynamicsTerms<N>,
+    /// Where the plant keeps them, not a copy: a copy loaded them right after the plant's
+    /// stores, and waited on them.
+    pub terms: &'a crate::arm::dynamics::DynamicsTerms<N>,
 }
 
 /// A reference at one step ([`Run::reference_now`]): the desired joint state, and the desired
@@ -575,7 +578,7 @@ where
     /// plant at [`Run::state`], `plant` its model.
     pub fn control<O: Observer<N> + ?Sized>(
         &mut self,
-        at_state: &PlantView<N>,
+        at_state: &PlantView<'_, N>,
         plant: &ArmModel<N>,
         observer: &mut O,
     ) -> Result<JointVector<N>, SimError> {
@@ -622,7 +625,7 @@ where
     /// after [`Run::seen_for_terms`], the controller's terms at the state it sees.
     pub fn control_at<O: Observer<N> + ?Sized>(
         &mut self,
-        at_state: &PlantView<N>,
+        at_state: &PlantView<'_, N>,
         plant: &ArmModel<N>,
         observer: &mut O,
         now: &ReferenceNow<N>,
@@ -632,10 +635,13 @@ where
         let period = self.config.control_period;
         let desired = now.desired;
         let tip = at_state.tip;
-        if step.is_multiple_of(self.steps_per_sample) {
+        // The command held over the step: a new sample's from where it was clipped, not read
+        // back from `self.command` (its entries' stores, then a wider load that waited on them:
+        // on every step's critical path).
+        let command = if step.is_multiple_of(self.steps_per_sample) {
             let raw = if self.exact && self.controller_shares_terms {
                 self.estimate = state;
-                self.controller.torque_with_terms(&state, &desired, period, &at_state.terms)
+                self.controller.torque_with_terms(&state, &desired, period, at_state.terms)
             } else {
                 if !self.observed {
                     self.observe();
@@ -647,13 +653,15 @@ where
                     None => self.controller.torque(&seen, &desired, period),
                 }
             };
-            let clipped = self.sample(&raw.into())?;
+            let (command, clipped) = self.clip(&raw.into())?;
             if !self.exact {
                 self.applied_acceleration =
-                    acceleration_of(&*self.controller, &self.estimate, &self.command, clipped, controller_terms);
+                    acceleration_of(&*self.controller, &self.estimate, &command, clipped, controller_terms);
             }
-        }
-        let command = self.command;
+            command
+        } else {
+            self.command
+        };
         let torque = if self.has_lag {
             // The exact response of T τ̇ + τ = τ_c over the step, held as its mean (what
             // the step integrates): τ̄ = τ_c + (τ_k − τ_c)(T/dt)(1 − e^{−dt/T}),
@@ -684,12 +692,17 @@ where
     /// A controller sample's `raw` torque (N·m): clipped to the torque limits into the command
     /// held until the next sample, and counted. Whether it clipped, or why it is refused.
     pub fn sample(&mut self, raw: &[f64; N]) -> Result<bool, SimError> {
+        self.clip(raw).map(|(_, clipped)| clipped)
+    }
+
+    /// [`Run::sample`], with the command it now holds.
+    fn clip(&mut self, raw: &[f64; N]) -> Result<(JointVector<N>, bool), SimError> {
         self.samples_taken += 1;
         let t = self.time();
-        let clipped =
-            clip_command(raw, &self.config.torque_limits, &mut self.command, &mut self.saturated_per_joint, t)?;
+        let (command, clipped) = clip_command(raw, &self.config.torque_limits, &mut self.saturated_per_joint, t)?;
+        self.command = command;
         self.saturated_samples += usize::from(clipped);
-        Ok(clipped)
+        Ok((command, clipped))
     }
 
     /// [`Run::sample`] of a finite raw command that a batch clipped in lanes, as

@@ -47,8 +47,7 @@ impl<const N: usize> Plant<N> {
             model,
             start: StateDynamics {
                 tip: Vector3::zeros(),
-                mass_matrix: MassMatrix::identity(),
-                bias: JointVector::zeros(),
+                terms: DynamicsTerms { mass_matrix: MassMatrix::identity(), bias: JointVector::zeros() },
             },
             evaluated_at: None,
             general_start: configuration.clone(),
@@ -114,21 +113,30 @@ impl<const N: usize> Plant<N> {
                 }
                 self.start = StateDynamics {
                     tip: Vector3::from(start.configuration.tip_in_base()),
-                    mass_matrix: from_rows(&start.configuration.mass_matrix),
-                    bias: from_array(start.bias),
+                    terms: DynamicsTerms {
+                        mass_matrix: from_rows(&start.configuration.mass_matrix),
+                        bias: from_array(start.bias),
+                    },
                 };
             } else {
                 let general = &mut self.general_start;
                 general.set_configuration(&self.model, &state.q, JointTrig::new(&self.model, &state.q))?;
                 self.start = StateDynamics {
                     tip: general.tip(),
-                    mass_matrix: *general.mass_matrix(),
-                    bias: general.bias(&self.model, &state.qd),
+                    terms: DynamicsTerms {
+                        mass_matrix: *general.mass_matrix(),
+                        bias: general.bias(&self.model, &state.qd),
+                    },
                 };
             }
             self.evaluated_at = Some(*state);
         }
         Ok(&self.start)
+    }
+
+    /// The dynamics [`Plant::evaluate`] computed last (stale after a payload change).
+    pub fn evaluated(&self) -> &StateDynamics<N> {
+        &self.start
     }
 
     /// One classical RK4 step of `dt` seconds with `torque` held constant (zero-order hold).
@@ -171,7 +179,7 @@ impl<const N: usize> Plant<N> {
         let model = &*model;
         let (q, qd) = (&state.q, &state.qd);
         let start_trig = *general_start.trig();
-        let q1dd = general_start.acceleration_with_bias(model, qd, torque, &start.bias);
+        let q1dd = general_start.acceleration_with_bias(model, qd, torque, &start.terms.bias);
         // The dynamics at configuration `at` (rad) inside the step, filled into `scratch`.
         let move_to = |scratch: &mut ConfigurationDynamics<N>, at: &JointVector<N>| {
             scratch.set_configuration(model, at, start_trig.shifted(&(at - q)))
@@ -226,9 +234,8 @@ impl<const N: usize> Plant<N> {
 #[derive(Debug, Clone)]
 pub struct StateDynamics<const N: usize> {
     tip: Vector3<f64>,
-    mass_matrix: MassMatrix<N>,
-    /// `C(q, q̇) q̇ + g(q)`.
-    bias: JointVector<N>,
+    /// `M(q)` and `C(q, q̇) q̇ + g(q)`.
+    terms: DynamicsTerms<N>,
 }
 
 impl<const N: usize> StateDynamics<N> {
@@ -239,17 +246,17 @@ impl<const N: usize> StateDynamics<N> {
 
     /// `M(q)` of the plant's model, kg·m².
     pub fn mass_matrix(&self) -> &MassMatrix<N> {
-        &self.mass_matrix
+        &self.terms.mass_matrix
     }
 
     /// `C(q, q̇) q̇ + g(q)` of the plant's model, N·m.
     pub fn bias(&self) -> &JointVector<N> {
-        &self.bias
+        &self.terms.bias
     }
 
     /// `M(q)` and `C(q, q̇) q̇ + g(q)`, as a controller with the plant's model computes them.
-    pub fn terms(&self) -> DynamicsTerms<N> {
-        DynamicsTerms { mass_matrix: self.mass_matrix, bias: self.bias }
+    pub fn terms(&self) -> &DynamicsTerms<N> {
+        &self.terms
     }
 }
 
