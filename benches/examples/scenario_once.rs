@@ -1,5 +1,6 @@
 //! One run of the queens-gambit scenario (13 s at 1 kHz, PD, default integrator), for
-//! instruction counts: `valgrind --tool=callgrind target/release/examples/scenario_once [N] [LEVEL]`.
+//! instruction counts: `valgrind --tool=callgrind target/release/examples/scenario_once [N] [LEVEL]
+//! [INTEGRATOR]` (the integrator as the CLI names it; rkn4 by default).
 
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::scenario::queens_gambit;
@@ -9,12 +10,16 @@ use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 use chessarm_core::plan::trajectory::JointTrajectory;
 use chessarm_core::sim::batch::SimdLevel;
-use chessarm_core::sim::{NoObserver, Plant, SimConfig, simulate};
+use chessarm_core::sim::{Integrator, NoObserver, Plant, SimConfig, simulate};
 
 fn main() {
     let runs: usize = std::env::args().nth(1).and_then(|n| n.parse().ok()).unwrap_or(1);
     let level =
         std::env::args().nth(2).and_then(|name| SimdLevel::from_name(&name)).unwrap_or_else(SimdLevel::for_one_run);
+    let integrator = std::env::args()
+        .nth(3)
+        .and_then(|name| Integrator::ALL.into_iter().find(|i| i.name() == name))
+        .unwrap_or_default();
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid scenario");
@@ -25,7 +30,8 @@ fn main() {
     for _ in 0..runs {
         let mut plant = Plant::new(model).with_simd_level(level);
         let mut controller = ComputedTorque::new("pd", model, gains);
-        let config = SimConfig::new(&plant);
+        let mut config = SimConfig::new(&plant);
+        config.integrator = integrator;
         let started = std::time::Instant::now();
         let summary = simulate(&mut plant, &mut controller, &trajectory, None, &[], &[], &config, &mut NoObserver)
             .expect("stable");

@@ -167,7 +167,9 @@ impl JointTrajectory {
 
     /// The sample at or just before `t` (zero-order hold), clamped to the ends.
     pub fn held_at(&self, t: f64) -> &JointSample {
-        let index = ((t / self.dt + 1e-9).floor().max(0.0) as usize).min(self.samples.len() - 1);
+        // The index ⌊t/dt + 10⁻⁹⌋ by the cast's truncation, which is the floor once negatives
+        // (and NaN) are 0 (`floor` is a library call on x86-64's baseline).
+        let index = ((t / self.dt + 1e-9).max(0.0) as usize).min(self.samples.len() - 1);
         &self.samples[index]
     }
 

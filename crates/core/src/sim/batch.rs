@@ -345,7 +345,7 @@ where
     // the copy's wide loads right after its entry-by-entry stores waited for them (a quarter
     // of this function's own samples).
     let time = first.time();
-    let (desired, desired_tip) = (first.reference().reference(time), first.reference().desired_tip(time));
+    let (desired, desired_tip) = first.reference().reference_and_tip(time);
     // The torques, and their clipping as each run's `sample` clips them: the lanes whose
     // command is not finite (`refused`) are sampled by their run, which refuses them.
     let (raw, command, clipped, refused) = level.run(

@@ -212,6 +212,11 @@ pub trait ReferenceSource<const N: usize> {
     fn desired_tip(&self, _t: f64) -> Option<Vector3<f64>> {
         None
     }
+    /// [`ReferenceSource::reference`] and [`ReferenceSource::desired_tip`] at `t`, for a source
+    /// that finds both in one look-up.
+    fn reference_and_tip(&self, t: f64) -> (Reference<N>, Option<Vector3<f64>>) {
+        (self.reference(t), self.desired_tip(t))
+    }
     /// s.
     fn duration(&self) -> f64;
 }
@@ -224,6 +229,11 @@ impl ReferenceSource<4> for JointTrajectory {
 
     fn desired_tip(&self, t: f64) -> Option<Vector3<f64>> {
         Some(self.held_at(t).position)
+    }
+
+    fn reference_and_tip(&self, t: f64) -> (Reference<4>, Option<Vector3<f64>>) {
+        let sample = self.held_at(t);
+        (Reference { q: sample.q, qd: sample.qd, qdd: sample.qdd }, Some(sample.position))
     }
 
     fn duration(&self) -> f64 {
@@ -570,7 +580,8 @@ where
     /// knows it, the desired tip.
     pub fn reference_now(&self) -> ReferenceNow<N> {
         let t = self.time();
-        ReferenceNow { desired: self.reference.reference(t), tip: self.reference.desired_tip(t) }
+        let (desired, tip) = self.reference.reference_and_tip(t);
+        ReferenceNow { desired, tip }
     }
 
     /// The controller's sample (when one is due), the torque over the coming step (after the
