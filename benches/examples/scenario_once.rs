@@ -1,6 +1,7 @@
-//! One run of the queens-gambit scenario (13 s at 1 kHz, PD, default integrator), for
-//! instruction counts: `valgrind --tool=callgrind target/release/examples/scenario_once [N] [LEVEL]
-//! [INTEGRATOR]` (the integrator as the CLI names it; rkn4 by default).
+//! Runs of the queens-gambit scenario (13 s at 1 kHz, PD), for instruction counts:
+//! `valgrind --tool=callgrind target/release/examples/scenario_once [N] [LEVEL] [INTEGRATOR]`
+//! (N runs, 1 by default; the level `avx512`, `avx2` or `sse2`, a single run's by default; the
+//! integrator as the CLI names it, `rkn4` by default). An argument it does not know stops it.
 
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::scenario::queens_gambit;
@@ -13,13 +14,18 @@ use chessarm_core::sim::batch::SimdLevel;
 use chessarm_core::sim::{Integrator, NoObserver, Plant, SimConfig, simulate};
 
 fn main() {
-    let runs: usize = std::env::args().nth(1).and_then(|n| n.parse().ok()).unwrap_or(1);
-    let level =
-        std::env::args().nth(2).and_then(|name| SimdLevel::from_name(&name)).unwrap_or_else(SimdLevel::for_one_run);
-    let integrator = std::env::args()
-        .nth(3)
-        .and_then(|name| Integrator::ALL.into_iter().find(|i| i.name() == name))
-        .unwrap_or_default();
+    let argument = |i: usize| std::env::args().nth(i);
+    let refuse = |what: &str, typed: &str| -> ! {
+        eprintln!("scenario_once: {what} {typed:?} is not one (see the file's first lines)");
+        std::process::exit(2)
+    };
+    let runs: usize = argument(1).map_or(1, |n| n.parse().unwrap_or_else(|_| refuse("the count of runs", &n)));
+    let level = argument(2).map_or_else(SimdLevel::for_one_run, |name| {
+        SimdLevel::from_name(&name).unwrap_or_else(|| refuse("the SIMD level", &name))
+    });
+    let integrator = argument(3).map_or_else(Integrator::default, |name| {
+        Integrator::ALL.into_iter().find(|i| i.name() == name).unwrap_or_else(|| refuse("the integrator", &name))
+    });
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid scenario");

@@ -311,6 +311,37 @@ fn every_integrator_batches_bit_for_bit() {
     }
 }
 
+/// A single run takes Nyström's stages written out (unrolled), a batch in its loop: at a
+/// large time step from fast joints, where a stage moves an angle by more than the series
+/// covers and its sines and cosines are computed afresh, they still agree bit for bit.
+#[test]
+fn nystrom_at_a_large_time_step_batches_bit_for_bit() {
+    let trajectory = trajectory();
+    let hold = Hold(trajectory.reference(0.0).q, 0.3);
+    let events = [[PayloadEvent { time: 0.2, payload: None, controller_knows: true }; 2]; 3];
+    let make = || {
+        (0..12)
+            .map(|i| {
+                let mut run = candidate(i, &trajectory, &hold, &events, &[0.25]);
+                // 3 rad/s for 25 ms: the first stage moves each pitch by ≥ 0.075 rad, past the
+                // series' 0.05.
+                (run.config.dt, run.config.control_period) = (0.05, 0.05);
+                run.initial =
+                    Some(JointState { q: trajectory.reference(0.0).q, qd: JointVector::repeat(3.0 - 0.2 * i as f64) });
+                run
+            })
+            .collect::<Vec<_>>()
+    };
+    let scalar: Vec<String> = make().iter_mut().map(|run| fingerprint(&run.simulate_alone())).collect();
+    assert!(scalar.iter().filter(|f| !f.starts_with("error")).count() >= 4, "{scalar:?}");
+    for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
+        for lanes in [LaneCount::Four, LaneCount::Eight] {
+            let batched: Vec<String> = simulate_lanes(&mut make(), lanes, level).iter().map(fingerprint).collect();
+            assert_eq!(scalar, batched, "{} lanes at {}", lanes.get(), level.name());
+        }
+    }
+}
+
 #[test]
 fn a_run_with_a_nan_time_step_gets_the_scalar_simulators_error() {
     let trajectory = trajectory();

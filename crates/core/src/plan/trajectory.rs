@@ -177,3 +177,36 @@ impl JointTrajectory {
         &self.samples[0]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::arm::preset::report_arm;
+    use crate::arm::task::TOOL_DOWN;
+
+    /// `held_at` finds its sample by the cast's truncation; the oracle is the floor it
+    /// replaced, at every sample time, between them, and at times no run passes (negative,
+    /// NaN, infinite, huge).
+    #[test]
+    fn held_at_takes_the_sample_the_floor_gives() {
+        let mut path = CartesianPath::new(Vector3::new(0.25, -0.1, 0.12));
+        path.move_to(Vector3::new(0.32, 0.12, 0.05), 0.6).unwrap();
+        let trajectory = JointTrajectory::from_path(&report_arm(), &path, 1e-3, TOOL_DOWN).unwrap();
+        let (dt, last) = (trajectory.dt(), trajectory.samples().len() - 1);
+        let floor = |t: f64| ((t / dt + 1e-9).floor().max(0.0) as usize).min(last);
+        let index = |t: f64| {
+            let sample: *const JointSample = trajectory.held_at(t);
+            trajectory.samples().iter().position(|s| std::ptr::eq(s, sample)).unwrap()
+        };
+        let mut times: Vec<f64> = (0..=2 * last + 4).map(|k| k as f64 * dt / 2.0).collect();
+        times.extend((0..=last).map(|k| k as f64 * dt));
+        times.extend([-1.0, -0.0, -1e-12, f64::NAN, f64::NEG_INFINITY, f64::INFINITY, 1e300, -1e300, 1e19 * dt]);
+        for t in times {
+            assert_eq!(index(t), floor(t), "t = {t}");
+        }
+        // Each sample's own time holds it (the 10⁻⁹ covers t = k·dt rounding below k).
+        for k in 0..=last {
+            assert_eq!(index(k as f64 * dt), k);
+        }
+    }
+}

@@ -341,9 +341,9 @@ where
     // Every lane is at the same step of the same reference, with the same control period and
     // tracking start ([`LaneLaw::of`]).
     let (period, tracked, finished) = (first.config.control_period, first.tracked(), first.finished());
-    // The reference sample where the reference writes it, not copied into a `ReferenceNow`:
-    // the copy's wide loads right after its entry-by-entry stores waited for them (a quarter
-    // of this function's own samples).
+    // The reference sample and tip as the reference returns them, not copied on into a
+    // `ReferenceNow`: the copy's wide loads right after its entry-by-entry stores waited for
+    // them (a quarter of this function's own samples).
     let time = first.time();
     let (desired, desired_tip) = first.reference().reference_and_tip(time);
     // The torques, and their clipping as each run's `sample` clips them: the lanes whose
@@ -514,7 +514,9 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
         };
         // The controllers that compute their own terms this step: their feedback runs now and
         // their terms are computed in lanes, as each would compute them alone.
-        let mut seen = states;
+        // The lanes' views, gathered only where a lane's controller computes its own terms
+        // without the lane law (its view is then what it sees, the plant's state or not).
+        let mut views: Option<[JointState<4>; L]> = None;
         let mut wants_terms = 0u64;
         for i in 0..count {
             let Some(lane) = loops[i].as_mut() else { continue };
@@ -532,19 +534,24 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                 && let Some(arm) = model.yaw_pitch()
             {
                 debug_assert!(*arm == controller_arms[i], "a controller's model changed outside `set_payload`");
-                seen[i] = state;
+                views.get_or_insert(states)[i] = state;
                 wants_terms |= 1 << i;
             }
         }
         // What the controllers see: the filters' estimates, the exact state (with the lane law),
-        // or each lane's view gathered, which only the controllers' terms read.
-        let seen = match estimate {
-            Some(estimate) => estimate,
-            None if law.is_some() || wants_terms == 0 => state,
-            None => lane_state(&seen),
+        // or each lane's view gathered, which only the controllers' terms read. Borrowed, not
+        // moved: a move copied 512 bytes a step.
+        let gathered;
+        let seen = match (&estimate, &views) {
+            (Some(estimate), _) => estimate,
+            (None, Some(views)) if law.is_none() && wants_terms != 0 => {
+                gathered = lane_state(views);
+                &gathered
+            }
+            (None, _) => &state,
         };
         if wants_terms != 0 {
-            set_start(level, &controller_fast, &mut controller_start, &seen, false);
+            set_start(level, &controller_fast, &mut controller_start, seen, false);
         }
         let mut active = 0;
         match law.as_mut() {
@@ -556,7 +563,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                     &mut loops,
                     &mut results,
                     &models,
-                    (&state, &seen),
+                    (&state, seen),
                     terms,
                     (wants_terms, not_positive_definite),
                     &limits,

@@ -134,7 +134,9 @@ impl<const N: usize> Plant<N> {
         Ok(&self.start)
     }
 
-    /// The dynamics [`Plant::evaluate`] computed last (stale after a payload change).
+    /// The dynamics the latest successful [`Plant::evaluate`] computed: to read after calling
+    /// it (before any, placeholders: `M = I`, zero bias and tip; after a failed one or a
+    /// payload change, the previous state's).
     pub fn evaluated(&self) -> &StateDynamics<N> {
         &self.start
     }
