@@ -16,22 +16,24 @@ use chessarm_core::sim::{Integrator, NoObserver, Plant, SimConfig, simulate};
 fn main() {
     let argument = |i: usize| std::env::args().nth(i);
     let refuse = |what: &str, typed: &str| -> ! {
-        eprintln!("scenario_once: {what} {typed:?} is not one (see the file's first lines)");
+        eprintln!("scenario_once: {typed:?} is not {what} (see the file's first lines)");
         std::process::exit(2)
     };
-    let runs: usize = argument(1).map_or(1, |n| n.parse().unwrap_or_else(|_| refuse("the count of runs", &n)));
+    let runs: usize = argument(1).map_or(1, |n| {
+        n.parse().ok().filter(|&runs: &usize| runs > 0).unwrap_or_else(|| refuse("a count of runs (1 or more)", &n))
+    });
     let level = argument(2).map_or_else(SimdLevel::for_one_run, |name| {
-        SimdLevel::from_name(&name).unwrap_or_else(|| refuse("the SIMD level", &name))
+        SimdLevel::from_name(&name).unwrap_or_else(|| refuse("a SIMD level", &name))
     });
     let integrator = argument(3).map_or_else(Integrator::default, |name| {
-        Integrator::ALL.into_iter().find(|i| i.name() == name).unwrap_or_else(|| refuse("the integrator", &name))
+        Integrator::ALL.into_iter().find(|i| i.name() == name).unwrap_or_else(|| refuse("an integrator", &name))
     });
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid scenario");
     let trajectory = JointTrajectory::from_path(&model, &path, 1e-3, TOOL_DOWN).expect("feasible");
     let gains = Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid gains");
-    let mut fastest = f64::INFINITY;
+    let mut times = Vec::with_capacity(runs);
     let mut last_error = 0.0;
     for _ in 0..runs {
         let mut plant = Plant::new(model).with_simd_level(level);
@@ -41,8 +43,14 @@ fn main() {
         let started = std::time::Instant::now();
         let summary = simulate(&mut plant, &mut controller, &trajectory, None, &[], &[], &config, &mut NoObserver)
             .expect("stable");
-        fastest = fastest.min(started.elapsed().as_secs_f64());
+        times.push(started.elapsed().as_secs_f64());
         last_error = summary.max_tip_error;
     }
-    println!("{runs} runs, fastest {:.3} ms, max tip error {last_error:.3e} m", fastest * 1e3);
+    times.sort_by(f64::total_cmp);
+    let (fastest, median) = (times[0], times[times.len() / 2]);
+    println!(
+        "{runs} runs, fastest {:.3} ms, median {:.3} ms, max tip error {last_error:.3e} m",
+        fastest * 1e3,
+        median * 1e3
+    );
 }

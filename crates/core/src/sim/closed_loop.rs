@@ -231,6 +231,9 @@ impl ReferenceSource<4> for JointTrajectory {
         Some(self.held_at(t).position)
     }
 
+    // Inlined: returned through memory, the tip's entries were stored one by one and loaded
+    // back wider by the caller, which waited on them.
+    #[inline(always)]
     fn reference_and_tip(&self, t: f64) -> (Reference<4>, Option<Vector3<f64>>) {
         let sample = self.held_at(t);
         (Reference { q: sample.q, qd: sample.qd, qdd: sample.qdd }, Some(sample.position))

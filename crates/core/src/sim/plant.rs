@@ -87,7 +87,8 @@ impl<const N: usize> Plant<N> {
         if self.evaluated_at != Some(*state) {
             self.evaluated_at = None;
             if let Some(fast) = self.model.yaw_pitch() {
-                let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
+                // Converted inside the level's function (as in `step`).
+                let here = || State { q: to_array(&state.q), qd: to_array(&state.qd) };
                 let simd = self.simd;
                 // Whether `M` is positive definite, tested inside the level's function: read
                 // back outside it, the minors (stored one by one) stalled the wider loads.
@@ -97,13 +98,13 @@ impl<const N: usize> Plant<N> {
                         // instructions.
                         let positive_definite = simd.run(
                             #[inline(always)]
-                            || start.set(fast, &here) == 0,
+                            || start.set(fast, &here()) == 0,
                         );
                         (start, positive_definite)
                     }
                     // The first evaluation fills the scratch (the same bits at any level).
                     None => {
-                        let start = self.structured_start.insert(Start::new(fast, &here));
+                        let start = self.structured_start.insert(Start::new(fast, &here()));
                         let positive_definite = start.configuration.inverse.positive_definite(0);
                         (start, positive_definite)
                     }
@@ -166,11 +167,14 @@ impl<const N: usize> Plant<N> {
         self.evaluate(state)?;
         if let (Some(fast), Some(start)) = (self.model.yaw_pitch(), self.structured_start.as_mut()) {
             let mut failures = Failures::<1> { lanes: 0, at: [[0.0; 4]] };
-            let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
-            let torque = to_array(torque);
+            // The state and torque converted inside the level's function: converted before it,
+            // they were stored and loaded back wider right away, and waited on the stores.
             let next = self.simd.run(
                 #[inline(always)]
-                || structured::step(fast, start, &here, &torque, dt, integrator, &mut failures),
+                || {
+                    let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
+                    structured::step(fast, start, &here, &to_array(torque), dt, integrator, &mut failures)
+                },
             );
             if failures.lanes != 0 {
                 return Err(DynamicsError::NotPositiveDefinite(failures.at[0].to_vec()));
