@@ -1,7 +1,9 @@
 //! Runs of the queens-gambit scenario (13 s at 1 kHz, PD), for instruction counts:
 //! `valgrind --tool=callgrind target/release/examples/scenario_once [N] [LEVEL] [INTEGRATOR]`
 //! (N runs, 1 by default; the level `avx512`, `avx2` or `sse2`, a single run's by default; the
-//! integrator as the CLI names it, `rkn4` by default). An argument it does not know stops it.
+//! integrator as the CLI names it, `rkn4` by default). Prints the fastest run's time and the
+//! median (the upper middle one for an even N). An argument it does not know, or a level this
+//! CPU lacks, stops it.
 
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::scenario::queens_gambit;
@@ -14,16 +16,18 @@ use chessarm_core::sim::batch::SimdLevel;
 use chessarm_core::sim::{Integrator, NoObserver, Plant, SimConfig, simulate};
 
 fn main() {
-    let argument = |i: usize| std::env::args().nth(i);
+    let argument = |i: usize| std::env::args_os().nth(i).map(|typed| typed.to_string_lossy().into_owned());
     let refuse = |what: &str, typed: &str| -> ! {
-        eprintln!("scenario_once: {typed:?} is not {what} (see the file's first lines)");
+        eprintln!("scenario_once: {typed:?} is not {what}; see the file's first lines");
         std::process::exit(2)
     };
     let runs: usize = argument(1).map_or(1, |n| {
         n.parse().ok().filter(|&runs: &usize| runs > 0).unwrap_or_else(|| refuse("a count of runs (1 or more)", &n))
     });
     let level = argument(2).map_or_else(SimdLevel::for_one_run, |name| {
-        SimdLevel::from_name(&name).unwrap_or_else(|| refuse("a SIMD level", &name))
+        SimdLevel::from_name(&name)
+            .filter(|level| level.available())
+            .unwrap_or_else(|| refuse("a SIMD level this CPU has", &name))
     });
     let integrator = argument(3).map_or_else(Integrator::default, |name| {
         Integrator::ALL.into_iter().find(|i| i.name() == name).unwrap_or_else(|| refuse("an integrator", &name))
@@ -33,7 +37,7 @@ fn main() {
     let path = queens_gambit(&board).path(&board).expect("valid scenario");
     let trajectory = JointTrajectory::from_path(&model, &path, 1e-3, TOOL_DOWN).expect("feasible");
     let gains = Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid gains");
-    let mut times = Vec::with_capacity(runs);
+    let mut times = Vec::new();
     let mut last_error = 0.0;
     for _ in 0..runs {
         let mut plant = Plant::new(model).with_simd_level(level);
