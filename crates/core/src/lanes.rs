@@ -456,8 +456,8 @@ fn log_special(x: f64, log: f64) -> f64 {
 }
 
 /// `ln x`, within 1 ulp of the C library's (glibc's, correctly rounded but for rare cases) in
-/// tests over ~830 000 values of every exponent, subnormals included; `ln 0 = −∞` (either zero), `ln ∞ = ∞`, NaN for a
-/// negative `x` or NaN. Pure `+ − × ÷` and bit operations: the same bits on every machine, and
+/// tests over ~830 000 values of every exponent, subnormals included; `ln 0 = −∞` (either
+/// zero), `ln ∞ = ∞`, NaN for a negative `x` or NaN. Pure `+ − × ÷` and bit operations: the same bits on every machine, and
 /// in lanes as in the scalar.
 #[inline(always)]
 pub fn ln(x: f64) -> f64 {

@@ -544,7 +544,8 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
         let gathered;
         let seen = match (&estimate, &views) {
             (Some(estimate), _) => estimate,
-            (None, Some(views)) if law.is_none() && wants_terms != 0 => {
+            // Gathered only without the lane law, for a lane that wants terms.
+            (None, Some(views)) => {
                 gathered = lane_state(views);
                 &gathered
             }

@@ -140,9 +140,10 @@ pub fn step<S: Real, const L: usize>(
     let mut qdd = [first.acceleration_with_bias(model, qd, torque, bias); 4];
     let mut rates = [*qd; 4];
     // One run's Nyström stages unrolled instead, each compiled with its `k` known: the seed
-    // scenario 3.95 → 3.45 ms. In the loop, the profile put the time at the next stage's wide
-    // loads of `qdd[k]`, stored entry by entry just before (a store-forwarding stall on the
-    // step's critical path).
+    // scenario 3.95 → 3.45 ms, fastest of 300 back to back. The loop's profile had its time at
+    // the next stage's wide loads of `qdd[k]`, stored entry by entry just before; the unrolled
+    // stages still share these arrays (arrays of their own were 1.5–4 % slower), so why the
+    // unrolling helps is measured, not pinned down.
     let unrolled = S::LANES == 1 && integrator == Integrator::RungeKuttaNystrom4;
     each_stage(
         stages,
