@@ -415,6 +415,8 @@ fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_
     let hold = Hold(trajectory.reference(0.0).q + JointVector::repeat(0.05), 0.4);
     let events = grips([(0.1, false), (0.35, true)]);
     let marks = [0.3, 0.9, 1.1, 0.2];
+    // Every third run marks other instants (one shared): a batch's lanes mark at different steps.
+    let other_marks = [0.25, 1.1, 0.55];
     // Groups of eight on one reference each (a batch shares its reference): on the trajectory,
     // on the hold, tracked from 0.1 s, with the controllers' model as the plant (the plant's
     // terms until a payload the controller is not told of), and three that a batch cannot take
@@ -424,7 +426,8 @@ fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_
             .map(|i| {
                 let reference: &(dyn ReferenceSource<4> + Sync) =
                     if (8..16).contains(&i) { &hold } else { &trajectory };
-                let mut run = lane_law_candidate(i, reference, &trajectory, &hold, &events, &marks);
+                let marks: &[f64] = if i % 3 == 2 { &other_marks } else { &marks };
+                let mut run = lane_law_candidate(i, reference, &trajectory, &hold, &events, marks);
                 match i {
                     16..=23 => run.config.tracking_from = 0.1,
                     24..=31 => run.plant = report_arm(),

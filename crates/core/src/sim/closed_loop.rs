@@ -735,11 +735,6 @@ where
         clipped
     }
 
-    /// The torque command held over the coming step, N·m.
-    pub fn command(&self) -> JointVector<N> {
-        self.command
-    }
-
     /// Whether a batch may run this run's feedback, controller sample, torque and metrics in
     /// lanes ([`super::batch`]): the controller samples at every step, the motors have no lag,
     /// and the controller sees the exact state or the estimate of a Kalman filter
@@ -841,11 +836,39 @@ where
         Ok(())
     }
 
-    /// [`Run::advance`] to a `state` after the step that a batch checked in lanes, as
-    /// [`check_state`] does ([`diverged_lanes`]).
-    pub(crate) fn advance_checked(&mut self, state: JointState<N>) {
+    /// Brings a run whose steps a batch took in lanes up to date ([`super::batch`]): at `step`
+    /// with `state`, after `samples` controller samples taken in lanes since it was last
+    /// brought up to date (checked and clipped there, as [`Run::take_clipped`] takes them), the
+    /// latest `command` (N·m, read only if `samples > 0`), `saturated` of them clipped,
+    /// `saturated_per_joint` per joint.
+    pub(crate) fn catch_up(
+        &mut self,
+        step: usize,
+        state: JointState<N>,
+        samples: usize,
+        command: JointVector<N>,
+        (saturated, saturated_per_joint): (usize, &[usize; N]),
+    ) {
+        self.step = step;
         self.state = state;
-        self.step += 1;
+        if samples > 0 {
+            self.samples_taken += samples;
+            self.command = command;
+            self.saturated_samples += saturated;
+            for (count, clipped) in self.saturated_per_joint.iter_mut().zip(saturated_per_joint) {
+                *count += clipped;
+            }
+        }
+    }
+
+    /// The time (s) of the next payload event, due or not, if any is left.
+    pub(crate) fn next_event_time(&self) -> Option<f64> {
+        self.events.get(self.next_event).map(|event| event.time)
+    }
+
+    /// The steps the marks fall on ([`Run::mark`]).
+    pub(crate) fn mark_steps(&self) -> &[usize] {
+        &self.mark_steps
     }
 
     /// The metrics of the finished run.

@@ -204,6 +204,22 @@ impl<const L: usize> LaneLaw<L> {
         }
     }
 
+    /// [`LaneLaw::sampled`] for every lane at once, with their clipped commands `command`
+    /// (N·m): the lanes of `clipped` (bit `i` for lane `i`) take what their clipped command
+    /// gives with their controllers' `terms`, the others the law's `v`.
+    pub fn sampled_lanes(&mut self, clipped: u64, command: &[Lanes<L>; 4], terms: impl Fn(usize) -> DynamicsTerms<4>) {
+        let Some(feedback) = self.feedback.as_mut() else { return };
+        feedback.applied = self.commanded;
+        for i in (0..L).filter(|i| clipped & (1 << i) != 0) {
+            let commanded = JointVector::from_fn(|j, _| self.commanded[j].0[i]);
+            let lane_command = JointVector::from_fn(|j, _| command[j].0[i]);
+            let applied = clipped_acceleration(commanded, &lane_command, &terms(i));
+            for j in 0..4 {
+                feedback.applied[j].0[i] = applied[j];
+            }
+        }
+    }
+
     /// Lane `i`'s sums of squared estimate errors ([`Run::summary_with`]), where the batch ran
     /// the estimators.
     pub fn estimate_errors(&self, i: usize) -> Option<(JointVector<4>, JointVector<4>)> {
