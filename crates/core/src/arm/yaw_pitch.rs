@@ -340,9 +340,12 @@ impl<S: Real> Angles<S> {
             angle[j] = angle[j - 1] + model.sign[j] * (q[j] + model.offset[j]);
         }
         (sin[0], cos[0]) = (S::splat(0.0), S::splat(1.0));
-        for j in 1..4 {
-            (sin[j], cos[j]) = angle[j].sin_cos();
-        }
+        // Written out, not a loop over the joints: LLVM vectorised such a loop across the three
+        // joints (masked 256-bit registers, with gathers and scatters between lanes) instead of
+        // across the lanes.
+        (sin[1], cos[1]) = angle[1].sin_cos();
+        (sin[2], cos[2]) = angle[2].sin_cos();
+        (sin[3], cos[3]) = angle[3].sin_cos();
     }
 
     /// The same for the joints moved by `delta` (rad): the pitches by angle addition with the
