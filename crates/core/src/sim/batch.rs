@@ -227,9 +227,9 @@ fn set_start<const L: usize>(
     )
 }
 
-/// One step of every lane ([`structured::step`]), compiled for `level`, with the lanes whose
-/// new state diverged, faster than their `runaway_speed` (rad/s) or not finite
-/// ([`diverged_lanes`]).
+/// One step of every lane ([`structured::step`]) into `next`, compiled for `level`. Returns
+/// the lanes whose new state diverged, faster than their `runaway_speed` (rad/s) or not finite
+/// ([`diverged_lanes`]). (Written into `next`, not returned: the return was a 512-byte copy.)
 #[allow(clippy::too_many_arguments)] // the step's own arguments and the level
 fn step_lanes<const L: usize>(
     level: SimdLevel,
@@ -239,13 +239,13 @@ fn step_lanes<const L: usize>(
     torque: &[Lanes<L>; 4],
     (dt, integrator, runaway_speed): (f64, Integrator, Lanes<L>),
     failures: &mut Failures<L>,
-) -> (State<Lanes<L>>, u64) {
+    next: &mut State<Lanes<L>>,
+) -> u64 {
     level.run(
         #[inline(always)]
         || {
-            let next = structured::step(model, start, state, torque, dt, integrator, failures);
-            let diverged = diverged_lanes(&next.q, &next.qd, runaway_speed);
-            (next, diverged)
+            *next = structured::step(model, start, state, torque, dt, integrator, failures);
+            diverged_lanes(&next.q, &next.qd, runaway_speed)
         },
     )
 }
@@ -424,10 +424,16 @@ impl<const L: usize> Ledger<L> {
     }
 
     /// The step taken: the lanes of `moved` go to `next` (their runs now behind), the others
-    /// keep their state.
-    fn stepped(&mut self, state: &mut State<Lanes<L>>, next: &State<Lanes<L>>, moved: u64) {
-        select(&mut state.q, &next.q, moved);
-        select(&mut state.qd, &next.qd, moved);
+    /// keep their state. Selected at `level` (at the baseline, the selection's narrow loads
+    /// waited on the kernel's wide stores).
+    fn stepped(&mut self, level: SimdLevel, state: &mut State<Lanes<L>>, next: &State<Lanes<L>>, moved: u64) {
+        level.run(
+            #[inline(always)]
+            || {
+                select(&mut state.q, &next.q, moved);
+                select(&mut state.qd, &next.qd, moved);
+            },
+        );
         self.step += 1;
         self.behind = true;
     }
@@ -528,6 +534,8 @@ where
             std::array::from_fn(|k| Lanes(std::array::from_fn(|i| tips[i][k])))
         }
     };
+    // Each live lane holds its command over the coming step; the others none.
+    let live = live_lanes(loops);
     let (tip, tip_error) = level.run(
         #[inline(always)]
         || {
@@ -535,13 +543,11 @@ where
             let error = array4(|j| Lanes::splat(desired.q[j]) - state.q[j]);
             let tip_error = super::closed_loop::tip_error(&tip, &tip_desired);
             law.tracking.record(&command, &error, tip_error, tracked);
+            *torque = [Lanes::splat(0.0); 4];
+            select(torque, &command, live);
             (tip, tip_error)
         },
     );
-    // Each live lane holds its command over the coming step; the others none.
-    let live = live_lanes(loops);
-    *torque = [Lanes::splat(0.0); 4];
-    select(torque, &command, live);
     if ledger.marks_now() || finished {
         ledger.settle(loops, state);
         for (i, slot) in loops.iter_mut().enumerate() {
@@ -621,6 +627,8 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
     let limits: [Lanes<L>; 4] = array4(|j| Lanes::from_fn(|i| config(i).map_or(1.0, |c| c.torque_limits[j])));
     let runaway_speed = Lanes::from_fn(|i| config(i).map_or(1.0, |c| c.runaway_speed));
     let mut start = Start::new(&fast, &state);
+    // The lanes' states after a step, scratch.
+    let mut next = state;
     // The controllers' models where they are of the family (the plant's arm elsewhere, unused),
     // for their terms at the states they see, all lanes at once; refreshed when a payload
     // event may have changed them (`Controller::dynamics_model` changes only then).
@@ -789,11 +797,11 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             break;
         }
         let mut failures = Failures::<L> { lanes: 0, at: [[0.0; 4]; L] };
-        let (next, diverged) =
-            step_lanes(level, &fast, &mut start, &state, &torque, (dt, integrator, runaway_speed), &mut failures);
+        let settings = (dt, integrator, runaway_speed);
+        let diverged = step_lanes(level, &fast, &mut start, &state, &torque, settings, &mut failures, &mut next);
         let live = live_lanes(&loops);
         if (failures.lanes | diverged) & live == 0 {
-            ledger.stepped(&mut state, &next, live);
+            ledger.stepped(level, &mut state, &next, live);
             continue;
         }
         // A lane failed or diverged: each run says why, from its own step and state.
@@ -817,7 +825,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                 loops[i] = None;
             }
         }
-        ledger.stepped(&mut state, &next, moved);
+        ledger.stepped(level, &mut state, &next, moved);
     }
     results.into_iter().map(|result| result.unwrap_or_else(|| unreachable!("every lane ends with a result"))).collect()
 }
