@@ -455,6 +455,38 @@ fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_
     assert!(ok.iter().any(|f| f.starts_with("400 ")), "no run on the hold");
 }
 
+#[test]
+fn payload_events_between_steps_are_due_where_each_run_says() {
+    // A batch looks at its lanes' events only when the earliest is due, by the run's own test
+    // (`time <= t + dt/2`): events exactly half-way between two steps, and just before, after
+    // the first step's time; in batches whose laws run in lanes and batches that do not.
+    let trajectory = trajectory();
+    let hold = Hold(trajectory.reference(0.0).q, 0.4);
+    let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
+    let dt = 1e-3;
+    let half_way = |step: usize| step as f64 * dt + 0.5 * dt;
+    let event = |time, payload| PayloadEvent { time, payload, controller_knows: true };
+    let events = [
+        [event(half_way(0), pawn), event(half_way(200), None)],
+        [event(0.1004, pawn), event(0.3004, None)],
+        [event(half_way(150), pawn), event(0.2504, None)],
+    ];
+    let marks = [0.5];
+    let make = || {
+        (0..16)
+            .map(|i| {
+                if i < 8 {
+                    lane_law_candidate(i, &trajectory, &trajectory, &hold, &events, &marks)
+                } else {
+                    candidate(i, &trajectory, &hold, &events, &marks)
+                }
+            })
+            .collect::<Vec<_>>()
+    };
+    let scalar = alone_equals_batched(&make, &|_, result| fingerprint(result));
+    assert!(scalar.iter().filter(|f| !f.starts_with("error")).count() >= 8, "{scalar:#?}");
+}
+
 /// Sensors of `profile` (noise seeded by `seed`) with a Kalman filter of `settings` at 1 kHz.
 fn sensed(profile: SensorProfile<4>, settings: KalmanSettings, seed: u64) -> Feedback<4> {
     let rate_std = profile.rate_noise;

@@ -333,19 +333,19 @@ fn lane_of<const L: usize>(state: &State<Lanes<L>>, i: usize) -> JointState<4> {
 
 /// What a batch keeps of its runs between the moments it looks at them lane by lane: the step
 /// every live lane is at and, from the samples its laws took in lanes ([`control_in_lanes`]),
-/// each lane's latest command and its counts of samples and clipped samples.
-/// [`Ledger::settle`] hands them, with the lanes' states, to the runs, before anything reads a
-/// run; between, no run is touched. (Written into every lane's run at every step, they and the
-/// states took ~1.3 k instructions of a batch-step's ~10.8 k at AVX2, `lanes_once 8 16`.)
+/// each lane's counts of samples and clipped samples. [`Ledger::settle`] hands them, with the
+/// lanes' states, to the runs, before anything reads a run; between, no run is touched.
+/// (Written into every lane's run at every step, they, the states and the commands took ~1.3 k
+/// instructions of a batch-step's ~10.8 k at AVX2, `lanes_once 8 16`.) A run whose law runs in
+/// lanes is not handed its latest command: it samples at every step without a motor lag, and
+/// only a held command or a lag reads it ([`Run::catch_up`]).
 struct Ledger<const L: usize> {
     /// The step every live lane is at.
     step: usize,
-    /// Whether a run's step, state, command or counts are behind the batch's.
+    /// Whether a run's step, state or counts are behind the batch's.
     behind: bool,
     /// Controller samples every live lane took in lanes since the runs were last settled.
     samples: usize,
-    /// Each lane's latest command, N·m.
-    command: [Lanes<L>; 4],
     /// Per lane, how many of those samples clipped the command, and how many clipped each joint.
     saturated: [usize; L],
     saturated_per_joint: [[usize; 4]; L],
@@ -367,7 +367,6 @@ impl<const L: usize> Ledger<L> {
             step: 0,
             behind: false,
             samples: 0,
-            command: [Lanes::splat(0.0); 4],
             saturated: [0; L],
             saturated_per_joint: [[0; 4]; L],
             marks,
@@ -392,7 +391,7 @@ impl<const L: usize> Ledger<L> {
         for (i, slot) in loops.iter_mut().enumerate() {
             let Some(lane) = slot.as_mut() else { continue };
             let counts = (self.saturated[i], &self.saturated_per_joint[i]);
-            lane.catch_up(self.step, lane_of(state, i), self.samples, lane_vector(&self.command, i), counts);
+            lane.catch_up(self.step, lane_of(state, i), self.samples, counts);
         }
         self.samples = 0;
         self.saturated = [0; L];
@@ -400,11 +399,10 @@ impl<const L: usize> Ledger<L> {
         self.behind = false;
     }
 
-    /// A controller sample that every live lane (`live`) took in lanes: the clipped `command`
-    /// (N·m), bit `i` of `clipped[j]` where lane `i` clipped joint `j`'s.
-    fn sampled(&mut self, command: &[Lanes<L>; 4], clipped: &[u64; 4], live: u64) {
+    /// A controller sample that every live lane (`live`) took in lanes: bit `i` of `clipped[j]`
+    /// where lane `i` clipped joint `j`'s command.
+    fn sampled(&mut self, clipped: &[u64; 4], live: u64) {
         self.samples += 1;
-        self.command = *command;
         self.behind = true;
         let any = clipped.iter().fold(0, |any, lanes| any | lanes) & live;
         for i in (0..L).filter(|i| any & (1 << i) != 0) {
@@ -445,7 +443,7 @@ impl<const L: usize> Ledger<L> {
 /// terms; the lanes of `not_positive_definite` fail (their plant's `M` is not positive
 /// definite). Every live lane's sample goes to `ledger` where all of them sample in lanes;
 /// otherwise the runs are settled and sampled lane by lane. Each lane's torque over the coming
-/// step goes to `torque` (0 for a lane that does not go on); a lane that fails (its plant's `M`
+/// step goes to `torque` (0 for a lane that failed); a lane that fails (its plant's `M`
 /// not positive definite, a non-finite command) or finishes leaves `loops` with its result.
 /// Returns how many lanes go on.
 #[allow(clippy::too_many_arguments)] // the lanes' loops, results, models, state and terms
@@ -491,7 +489,7 @@ where
     let live = live_lanes(loops);
     if (not_positive_definite | refused) & live == 0 {
         // Every live lane's sample in lanes, its run untouched.
-        ledger.sampled(&command, &clipped, live);
+        ledger.sampled(&clipped, live);
         let any = clipped.iter().fold(0, |any, lanes| any | lanes) & live;
         law.sampled_lanes(any, &command, |i| terms_of(own_terms, i));
     } else {
@@ -577,7 +575,8 @@ where
 }
 
 /// The earliest next payload event of any live run, s (`None`: no event left, or every one NaN
-/// and so never due).
+/// and so never due). The batch keeps it until the next events are applied: a lane that
+/// leaves meanwhile can only make it early, and an early check finds nothing due.
 fn next_event_time<C, R>(loops: &[Option<Run<'_, 4, C, R>>]) -> Option<f64>
 where
     C: Controller<4> + ?Sized,
@@ -592,7 +591,8 @@ where
 /// the batch, the controllers' laws, their Kalman filters and sensors ([`estimate_in_lanes`])
 /// and the metrics in lanes too ([`control_in_lanes`]). The runs are brought up to date
 /// ([`Ledger::settle`]) only where something reads them: a payload event, a sensor read lane
-/// by lane, a failure, a mark, the end; and at every step without the lane law.
+/// by lane or a filter handed back before its sample, a failure, a mark, the end; and at every
+/// step without the lane law.
 fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) -> Vec<Result<SimSummary<4>, SimError>> {
     let count = runs.len();
     let (dt, integrator) = (runs[0].config.dt, runs[0].config.integrator);
@@ -648,7 +648,8 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             ledger.settle(&mut loops, &state);
         }
         // Payload events, lane by lane: the plant's model first, then the controller. A run's
-        // event is due where [`Run::due_event`] says, and the earliest of them first.
+        // event is due where [`Run::due_event`] says; the lanes are looked at only when the
+        // earliest of their next events is due.
         if next_event.is_some_and(|time| time <= ledger.time(dt) + 0.5 * dt) {
             ledger.settle(&mut loops, &state);
             for i in 0..count {

@@ -838,26 +838,23 @@ where
 
     /// Brings a run whose steps a batch took in lanes up to date ([`super::batch`]): at `step`
     /// with `state`, after `samples` controller samples taken in lanes since it was last
-    /// brought up to date (checked and clipped there, as [`Run::take_clipped`] takes them), the
-    /// latest `command` (N·m, read only if `samples > 0`), `saturated` of them clipped,
-    /// `saturated_per_joint` per joint.
+    /// brought up to date (checked and clipped there, as [`Run::take_clipped`] takes them),
+    /// `saturated` of them clipped, `saturated_per_joint` per joint. The held command is left
+    /// as it was: the batch samples in lanes only runs that sample at every step without a
+    /// motor lag ([`Run::runs_in_lanes`]), whose command nothing reads.
     pub(crate) fn catch_up(
         &mut self,
         step: usize,
         state: JointState<N>,
         samples: usize,
-        command: JointVector<N>,
         (saturated, saturated_per_joint): (usize, &[usize; N]),
     ) {
         self.step = step;
         self.state = state;
-        if samples > 0 {
-            self.samples_taken += samples;
-            self.command = command;
-            self.saturated_samples += saturated;
-            for (count, clipped) in self.saturated_per_joint.iter_mut().zip(saturated_per_joint) {
-                *count += clipped;
-            }
+        self.samples_taken += samples;
+        self.saturated_samples += saturated;
+        for (count, clipped) in self.saturated_per_joint.iter_mut().zip(saturated_per_joint) {
+            *count += clipped;
         }
     }
 
