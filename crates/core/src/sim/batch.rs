@@ -313,9 +313,14 @@ where
         .unwrap_or_else(|| unreachable!("called where the batch runs the estimators"))
 }
 
+/// The lanes whose run goes on and `f` of it holds (bit `i` for lane `i`).
+fn runs_where<T>(loops: &[Option<T>], f: impl Fn(&T) -> bool) -> u64 {
+    loops.iter().enumerate().fold(0, |lanes, (i, slot)| lanes | (u64::from(slot.as_ref().is_some_and(&f)) << i))
+}
+
 /// The lanes that go on (bit `i` for lane `i`).
 fn live_lanes<T>(loops: &[Option<T>]) -> u64 {
-    loops.iter().enumerate().fold(0, |live, (i, slot)| live | (u64::from(slot.is_some()) << i))
+    runs_where(loops, |_| true)
 }
 
 /// The lanes of `which` at `new`, the others as in `now`.
@@ -400,8 +405,8 @@ impl<const L: usize> Ledger<L> {
     }
 
     /// A controller sample that every live lane (`live`) took in lanes: bit `i` of `clipped[j]`
-    /// where lane `i` clipped joint `j`'s command.
-    fn sampled(&mut self, clipped: &[u64; 4], live: u64) {
+    /// where lane `i` clipped joint `j`'s command. Returns the live lanes that clipped any.
+    fn sampled(&mut self, clipped: &[u64; 4], live: u64) -> u64 {
         self.samples += 1;
         self.behind = true;
         let any = clipped.iter().fold(0, |any, lanes| any | lanes) & live;
@@ -411,6 +416,7 @@ impl<const L: usize> Ledger<L> {
                 *count += ((joint >> i) & 1) as usize;
             }
         }
+        any
     }
 
     /// Whether a mark falls on the current step (for some run).
@@ -489,8 +495,7 @@ where
     let live = live_lanes(loops);
     if (not_positive_definite | refused) & live == 0 {
         // Every live lane's sample in lanes, its run untouched.
-        ledger.sampled(&clipped, live);
-        let any = clipped.iter().fold(0, |any, lanes| any | lanes) & live;
+        let any = ledger.sampled(&clipped, live);
         law.sampled_lanes(any, &command, |i| terms_of(own_terms, i));
     } else {
         ledger.settle(loops, state);
@@ -561,19 +566,6 @@ where
     if finished { 0 } else { live.count_ones() as usize }
 }
 
-/// The lanes whose controllers take terms of their own models rather than the plant's
-/// ([`Run::shares_terms`]; a lane's changes only at a payload event).
-fn own_models<C, R>(loops: &[Option<Run<'_, 4, C, R>>]) -> u64
-where
-    C: Controller<4> + ?Sized,
-    R: ReferenceSource<4> + ?Sized,
-{
-    loops.iter().enumerate().fold(0, |own, (i, slot)| match slot {
-        Some(lane) => own | (u64::from(!lane.shares_terms()) << i),
-        None => own,
-    })
-}
-
 /// The earliest next payload event of any live run, s (`None`: no event left, or every one NaN
 /// and so never due). The batch keeps it until the next events are applied: a lane that
 /// leaves meanwhile can only make it early, and an early check finds nothing due.
@@ -641,7 +633,10 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
     let mut law = LaneLaw::<L>::of(&mut loops);
     let mut ledger = Ledger::<L>::new(&loops);
     let mut next_event = next_event_time(&loops);
-    let mut own_models = own_models(&loops);
+    // The lanes whose controllers take terms of their own models rather than the plant's
+    // ([`Run::shares_terms`]; a lane's changes only at a payload event).
+    let own_models_of = |loops: &[Option<Run<'_, 4, _, _>>]| runs_where(loops, |lane| !lane.shares_terms());
+    let mut own_models = own_models_of(&loops);
     loop {
         if law.is_none() {
             // Each lane's controller, sensors and metrics read its run at every step.
@@ -677,7 +672,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
                 }
             }
             next_event = next_event_time(&loops);
-            own_models = self::own_models(&loops);
+            own_models = own_models_of(&loops);
         }
         let not_positive_definite = set_start(level, &fast, &mut start, &state, true);
         let live = live_lanes(&loops);

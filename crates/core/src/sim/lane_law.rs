@@ -211,12 +211,7 @@ impl<const L: usize> LaneLaw<L> {
         let Some(feedback) = self.feedback.as_mut() else { return };
         feedback.applied = self.commanded;
         for i in (0..L).filter(|i| clipped & (1 << i) != 0) {
-            let commanded = JointVector::from_fn(|j, _| self.commanded[j].0[i]);
-            let lane_command = JointVector::from_fn(|j, _| command[j].0[i]);
-            let applied = clipped_acceleration(commanded, &lane_command, &terms(i));
-            for j in 0..4 {
-                feedback.applied[j].0[i] = applied[j];
-            }
+            self.sampled(i, true, &JointVector::from_fn(|j, _| command[j].0[i]), || terms(i));
         }
     }
 
