@@ -18,11 +18,13 @@ use chessarm_core::control::JointState;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
 use chessarm_core::nalgebra::{Rotation2, Vector2, Vector3};
+use chessarm_core::plan::fine_point::{InPosition, Wait};
 use chessarm_core::plan::hardware::{ExportError, GripperCommand, HardwarePoint, hardware_points};
 use chessarm_core::plan::trajectory::{PlanError, ToolMotion};
 use chessarm_core::sense::{Conditions, Feedback, SenseError};
 use chessarm_core::sim::{
-    Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, simulate_sensed,
+    Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, Told, simulate_fine_points,
+    simulate_sensed,
 };
 use shakmaty::fen::Fen;
 use shakmaty::san::SanPlus;
@@ -43,6 +45,13 @@ pub struct PlaySettings {
     pub controller: ControllerSpec,
     /// Whether the controller's model is told about gripped pieces (their true masses).
     pub controller_knows_payload: bool,
+    /// Whether the controller's model takes the nominal mass and shape of the piece kind it
+    /// grips (`pieces`'), as a robot that knows which piece it carries does (default: yes).
+    /// Without it, and without [`PlaySettings::controller_knows_payload`], it is told nothing.
+    pub payload_feedforward: bool,
+    /// The fine point of every grip and release: the gripper waits until the arm is in
+    /// position ([`chessarm_core::plan::fine_point`]); `None`: it closes and opens by the clock.
+    pub in_position: Option<InPosition>,
     /// The true arm, when it differs from the controller's model (the game's arm).
     pub plant: Option<ArmModel<4>>,
     /// The pieces' true masses and shapes, when they differ from `pieces` (which the planner
@@ -87,6 +96,8 @@ impl PlaySettings {
                 knows_friction: false,
             },
             controller_knows_payload: false,
+            payload_feedforward: true,
+            in_position: Some(InPosition::for_tolerance(DEFAULT_TOLERANCE)),
             plant: None,
             true_pieces: None,
             conditions: Conditions::ideal(),
@@ -171,6 +182,44 @@ pub struct MoveReport {
     pub handled: Vec<Handling>,
     /// The planned motion for hardware (robot moves, when [`PlaySettings::export_rate`] is set).
     pub hardware: Option<HardwareExport>,
+    /// Per gripper command, in order: its wait at the fine point (robot moves with
+    /// [`PlaySettings::in_position`]).
+    pub waits: Vec<Wait>,
+}
+
+impl MoveReport {
+    /// The waits that took time: their count, total and longest (s), and how many timed out.
+    pub fn wait_totals(&self) -> WaitTotals {
+        WaitTotals::of(&self.waits)
+    }
+}
+
+/// What the fine points' waits of a move or a game added up to.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct WaitTotals {
+    /// Gripper commands that waited (longer than zero).
+    pub count: usize,
+    /// s.
+    pub total: f64,
+    /// s.
+    pub longest: f64,
+    /// Waits that gave up at the timeout.
+    pub timed_out: usize,
+}
+
+impl WaitTotals {
+    pub fn of<'a>(waits: impl IntoIterator<Item = &'a Wait>) -> Self {
+        let mut totals = Self::default();
+        for wait in waits {
+            if wait.duration > 0.0 {
+                totals.count += 1;
+                totals.total += wait.duration;
+                totals.longest = totals.longest.max(wait.duration);
+            }
+            totals.timed_out += usize::from(wait.timed_out);
+        }
+        totals
+    }
 }
 
 /// One piece moved by a move: carried by the arm from its grip to its release, or put on its
@@ -293,6 +342,11 @@ impl Game {
         self.state
     }
 
+    /// The fine points' condition of the game's grips and releases (`None`: by the clock).
+    pub fn in_position(&self) -> Option<&InPosition> {
+        self.settings.in_position.as_ref()
+    }
+
     /// Total robot time so far, s.
     pub fn robot_time(&self) -> f64 {
         self.robot_time
@@ -342,6 +396,7 @@ impl Game {
             longest_limit: None,
             slowdowns: 0,
             handled: Vec::new(),
+            waits: Vec::new(),
         };
         match mover {
             Mover::Opponent => {
@@ -424,9 +479,16 @@ impl Game {
         for step in planned {
             let piece = self.table.piece_at(step.task.from).map(|p| p.piece.role).unwrap_or(step.task.piece.role);
             let payload = settings.true_pieces.as_ref().unwrap_or(&settings.pieces).payload(piece);
-            let knows = settings.controller_knows_payload;
-            events.push(PayloadEvent { time: step.plan.grip_time, payload: Some(payload), controller_knows: knows });
-            events.push(PayloadEvent { time: step.plan.release_time, payload: None, controller_knows: knows });
+            let told = if settings.controller_knows_payload {
+                Told::Payload(Some(payload))
+            } else if settings.payload_feedforward {
+                Told::Payload(Some(settings.pieces.payload(piece)))
+            } else {
+                Told::Nothing
+            };
+            let released = if told == Told::Nothing { Told::Nothing } else { Told::Payload(None) };
+            events.push(PayloadEvent { time: step.plan.grip_time, payload: Some(payload), told });
+            events.push(PayloadEvent { time: step.plan.release_time, payload: None, told: released });
             marks.extend([step.plan.grip_time, step.plan.release_time]);
         }
         let mut plant = Plant::new(settings.plant.unwrap_or(self.arm));
@@ -442,18 +504,36 @@ impl Game {
             ..SimConfig::new(&plant)
         };
         let mut sampler = Sampler { every: settings.record_every, seen: 0, records: Vec::new() };
-        let summary = simulate_sensed(
-            &mut plant,
-            &mut self.feedback,
-            controller.as_mut(),
-            trajectory,
-            Some(self.state),
-            &events,
-            &marks,
-            &config,
-            &mut sampler,
-        )
+        let (summary, waits) = match &settings.in_position {
+            Some(gate) => simulate_fine_points(
+                &mut plant,
+                &mut self.feedback,
+                controller.as_mut(),
+                trajectory,
+                Some(self.state),
+                &events,
+                &marks,
+                gate,
+                &config,
+                &mut sampler,
+            ),
+            None => simulate_sensed(
+                &mut plant,
+                &mut self.feedback,
+                controller.as_mut(),
+                trajectory,
+                Some(self.state),
+                &events,
+                &marks,
+                &config,
+                &mut sampler,
+            )
+            .map(|summary| (summary, Vec::new())),
+        }
         .map_err(|source| PlayError::Simulation { mv: name.to_string(), source })?;
+        // When each gripper command went ahead, s from the move's start: the plan's instant
+        // plus the waits before it.
+        let event_time = |k: usize, planned: f64| waits.get(k).map_or(planned, |w: &Wait| w.reached + w.duration);
         for (index, step) in planned.iter().enumerate() {
             let standing = self
                 .table
@@ -468,8 +548,8 @@ impl Game {
                     piece,
                     from: step.task.from,
                     to: step.task.to,
-                    grip_time: self.robot_time + step.plan.grip_time,
-                    release_time: self.robot_time + step.plan.release_time,
+                    grip_time: self.robot_time + event_time(2 * index, step.plan.grip_time),
+                    release_time: self.robot_time + event_time(2 * index + 1, step.plan.release_time),
                     standing,
                     placed,
                     grip_tip: Some(summary.tip_at_marks[2 * index]),
@@ -483,6 +563,7 @@ impl Game {
         report.max_tip_error = Some(summary.max_tip_error);
         report.records = sampler.records;
         report.summary = Some(summary.clone());
+        report.waits = waits;
         self.robot_time += summary.duration;
         self.tool = motion.end();
         self.state = summary.final_state;

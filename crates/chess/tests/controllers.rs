@@ -54,11 +54,7 @@ impl Scenario {
         self.path
             .events()
             .iter()
-            .map(|e| PayloadEvent {
-                time: e.time,
-                payload: (e.action == GripperAction::Grip).then_some(payload),
-                controller_knows: false,
-            })
+            .map(|e| PayloadEvent::new(e.time, (e.action == GripperAction::Grip).then_some(payload), false))
             .collect()
     }
 

@@ -123,6 +123,9 @@ pub struct RobustnessArgs {
     /// Motion limits of a game's moves (a scenario keeps its own LSPB path).
     #[command(flatten)]
     pub motion: MotionArgs,
+    /// How a game's pieces are put down.
+    #[command(flatten)]
+    pub placement: PlacementArgs,
     /// The scenario's pawn mass as the controller believes it, kg (default: the setup's pawn);
     /// its true mass follows the [uncertainty] piece_mass draws.
     #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
@@ -252,6 +255,58 @@ impl MotionArgs {
     }
 }
 
+/// How the robot puts pieces down and knows what it carries (games only).
+#[derive(Debug, Args, Clone)]
+pub struct PlacementArgs {
+    /// Close and open the gripper at the plan's instants, whether or not the arm is in
+    /// position (the default waits at each grip and release until it is: a fine point).
+    #[arg(long)]
+    pub release_by_clock: bool,
+    /// In position: the estimated tip within this distance of the planned point, mm (default:
+    /// a tenth of --tolerance-mm).
+    #[arg(long, value_name = "MM", value_parser = args::positive, allow_hyphen_values = true)]
+    pub in_position_band_mm: Option<f64>,
+    /// In position: the estimated tip no faster than this, mm/s (default: the band per 0.1 s).
+    #[arg(long, value_name = "MM_PER_S", value_parser = args::positive, allow_hyphen_values = true)]
+    pub in_position_speed_mm_s: Option<f64>,
+    /// Longest wait for the arm to be in position, s; the gripper then goes ahead and the
+    /// wait is reported as timed out (default 1).
+    #[arg(long, value_name = "S", value_parser = args::positive, allow_hyphen_values = true)]
+    pub in_position_timeout: Option<f64>,
+    /// Do not tell the controller the nominal mass of the piece kind it grips (the default
+    /// feeds it forward; --controller-knows-payload tells it the true mass instead).
+    #[arg(long)]
+    pub no_payload_feedforward: bool,
+}
+
+impl PlacementArgs {
+    /// The fine points' condition for a placement tolerance of `tolerance` m (SI: the flags'
+    /// mm and mm/s converted here), or `None` with --release-by-clock.
+    pub fn in_position(&self, tolerance: f64) -> Option<chessarm_core::plan::fine_point::InPosition> {
+        if self.release_by_clock {
+            return None;
+        }
+        let mut gate = chessarm_core::plan::fine_point::InPosition::for_tolerance(tolerance);
+        if let Some(band) = self.in_position_band_mm {
+            gate.tip_band = band / 1e3;
+            gate.speed_band = gate.tip_band / chessarm_core::plan::fine_point::BAND_CROSSING_TIME;
+        }
+        if let Some(speed) = self.in_position_speed_mm_s {
+            gate.speed_band = speed / 1e3;
+        }
+        if let Some(timeout) = self.in_position_timeout {
+            gate.timeout = timeout;
+        }
+        Some(gate)
+    }
+
+    /// Sets a game's fine points and payload feed-forward; `tolerance` in m.
+    pub fn apply(&self, settings: &mut chessarm_chess::play::PlaySettings, tolerance: f64) {
+        settings.in_position = self.in_position(tolerance);
+        settings.payload_feedforward = !self.no_payload_feedforward;
+    }
+}
+
 /// Which side the arm plays.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RobotSide {
@@ -312,6 +367,8 @@ pub struct PlayArgs {
     pub conditions: ConditionArgs,
     #[command(flatten)]
     pub motion: MotionArgs,
+    #[command(flatten)]
+    pub placement: PlacementArgs,
     /// Integrator of the plant.
     #[arg(long, value_enum, default_value_t)]
     pub integrator: IntegratorChoice,
@@ -408,6 +465,9 @@ pub struct TuneArgs {
     /// Motion limits of a game's moves (a scenario keeps its own LSPB path).
     #[command(flatten)]
     pub motion: MotionArgs,
+    /// How a game's pieces are put down.
+    #[command(flatten)]
+    pub placement: PlacementArgs,
     /// Initial joint angles (rad), at rest; default: on the trajectory's first point.
     #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
     pub q0: Option<[f64; 4]>,

@@ -176,7 +176,7 @@ fn adaptive_candidate<'a>(
 fn grips(third: [(f64, bool); 2]) -> [[PayloadEvent; 2]; 3] {
     let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
     let heavy = Some(Payload::upright_cylinder(0.4, 0.06, 0.015, 0.03));
-    let event = |time, payload, knows| PayloadEvent { time, payload, controller_knows: knows };
+    let event = |time, payload, knows| PayloadEvent::new(time, payload, knows);
     [
         [event(0.3, pawn, true), event(0.9, None, true)],
         [event(0.25, heavy, false), event(1.0, None, false)],
@@ -266,7 +266,7 @@ fn every_lane_equals_the_scalar_run_bit_for_bit_at_every_lane_count_and_level() 
 fn a_run_outside_the_family_or_with_other_settings_is_simulated_alone() {
     let trajectory = trajectory();
     let hold = Hold(trajectory.reference(0.0).q, 0.2);
-    let events = [[PayloadEvent { time: 10.0, payload: None, controller_knows: true }; 2]; 3];
+    let events = [[PayloadEvent::new(10.0, None, true); 2]; 3];
     let mut runs: Vec<LaneRun<'_>> = (0..5).map(|i| candidate(i, &trajectory, &hold, &events, &[])).collect();
     let mut links = *report_arm().links();
     links[1].dh.alpha = 0.2;
@@ -290,7 +290,7 @@ fn every_integrator_batches_bit_for_bit() {
     let trajectory = trajectory();
     let hold = Hold(trajectory.reference(0.0).q, 0.3);
     let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
-    let events = [[PayloadEvent { time: 0.2, payload: pawn, controller_knows: true }; 2]; 3];
+    let events = [[PayloadEvent::new(0.2, pawn, true); 2]; 3];
     for integrator in [Integrator::RungeKutta4, Integrator::Midpoint, Integrator::SemiImplicitEuler] {
         let make = || {
             (0..10)
@@ -318,7 +318,7 @@ fn every_integrator_batches_bit_for_bit() {
 fn nystrom_at_a_large_time_step_batches_bit_for_bit() {
     let trajectory = trajectory();
     let hold = Hold(trajectory.reference(0.0).q, 0.3);
-    let events = [[PayloadEvent { time: 0.2, payload: None, controller_knows: true }; 2]; 3];
+    let events = [[PayloadEvent::new(0.2, None, true); 2]; 3];
     let make = || {
         (0..12)
             .map(|i| {
@@ -346,7 +346,7 @@ fn nystrom_at_a_large_time_step_batches_bit_for_bit() {
 fn a_run_with_a_nan_time_step_gets_the_scalar_simulators_error() {
     let trajectory = trajectory();
     let hold = Hold(trajectory.reference(0.0).q, 0.2);
-    let events = [[PayloadEvent { time: 10.0, payload: None, controller_knows: true }; 2]; 3];
+    let events = [[PayloadEvent::new(10.0, None, true); 2]; 3];
     let mut runs: Vec<LaneRun<'_>> = (0..3).map(|i| candidate(i, &trajectory, &hold, &events, &[])).collect();
     runs[0].config.dt = f64::NAN;
     let mut alone = candidate(0, &trajectory, &hold, &events, &[]);
@@ -465,7 +465,7 @@ fn payload_events_between_steps_are_due_where_each_run_says() {
     let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
     let dt = 1e-3;
     let half_way = |step: usize| step as f64 * dt + 0.5 * dt;
-    let event = |time, payload| PayloadEvent { time, payload, controller_knows: true };
+    let event = |time, payload| PayloadEvent::new(time, payload, true);
     let events = [
         [event(half_way(0), pawn), event(half_way(200), None)],
         [event(0.1004, pawn), event(0.3004, None)],
@@ -511,13 +511,13 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
     let poisoned = Poisoned(&trajectory);
     let bad_payload = Some(Payload::upright_cylinder(f64::NAN, 0.05, 0.012, 0.03));
     let bad_events = [
-        PayloadEvent { time: 0.2, payload: bad_payload, controller_knows: true },
-        PayloadEvent { time: 0.9, payload: None, controller_knows: true },
+        PayloadEvent::new(0.2, bad_payload, true),
+        PayloadEvent::new(0.9, None, true),
     ];
     // A payload of 1e200 kg the controller is not told of: the plant's `Δ₃ Δ` overflows, and
     // its `M` is refused (not positive definite) from 0.2 s.
     let huge = Some(Payload::upright_cylinder(1e200, 0.05, 0.012, 0.03));
-    let huge_events = [PayloadEvent { time: 0.2, payload: huge, controller_knows: false }];
+    let huge_events = [PayloadEvent::new(0.2, huge, false)];
     // Groups of eight, each a batch: hobby encoders and the default filter (a delay of one
     // sample), servo encoders with an offset and the two-state filter (no delay), encoders with
     // tachometers and a delay of two samples; a group whose filters expect tachometers the

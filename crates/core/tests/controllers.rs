@@ -233,7 +233,7 @@ fn observer_removes_the_steady_error_pd_leaves() {
         }
         model.with_links(links).unwrap()
     };
-    let gripped = [PayloadEvent { time: 0.0, payload: Some(Payload::point_mass(0.25)), controller_knows: false }];
+    let gripped = [PayloadEvent::new(0.0, Some(Payload::point_mass(0.25)), false)];
     let loaded = model.with_payload(Some(Payload::point_mass(0.25))).unwrap();
     for (name, plant_model, events, effective) in
         [("unknown payload", model, &gripped[..], loaded), ("heavier links", heavier, &[][..], heavier)]
@@ -266,7 +266,7 @@ fn adaptive_controller_identifies_a_point_mass_and_its_offset_holding_still() {
     // the weight, so holding still excites both parameters.
     let target = q([0.3, 0.8, -1.2, -0.2]);
     let (mass, offset) = (0.2, 0.04);
-    let events = [PayloadEvent { time: 0.0, payload: Some(point(mass, offset)), controller_knows: false }];
+    let events = [PayloadEvent::new(0.0, Some(point(mass, offset)), false)];
     let mut plant = Plant::new(model);
     let config = SimConfig::new(&plant);
     let mut adaptive = AdaptiveComputedTorque::new(model);
@@ -399,7 +399,7 @@ fn commanded_acceleration_is_what_the_model_predicts_for_the_command() {
     // Adaptive: the model with the estimated payload predicts v for the command, up to the
     // m̂ ĉ² term the regressor leaves out.
     let target = q([0.3, 0.8, -1.2, -0.2]);
-    let events = [PayloadEvent { time: 0.0, payload: Some(point(0.2, 0.04)), controller_knows: false }];
+    let events = [PayloadEvent::new(0.0, Some(point(0.2, 0.04)), false)];
     let mut adaptive = AdaptiveComputedTorque::new(model);
     hold(model, &mut adaptive, target, 0.5, &events, None);
     assert!((adaptive.payload_estimate().0 - 0.2).abs() < 1e-3);

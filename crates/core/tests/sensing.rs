@@ -40,7 +40,7 @@ fn run(feedback: &mut Feedback<4>, config_lag: f64) -> Vec<StepRecord<4>> {
     let mut plant = Plant::new(report_arm().with_payload(Some(Payload::point_mass(0.05))).unwrap());
     let config = SimConfig { torque_lag: JointVector::repeat(config_lag), ..SimConfig::new(&plant) };
     let mut records = Vec::new();
-    let events = [PayloadEvent { time: 0.5, payload: None, controller_knows: false }];
+    let events = [PayloadEvent::new(0.5, None, false)];
     simulate_sensed(&mut plant, feedback, &mut pd(), &Wave, None, &events, &[], &config, &mut records).unwrap();
     records
 }
@@ -50,7 +50,7 @@ fn ideal_feedback_is_the_exact_loop_bit_for_bit() {
     let mut plant = Plant::new(report_arm().with_payload(Some(Payload::point_mass(0.05))).unwrap());
     let config = SimConfig::new(&plant);
     let mut exact = Vec::new();
-    let events = [PayloadEvent { time: 0.5, payload: None, controller_knows: false }];
+    let events = [PayloadEvent::new(0.5, None, false)];
     simulate(&mut plant, &mut pd(), &Wave, None, &events, &[], &config, &mut exact).unwrap();
     let mut ideal = Conditions::<4>::ideal().feedback(1e-3).unwrap();
     assert!(ideal.is_exact());

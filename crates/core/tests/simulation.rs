@@ -176,7 +176,7 @@ fn a_payload_event_changes_the_plant_and_informed_controllers() {
     let model = report_arm();
     let target = q([0.8, 0.9, -2.1, -0.37]);
     let reference = Hold { q: target, duration: 3.0 };
-    let grip = |knows| [PayloadEvent { time: 0.5, payload: Some(Payload::point_mass(0.25)), controller_knows: knows }];
+    let grip = |knows| [PayloadEvent::new(0.5, Some(Payload::point_mass(0.25)), knows)];
     let run = |events: &[PayloadEvent]| {
         let mut plant = Plant::new(model);
         let config = SimConfig::new(&plant);
@@ -310,8 +310,8 @@ fn sharing_the_plants_terms_with_the_controller_changes_nothing() {
     let pawn = Some(Payload::upright_cylinder(0.25, 0.05, 0.012, 0.04));
     for knows in [true, false] {
         let events = [
-            PayloadEvent { time: 1.2, payload: pawn, controller_knows: knows },
-            PayloadEvent { time: 3.1, payload: None, controller_knows: knows },
+            PayloadEvent::new(1.2, pawn, knows),
+            PayloadEvent::new(3.1, None, knows),
         ];
         let run = |controller: &mut dyn Controller<4>| {
             let mut plant = Plant::new(model);

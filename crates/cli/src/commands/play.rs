@@ -123,6 +123,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     settings.timing = setup.timing;
     settings.export_rate = Some(args.export_rate);
     settings.controller_knows_payload = args.controller_knows_payload;
+    args.placement.apply(&mut settings, args.tolerance_mm / 1e3);
     settings.integrator = args.integrator.integrator();
     settings.tolerance = args.tolerance_mm / 1e3;
     let mut source = source(args)?;
@@ -371,6 +372,37 @@ fn game_result(game: &Game, source: &Source, args: &PlayArgs, plies: usize) -> G
     }
 }
 
+/// A wait total as JSON (s).
+fn totals_json(totals: &chessarm_chess::play::WaitTotals) -> Value {
+    json!({
+        "count": totals.count,
+        "total_s": totals.total,
+        "longest_s": totals.longest,
+        "timed_out": totals.timed_out,
+    })
+}
+
+/// A move's fine-point waits: their totals and, per gripper command in order, when the plan
+/// reached it (s from the move's start), how long it waited (s), whether it timed out, and the
+/// estimated tip error (mm) and speed (mm/s) when it went ahead.
+fn waits_json(waits: &[chessarm_core::plan::fine_point::Wait]) -> Value {
+    let mut value = totals_json(&chessarm_chess::play::WaitTotals::of(waits));
+    value["commands"] = waits
+        .iter()
+        .map(|w| {
+            json!({
+                "command": if w.event % 2 == 0 { "close" } else { "open" },
+                "reached_s": w.reached,
+                "wait_s": w.duration,
+                "timed_out": w.timed_out,
+                "estimated_tip_error_mm": w.check.tip_error * 1e3,
+                "estimated_tip_speed_mm_per_s": w.check.tip_speed * 1e3,
+            })
+        })
+        .collect();
+    value
+}
+
 fn game_json(
     game: &Game,
     reports: &[MoveReport],
@@ -402,9 +434,11 @@ fn game_json(
                 "peak_torque_nm": r.summary.as_ref().map(|s| s.peak_torque.as_slice().to_vec()),
                 "max_tip_error_mm": r.max_tip_error.map(|e| e * 1e3),
                 "place_errors_mm": r.place_errors.iter().map(|e| e * 1e3).collect::<Vec<_>>(),
+                "in_position_waits": (r.mover == Mover::Robot).then(|| waits_json(&r.waits)),
             })
         })
         .collect();
+    let all_waits = chessarm_chess::play::WaitTotals::of(reports.iter().flat_map(|r| &r.waits));
     let misplaced: Vec<Value> = game
         .misplaced()
         .iter()
@@ -431,6 +465,12 @@ fn game_json(
             "y_m": p.position.y,
         })).collect::<Vec<_>>(),
         "total_robot_time_s": game.robot_time(),
+        "in_position": game.in_position().map(|gate| json!({
+            "tip_band_mm": gate.tip_band * 1e3,
+            "speed_band_mm_per_s": gate.speed_band * 1e3,
+            "timeout_s": gate.timeout,
+            "waits": totals_json(&all_waits),
+        })),
         "wall_time_s": wall_time_s,
         // Whether the same command plays the same moves on any machine, and if not why.
         "deterministic": machine_dependence.is_empty(),

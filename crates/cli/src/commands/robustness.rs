@@ -94,9 +94,7 @@ fn run_trial(
     record: &GameRecord,
     spec: &ControllerSpec,
     trial: &Trial,
-    integrator: Integrator,
-    controller_knows_payload: bool,
-    tolerance: f64,
+    options: &TrialOptions,
 ) -> (String, Totals) {
     let mut totals = Totals::default();
     let limits = setup.arm.torque_limits();
@@ -107,9 +105,11 @@ fn run_trial(
         settings.limits = setup.motion;
         settings.timing = setup.timing;
         settings.record_every = 0;
-        settings.controller_knows_payload = controller_knows_payload;
-        settings.integrator = integrator;
-        settings.tolerance = tolerance;
+        settings.controller_knows_payload = options.controller_knows_payload;
+        settings.payload_feedforward = options.payload_feedforward;
+        settings.in_position = options.in_position;
+        settings.integrator = options.integrator;
+        settings.tolerance = options.tolerance;
         settings.plant = Some(trial.plant);
         settings.true_pieces = Some(trial.pieces);
         settings.conditions = trial.conditions.clone();
@@ -236,6 +236,10 @@ pub struct TrialOptions {
     pub seed: u64,
     pub integrator: Integrator,
     pub controller_knows_payload: bool,
+    /// A game's controllers are told the nominal mass of the piece kind they grip.
+    pub payload_feedforward: bool,
+    /// A game's fine points (`None`: the gripper goes by the clock).
+    pub in_position: Option<chessarm_core::plan::fine_point::InPosition>,
     /// A piece further than this from its square centre is misplaced, m.
     pub tolerance: f64,
 }
@@ -286,15 +290,7 @@ pub fn run_trials(
                         Ok(trial) => specs
                             .iter()
                             .map(|spec| {
-                                let (status, totals) = run_trial(
-                                    setup,
-                                    record,
-                                    spec,
-                                    trial,
-                                    options.integrator,
-                                    options.controller_knows_payload,
-                                    options.tolerance,
-                                );
+                                let (status, totals) = run_trial(setup, record, spec, trial, options);
                                 row(drawn.index, trial, spec, status, &totals, options.tolerance)
                             })
                             .collect(),
@@ -479,6 +475,8 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         seed: args.conditions.seed,
         integrator: args.integrator.integrator(),
         controller_knows_payload: args.controller_knows_payload,
+        payload_feedforward: !args.placement.no_payload_feedforward,
+        in_position: args.placement.in_position(tolerance),
         tolerance,
     };
     let rows = pool.install(|| run_trials(setup, &work, &specs, &study, &options, range.clone(), Some(&bar)))?;

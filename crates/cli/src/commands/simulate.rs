@@ -56,11 +56,7 @@ pub fn pawn_events(
     let payload = PieceDimensions { mass: true_pawn_mass(setup, trial, mass), ..pawn }.payload();
     path.events()
         .iter()
-        .map(|event| PayloadEvent {
-            time: event.time,
-            payload: (event.action == GripperAction::Grip).then_some(payload),
-            controller_knows,
-        })
+        .map(|event| PayloadEvent::new(event.time, (event.action == GripperAction::Grip).then_some(payload), controller_knows))
         .collect()
 }
 

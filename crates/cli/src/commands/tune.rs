@@ -187,6 +187,7 @@ fn game_candidate(
     }
     settings.record_every = 0;
     settings.controller_knows_payload = options.controller_knows_payload;
+    options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE);
     settings.integrator = options.integrator;
     let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
         let mut place = 0.0f64;
@@ -293,6 +294,8 @@ fn scenario_candidates(
 #[derive(Debug, Clone)]
 pub struct CandidateOptions {
     pub controller_knows_payload: bool,
+    /// How a game's pieces are put down.
+    pub placement: crate::cli::PlacementArgs,
     /// Which controller the gains are for.
     pub kind: ControllerKind,
     /// Whether the controller compensates its model's friction.
@@ -459,6 +462,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let kind = controller_specs(&[args.controller.into()], &GainArgs::default())?.remove(0).kind;
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
+        placement: args.placement.clone(),
         kind,
         knows_friction: args.conditions.controller_knows_friction,
         trial,

@@ -2,6 +2,7 @@
 //! geometric paths (TOPP-RA) under joint, torque, tool and grip limits.
 
 pub mod constraints;
+pub mod fine_point;
 pub mod geometric;
 pub mod hardware;
 pub mod optimal;

@@ -6,7 +6,8 @@
 //! the estimator of a [`Feedback`] (the exact state with [`Feedback::ideal`]). Its torque,
 //! clipped to the joint torque limits, is held in between (zero-order hold) and reaches the
 //! joints through each motor's first-order lag, if it has one. Payload events grip or release objects at
-//! given instants. Metrics accumulate on the fly; time series go to an [`Observer`] only if the
+//! given instants of the plan, or, at fine points ([`simulate_fine_points`]), once the arm is in
+//! position there. Metrics accumulate on the fly; time series go to an [`Observer`] only if the
 //! caller wants them, so a run allocates nothing per step.
 
 use crate::arm::dynamics::{DynamicsError, DynamicsTerms};
@@ -14,6 +15,7 @@ use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::control::{Controller, JointState, Reference};
 use crate::lanes::Real;
+use crate::plan::fine_point::{InPosition, Wait};
 use crate::plan::trajectory::JointTrajectory;
 use crate::sense::{Estimator, Feedback, JointKalman, Measurement};
 use crate::sim::plant::{Integrator, Plant};
@@ -200,9 +202,30 @@ impl<const N: usize> SimConfig<N> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PayloadEvent {
     pub time: f64,
+    /// What the plant takes.
     pub payload: Option<Payload>,
-    /// Whether the controller's model is told as well.
-    pub controller_knows: bool,
+    /// What the controller's model is told.
+    pub told: Told,
+}
+
+/// What a controller's model is told at a payload event (it always learns that the gripper
+/// closed or opened, [`Controller::gripper_changed`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Told {
+    /// Nothing: its model keeps the payload it had.
+    Nothing,
+    /// Its model takes this payload: the plant's (a controller told the truth), or a nominal
+    /// one (a robot that knows which piece it grips, not that piece's true mass).
+    Payload(Option<Payload>),
+}
+
+impl PayloadEvent {
+    /// The plant takes `payload` at `time` (s); the controller's model is told the same
+    /// payload if `controller_knows`, else nothing.
+    pub fn new(time: f64, payload: Option<Payload>, controller_knows: bool) -> Self {
+        let told = if controller_knows { Told::Payload(payload) } else { Told::Nothing };
+        Self { time, payload, told }
+    }
 }
 
 /// Desired joint motion over time.
@@ -371,9 +394,110 @@ where
     R: ReferenceSource<N> + ?Sized,
     O: Observer<N> + ?Sized,
 {
+    drive(plant, feedback, controller, reference, initial, events, marks, None, config, observer).map(|(summary, _)| summary)
+}
+
+/// [`simulate_sensed`] with every payload event a fine point ([`crate::plan::fine_point`]):
+/// when the plan reaches an event, it waits (the reference held at rest at the planned point)
+/// until `gate` holds for the estimate the controller saw at its latest sample, through the
+/// controller's model's kinematics (the plant's where the controller has none), or until the
+/// gate's timeout. The run lasts the plan plus its waits; `marks` are instants of the plan (a
+/// mark at an event is taken when the event goes ahead). Returns the metrics and each event's
+/// wait, in order.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_fine_points<const N: usize, C, R, O>(
+    plant: &mut Plant<N>,
+    feedback: &mut Feedback<N>,
+    controller: &mut C,
+    reference: &R,
+    initial: Option<JointState<N>>,
+    events: &[PayloadEvent],
+    marks: &[f64],
+    gate: &InPosition,
+    config: &SimConfig<N>,
+    observer: &mut O,
+) -> Result<(SimSummary<N>, Vec<Wait>), SimError>
+where
+    C: Controller<N> + ?Sized,
+    R: ReferenceSource<N> + ?Sized,
+    O: Observer<N> + ?Sized,
+{
+    let gate = gate.validated().map_err(|e| SimError::Config(e.to_string()))?;
+    drive(plant, feedback, controller, reference, initial, events, marks, Some(&gate), config, observer)
+}
+
+/// Where an event is in its fine point's wait: the step the plan reached it.
+#[derive(Debug, Clone, Copy)]
+struct Waiting {
+    event: usize,
+    since: usize,
+}
+
+/// Whether the event due now may go ahead: without a gate, always; with one, when the estimate
+/// is in position or the wait has lasted the timeout (the wait is then pushed to `waits`).
+fn gate_open<const N: usize, C, R>(
+    run: &mut Run<'_, N, C, R>,
+    plant: &ArmModel<N>,
+    gate: Option<&InPosition>,
+    waiting: &mut Option<Waiting>,
+    waits: &mut Vec<Wait>,
+) -> bool
+where
+    C: Controller<N> + ?Sized,
+    R: ReferenceSource<N> + ?Sized,
+{
+    let Some(gate) = gate else { return true };
+    let event = run.next_event_index();
+    let since = match *waiting {
+        Some(w) if w.event == event => w.since,
+        _ => run.step,
+    };
+    let model = run.controller_model().copied().unwrap_or(*plant);
+    let estimate = run.estimate();
+    let now = run.reference_now();
+    let target = now.tip.unwrap_or_else(|| FrameChain::new(&model, &now.desired.q).tip());
+    let check = InPosition::measure(&model, &estimate.q, &estimate.qd, &target);
+    let waited = (run.step - since) as f64 * run.dt;
+    let timed_out = waited + 0.5 * run.dt >= gate.timeout;
+    if gate.holds(&check) || timed_out {
+        let reached = since as f64 * run.dt;
+        waits.push(Wait { event, reached, duration: waited, timed_out: timed_out && !gate.holds(&check), check });
+        *waiting = None;
+        true
+    } else {
+        *waiting = Some(Waiting { event, since });
+        run.hold();
+        false
+    }
+}
+
+/// The scalar closed loop of [`simulate_sensed`] and [`simulate_fine_points`].
+#[allow(clippy::too_many_arguments)]
+fn drive<const N: usize, C, R, O>(
+    plant: &mut Plant<N>,
+    feedback: &mut Feedback<N>,
+    controller: &mut C,
+    reference: &R,
+    initial: Option<JointState<N>>,
+    events: &[PayloadEvent],
+    marks: &[f64],
+    gate: Option<&InPosition>,
+    config: &SimConfig<N>,
+    observer: &mut O,
+) -> Result<(SimSummary<N>, Vec<Wait>), SimError>
+where
+    C: Controller<N> + ?Sized,
+    R: ReferenceSource<N> + ?Sized,
+    O: Observer<N> + ?Sized,
+{
     let mut run = Run::new(feedback, controller, reference, initial, events, marks, config, plant.model())?;
+    let mut waits = Vec::with_capacity(if gate.is_some() { events.len() } else { 0 });
+    let mut waiting = None;
     loop {
         while let Some(event) = run.due_event() {
+            if !gate_open(&mut run, plant.model(), gate, &mut waiting, &mut waits) {
+                break;
+            }
             plant.set_payload(event.payload).map_err(|source| SimError::Payload { time: run.time(), source })?;
             run.apply_event(&event, plant.model())?;
         }
@@ -387,7 +511,7 @@ where
         let next = plant.step(&run.state, &torque, run.dt, run.config.integrator);
         run.advance(next)?;
     }
-    Ok(run.summary())
+    Ok((run.summary(), waits))
 }
 
 /// What the closed loop needs of the plant at the current state: the tool tip (m) and the
@@ -447,6 +571,11 @@ pub(crate) struct Run<'a, const N: usize, C: ?Sized, R: ?Sized> {
     controller_shares_terms: bool,
     /// Whether [`Run::seen_for_terms`] has already run the feedback for the current sample.
     observed: bool,
+    /// Steps at which the reference was held at a fine point ([`Run::hold`]) so far: the plan's
+    /// time is `(step − held_steps) dt`.
+    held_steps: usize,
+    /// Whether the reference is held at the current step.
+    holding: bool,
 }
 
 impl<const N: usize, C: ?Sized, R: ?Sized> std::fmt::Debug for Run<'_, N, C, R> {
@@ -537,6 +666,8 @@ where
             next_event: 0,
             controller_shares_terms,
             observed: false,
+            held_steps: 0,
+            holding: false,
         })
     }
 
@@ -545,23 +676,46 @@ where
         self.step as f64 * self.dt
     }
 
-    /// Whether the current step is the run's last (nothing to integrate after it).
-    pub fn finished(&self) -> bool {
-        self.step == self.steps
+    /// The plan's time at the current step, s: [`Run::time`] less the steps the reference was
+    /// held at fine points ([`Run::hold`]).
+    pub fn plan_time(&self) -> f64 {
+        (self.step - self.held_steps) as f64 * self.dt
     }
 
-    /// The next payload event due at the current step, if any; the driver applies it to the
-    /// plant, then hands it to [`Run::apply_event`].
+    /// Whether the current step is the run's last (nothing to integrate after it).
+    pub fn finished(&self) -> bool {
+        self.step == self.steps + self.held_steps
+    }
+
+    /// The next payload event due at the current step of the plan, if any; the driver applies
+    /// it to the plant, then hands it to [`Run::apply_event`].
     pub fn due_event(&self) -> Option<PayloadEvent> {
-        let t = self.time();
+        let t = self.plan_time();
         self.events.get(self.next_event).filter(|event| event.time <= t + 0.5 * self.dt).copied()
+    }
+
+    /// Holds the reference over the current step: the plan's time stays where it is and the
+    /// desired state is its point at rest (a fine point's wait).
+    pub fn hold(&mut self) {
+        self.holding = true;
+    }
+
+    /// The index of the next payload event, due or not.
+    pub fn next_event_index(&self) -> usize {
+        self.next_event
+    }
+
+    /// The state the controller saw at its latest sample (the estimate; the exact state with
+    /// ideal sensors).
+    pub fn estimate(&self) -> JointState<N> {
+        self.estimate
     }
 
     /// Tells the controller about an event the plant (now `plant`) has taken.
     pub fn apply_event(&mut self, event: &PayloadEvent, plant: &ArmModel<N>) -> Result<(), SimError> {
-        if event.controller_knows {
+        if let Told::Payload(payload) = event.told {
             self.controller
-                .set_payload(event.payload)
+                .set_payload(payload)
                 .map_err(|source| SimError::Payload { time: self.time(), source })?;
         }
         self.controller.gripper_changed(event.payload.is_some());
@@ -584,8 +738,12 @@ where
     /// The reference at the current step: the desired joint state and, where the reference
     /// knows it, the desired tip.
     pub fn reference_now(&self) -> ReferenceNow<N> {
-        let t = self.time();
-        let (desired, tip) = self.reference.reference_and_tip(t);
+        let t = self.plan_time();
+        let (mut desired, tip) = self.reference.reference_and_tip(t);
+        if self.holding {
+            desired.qd = JointVector::zeros();
+            desired.qdd = JointVector::zeros();
+        }
         ReferenceNow { desired, tip }
     }
 
@@ -817,10 +975,13 @@ where
         self.step >= self.first_tracked_step
     }
 
-    /// The tip (m) and its error (m) at the current step, if a mark falls on it.
+    /// The tip (m) and its error (m) at the current step, if a mark falls on it: a mark is an
+    /// instant of the plan, and where the reference is held there ([`Run::hold`]), the last
+    /// held step's (the instant the plan goes on) stays.
     pub fn mark(&mut self, tip: Vector3<f64>, tip_error: f64) {
+        let plan_step = self.step - self.held_steps;
         for (k, &mark_step) in self.mark_steps.iter().enumerate() {
-            if mark_step == self.step {
+            if mark_step == plan_step {
                 self.tip_at_marks[k] = tip;
                 self.tip_error_at_marks[k] = tip_error;
             }
@@ -833,6 +994,10 @@ where
         self.state = next.map_err(|source| SimError::Dynamics { time: t, source })?;
         check_state(&self.state, t + self.dt, self.config.runaway_speed)?;
         self.step += 1;
+        if self.holding {
+            self.held_steps += 1;
+            self.holding = false;
+        }
         Ok(())
     }
 
@@ -870,12 +1035,13 @@ where
 
     /// The metrics of the finished run.
     pub fn summary(self) -> SimSummary<N> {
-        let tracked_steps = self.steps + 1 - self.first_tracked_step;
+        let steps = self.steps + self.held_steps;
+        let tracked_steps = steps + 1 - self.first_tracked_step;
         let samples = tracked_steps as f64;
         let sampled = self.samples_taken.max(1) as f64;
         SimSummary {
-            duration: self.steps as f64 * self.dt,
-            steps: self.steps,
+            duration: steps as f64 * self.dt,
+            steps,
             rms_joint_error: (JointVector::from(self.tracking.squared_joint_error) / samples).map(f64::sqrt),
             max_joint_error: self.tracking.max_joint_error.into(),
             rms_tip_error: (self.tracking.squared_tip_error / samples).sqrt(),

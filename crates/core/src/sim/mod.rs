@@ -9,7 +9,7 @@ pub mod plant;
 pub mod structured;
 
 pub use closed_loop::{
-    NoObserver, Observer, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary, StepRecord, simulate,
-    simulate_sensed,
+    NoObserver, Observer, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary, StepRecord, Told, simulate,
+    simulate_fine_points, simulate_sensed,
 };
 pub use plant::{Integrator, Plant, StateDynamics};
