@@ -11,7 +11,7 @@ use crate::motion::{PhaseTimes, PlannedMove, TimingMode, plan_move};
 use crate::outcome::{GameOutcome, outcome, position_key};
 use crate::pieces::PieceSet;
 use crate::table::{Location, Misplaced, Table, TableError};
-use crate::tasks::{MotionLimits, MoveKind, TaskError, classify, move_tasks};
+use crate::tasks::{MotionLimits, MoveKind, PlannedTask, TaskError, classify, move_tasks};
 use chessarm_core::arm::model::ArmModel;
 use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
 use chessarm_core::control::JointState;
@@ -80,6 +80,10 @@ pub struct HardwareExport {
     pub commands: Vec<GripperCommand>,
     /// Per grip, in order: the piece and where it goes ("white pawn from e2 to e4").
     pub grips: Vec<String>,
+    /// Per gripper command, in order: the planned tool tip it waits to be at (m), and the
+    /// condition it waits for (`None`: it goes by the clock).
+    pub fine_points: Vec<Vector3<f64>>,
+    pub in_position: Option<InPosition>,
 }
 
 impl PlaySettings {
@@ -472,25 +476,12 @@ impl Game {
             let points = hardware_points(&self.arm, motion, &commands, TOOL_DOWN, rate)
                 .map_err(|source| PlayError::Export { mv: name.to_string(), source })?;
             let grips = planned.iter().map(|step| step.task.to_string()).collect();
-            report.hardware = Some(HardwareExport { points, commands, grips });
+            let fine_points = commands.iter().map(|c| motion.sample(c.time).position).collect();
+            report.hardware =
+                Some(HardwareExport { points, commands, grips, fine_points, in_position: settings.in_position });
         }
-        let mut events = Vec::with_capacity(2 * planned.len());
-        let mut marks = Vec::with_capacity(2 * planned.len());
-        for step in planned {
-            let piece = self.table.piece_at(step.task.from).map(|p| p.piece.role).unwrap_or(step.task.piece.role);
-            let payload = settings.true_pieces.as_ref().unwrap_or(&settings.pieces).payload(piece);
-            let told = if settings.controller_knows_payload {
-                Told::Payload(Some(payload))
-            } else if settings.payload_feedforward {
-                Told::Payload(Some(settings.pieces.payload(piece)))
-            } else {
-                Told::Nothing
-            };
-            let released = if told == Told::Nothing { Told::Nothing } else { Told::Payload(None) };
-            events.push(PayloadEvent { time: step.plan.grip_time, payload: Some(payload), told });
-            events.push(PayloadEvent { time: step.plan.release_time, payload: None, told: released });
-            marks.extend([step.plan.grip_time, step.plan.release_time]);
-        }
+        let events = gripper_events(settings, &self.table, planned);
+        let marks: Vec<f64> = events.iter().map(|event| event.time).collect();
         let mut plant = Plant::new(settings.plant.unwrap_or(self.arm));
         let mut controller = settings
             .controller
@@ -569,6 +560,30 @@ impl Game {
         self.state = summary.final_state;
         Ok(())
     }
+}
+
+/// The payload events of a move's planned tasks, a grip and a release per task: the plant
+/// takes the true piece (`true_pieces`, else `pieces`) of the kind that stands on the task's
+/// square; the controller's model is told that true piece with
+/// [`PlaySettings::controller_knows_payload`], else the nominal piece of that kind (`pieces`)
+/// with [`PlaySettings::payload_feedforward`], else nothing.
+pub fn gripper_events(settings: &PlaySettings, table: &Table, planned: &[PlannedTask]) -> Vec<PayloadEvent> {
+    let mut events = Vec::with_capacity(2 * planned.len());
+    for step in planned {
+        let piece = table.piece_at(step.task.from).map(|p| p.piece.role).unwrap_or(step.task.piece.role);
+        let payload = settings.true_pieces.as_ref().unwrap_or(&settings.pieces).payload(piece);
+        let told = if settings.controller_knows_payload {
+            Told::Payload(Some(payload))
+        } else if settings.payload_feedforward {
+            Told::Payload(Some(settings.pieces.payload(piece)))
+        } else {
+            Told::Nothing
+        };
+        let released = if told == Told::Nothing { Told::Nothing } else { Told::Payload(None) };
+        events.push(PayloadEvent { time: step.plan.grip_time, payload: Some(payload), told });
+        events.push(PayloadEvent { time: step.plan.release_time, payload: None, told: released });
+    }
+    events
 }
 
 /// Where the tool rests before the first move: above the middle of rank 1 at the highest

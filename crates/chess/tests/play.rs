@@ -6,12 +6,15 @@
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::motion::TimingMode;
 use chessarm_chess::notation::{parse_fen, parse_pgn};
-use chessarm_chess::play::{Game, Mover, PlaySettings};
+use chessarm_chess::play::{Game, Mover, PlaySettings, gripper_events};
+use chessarm_chess::shakmaty::Role;
 use chessarm_chess::shakmaty::uci::UciMove;
 use chessarm_chess::tasks::MoveKind;
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::control::choice::ControllerKind;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
+use chessarm_core::plan::fine_point::InPosition;
+use chessarm_core::sim::Told;
 
 fn settings() -> PlaySettings {
     let mut settings = PlaySettings::new("pd", Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).unwrap());
@@ -116,16 +119,101 @@ fn a_master_game_plays_through_with_every_piece_on_its_square() {
 
 #[test]
 fn a_sloppy_controller_misplaces_pieces_and_the_check_names_the_move() {
-    // Gains far too soft for the speed: the arm lags by centimetres and drops pieces off-centre.
+    // Gains far too soft for the speed: the arm lags by centimetres and sags under a knight it
+    // is not told of; with the gripper going by the clock, it drops pieces off-centre.
     let mut settings = settings();
     settings.controller.gains = Gains::uniform(4.0, 1.0, 0.0).unwrap();
+    settings.in_position = None;
+    settings.payload_feedforward = false;
     let position = parse_fen("rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1").unwrap();
     let mut game = Game::new(report_arm(), BoardGeometry::default(), position, settings).unwrap();
     let mv = "g1f3".parse::<UciMove>().unwrap().to_move(game.position()).unwrap();
     let report = game.play(&mv, Mover::Robot).unwrap();
     assert!(report.place_errors[0] > 0.005, "{:?}", report.place_errors);
     assert!(!report.new_misplaced.is_empty());
+    assert!(report.waits.is_empty());
     assert_eq!(game.misplaced()[0].1, "Nf3");
+}
+
+#[test]
+fn at_fine_points_a_sloppy_controller_waits_and_places_within_the_band() {
+    // The same soft gains, the gripper waiting at its fine points (the default): it closes and
+    // opens only once the arm is within the band, so the knight lands within band + band of its
+    // square (the grip's offset carried, the release's added).
+    let mut settings = settings();
+    settings.controller.gains = Gains::uniform(4.0, 1.0, 0.0).unwrap();
+    let gate = InPosition { timeout: 10.0, ..InPosition::for_tolerance(0.005) };
+    settings.in_position = Some(gate);
+    let position = parse_fen("rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1").unwrap();
+    let mut game = Game::new(report_arm(), BoardGeometry::default(), position, settings).unwrap();
+    let mv = "g1f3".parse::<UciMove>().unwrap().to_move(game.position()).unwrap();
+    let report = game.play(&mv, Mover::Robot).unwrap();
+    assert_eq!(report.waits.len(), 2);
+    assert!(report.waits.iter().all(|w| w.duration > 0.1 && !w.timed_out), "{:?}", report.waits);
+    assert!(report.place_errors[0] <= 2.0 * gate.tip_band, "{:?}", report.place_errors);
+    assert!(report.new_misplaced.is_empty());
+    // The move took its plan plus its waits, and the handling times are when the gripper went.
+    let totals = report.wait_totals();
+    assert!((report.duration - (report.planned_duration + totals.total)).abs() < 2e-3, "{report:?}");
+    let handled = report.handled[0];
+    let went = |k: usize| report.start_time + report.waits[k].reached + report.waits[k].duration;
+    assert!((handled.grip_time - went(0)).abs() < 1e-12 && (handled.release_time - went(1)).abs() < 1e-12);
+    // A wait that cannot end gives up at its timeout, and says so.
+    let mut settings = self::settings();
+    settings.controller.gains = Gains::uniform(4.0, 1.0, 0.0).unwrap();
+    settings.in_position = Some(InPosition { tip_band: 1e-9, speed_band: 1e-9, timeout: 0.25 });
+    let position = parse_fen("rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1").unwrap();
+    let mut game = Game::new(report_arm(), BoardGeometry::default(), position, settings).unwrap();
+    let report = game.play(&mv, Mover::Robot).unwrap();
+    let totals = report.wait_totals();
+    assert_eq!((totals.count, totals.timed_out), (2, 2), "{:?}", report.waits);
+    assert!((totals.longest - 0.25).abs() < 1e-9);
+}
+
+#[test]
+fn the_controller_is_told_the_nominal_mass_of_the_piece_kind_it_grips() {
+    let position = parse_fen("rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1").unwrap();
+    let mut settings = settings();
+    // The true pieces weigh 1.7 times the setup's nominal ones.
+    let mut heavy = settings.pieces;
+    for role in chessarm_chess::shakmaty::Role::ALL {
+        heavy.dimensions_mut(role).mass *= 1.7;
+    }
+    settings.true_pieces = Some(heavy);
+    let table = chessarm_chess::table::Table::from_position(BoardGeometry::default(), &position);
+    for (uci, role) in [("g1f3", Role::Knight), ("e2e4", Role::Pawn)] {
+        let mv = uci.parse::<UciMove>().unwrap().to_move(&position).unwrap();
+        let plan = chessarm_chess::motion::plan_move(
+            chessarm_chess::play::home_tool(&BoardGeometry::default(), &settings.pieces, &settings.limits),
+            &position,
+            &mv,
+            &table,
+            &settings.pieces,
+            &settings.limits,
+            &report_arm(),
+            settings.timing,
+            settings.control_period,
+        )
+        .unwrap();
+        let told_mass = |settings: &PlaySettings| {
+            let events = gripper_events(settings, &table, &plan.tasks);
+            assert_eq!(events[0].payload.unwrap().inertial.mass, heavy.dimensions(role).mass);
+            assert_eq!(events[1].payload, None);
+            match (events[0].told, events[1].told) {
+                (Told::Payload(Some(p)), Told::Payload(None)) => Some(p.inertial.mass),
+                (Told::Nothing, Told::Nothing) => None,
+                other => panic!("{other:?}"),
+            }
+        };
+        // By default: the setup's nominal mass of the kind.
+        assert_eq!(told_mass(&settings), Some(settings.pieces.dimensions(role).mass), "{uci}");
+        let mut knows = settings.clone();
+        knows.controller_knows_payload = true;
+        assert_eq!(told_mass(&knows), Some(heavy.dimensions(role).mass), "{uci}");
+        let mut blind = settings.clone();
+        blind.payload_feedforward = false;
+        assert_eq!(told_mass(&blind), None, "{uci}");
+    }
 }
 
 #[test]

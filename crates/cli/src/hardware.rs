@@ -39,6 +39,10 @@ pub struct MoveLabel<'a> {
     pub uci: &'a str,
     /// Per grip, in order: the piece and where it goes ("white pawn from e2 to e4").
     pub grips: Vec<String>,
+    /// Per gripper command, in order, the tool tip it waits to be at (m), and the condition
+    /// (a fine point: `None` where the commands go by the clock, or for a plan alone).
+    pub fine_points: Vec<chessarm_core::nalgebra::Vector3<f64>>,
+    pub in_position: Option<chessarm_core::plan::fine_point::InPosition>,
 }
 
 /// Writes `<dir>/<stem>.json` and `<dir>/<stem>.csv`; returns their paths.
@@ -56,18 +60,31 @@ pub fn write_move(
     let mut grips: usize = 0;
     let gripper: Vec<Value> = commands
         .iter()
-        .map(|command| {
+        .enumerate()
+        .map(|(index, command)| {
             let close = command.action == GripperAction::Grip;
             let piece =
                 label.grips.get(if close { grips } else { grips.saturating_sub(1) }).cloned().unwrap_or_default();
             if close {
                 grips += 1;
             }
+            // A fine point: the driver holds the trajectory here until its own estimate of the
+            // tool tip is within the band of this point and slower than the speed band, or
+            // the timeout has passed, then sends the command (as the simulation did).
+            let wait = label.in_position.zip(label.fine_points.get(index)).map(|(gate, tip)| {
+                json!({
+                    "tool_tip_m": [tip.x, tip.y, tip.z],
+                    "tip_band_m": gate.tip_band,
+                    "speed_band_m_per_s": gate.speed_band,
+                    "timeout_s": gate.timeout,
+                })
+            });
             json!({
                 "time_from_start": ros_duration(command.time),
                 "t": command.time,
                 "command": if close { "close" } else { "open" },
                 "piece": piece,
+                "wait_until_in_position": wait,
             })
         })
         .collect();

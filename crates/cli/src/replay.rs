@@ -43,7 +43,7 @@ const POSITION_UNIT: f64 = 1e-5;
 const ERROR_UNIT: f64 = 1e-6;
 
 /// What the phase labels of the timeline say, by code.
-const PHASES: [&str; 9] = [
+const PHASES: [&str; 10] = [
     "at rest",
     "travelling",
     "lowering",
@@ -53,6 +53,7 @@ const PHASES: [&str; 9] = [
     "carrying",
     "lowering the piece",
     "lifting the piece",
+    "waiting to be in position",
 ];
 
 /// One displayed instant: time in the run (s), joint angles (rad), desired tool tip (m) and
@@ -100,6 +101,8 @@ pub struct ReplayRun {
     pub frames: Vec<Frame>,
     pub handled: Vec<Handling>,
     pub moves: Vec<ReplayMove>,
+    /// The fine points' waits, `[start, end]` in the run's time (s): the phase shows them.
+    pub waits: Vec<[f64; 2]>,
 }
 
 /// Everything a replay shows.
@@ -169,9 +172,12 @@ fn phases(run: &ReplayRun) -> Vec<[f64; 2]> {
             _ => Vector3::zeros(),
         };
         let t = frame.t;
+        let waiting = run.waits.iter().any(|[start, end]| *start <= t && t < *end);
         let carrying = run.handled.iter().filter(robot).any(|h| h.grip_time <= t && t < h.release_time);
         let near = |at: f64| (at - t).abs() <= 0.6;
-        let code = if velocity.norm() < 1e-3 {
+        let code = if waiting {
+            9
+        } else if velocity.norm() < 1e-3 {
             if run.handled.iter().filter(robot).any(|h| near(h.grip_time)) {
                 4
             } else if run.handled.iter().filter(robot).any(|h| near(h.release_time)) {
@@ -499,6 +505,7 @@ mod tests {
                 frames: (0..11).map(frame).collect(),
                 handled: Vec::new(),
                 moves,
+                waits: vec![[0.02, 0.05]],
             }],
         };
         let data = serde_json::to_string(&replay_json(&replay)).unwrap_or_default().replace('<', "\\u003c");

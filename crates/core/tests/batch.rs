@@ -510,10 +510,7 @@ fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bi
     offset.encoders[3].noise_counts = 0.0;
     let poisoned = Poisoned(&trajectory);
     let bad_payload = Some(Payload::upright_cylinder(f64::NAN, 0.05, 0.012, 0.03));
-    let bad_events = [
-        PayloadEvent::new(0.2, bad_payload, true),
-        PayloadEvent::new(0.9, None, true),
-    ];
+    let bad_events = [PayloadEvent::new(0.2, bad_payload, true), PayloadEvent::new(0.9, None, true)];
     // A payload of 1e200 kg the controller is not told of: the plant's `Δ₃ Δ` overflows, and
     // its `M` is refused (not positive definite) from 0.2 s.
     let huge = Some(Payload::upright_cylinder(1e200, 0.05, 0.012, 0.03));

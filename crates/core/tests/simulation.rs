@@ -309,10 +309,7 @@ fn sharing_the_plants_terms_with_the_controller_changes_nothing() {
     let trajectory = JointTrajectory::from_path(&model, &report_move(), dt, TOOL_DOWN).unwrap();
     let pawn = Some(Payload::upright_cylinder(0.25, 0.05, 0.012, 0.04));
     for knows in [true, false] {
-        let events = [
-            PayloadEvent::new(1.2, pawn, knows),
-            PayloadEvent::new(3.1, None, knows),
-        ];
+        let events = [PayloadEvent::new(1.2, pawn, knows), PayloadEvent::new(3.1, None, knows)];
         let run = |controller: &mut dyn Controller<4>| {
             let mut plant = Plant::new(model);
             let config = SimConfig::new(&plant);

@@ -82,7 +82,8 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
     let commands: Vec<GripperCommand> =
         plan.path.events().iter().map(|e| GripperCommand { time: e.time, action: e.action }).collect();
     let grips = vec![format!("the {} scenario's piece", plan.name); commands.len() / 2];
-    let label = MoveLabel { ply: 1, san: &plan.name, uci: "", grips };
+    // The report's scenario goes by the clock, as its Simulink model did.
+    let label = MoveLabel { ply: 1, san: &plan.name, uci: "", grips, fine_points: Vec::new(), in_position: None };
     files.extend(write_hardware(setup, &hardware, "scenario", &plan.path, &commands, &label, args.export_rate)?);
     let samples = plan.joint.samples();
     let peak = |f: fn(&JointSample) -> [f64; 4]| -> Vec<f64> {
@@ -313,8 +314,18 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         joint.extend(sampled.samples().iter().map(|s| JointSample { t: s.t + offset, ..*s }));
         let name = format!("{:03}-{uci}", index + 1);
         let grips = planned.tasks.iter().map(|t| t.task.to_string()).collect();
-        let label = MoveLabel { ply: index + 1, san: &san, uci: &uci, grips };
         let commands = planned.gripper_commands();
+        // The fine points `play` waits at by default (its default tolerance).
+        let label = MoveLabel {
+            ply: index + 1,
+            san: &san,
+            uci: &uci,
+            grips,
+            fine_points: commands.iter().map(|c| motion.sample(c.time).position).collect(),
+            in_position: Some(chessarm_core::plan::fine_point::InPosition::for_tolerance(
+                chessarm_chess::play::DEFAULT_TOLERANCE,
+            )),
+        };
         files.extend(write_hardware(setup, &hardware, &name, motion, &commands, &label, args.export_rate)?);
         if !planned.legs.is_empty() {
             let png = args.out.join(format!("phase-{name}.png"));

@@ -177,8 +177,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     };
     let bar = crate::progress::bar(total as u64, "playing");
     let header = format!(
-        "{:>4} {:>8} {:>6} {:<18} {:>8} {:>12} {:>22}",
-        "ply", "san", "by", "kind", "time s", "max tip mm", "placement mm"
+        "{:>4} {:>8} {:>6} {:<18} {:>8} {:>8} {:>12} {:>22}",
+        "ply", "san", "by", "kind", "time s", "wait s", "max tip mm", "placement mm"
     );
     let mut reports = Vec::new();
     // The tip error of every recorded step (robot time s, mm), for the game's plot.
@@ -212,8 +212,14 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         }
         if let Some(hardware) = report.hardware.take() {
             ensure_dir(&hardware_dir)?;
-            let label =
-                MoveLabel { ply: report.ply, san: &report.san, uci: &report.uci, grips: hardware.grips.clone() };
+            let label = MoveLabel {
+                ply: report.ply,
+                san: &report.san,
+                uci: &report.uci,
+                grips: hardware.grips.clone(),
+                fine_points: hardware.fine_points.clone(),
+                in_position: hardware.in_position,
+            };
             crate::hardware::write_move(
                 &hardware_dir,
                 &format!("{:03}-{}", report.ply, report.uci),
@@ -248,6 +254,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     summary["controller"] = json!(settings_name);
     summary["conditions"] = if ideal { Value::Null } else { study.describe() };
     summary["trial"] = if ideal { Value::Null } else { trial.describe() };
+    let all_waits = chessarm_chess::play::WaitTotals::of(reports.iter().flat_map(|r| &r.waits));
     let game_json_path = args.out.join("game.json");
     write_json(&game_json_path, &summary)?;
     let replay_path = args.out.join("replay.html");
@@ -259,10 +266,11 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         table: &start_table,
         tolerance: args.tolerance_mm / 1e3,
         note: format!(
-            "result {} ({}); robot time {:.1} s; {} misplaced",
+            "result {} ({}); robot time {:.1} s; {}; {} misplaced",
             result.result,
             result.reason,
             game.robot_time(),
+            waits_text(game.in_position().is_some(), &all_waits),
             game.misplaced().len()
         ),
         runs: vec![replay.finish(&settings_name)],
@@ -271,11 +279,12 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let mut human = String::new();
     crate::tell_or_keep(
         &format!(
-            "result {} ({}); {} plies, robot time {:.1} s, wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
+            "result {} ({}); {} plies, robot time {:.1} s ({}), wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
             result.result,
             result.reason,
             reports.len(),
             game.robot_time(),
+            waits_text(game.in_position().is_some(), &all_waits),
             wall_time_s,
             if game.fen_physical() == game.fen_rules() { "equals" } else { "DIFFERS FROM" },
             game.misplaced().len()
@@ -314,16 +323,25 @@ fn move_line(report: &MoveReport) -> String {
     let by = if report.mover == Mover::Robot { "robot" } else { "hand" };
     let tip = report.max_tip_error.map_or("-".to_string(), |e| format!("{:.4}", e * 1e3));
     let place = report.place_errors.iter().map(|e| format!("{:.3}", e * 1e3)).collect::<Vec<_>>().join(" ");
+    let waits = report.wait_totals();
+    let wait = if report.mover == Mover::Robot { format!("{:.2}", waits.total) } else { "-".to_string() };
     let mut line = format!(
-        "{:>4} {:>8} {:>6} {:<18} {:>8.2} {:>12} {:>22}",
+        "{:>4} {:>8} {:>6} {:<18} {:>8.2} {:>8} {:>12} {:>22}",
         report.ply,
         report.san,
         by,
         report.kind.name(),
         report.duration,
+        wait,
         tip,
         place
     );
+    if waits.timed_out > 0 {
+        line.push_str(&format!(
+            "\n     NOT IN POSITION: {} gripper command(s) went ahead after the timeout",
+            waits.timed_out
+        ));
+    }
     for misplaced in &report.new_misplaced {
         line.push_str(&format!("\n     MISPLACED: {misplaced}"));
     }
@@ -370,6 +388,17 @@ fn game_result(game: &Game, source: &Source, args: &PlayArgs, plies: usize) -> G
             reason: format!("stopped after --plies {} ({plies} played); the game is not over", args.plies),
         },
     }
+}
+
+/// The fine points' waits in words: "12 in-position waits, 1.30 s, longest 0.25 s, 0 timed out".
+fn waits_text(fine_points: bool, totals: &chessarm_chess::play::WaitTotals) -> String {
+    if !fine_points {
+        return "gripper by the clock".to_string();
+    }
+    format!(
+        "{} in-position waits, {:.2} s, longest {:.2} s, {} timed out",
+        totals.count, totals.total, totals.longest, totals.timed_out
+    )
 }
 
 /// A wait total as JSON (s).
@@ -485,6 +514,8 @@ struct ReplayBuilder {
     frames: Vec<Frame>,
     moves: Vec<ReplayMove>,
     handled: Vec<chessarm_chess::play::Handling>,
+    /// The fine points' waits that took time, `[start, end]` in the game's robot time (s).
+    waits: Vec<[f64; 2]>,
     /// The next move's number and side to move.
     number: u32,
     turn: Color,
@@ -493,7 +524,7 @@ struct ReplayBuilder {
 impl ReplayBuilder {
     /// `first` is the start position's move number and side to move.
     fn new((number, turn): (u32, Color), start: Frame) -> Self {
-        Self { frames: vec![start], moves: Vec::new(), handled: Vec::new(), number, turn }
+        Self { frames: vec![start], moves: Vec::new(), handled: Vec::new(), waits: Vec::new(), number, turn }
     }
 
     fn add(&mut self, report: &MoveReport) {
@@ -518,10 +549,24 @@ impl ReplayBuilder {
         }
         self.turn = !self.turn;
         self.handled.extend(report.handled.iter().copied());
+        let start = report.start_time;
+        self.waits.extend(
+            report
+                .waits
+                .iter()
+                .filter(|w| w.duration > 0.0)
+                .map(|w| [start + w.reached, start + w.reached + w.duration]),
+        );
     }
 
     fn finish(self, name: &str) -> ReplayRun {
-        ReplayRun { name: name.to_string(), frames: self.frames, handled: self.handled, moves: self.moves }
+        ReplayRun {
+            name: name.to_string(),
+            frames: self.frames,
+            handled: self.handled,
+            moves: self.moves,
+            waits: self.waits,
+        }
     }
 }
 

@@ -56,7 +56,9 @@ pub fn pawn_events(
     let payload = PieceDimensions { mass: true_pawn_mass(setup, trial, mass), ..pawn }.payload();
     path.events()
         .iter()
-        .map(|event| PayloadEvent::new(event.time, (event.action == GripperAction::Grip).then_some(payload), controller_knows))
+        .map(|event| {
+            PayloadEvent::new(event.time, (event.action == GripperAction::Grip).then_some(payload), controller_knows)
+        })
         .collect()
 }
 
@@ -607,7 +609,7 @@ fn write_study_replay(
                 start: 0.0,
                 end: run.summary.duration,
             }];
-            ReplayRun { name: run.spec.name.clone(), frames, handled, moves }
+            ReplayRun { name: run.spec.name.clone(), frames, handled, moves, waits: Vec::new() }
         })
         .collect();
     let names: Vec<String> = runs.iter().map(|r| r.spec.name.to_uppercase()).collect();

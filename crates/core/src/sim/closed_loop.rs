@@ -394,7 +394,8 @@ where
     R: ReferenceSource<N> + ?Sized,
     O: Observer<N> + ?Sized,
 {
-    drive(plant, feedback, controller, reference, initial, events, marks, None, config, observer).map(|(summary, _)| summary)
+    drive(plant, feedback, controller, reference, initial, events, marks, None, config, observer)
+        .map(|(summary, _)| summary)
 }
 
 /// [`simulate_sensed`] with every payload event a fine point ([`crate::plan::fine_point`]):
@@ -714,9 +715,7 @@ where
     /// Tells the controller about an event the plant (now `plant`) has taken.
     pub fn apply_event(&mut self, event: &PayloadEvent, plant: &ArmModel<N>) -> Result<(), SimError> {
         if let Told::Payload(payload) = event.told {
-            self.controller
-                .set_payload(payload)
-                .map_err(|source| SimError::Payload { time: self.time(), source })?;
+            self.controller.set_payload(payload).map_err(|source| SimError::Payload { time: self.time(), source })?;
         }
         self.controller.gripper_changed(event.payload.is_some());
         self.next_event += 1;
