@@ -27,6 +27,8 @@ fn trials(c: &mut Criterion) {
         seed: 1,
         integrator: chessarm_core::sim::Integrator::default(),
         controller_knows_payload: false,
+        payload_feedforward: true,
+        in_position: Some(chessarm_core::plan::fine_point::InPosition::for_tolerance(0.005)),
         tolerance: 0.005,
     };
     let mut group = c.benchmark_group("robustness, queens-gambit, hobby + Kalman, PD");

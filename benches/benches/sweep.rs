@@ -18,6 +18,7 @@ fn sweeps(c: &mut Criterion) {
     let range = shard_range(gains.len(), None);
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
+        placement: args.placement.clone(),
         kind: chessarm_core::control::choice::ControllerKind::ComputedTorque,
         knows_friction: false,
         trial: None,

@@ -51,6 +51,10 @@ pub struct TrialRow {
     pub saturated_samples: usize,
     /// RMS over the joints and samples of the rate estimate's error, rad/s.
     pub rms_rate_estimate_error: f64,
+    /// Robot time of the run (a game's moves, fine points' waits included), s.
+    pub robot_time_s: f64,
+    /// Robot moves simulated (1 for the scenario).
+    pub plies: usize,
     /// The trial's drawn parameters.
     pub drawn: Vec<(String, f64)>,
 }
@@ -73,6 +77,8 @@ struct Totals {
     peak_ratio: f64,
     saturated: usize,
     places: Vec<f64>,
+    robot_time: f64,
+    moves: usize,
 }
 
 impl Totals {
@@ -85,6 +91,8 @@ impl Totals {
         self.peak_torque = self.peak_torque.max(summary.peak_torque.max());
         self.peak_ratio = self.peak_ratio.max(summary.peak_torque.component_div(limits).max());
         self.saturated += summary.saturated_samples;
+        self.robot_time += summary.duration;
+        self.moves += 1;
     }
 }
 
@@ -153,16 +161,18 @@ fn row(
         peak_torque_ratio: totals.peak_ratio,
         saturated_samples: totals.saturated,
         rms_rate_estimate_error: (totals.squared_rate / totals.samples.max(1.0)).sqrt(),
+        robot_time_s: if ok { totals.robot_time } else { f64::NAN },
+        plies: totals.moves,
         drawn: trial.columns(),
         status,
     }
 }
 
-const HEADER: &str = "trial,trial_seed,controller,status,success,place_error_mm,pieces,misplaced,max_tip_error_mm,rms_tip_error_mm,peak_torque_nm,peak_torque_ratio,saturated_samples,rms_rate_estimate_error_rad_per_s";
+const HEADER: &str = "trial,trial_seed,controller,status,success,place_error_mm,pieces,misplaced,max_tip_error_mm,rms_tip_error_mm,peak_torque_nm,peak_torque_ratio,saturated_samples,rms_rate_estimate_error_rad_per_s,robot_time_s,plies";
 
 fn csv_line(row: &TrialRow) -> String {
     let mut line = format!(
-        "{},{},{},{},{},{:?},{},{},{:?},{:?},{:?},{:?},{},{:?}",
+        "{},{},{},{},{},{:?},{},{},{:?},{:?},{:?},{:?},{},{:?},{:?},{}",
         row.trial,
         row.trial_seed,
         row.controller,
@@ -176,7 +186,9 @@ fn csv_line(row: &TrialRow) -> String {
         row.peak_torque_nm,
         row.peak_torque_ratio,
         row.saturated_samples,
-        row.rms_rate_estimate_error
+        row.rms_rate_estimate_error,
+        row.robot_time_s,
+        row.plies
     );
     for (_, value) in &row.drawn {
         line.push_str(&format!(",{value:?}"));
@@ -195,6 +207,16 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
         return f64::INFINITY;
     }
     sorted[low] + (sorted[high] - sorted[low]) * (position - low as f64)
+}
+
+/// The mean over the finished runs of robot seconds per simulated move (NaN without one).
+fn seconds_per_ply(rows: &[&TrialRow]) -> f64 {
+    let finished: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.robot_time_s.is_finite() && r.plies > 0)
+        .map(|r| r.robot_time_s / r.plies as f64)
+        .collect();
+    finished.iter().sum::<f64>() / finished.len() as f64
 }
 
 /// Per controller: the study's statistics. A failed run counts as an infinite placement
@@ -223,6 +245,8 @@ fn statistics(rows: &[TrialRow], name: &str, replay: &str) -> serde_json::Value 
         "peak_torque_nm": mine.iter().map(|r| r.peak_torque_nm).fold(0.0f64, f64::max),
         "peak_torque_ratio": mine.iter().map(|r| r.peak_torque_ratio).fold(0.0f64, f64::max),
         "trials_with_saturation": mine.iter().filter(|r| r.saturated_samples > 0).count(),
+        // Mean over the finished trials of the robot time per simulated move, s.
+        "seconds_per_ply": seconds_per_ply(&mine),
         "rms_rate_estimate_error_rad_per_s": mine.iter().map(|r| r.rms_rate_estimate_error).sum::<f64>() / mine.len().max(1) as f64,
         "worst_trial_seed": worst.map(|r| r.trial_seed),
         "replay_worst_trial": worst.map(|r| format!("chessarm {replay} --controller {name} --trial-seed {}", r.trial_seed)),
@@ -330,6 +354,8 @@ fn failed_draw(drawn: &Drawn, error: &anyhow::Error) -> TrialRow {
         peak_torque_ratio: f64::NAN,
         saturated_samples: 0,
         rms_rate_estimate_error: f64::NAN,
+        robot_time_s: f64::NAN,
+        plies: 0,
         drawn: Vec::new(),
     }
 }
@@ -562,18 +588,19 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
 
 fn table(stats: &[serde_json::Value], trials: usize, tolerance_mm: f64) -> String {
     let mut text = format!(
-        "{trials} trials; success = every piece within {tolerance_mm} mm of its square centre\n{:<10} {:>9} {:>12} {:>12} {:>12} {:>14} {:>11}\n",
-        "control", "success", "median mm", "p95 mm", "max mm", "peak |τ| N·m", "saturated"
+        "{trials} trials; success = every piece within {tolerance_mm} mm of its square centre\n{:<10} {:>9} {:>12} {:>12} {:>12} {:>8} {:>14} {:>11}\n",
+        "control", "success", "median mm", "p95 mm", "max mm", "s/ply", "peak |τ| N·m", "saturated"
     );
     for s in stats {
         let number = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
         text.push_str(&format!(
-            "{:<10} {:>8.1}% {:>12.4} {:>12.4} {:>12.4} {:>14.3} {:>11}\n",
+            "{:<10} {:>8.1}% {:>12.4} {:>12.4} {:>12.4} {:>8.3} {:>14.3} {:>11}\n",
             s["controller"].as_str().unwrap_or("?"),
             100.0 * number(&s["success_rate"]),
             number(&s["place_error_mm"]["median"]),
             number(&s["place_error_mm"]["p95"]),
             number(&s["place_error_mm"]["max"]),
+            number(&s["seconds_per_ply"]),
             number(&s["peak_torque_nm"]),
             s["trials_with_saturation"].as_u64().map_or("-".to_string(), |n| n.to_string()),
         ));
