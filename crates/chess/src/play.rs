@@ -524,7 +524,9 @@ impl Game {
         .map_err(|source| PlayError::Simulation { mv: name.to_string(), source })?;
         // When each gripper command went ahead, s from the move's start: the plan's instant
         // plus the waits before it.
-        let event_time = |k: usize, planned: f64| waits.get(k).map_or(planned, |w: &Wait| w.reached + w.duration);
+        let event_time = |k: usize, planned: f64| {
+            waits.iter().find(|w: &&Wait| w.event == k).map_or(planned, |w| w.reached + w.duration)
+        };
         for (index, step) in planned.iter().enumerate() {
             let standing = self
                 .table

@@ -1,6 +1,8 @@
 //! Fine points: a gripper command goes ahead only when the estimated arm is in position
 //! (`simulate_fine_points`), or when its wait times out, and the run says which.
 
+#![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
+
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::{JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;

@@ -9,7 +9,8 @@
 //! - the estimated tip speed `|J(q̂) q̂̇|` is at most `speed_band` (so an overshoot passing
 //!   through the band does not count),
 //!
-//! checked at every controller sample from the instant the plan reaches the command. While
+//! checked at every integration step from the instant the plan reaches the command, against
+//! the estimate of the latest controller sample (the one before that step). While
 //! waiting, the reference holds the planned point at rest; a wait that reaches `timeout` gives
 //! up, and the command goes ahead where the arm is (the run reports it).
 

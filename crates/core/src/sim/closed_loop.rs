@@ -685,7 +685,8 @@ where
 
     /// Whether the current step is the run's last (nothing to integrate after it).
     pub fn finished(&self) -> bool {
-        self.step == self.steps + self.held_steps
+        // A fine point's wait at the plan's last step goes on (the step is held).
+        self.step == self.steps + self.held_steps && !self.holding
     }
 
     /// The next payload event due at the current step of the plan, if any; the driver applies
