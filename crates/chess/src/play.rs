@@ -24,7 +24,6 @@ use chessarm_core::plan::trajectory::{PlanError, ToolMotion};
 use chessarm_core::sense::{Conditions, Feedback, SenseError};
 use chessarm_core::sim::{
     Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, Told, simulate_fine_points,
-    simulate_sensed,
 };
 use shakmaty::fen::Fen;
 use shakmaty::san::SanPlus;
@@ -495,32 +494,18 @@ impl Game {
             ..SimConfig::new(&plant)
         };
         let mut sampler = Sampler { every: settings.record_every, seen: 0, records: Vec::new() };
-        let (summary, waits) = match &settings.in_position {
-            Some(gate) => simulate_fine_points(
-                &mut plant,
-                &mut self.feedback,
-                controller.as_mut(),
-                trajectory,
-                Some(self.state),
-                &events,
-                &marks,
-                gate,
-                &config,
-                &mut sampler,
-            ),
-            None => simulate_sensed(
-                &mut plant,
-                &mut self.feedback,
-                controller.as_mut(),
-                trajectory,
-                Some(self.state),
-                &events,
-                &marks,
-                &config,
-                &mut sampler,
-            )
-            .map(|summary| (summary, Vec::new())),
-        }
+        let (summary, waits) = simulate_fine_points(
+            &mut plant,
+            &mut self.feedback,
+            controller.as_mut(),
+            trajectory,
+            Some(self.state),
+            &events,
+            &marks,
+            settings.in_position.as_ref(),
+            &config,
+            &mut sampler,
+        )
         .map_err(|source| PlayError::Simulation { mv: name.to_string(), source })?;
         // When each gripper command went ahead, s from the move's start: the plan's instant
         // plus the waits before it.

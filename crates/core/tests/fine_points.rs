@@ -80,7 +80,7 @@ fn gated(
         None,
         &events(),
         &marks,
-        gate,
+        Some(gate),
         &config,
         &mut records,
     )?;

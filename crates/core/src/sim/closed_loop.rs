@@ -404,7 +404,7 @@ where
 /// controller's model's kinematics (the plant's where the controller has none), or until the
 /// gate's timeout. The run lasts the plan plus its waits; `marks` are instants of the plan (a
 /// mark at an event is taken when the event goes ahead). Returns the metrics and each event's
-/// wait, in order.
+/// wait, in order. Without a gate it is [`simulate_sensed`] (and no waits).
 #[allow(clippy::too_many_arguments)]
 pub fn simulate_fine_points<const N: usize, C, R, O>(
     plant: &mut Plant<N>,
@@ -414,7 +414,7 @@ pub fn simulate_fine_points<const N: usize, C, R, O>(
     initial: Option<JointState<N>>,
     events: &[PayloadEvent],
     marks: &[f64],
-    gate: &InPosition,
+    gate: Option<&InPosition>,
     config: &SimConfig<N>,
     observer: &mut O,
 ) -> Result<(SimSummary<N>, Vec<Wait>), SimError>
@@ -423,8 +423,8 @@ where
     R: ReferenceSource<N> + ?Sized,
     O: Observer<N> + ?Sized,
 {
-    let gate = gate.validated().map_err(|e| SimError::Config(e.to_string()))?;
-    drive(plant, feedback, controller, reference, initial, events, marks, Some(&gate), config, observer)
+    let gate = gate.map(|g| g.validated()).transpose().map_err(|e| SimError::Config(e.to_string()))?;
+    drive(plant, feedback, controller, reference, initial, events, marks, gate.as_ref(), config, observer)
 }
 
 /// Where an event is in its fine point's wait: the step the plan reached it.
