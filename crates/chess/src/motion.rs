@@ -390,14 +390,9 @@ fn plan_optimal(
 
 /// Adds a timed leg's time per piece: vertical lines to `vertical`, the rest to `travel`.
 fn add_phases(phases: &mut PhaseTimes, plan: &LegPlan) {
-    let timing = &plan.leg.timing;
-    let time_at = |s: f64| {
-        let i = timing.s.partition_point(|&g| g < s - 1e-12).min(timing.s.len() - 1);
-        timing.t[i] * plan.leg.scale
-    };
     let path = &plan.leg.path;
     for (piece, start) in path.pieces().iter().zip(path.piece_starts()) {
-        let duration = time_at(start + piece.length()) - time_at(*start);
+        let duration = plan.leg.time_at(start + piece.length()) - plan.leg.time_at(*start);
         if piece.is_vertical() {
             phases.vertical += duration;
         } else {
@@ -451,24 +446,88 @@ fn time_optimal_leg(
     let carried = [(0.0, f64::INFINITY, *model)];
     let carried: &[(f64, f64, ArmModel<4>)] = if carrying { &carried } else { &[] };
     let mut refinement = 0;
+    let mut stretches = 0;
+    let mut plan = plan_leg(arm, path, &constraints, limits, refinement, period)?;
     loop {
-        let plan = time_leg(arm, path, &constraints, limits.grid_step, refinement, TOOL_DOWN, period)
-            .map_err(TaskError::Leg)?;
         let mut leg = TimedMotion::new(path.start());
         leg.push(Stretch::Leg(plan.leg.clone()));
-        // Every control period, and every planning stage at its ends and its middle.
+        // Every control period, and every planning stage at its ends and its middle, as the
+        // base law passes them and as the smoothed one does (half a window later) and ends
+        // them (a whole window later).
         let timing = &plan.leg.timing;
-        let scale = plan.leg.scale;
+        let (scale, window) = (plan.leg.scale, plan.leg.window());
         let periods = sample_times(plan.leg.duration(), period).map_err(|e| TaskError::Trajectory(e.into()))?;
-        let stages =
-            timing.t.windows(2).flat_map(|w| [w[0] * scale, 0.5 * (w[0] + w[1]) * scale, w[1] * scale * (1.0 - 1e-12)]);
+        let shifts: &[f64] = if window > 0.0 { &[0.0, 0.5, 1.0] } else { &[0.0] };
+        let stages = timing.t.windows(2).flat_map(|w| {
+            let instants = [w[0] * scale, 0.5 * (w[0] + w[1]) * scale, w[1] * scale * (1.0 - 1e-12)];
+            shifts.iter().flat_map(move |shift| instants.map(|t| t + shift * window))
+        });
         let times = periods.chain(stages);
         match check_motion_at(arm, &leg, carried, &check, TOOL_DOWN, times).map_err(TaskError::Trajectory)? {
             Ok(usage) => return Ok((plan, usage)),
-            Err(_) if refinement < REFINEMENTS => refinement += 1,
+            // The smoothing averages the law over a stretch of path along which the limits
+            // vary, and fills in the speed's dips where the law rides a limit: a smoothed leg
+            // over a limit by a share ρ is slowed down as a whole, window and all, by k ≥ ρ
+            // (speeds scale by 1/k, accelerations by 1/k², the jerk by 1/k³, the shape is
+            // the same) to whole periods, and checked again.
+            Err(_) if window > 0.0 && stretches < STRETCHES => {
+                stretches += 1;
+                // The check stops at the first limit exceeded: the largest share of any limit
+                // comes from the same samples against limits LOOSE times wider.
+                let loose = MotionCheck {
+                    joint_speed: check.joint_speed.map(|v| v * LOOSE),
+                    joint_acceleration: check.joint_acceleration.map(|v| v * LOOSE),
+                    torque_margin: check.torque_margin * LOOSE,
+                    tool_speed: check.tool_speed * LOOSE,
+                    carry_acceleration: check.carry_acceleration * LOOSE,
+                    grip_strength: check.grip_strength * LOOSE,
+                };
+                let times = sample_times(plan.leg.duration(), period).map_err(|e| TaskError::Trajectory(e.into()))?;
+                let stages = timing.t.windows(2).flat_map(|w| {
+                    let instants = [w[0] * scale, 0.5 * (w[0] + w[1]) * scale, w[1] * scale * (1.0 - 1e-12)];
+                    shifts.iter().flat_map(move |shift| instants.map(|t| t + shift * window))
+                });
+                let over = match check_motion_at(arm, &leg, carried, &loose, TOOL_DOWN, times.chain(stages))
+                    .map_err(TaskError::Trajectory)?
+                {
+                    Ok(usage) => (usage.share * LOOSE).max(1.0),
+                    Err(violation) => return Err(TaskError::Violation(violation)),
+                };
+                let duration = plan.leg.duration();
+                let periods = (duration * over / period - 1e-9).ceil().max((duration / period).round() + 1.0);
+                plan.leg = plan.leg.stretched(periods * period / duration);
+            }
+            Err(_) if window <= 0.0 && refinement < REFINEMENTS => {
+                refinement += 1;
+                plan = plan_leg(arm, path, &constraints, limits, refinement, period)?;
+            }
             Err(violation) => return Err(TaskError::Violation(violation)),
         }
     }
+}
+
+/// How many times a smoothed leg over a limit is slowed down before it is an error.
+const STRETCHES: u32 = 8;
+
+/// How much wider than the limits the check is that finds a smoothed leg's largest share of
+/// a limit (a leg this far over is an error).
+const LOOSE: f64 = 100.0;
+
+/// The leg timed on the grid refined `refinement` times, smoothed to the jerk limit.
+fn plan_leg(
+    arm: &ArmModel<4>,
+    path: &GeometricPath,
+    constraints: &[&dyn PathConstraint<4>],
+    limits: &MotionLimits,
+    refinement: u32,
+    period: f64,
+) -> Result<LegPlan, TaskError> {
+    let mut plan =
+        time_leg(arm, path, constraints, limits.grid_step, refinement, TOOL_DOWN, period).map_err(TaskError::Leg)?;
+    if limits.jerk > 0.0 {
+        plan.leg = plan.leg.smoothed_for_jerk(limits.jerk, period);
+    }
+    Ok(plan)
 }
 
 /// The leg's polyline with each corner blended at the largest cut (up to `limits.blend`) whose

@@ -342,6 +342,11 @@ pub struct MotionLimits {
     pub blend: f64,
     /// Planning grid step along the path, m.
     pub grid_step: f64,
+    /// Largest jerk along the path of time-optimal motions, m/s³ (on lines, where the path
+    /// parameter is the arc length, the tool's jerk from the timing): each leg's time-optimal
+    /// law is smoothed by a moving average just long enough
+    /// ([`chessarm_core::plan::geometric::TimedLeg`]). 0: no limit (acceleration steps).
+    pub jerk: f64,
 }
 
 impl Default for MotionLimits {
@@ -367,6 +372,7 @@ impl Default for MotionLimits {
             grip_strength: 2.0 * 9.81,
             blend: 0.04,
             grid_step: 0.005,
+            jerk: 0.0,
         }
     }
 }
@@ -401,6 +407,7 @@ impl MotionLimits {
             ("grip_dwell", self.grip_dwell),
             ("release_dwell", self.release_dwell),
             ("blend", self.blend),
+            ("jerk", self.jerk),
         ];
         for (field, value) in non_negative {
             if !(value.is_finite() && value >= 0.0) {

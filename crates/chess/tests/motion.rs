@@ -84,9 +84,48 @@ fn blended_paths_keep_the_clearance_over_tall_kings_beside_them() {
 
 #[test]
 fn a_whole_ply_is_continuous_in_velocity_and_keeps_every_limit_when_checked_independently() {
-    // A capture: two tasks, five legs, grips and releases in between.
+    let planned = check_capture(&MotionLimits::default());
+    assert!(planned.usage.as_ref().unwrap().share > 0.99);
+}
+
+#[test]
+fn a_jerk_limited_ply_keeps_every_limit_and_its_jerk_on_every_vertical_line() {
+    // 200 m/s³: 4 % of the default's acceleration steps' spread per millisecond.
+    let jerk = 200.0;
+    let limits = MotionLimits { jerk, ..MotionLimits::default() };
+    let planned = check_capture(&limits);
+    let unlimited = check_capture(&MotionLimits::default());
+    // The smoothing costs time (each leg's window, and the slow-downs that keep the limits)...
+    assert!(planned.motion.duration() > unlimited.motion.duration());
+    // ...and on the rises and descents (the tool's jerk is the law's there) the jerk, by
+    // finite differences every 0.1 ms, is within the limit; without it the acceleration steps.
+    let largest = |planned: &PlannedMove| {
+        let (motion, dt) = (&planned.motion, 1e-4);
+        let mut previous = motion.sample(0.0);
+        let mut largest: f64 = 0.0;
+        for k in 1..=(motion.duration() / dt) as usize {
+            let sample = motion.sample(k as f64 * dt);
+            let vertical = (sample.position.xy() - previous.position.xy()).norm() < 1e-12
+                && (sample.position.z - previous.position.z).abs() > 0.0;
+            if vertical {
+                largest = largest.max((sample.acceleration - previous.acceleration).norm() / dt);
+            }
+            previous = sample;
+        }
+        largest
+    };
+    let (smooth, steps) = (largest(&planned), largest(&unlimited));
+    // 1e-6 relative: the law's jerk is exactly within the limit; the samples' rounding is not.
+    assert!(smooth <= jerk * (1.0 + 1e-6), "largest vertical jerk {smooth} m/s³ against {jerk}");
+    assert!(smooth > 0.3 * jerk, "{smooth}");
+    assert!(steps > 10.0 * jerk, "without the limit the acceleration steps: {steps} m/s³");
+}
+
+/// Plans a capture (two tasks, five legs, grips and releases in between) under `limits` and
+/// checks its continuity and every limit every 0.1 ms, independently of the planner.
+fn check_capture(limits: &MotionLimits) -> PlannedMove {
     let (position, mv) = parse("rnbqkbnr/ppp1pppp/8/3p4/4P3/8/PPPP1PPP/RNBQKBNR w KQkq - 0 2", "e4d5");
-    let limits = MotionLimits::default();
+    let limits = *limits;
     let (_, planned) = plan(&position, &mv, &limits);
     let arm = report_arm();
     let pieces = PieceSet::default();
@@ -128,12 +167,12 @@ fn a_whole_ply_is_continuous_in_velocity_and_keeps_every_limit_when_checked_inde
     }
     assert!(largest_jump < 1e-3, "velocity jumps by {largest_jump} m/s");
     assert_eq!(planned.tasks.len(), 2);
-    assert!(planned.usage.as_ref().unwrap().share > 0.99);
     // Phases add up to the duration and there are no pauses.
     let p = planned.phases;
     assert!((p.travel + p.vertical + p.grip + p.pause - motion.duration()).abs() < 1e-9);
     assert_eq!(p.pause, 0.0);
     assert!((p.grip - 2.0 * (limits.grip_dwell + limits.release_dwell)).abs() < 1e-12);
+    planned
 }
 
 #[test]

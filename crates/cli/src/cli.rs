@@ -198,6 +198,10 @@ pub struct MotionArgs {
     /// Planning grid step along the path, m (default 0.005).
     #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub grid_step: Option<f64>,
+    /// Largest jerk along the path of optimal motions, m/s³: each leg's acceleration steps
+    /// are smoothed just enough (0: no limit; default 0).
+    #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub jerk: Option<f64>,
     /// LSPB traverse speed, m/s (default 0.25).
     #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub traverse_speed: Option<f64>,
@@ -233,6 +237,7 @@ impl MotionArgs {
         set(&mut limits.blend, self.blend);
         set(&mut limits.clearance_margin, self.clearance_margin);
         set(&mut limits.grid_step, self.grid_step);
+        set(&mut limits.jerk, self.jerk);
         set(&mut limits.traverse_speed, self.traverse_speed);
         set(&mut limits.traverse_acceleration, self.traverse_acceleration);
         set(&mut limits.vertical_speed, self.vertical_speed);

@@ -142,6 +142,9 @@ pub struct MotionFile {
     /// Planning grid step along the path, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid_step: Option<f64>,
+    /// Largest jerk along the path of time-optimal motions, m/s³ (0: no limit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jerk: Option<f64>,
     /// Clearance over the tallest piece passed over, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub clearance_margin: Option<f64>,
@@ -212,6 +215,7 @@ impl MotionFile {
             grip_strength: g("grip_strength", gripper.grip_strength, default.grip_strength)?,
             blend: m("blend", self.blend, default.blend)?,
             grid_step: m("grid_step", self.grid_step, default.grid_step)?,
+            jerk: m("jerk", self.jerk, default.jerk)?,
         };
         checked_limits(limits, "motion", "gripper")
     }
@@ -586,6 +590,7 @@ impl From<&Setup> for SetupFile {
                 torque_margin: Some(m.torque_margin),
                 blend: Some(m.blend),
                 grid_step: Some(m.grid_step),
+                jerk: Some(m.jerk),
                 clearance_margin: Some(m.clearance_margin),
                 traverse_speed: Some(m.traverse_speed),
                 traverse_acceleration: Some(m.traverse_acceleration),

@@ -185,6 +185,7 @@ fn a_sweep_over_a_game_counts_misplaced_pieces() {
         "4..40:2",
         "--metric",
         "place-error",
+        "--release-by-clock",
         "--out",
         out.to_str().unwrap(),
     ]));
@@ -192,8 +193,8 @@ fn a_sweep_over_a_game_counts_misplaced_pieces() {
     let rows = rows(&csv);
     assert_eq!(rows.len(), 4);
     // kp = 25 1/s² with kd = 4 1/s (ωn = 5 rad/s, ζ = 0.4) is far too soft for the moves'
-    // speed: pieces land off their squares; kp = 900, kd = 40 (ωn = 30 rad/s, ζ = 0.67) places
-    // every piece.
+    // speed: released by the clock (no fine points), pieces land off their squares; kp = 900,
+    // kd = 40 (ωn = 30 rad/s, ζ = 0.67) places every piece.
     let row = |kp: &str, kd: &str| rows.iter().find(|r| r[1] == kp && r[2] == kd).unwrap();
     assert!(row("25.0", "4.0")[13].parse::<usize>().unwrap() > 0, "{csv}");
     assert_eq!(row("900.0", "40.0")[13], "0", "{csv}");

@@ -417,3 +417,73 @@ fn without_an_upper_bound_on_x_the_projection_is_decided_by_the_lines_at_infinit
     // u ≥ 2x + 1 and u ≤ x: nothing for x ≥ 0.
     assert_eq!(project(rows(&[(-1.0, 2.0, -1.0), (1.0, -1.0, 0.0)]).into_iter()), None);
 }
+
+#[test]
+fn a_smoothed_leg_keeps_its_jerk_limit_on_a_grid_ten_times_finer_than_the_control_period() {
+    let model = report_arm();
+    let limits = limits(&model);
+    let path = pick_and_place(0.04);
+    let period = 1e-3;
+    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, TOOL_DOWN, period).unwrap();
+    let base = plan.leg.clone();
+    for jerk in [1000.0, 200.0, 50.0] {
+        let leg = base.clone().smoothed_for_jerk(jerk, period);
+        // The window is the shortest whole number of periods with (max s̈ − min s̈)/T ≤ J.
+        let (low, high) = base.timing.u.iter().fold((0.0_f64, 0.0_f64), |(l, h), &u| (l.min(u), h.max(u)));
+        let spread = (high - low) / (base.scale * base.scale);
+        assert!(leg.window() >= spread / jerk && leg.window() < spread / jerk + period, "{}", leg.window());
+        let periods = leg.duration() / period;
+        assert!((periods - periods.round()).abs() < 1e-6, "{periods}");
+        assert!((leg.duration() - base.duration() - leg.window()).abs() < 1e-12);
+        // From rest to rest, from the path's start to its end, never backwards.
+        let end = path.length();
+        assert_eq!(leg.law(0.0), (0.0, 0.0, 0.0));
+        assert_eq!(leg.law(leg.duration()), (end, 0.0, 0.0));
+        // Every 0.1 ms: the jerk (finite difference of s̈) within the limit, s̈ continuous (no
+        // step larger than the jerk allows in a sample), ṡ the derivative of s.
+        let h = period / 10.0;
+        let n = (leg.duration() / h).round() as usize;
+        let mut previous = leg.law(0.0);
+        let mut largest: f64 = 0.0;
+        for k in 1..=n + 10 {
+            let now = leg.law(k as f64 * h);
+            assert!(now.0 >= previous.0 - 1e-15, "s fell at t = {}", k as f64 * h);
+            // |s̈(t + h) − s̈(t)| ≤ J h exactly (the law's jerk is piecewise constant, bounded
+            // by the spread over the window); 1e-9 relative covers rounding.
+            let jerk_here = (now.2 - previous.2).abs() / h;
+            largest = largest.max(jerk_here);
+            assert!(jerk_here <= jerk * (1.0 + 1e-9), "jerk {jerk_here} m/s³ at t = {} s, limit {jerk}", k as f64 * h);
+            // Trapezoid rule on ṡ: exact to O(h³ s⃛) per step.
+            let moved = now.0 - previous.0;
+            let trapezoid = 0.5 * h * (now.1 + previous.1);
+            assert!(
+                (moved - trapezoid).abs() <= 1e-9,
+                "s and ṡ disagree at t = {}: {moved} vs {trapezoid}",
+                k as f64 * h
+            );
+            previous = now;
+        }
+        // The limit is used: the largest jerk is within a period's rounding of it.
+        assert!(largest > 0.5 * jerk, "largest jerk {largest} against {jerk}");
+    }
+}
+
+#[test]
+fn the_unsmoothed_leg_is_the_time_optimal_law_and_a_stretch_is_a_uniform_slow_down() {
+    let model = report_arm();
+    let limits = limits(&model);
+    let path = pick_and_place(0.04);
+    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, TOOL_DOWN, 1e-3).unwrap();
+    let leg = plan.leg.clone();
+    assert_eq!(leg.window(), 0.0);
+    assert_eq!(leg.clone().smoothed_for_jerk(0.0_f64.recip(), 1e-3).window(), 0.0);
+    let smoothed = leg.smoothed_for_jerk(200.0, 1e-3);
+    let k = 1.25;
+    let slow = smoothed.clone().stretched(k);
+    assert!((slow.duration() - k * smoothed.duration()).abs() < 1e-12);
+    for i in 0..=100 {
+        let t = smoothed.duration() * f64::from(i) / 100.0;
+        let (a, b) = (smoothed.law(t), slow.law(k * t));
+        assert!((a.0 - b.0).abs() < 1e-12 && (a.1 - k * b.1).abs() < 1e-12 && (a.2 - k * k * b.2).abs() < 1e-9);
+    }
+}

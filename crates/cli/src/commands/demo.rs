@@ -3,8 +3,8 @@
 use crate::cli::{ControllerName, DemoArgs, GainArgs};
 use crate::commands::plan::{plan_scenario, write_plan};
 use crate::commands::simulate::{
-    ControllerRun, RunOptions, TRANSIENT_S, comparison_table, controller_specs, max_tip_error_from, run_study,
-    study_steps,
+    ControllerRun, DefaultGains, RunOptions, TRANSIENT_S, comparison_table, controller_specs, max_tip_error_from,
+    run_study, study_steps,
 };
 use crate::config::Setup;
 use anyhow::Result;
@@ -29,8 +29,11 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
         conditions: serde_json::Value::Null,
     };
     // The report's two controllers, and its PID with anti-windup.
-    let specs =
-        controller_specs(&[ControllerName::Pd, ControllerName::PidPlain, ControllerName::Pid], &GainArgs::default())?;
+    let specs = controller_specs(
+        &[ControllerName::Pd, ControllerName::PidPlain, ControllerName::Pid],
+        &GainArgs::default(),
+        DefaultGains::Report,
+    )?;
     let steps = study_steps(setup, SCENARIO, &options)?;
     let bar = crate::progress::bar(steps * specs.len() as u64 + steps / 10, "demo");
     bar.set_message("planning");

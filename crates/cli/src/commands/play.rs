@@ -1,7 +1,7 @@
 //! `play`: a game of chess with the simulated arm, every piece checked on its square.
 
 use crate::cli::{PlayArgs, RobotSide};
-use crate::commands::simulate::controller_specs;
+use crate::commands::simulate::{DefaultGains, controller_specs};
 use crate::conditions::Study;
 use crate::config::Setup;
 use crate::hardware::MoveLabel;
@@ -102,7 +102,7 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let setup = &args.motion.apply(setup)?;
-    let mut spec = controller_specs(&[args.controller.into()], &args.gains)?.remove(0);
+    let mut spec = controller_specs(&[args.controller.into()], &args.gains, DefaultGains::Game)?.remove(0);
     spec.knows_friction = args.conditions.controller_knows_friction;
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     let settings_name = spec.name.clone();

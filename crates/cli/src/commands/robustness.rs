@@ -7,7 +7,7 @@
 
 use crate::cli::RobustnessArgs;
 use crate::commands::plan::{Plan, plan_scenario};
-use crate::commands::simulate::{controller_specs, pawn_events, placement_error};
+use crate::commands::simulate::{DefaultGains, controller_specs, pawn_events, placement_error};
 use crate::commands::tune::shard_range;
 use crate::conditions::{Study, Trial};
 use crate::config::Setup;
@@ -455,7 +455,8 @@ fn scenario_rows(
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     crate::resources::batching()?;
     let setup = &args.motion.apply(setup)?;
-    let mut specs = controller_specs(&args.controller, &args.gains)?;
+    let defaults = if args.game_file.is_some() { DefaultGains::Game } else { DefaultGains::Report };
+    let mut specs = controller_specs(&args.controller, &args.gains, defaults)?;
     for spec in &mut specs {
         spec.knows_friction = args.conditions.controller_knows_friction;
     }

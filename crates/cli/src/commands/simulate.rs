@@ -17,7 +17,7 @@ use chessarm_core::arm::dynamics::{DynamicsTerms, coriolis_torques, gravity_torq
 use chessarm_core::arm::model::{JointVector, Payload};
 use chessarm_core::control::JointState;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
-use chessarm_core::control::gains::{Gains, REPORT_PD, REPORT_PID};
+use chessarm_core::control::gains::{GAME_PD, Gains, REPORT_PD, REPORT_PID};
 use chessarm_core::nalgebra::Vector3;
 use chessarm_core::plan::path::{CartesianPath, GripperAction};
 use chessarm_core::sim::{
@@ -90,9 +90,22 @@ pub struct ControllerRun {
     pub wall_time_s: f64,
 }
 
+/// Which gains a controller takes when none are given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DefaultGains {
+    /// The report's: PID's for pid and pid-plain, PD's for the others (scenarios, the study).
+    Report,
+    /// Whole games': [`GAME_PD`] for every controller, PID with the report's `ki`.
+    Game,
+}
+
 /// The controllers `names` asks for (in order, each once; `both` is pd and pid), with the
-/// report's gains unless overridden: PID's for pid, PD's for the others.
-pub fn controller_specs(names: &[ControllerName], given: &GainArgs) -> Result<Vec<ControllerSpec>> {
+/// `defaults` gains unless overridden.
+pub fn controller_specs(
+    names: &[ControllerName],
+    given: &GainArgs,
+    defaults: DefaultGains,
+) -> Result<Vec<ControllerSpec>> {
     let GainArgs { kp, kd, ki } = *given;
     let make = |name: &str, kind: ControllerKind, (default_kp, default_kd, default_ki): (f64, f64, f64)| {
         let pick = |given: Option<[f64; 4]>, default: f64| JointVector::<4>::from(given.unwrap_or([default; 4]));
@@ -117,13 +130,16 @@ pub fn controller_specs(names: &[ControllerName], given: &GainArgs) -> Result<Ve
         let list: Vec<&str> = wanted.iter().map(|n| n.name()).collect();
         bail!("--ki given with --controller {}: only pid and pid-plain have an integral term", list.join(","));
     }
-    let pd = (REPORT_PD.0, REPORT_PD.1, 0.0);
+    let (pd, pid) = match defaults {
+        DefaultGains::Report => ((REPORT_PD.0, REPORT_PD.1, 0.0), REPORT_PID),
+        DefaultGains::Game => ((GAME_PD.0, GAME_PD.1, 0.0), (GAME_PD.0, GAME_PD.1, REPORT_PID.2)),
+    };
     wanted
         .iter()
         .map(|name| match name {
             ControllerName::Pd | ControllerName::Both => make("pd", ControllerKind::ComputedTorque, pd),
-            ControllerName::Pid => make("pid", ControllerKind::AntiWindupPid, REPORT_PID),
-            ControllerName::PidPlain => make("pid-plain", ControllerKind::ComputedTorque, REPORT_PID),
+            ControllerName::Pid => make("pid", ControllerKind::AntiWindupPid, pid),
+            ControllerName::PidPlain => make("pid-plain", ControllerKind::ComputedTorque, pid),
             ControllerName::Adaptive => make("adaptive", ControllerKind::Adaptive, pd),
             ControllerName::Dob => make("dob", ControllerKind::DisturbanceObserver, pd),
         })
@@ -706,7 +722,7 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
     }
-    let mut specs = controller_specs(&args.controller, &args.gains)?;
+    let mut specs = controller_specs(&args.controller, &args.gains, DefaultGains::Report)?;
     for spec in &mut specs {
         spec.knows_friction = args.conditions.controller_knows_friction;
     }

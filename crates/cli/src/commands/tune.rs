@@ -6,7 +6,7 @@
 
 use crate::cli::{ControllerName, GainArgs, Metric, OneController, TuneArgs};
 use crate::commands::plan::plan_scenario;
-use crate::commands::simulate::controller_specs;
+use crate::commands::simulate::{DefaultGains, controller_specs};
 use crate::commands::simulate::{TRANSIENT_S, pawn_events};
 use crate::conditions::Trial;
 use crate::config::Setup;
@@ -459,7 +459,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;
     let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
     let study = study(setup, args, trial.as_ref())?;
-    let kind = controller_specs(&[args.controller.into()], &GainArgs::default())?.remove(0).kind;
+    let kind = controller_specs(&[args.controller.into()], &GainArgs::default(), DefaultGains::Report)?.remove(0).kind;
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
         placement: args.placement.clone(),

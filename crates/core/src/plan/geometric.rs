@@ -247,24 +247,152 @@ fn corner_points(points: &[Vector3<f64>]) -> Result<Vec<Vector3<f64>>, GeometryE
     Ok(kept)
 }
 
-/// A timed geometric path: `s(t/scale)`, stretched by `scale ≥ 1` (a uniform slow-down keeps
-/// every limit: velocities scale by `1/scale`, accelerations by `1/scale²`).
+/// A timed geometric path: the time law `s_b(t) = s(t/scale)` of a [`Timing`], stretched by
+/// `scale ≥ 1` (a uniform slow-down keeps every limit: velocities scale by `1/scale`,
+/// accelerations by `1/scale²`), then, with a window `T > 0`, smoothed by a moving average
+/// (a FIR filter of the time law, as CNC and industrial controllers smooth their moves):
+///
+/// `s̃(t) = (1/T) ∫_{t−T}^{t} s_b(τ) dτ`, so `ṡ̃ = (s_b(t) − s_b(t−T))/T`,
+/// `s̈̃ = (ṡ_b(t) − ṡ_b(t−T))/T` and `s⃛̃ = (s̈_b(t) − s̈_b(t−T))/T`,
+///
+/// with `s_b` held at its ends outside `[0, D]`. The smoothed law runs from rest to rest in
+/// `D + T`, its acceleration is continuous, and its jerk is bounded by
+/// `(max s̈_b − min s̈_b)/T`: [`Self::smoothed_for_jerk`] picks `T` from a jerk limit. The
+/// path is unchanged (only its timing is); its speed and acceleration along the path are
+/// averages of the base law's over the window, taken at a point the window passed through,
+/// so the limits hold up to how fast they vary along the path (checked afterwards, see
+/// `check_motion`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TimedLeg {
     pub path: GeometricPath,
     pub timing: Timing,
     pub scale: f64,
+    /// The smoothing window `T`, s (0: none).
+    window: f64,
+    /// `∫₀^{t_i} s dt` of the unstretched law at the timing's points (m·s).
+    area: Vec<f64>,
 }
 
 impl TimedLeg {
-    pub fn duration(&self) -> f64 {
+    /// The leg timed by `timing`, stretched by `scale`, unsmoothed.
+    pub fn new(path: GeometricPath, timing: Timing, scale: f64) -> Self {
+        let mut area = Vec::with_capacity(timing.t.len());
+        let mut total = 0.0;
+        area.push(0.0);
+        for i in 0..timing.u.len() {
+            let h = timing.t[i + 1] - timing.t[i];
+            let (s, v, u) = (timing.s[i], timing.x[i].sqrt(), timing.u[i]);
+            total += h * (s + h * (0.5 * v + h * u / 6.0));
+            area.push(total);
+        }
+        Self { path, timing, scale, window: 0.0, area }
+    }
+
+    /// The same leg smoothed over `window` s (module docs of [`TimedLeg`]); 0 for none.
+    pub fn with_window(self, window: f64) -> Self {
+        Self { window: window.max(0.0), ..self }
+    }
+
+    /// The window that keeps `|s⃛|` within `jerk` (m/s³ on lines, where `s` is the arc length),
+    /// rounded up to whole `period`s so that the leg still lasts whole periods: the smallest
+    /// `T` with `(max s̈_b − min s̈_b)/T ≤ jerk`. 0 for an infinite jerk.
+    pub fn window_for_jerk(&self, jerk: f64, period: f64) -> f64 {
+        if !jerk.is_finite() {
+            return 0.0;
+        }
+        let (low, high) = self.timing.u.iter().fold((0.0_f64, 0.0_f64), |(l, h), &u| (l.min(u), h.max(u)));
+        let spread = (high - low) / (self.scale * self.scale);
+        let window = spread / jerk;
+        if window <= 0.0 { 0.0 } else { (window / period - 1e-9).ceil().max(1.0) * period }
+    }
+
+    /// [`Self::with_window`] at [`Self::window_for_jerk`].
+    pub fn smoothed_for_jerk(self, jerk: f64, period: f64) -> Self {
+        let window = self.window_for_jerk(jerk, period);
+        self.with_window(window)
+    }
+
+    /// The same leg slowed down uniformly by `k ≥ 1`, window and all: `s(t/k)`, so speeds
+    /// scale by `1/k`, accelerations by `1/k²` and the jerk by `1/k³`.
+    pub fn stretched(self, k: f64) -> Self {
+        Self { scale: self.scale * k, window: self.window * k, ..self }
+    }
+
+    /// The smoothing window, s.
+    pub fn window(&self) -> f64 {
+        self.window
+    }
+
+    /// Duration of the stretched law before smoothing, s.
+    pub fn base_duration(&self) -> f64 {
         self.timing.duration() * self.scale
+    }
+
+    pub fn duration(&self) -> f64 {
+        self.base_duration() + self.window
+    }
+
+    /// `(s_b, ṡ_b, s̈_b)` of the stretched law at `t`, held at its ends outside `[0, D]`.
+    fn base(&self, t: f64) -> (f64, f64, f64) {
+        let (s, sd, sdd) = self.timing.sample(t / self.scale);
+        (s, sd / self.scale, sdd / (self.scale * self.scale))
+    }
+
+    /// `∫₀^t s_b dτ` (m·s), with `s_b` held at its ends outside `[0, D]`.
+    fn integral(&self, t: f64) -> f64 {
+        let timing = &self.timing;
+        let n = timing.s.len();
+        let base = t / self.scale;
+        if base <= 0.0 {
+            return timing.s[0] * t;
+        }
+        let end = timing.duration();
+        if base >= end {
+            return self.scale * self.area[n - 1] + timing.s[n - 1] * (t - self.base_duration());
+        }
+        let i = (timing.t.partition_point(|&ti| ti <= base).max(1) - 1).min(n - 2);
+        let h = base - timing.t[i];
+        let (s, v, u) = (timing.s[i], timing.x[i].sqrt(), timing.u[i]);
+        self.scale * (self.area[i] + h * (s + h * (0.5 * v + h * u / 6.0)))
+    }
+
+    /// The time law `(s, ṡ, s̈)` at local time `t` (smoothed if the leg has a window).
+    pub fn law(&self, t: f64) -> (f64, f64, f64) {
+        let window = self.window;
+        if window <= 0.0 {
+            return self.base(t);
+        }
+        let (first, last) = (self.timing.s[0], self.timing.s[self.timing.s.len() - 1]);
+        if t <= 0.0 {
+            return (first, 0.0, 0.0);
+        }
+        if t >= self.duration() {
+            return (last, 0.0, 0.0);
+        }
+        let (now, before) = (self.base(t), self.base(t - window));
+        let s = ((self.integral(t) - self.integral(t - window)) / window).clamp(first, last);
+        (s, ((now.0 - before.0) / window).max(0.0), (now.1 - before.1) / window)
+    }
+
+    /// When the law reaches `s` (s): the base law's time there, plus half the window inside
+    /// the leg (the moving average lags its input by `T/2` where the input is about linear),
+    /// exact at both ends.
+    pub fn time_at(&self, s: f64) -> f64 {
+        let timing = &self.timing;
+        let n = timing.s.len();
+        if s <= timing.s[0] {
+            return 0.0;
+        }
+        if s >= timing.s[n - 1] {
+            return self.duration();
+        }
+        let i = timing.s.partition_point(|&g| g < s - 1e-12).min(n - 1);
+        timing.t[i] * self.scale + 0.5 * self.window
     }
 
     /// Tool position, velocity and acceleration at local time `t`.
     pub fn sample(&self, t: f64) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
-        let (s, sd, sdd) = self.timing.sample(t / self.scale);
-        let (sd, sdd) = (sd / self.scale, sdd / (self.scale * self.scale));
+        let (s, sd, sdd) = self.law(t);
         let (p, dp, ddp) = self.path.eval(s);
         (p, dp * sd, dp * sdd + ddp * (sd * sd))
     }

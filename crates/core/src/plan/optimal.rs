@@ -132,7 +132,7 @@ pub fn time_leg(
     let duration = timing.duration();
     let periods = (duration / period - 1e-9).ceil().max(1.0);
     let scale = periods * period / duration;
-    Ok(LegPlan { leg: TimedLeg { path: path.clone(), timing, scale }, points, table, names })
+    Ok(LegPlan { leg: TimedLeg::new(path.clone(), timing, scale), points, table, names })
 }
 
 /// The description of limit `k` (counted over all constraints) at `point`.
