@@ -378,6 +378,26 @@ impl Default for MotionLimits {
 }
 
 impl MotionLimits {
+    /// The limits at pace `k`: the motion's own limits as a uniform speed-up by `k` would
+    /// scale them (tool speed by `k`, joint and carry accelerations by `k²`, the jerk by `k³`),
+    /// the LSPB speeds by `k` and accelerations by `k²`. The arm's joint speeds and torques,
+    /// the torque margin, the grip, the dwells and the grid stay: above 1 they may bind, and
+    /// the time falls by less than `1/k`.
+    pub fn at_pace(self, k: f64) -> Self {
+        let k2 = k * k;
+        Self {
+            traverse_speed: self.traverse_speed * k,
+            traverse_acceleration: self.traverse_acceleration * k2,
+            vertical_speed: self.vertical_speed * k,
+            vertical_acceleration: self.vertical_acceleration * k2,
+            tool_speed: self.tool_speed * k,
+            joint_acceleration: self.joint_acceleration.map(|a| a * k2),
+            carry_acceleration: self.carry_acceleration * k2,
+            jerk: self.jerk * k2 * k,
+            ..self
+        }
+    }
+
     /// Checks that speeds, accelerations, the margin and the grid step are finite and > 0,
     /// the pauses, dwells and blend finite and ≥ 0, and the torque margin in (0, 1].
     pub fn validated(self) -> Result<Self, TaskError> {

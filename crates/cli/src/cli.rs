@@ -142,6 +142,11 @@ pub struct RobustnessArgs {
     /// Run only slice K of N (1-based) of the trials; the slices' CSVs concatenate to the whole.
     #[arg(long, value_parser = args::shard)]
     pub shard: Option<(usize, usize)>,
+    /// The speed–accuracy frontier of a game: the same trials at each pace, comma-separated
+    /// (the motion's own limits as a uniform speed-up by the pace would scale them: tool speed
+    /// × k, accelerations × k², jerk × k³); writes frontier.csv, frontier.png, frontier.json.
+    #[arg(long, value_delimiter = ',', value_parser = args::positive, allow_hyphen_values = true)]
+    pub paces: Option<Vec<f64>>,
     #[command(flatten)]
     pub batch: BatchArgs,
     /// Worker threads (default: all cores).
@@ -198,6 +203,11 @@ pub struct MotionArgs {
     /// Planning grid step along the path, m (default 0.005).
     #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub grid_step: Option<f64>,
+    /// Pace: the motion's own limits as a uniform speed-up by K would scale them (tool and
+    /// LSPB speeds × K, accelerations × K², jerk × K³), after the other flags; the arm's joint
+    /// speeds and torques and the grip stay (default 1).
+    #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
+    pub pace: Option<f64>,
     /// Largest jerk along the path of optimal motions, m/s³: each leg's acceleration steps
     /// are smoothed just enough (0: no limit; default 0).
     #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
@@ -249,6 +259,9 @@ impl MotionArgs {
                 [a, b, c, d] => [*a, *b, *c, *d],
                 _ => anyhow::bail!("--joint-acceleration takes 1 or 4 values (rad/s²), not {}", values.len()),
             };
+        }
+        if let Some(pace) = self.pace {
+            limits = limits.at_pace(pace);
         }
         let mut setup = setup.clone();
         setup.motion = crate::config::checked_limits(limits, "motion", "gripper")?;

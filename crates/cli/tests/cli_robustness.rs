@@ -384,3 +384,84 @@ fn a_campaign_is_the_same_at_every_lane_count_and_simd_level() {
     assert!(scalar.lines().filter(|line| line.contains(",ok,")).count() >= 11, "{scalar}");
     assert_same_at_every_batching("a_campaign_is_the_same_at_every_lane_count_and_simd_level", &scalar, run);
 }
+
+#[test]
+fn the_frontier_runs_the_same_trials_at_every_pace_and_a_faster_pace_takes_less_robot_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let uncertainty = write(dir.path(), "u.toml", UNCERTAINTY);
+    let pgn = write(dir.path(), "short.pgn", "[Result \"*\"]\n\n1. e4 e5 2. Nf3 *\n");
+    let out = dir.path().join("frontier");
+    let run = |paces: &str| {
+        let output = chessarm(&[
+            "robustness",
+            &pgn,
+            "--trials",
+            "3",
+            "--controller",
+            "pd,dob",
+            "--sensors",
+            "hobby",
+            "--uncertainty",
+            &uncertainty,
+            "--paces",
+            paces,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        json_of(&output);
+        std::fs::read_to_string(out.join("frontier.csv")).unwrap()
+    };
+    // Given out of order and once twice: one row per pace and controller, in pace order.
+    let csv = run("1.2,0.6,0.8,1.0,0.8");
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    assert_eq!(
+        header,
+        [
+            "pace",
+            "controller",
+            "trials",
+            "success_rate",
+            "failed_runs",
+            "median_mm",
+            "p95_mm",
+            "max_mm",
+            "seconds_per_ply"
+        ]
+    );
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let paces: Vec<&str> = rows.iter().map(|r| r[0]).collect();
+    assert_eq!(paces, ["0.6", "0.6", "0.8", "0.8", "1", "1", "1.2", "1.2"]);
+    for controller in ["pd", "dob"] {
+        let mine: Vec<&Vec<&str>> = rows.iter().filter(|r| r[1] == controller).collect();
+        let seconds: Vec<f64> = mine.iter().map(|r| r[8].parse().unwrap()).collect();
+        // A faster pace takes strictly less robot time per ply on this game (the limits the
+        // pace scales are the binding ones).
+        assert!(seconds.windows(2).all(|w| w[1] < w[0]), "{controller}: {seconds:?}");
+        assert!(mine.iter().all(|r| r[2] == "3" && r[4] == "0"), "{csv}");
+    }
+    assert!(out.join("frontier.png").metadata().unwrap().len() > 10_000);
+    // The pace-1 point is the plain study's: same trials, same figures.
+    let plain = dir.path().join("plain");
+    let summary = json_of(&chessarm(&[
+        "robustness",
+        &pgn,
+        "--trials",
+        "3",
+        "--controller",
+        "pd,dob",
+        "--sensors",
+        "hobby",
+        "--uncertainty",
+        &uncertainty,
+        "--out",
+        plain.to_str().unwrap(),
+    ]));
+    let stats = &summary["summary"]["controllers"][0];
+    let pace_one = rows.iter().find(|r| r[0] == "1" && r[1] == "pd").unwrap();
+    assert_eq!(pace_one[8].parse::<f64>().unwrap(), stats["seconds_per_ply"].as_f64().unwrap());
+    assert_eq!(pace_one[7].parse::<f64>().unwrap(), stats["place_error_mm"]["max"].as_f64().unwrap());
+    // A pace the limits cannot take, and a scenario, are errors naming the flag.
+    assert_one_line_error(&chessarm(&["robustness", &pgn, "--paces", "0,1"]), &["--paces", "0"]);
+    assert_one_line_error(&chessarm(&["robustness", &pgn, "--paces", "1,1e200"]), &["--paces 1e200", "= inf"]);
+    assert_one_line_error(&chessarm(&["robustness", "--paces", "1,2"]), &["--paces", "PGN"]);
+}

@@ -478,6 +478,15 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
             Work::Scenario { plan, payload_mass: args.payload_mass.unwrap_or(setup.pieces.pawn.mass) }
         }
     };
+    if let Some(paces) = &args.paces {
+        let Work::Game(_) = &work else {
+            anyhow::bail!("--paces sweeps a game's motion: give a PGN file (a scenario keeps its own LSPB path)");
+        };
+        if args.shard.is_some() {
+            anyhow::bail!("--paces runs every trial at every pace: it does not take --shard");
+        }
+        return frontier(setup, args, &work, &specs, &study, paces);
+    }
     let range = shard_range(args.trials, args.shard);
     // Every row (with its drawn parameters' names and values) is held until the CSV is written.
     crate::resources::ensure_fits(
@@ -486,7 +495,6 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         range.len() as f64 * specs.len() as f64,
         (std::mem::size_of::<TrialRow>() + 46 * 64) as f64,
     )?;
-    let tolerance = args.tolerance_mm / 1e3;
     let threads = crate::resources::worker_threads(args.threads)?;
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
@@ -498,14 +506,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     ])?;
     let bar = crate::progress::bar(range.len() as u64, "trials");
     let started = Instant::now();
-    let options = TrialOptions {
-        seed: args.conditions.seed,
-        integrator: args.integrator.integrator(),
-        controller_knows_payload: args.controller_knows_payload,
-        payload_feedforward: !args.placement.no_payload_feedforward,
-        in_position: args.placement.in_position(tolerance),
-        tolerance,
-    };
+    let options = trial_options(args);
     let rows = pool.install(|| run_trials(setup, &work, &specs, &study, &options, range.clone(), Some(&bar)))?;
     let wall_time_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
@@ -585,6 +586,185 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     human.push_str(&crate::files_text(&files));
     crate::emit(&human, &json!({ "summary": summary, "files": files }))?;
     Ok(())
+}
+
+fn trial_options(args: &RobustnessArgs) -> TrialOptions {
+    let tolerance = args.tolerance_mm / 1e3;
+    TrialOptions {
+        seed: args.conditions.seed,
+        integrator: args.integrator.integrator(),
+        controller_knows_payload: args.controller_knows_payload,
+        payload_feedforward: !args.placement.no_payload_feedforward,
+        in_position: args.placement.in_position(tolerance),
+        tolerance,
+    }
+}
+
+/// One point of the frontier: a controller's statistics at one pace.
+struct FrontierPoint {
+    pace: f64,
+    stats: serde_json::Value,
+}
+
+/// `--paces`: the same trials of the game at every pace, per controller the success rate,
+/// the placement error's median, p95 and largest, and the mean robot seconds per ply, in
+/// frontier.csv (a row per pace and controller), frontier.png (success rate and p95 against
+/// seconds per ply) and frontier.json.
+fn frontier(
+    setup: &Setup,
+    args: &RobustnessArgs,
+    work: &Work,
+    specs: &[ControllerSpec],
+    study: &Study,
+    paces: &[f64],
+) -> Result<()> {
+    let mut paces = paces.to_vec();
+    paces.sort_by(f64::total_cmp);
+    paces.dedup();
+    let paces = paces.as_slice();
+    let out = &args.out;
+    let (csv_path, plot_path, json_path) =
+        (out.join("frontier.csv"), out.join("frontier.png"), out.join("frontier.json"));
+    // Each pace's limits are checked before any trial runs.
+    let mut setups = Vec::with_capacity(paces.len());
+    for &pace in paces {
+        let mut paced = setup.clone();
+        paced.motion =
+            crate::config::checked_limits(setup.motion.at_pace(pace), "motion", "gripper").with_context(|| {
+                // As typed, for the paces that print long.
+                if (1e-4..1e6).contains(&pace) { format!("--paces {pace}") } else { format!("--paces {pace:e}") }
+            })?;
+        setups.push(paced);
+    }
+    crate::resources::ensure_fits(
+        &format!("--trials {} with {} controllers at {} paces", args.trials, specs.len(), paces.len()),
+        "trial rows",
+        args.trials as f64 * specs.len() as f64,
+        (std::mem::size_of::<TrialRow>() + 46 * 64) as f64,
+    )?;
+    let threads = crate::resources::worker_threads(args.threads)?;
+    let pool =
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
+    ensure_dir(out)?;
+    remove_stale(&[csv_path.clone(), plot_path.clone(), json_path.clone()])?;
+    let bar = crate::progress::bar((args.trials * paces.len()) as u64, "trials");
+    let started = Instant::now();
+    let options = trial_options(args);
+    let mut points = Vec::with_capacity(paces.len() * specs.len());
+    for (&pace, paced) in paces.iter().zip(&setups) {
+        let rows = pool.install(|| run_trials(paced, work, specs, study, &options, 0..args.trials, Some(&bar)))?;
+        for spec in specs {
+            points.push(FrontierPoint { pace, stats: statistics(&rows, &spec.name, "") });
+        }
+    }
+    let wall_time_s = started.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let number = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    write_atomic(&csv_path, |writer| {
+        writeln!(writer, "pace,controller,trials,success_rate,failed_runs,median_mm,p95_mm,max_mm,seconds_per_ply")?;
+        for p in &points {
+            let s = &p.stats;
+            writeln!(
+                writer,
+                "{},{},{},{},{},{},{},{},{}",
+                p.pace,
+                s["controller"].as_str().unwrap_or("?"),
+                s["trials"],
+                number(&s["success_rate"]),
+                s["failed_runs"],
+                number(&s["place_error_mm"]["median"]),
+                number(&s["place_error_mm"]["p95"]),
+                number(&s["place_error_mm"]["max"]),
+                number(&s["seconds_per_ply"]),
+            )?;
+        }
+        Ok(())
+    })?;
+    draw_frontier(&points, specs, args.tolerance_mm, &plot_path)?;
+    let summary = json!({
+        "work": { "game_file": args.game_file.as_ref().map(|p| p.display().to_string()), "game": args.game },
+        "trials": args.trials,
+        "seed": args.conditions.seed,
+        "tolerance_mm": args.tolerance_mm,
+        "conditions": study.describe(),
+        "points": points.iter().map(|p| {
+            let mut stats = p.stats.clone();
+            if let Some(object) = stats.as_object_mut() {
+                object.remove("replay_worst_trial");
+                object.insert("pace".into(), json!(p.pace));
+            }
+            stats
+        }).collect::<Vec<_>>(),
+        "wall_time_s": wall_time_s,
+        "threads": threads,
+    });
+    write_json(&json_path, &summary)?;
+    let mut human = format!(
+        "{} trials per pace; success = every piece within {} mm of its square centre\n{:>6} {:<10} {:>9} {:>12} {:>12} {:>8}\n",
+        args.trials, args.tolerance_mm, "pace", "control", "success", "median mm", "p95 mm", "s/ply"
+    );
+    for p in &points {
+        let s = &p.stats;
+        human.push_str(&format!(
+            "{:>6} {:<10} {:>8.1}% {:>12.4} {:>12.4} {:>8.3}\n",
+            p.pace,
+            s["controller"].as_str().unwrap_or("?"),
+            100.0 * number(&s["success_rate"]),
+            number(&s["place_error_mm"]["median"]),
+            number(&s["place_error_mm"]["p95"]),
+            number(&s["seconds_per_ply"]),
+        ));
+    }
+    let files = [csv_path.display().to_string(), plot_path.display().to_string(), json_path.display().to_string()];
+    human.push_str(&crate::files_text(&files));
+    crate::emit(&human, &json!({ "summary": summary, "files": files }))?;
+    Ok(())
+}
+
+/// The frontier: per controller, success rate and p95 placement error against mean robot
+/// seconds per ply, one point per pace (joined in pace order).
+fn draw_frontier(
+    points: &[FrontierPoint],
+    specs: &[ControllerSpec],
+    tolerance_mm: f64,
+    path: &std::path::Path,
+) -> Result<()> {
+    let number = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let series_of = |value: &dyn Fn(&serde_json::Value) -> f64| -> Vec<Series> {
+        specs
+            .iter()
+            .enumerate()
+            .map(|(k, spec)| Series {
+                label: spec.name.clone(),
+                points: points
+                    .iter()
+                    .filter(|p| p.stats["controller"] == spec.name.as_str())
+                    .map(|p| (number(&p.stats["seconds_per_ply"]), value(&p.stats)))
+                    .collect(),
+                color: k,
+                style: Style::Line,
+            })
+            .collect()
+    };
+    let success = Panel {
+        title: "trials with every piece within the tolerance".into(),
+        y_label: "success (%)".into(),
+        series: series_of(&|s| 100.0 * number(&s["success_rate"])),
+        legend: crate::plots::Corner::LowerRight,
+        ..Panel::default()
+    };
+    let p95 = Panel {
+        title: "p95 of the largest placement error per trial".into(),
+        y_label: "p95 placement error (mm)".into(),
+        series: series_of(&|s| number(&s["place_error_mm"]["p95"])),
+        levels: vec![crate::plots::Level {
+            value: tolerance_mm,
+            label: format!("tolerance {tolerance_mm} mm"),
+            color: specs.len(),
+        }],
+        ..Panel::default()
+    };
+    plot_panels(path, "Speed–accuracy frontier (one point per pace)", "mean robot time per ply (s)", &[success, p95])
 }
 
 fn table(stats: &[serde_json::Value], trials: usize, tolerance_mm: f64) -> String {
