@@ -27,7 +27,7 @@ use chessarm_core::arm::model::ArmModel;
 use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use chessarm_core::plan::constraints::{
-    JointAcceleration, JointSpeed, JointTorque, PathConstraint, ToolAcceleration, ToolSpeed,
+    JointAcceleration, JointSpeed, JointTorque, PathConstraint, ToolAcceleration, ToolSpeed, TrackingBudget,
 };
 use chessarm_core::plan::geometric::{GeometricPath, MIN_LINE, PathPiece, Stretch, TimedMotion};
 use chessarm_core::plan::optimal::{LegPlan, MotionCheck, Usage, check_motion_at, time_leg};
@@ -332,7 +332,8 @@ fn plan_optimal(
         let extent = spec.points.iter().map(|p| (p - spec.points[0]).norm()).fold(0.0, f64::max);
         let paths = if extent < MIN_LINE { Vec::new() } else { blended_paths(spec, pieces, limits)? };
         for path in paths {
-            let (plan, used) = time_optimal_leg(&path, &payload_arm, spec.carried.is_some(), limits, arm, period)?;
+            let carried = spec.carried.map(|task| task.piece.role);
+            let (plan, used) = time_optimal_leg(&path, &payload_arm, carried, limits, arm, period)?;
             if usage.as_ref().is_none_or(|u| used.share > u.share) {
                 usage = Some(used);
             }
@@ -411,11 +412,12 @@ const REFINEMENTS: u32 = 3;
 fn time_optimal_leg(
     path: &GeometricPath,
     model: &ArmModel<4>,
-    carrying: bool,
+    carried_kind: Option<shakmaty::Role>,
     limits: &MotionLimits,
     arm: &ArmModel<4>,
     period: f64,
 ) -> Result<(LegPlan, Usage), TaskError> {
+    let carrying = carried_kind.is_some();
     let max_speed = arm.links().map(|l| l.limits.velocity);
     let speed = JointSpeed { max: max_speed };
     let acceleration = JointAcceleration { max: limits.joint_acceleration };
@@ -427,7 +429,17 @@ fn time_optimal_leg(
         label: "tool acceleration while carrying".to_string(),
     };
     let grip = ToolAcceleration { max: limits.grip_strength, gravity: arm.gravity(), label: "grip".to_string() };
+    let tracking = carried_kind.filter(|role| limits.tracking.applies_to(*role)).map(|role| TrackingBudget {
+        model: *model,
+        kp: limits.tracking.kp,
+        overshoot: limits.tracking.overshoot,
+        mass_error: limits.tracking.mass_error[role as usize - 1],
+        budget: limits.tracking.budget,
+    });
     let mut constraints: Vec<&dyn PathConstraint<4>> = vec![&speed, &acceleration, &torque, &tool];
+    if let Some(tracking) = tracking.as_ref() {
+        constraints.push(tracking);
+    }
     if carrying {
         constraints.push(&carry);
         // |p̈ − g| ≤ |p̈| + |g|: a grip at least that strong is never the binding limit.
@@ -442,6 +454,7 @@ fn time_optimal_leg(
         tool_speed: limits.tool_speed,
         carry_acceleration: if carrying { limits.carry_acceleration } else { f64::INFINITY },
         grip_strength: if carrying { limits.grip_strength } else { f64::INFINITY },
+        tracking,
     };
     let carried = [(0.0, f64::INFINITY, *model)];
     let carried: &[(f64, f64, ArmModel<4>)] = if carrying { &carried } else { &[] };
@@ -481,6 +494,7 @@ fn time_optimal_leg(
                     tool_speed: check.tool_speed * LOOSE,
                     carry_acceleration: check.carry_acceleration * LOOSE,
                     grip_strength: check.grip_strength * LOOSE,
+                    tracking: check.tracking.map(|t| TrackingBudget { budget: t.budget * LOOSE, ..t }),
                 };
                 let times = sample_times(plan.leg.duration(), period).map_err(|e| TaskError::Trajectory(e.into()))?;
                 let stages = timing.t.windows(2).flat_map(|w| {

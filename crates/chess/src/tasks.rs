@@ -347,6 +347,42 @@ pub struct MotionLimits {
     /// law is smoothed by a moving average just long enough
     /// ([`chessarm_core::plan::geometric::TimedLeg`]). 0: no limit (acceleration steps).
     pub jerk: f64,
+    /// The tracking error a carried piece of uncertain mass may add
+    /// ([`chessarm_core::plan::constraints::TrackingBudget`]).
+    pub tracking: Tracking,
+}
+
+/// The tracking budget of a carried piece and what it is derived from: the controller's
+/// proportional gains and damping, and how far a piece's true mass may be from the nominal one
+/// the controller is told. Off with a budget of 0 or where the mass error is 0.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Tracking {
+    /// Largest tracking error the motion may add while carrying, m (0: no budget).
+    pub budget: f64,
+    /// The controller's proportional gains, 1/s².
+    pub kp: [f64; 4],
+    /// The largest overshoot factor of its joints' loops (1 at ζ ≥ 1).
+    pub overshoot: f64,
+    /// Per piece kind (pawn to king, shakmaty's `Role::ALL` order): the largest difference
+    /// between a true and the nominal mass, kg.
+    pub mass_error: [f64; 6],
+}
+
+impl Tracking {
+    /// The budget for a computed-torque loop with `gains` (`ζ_j = kd_j / (2 √kp_j)`).
+    pub fn with_gains(self, gains: &chessarm_core::control::gains::Gains<4>) -> Self {
+        use chessarm_core::plan::constraints::TrackingBudget;
+        let kp: [f64; 4] = std::array::from_fn(|j| gains.kp[j]);
+        let overshoot = (0..4)
+            .map(|j| TrackingBudget::<4>::overshoot_of(gains.kd[j] / (2.0 * gains.kp[j].sqrt())))
+            .fold(1.0, f64::max);
+        Self { kp, overshoot, ..self }
+    }
+
+    /// Whether a piece of kind `role` has a budget to keep.
+    pub fn applies_to(&self, role: shakmaty::Role) -> bool {
+        self.budget > 0.0 && self.mass_error[role as usize - 1] > 0.0 && self.kp.iter().all(|k| *k > 0.0)
+    }
 }
 
 impl Default for MotionLimits {
@@ -373,6 +409,7 @@ impl Default for MotionLimits {
             blend: 0.04,
             grid_step: 0.005,
             jerk: 0.0,
+            tracking: Tracking::default(),
         }
     }
 }
@@ -428,6 +465,7 @@ impl MotionLimits {
             ("release_dwell", self.release_dwell),
             ("blend", self.blend),
             ("jerk", self.jerk),
+            ("tracking_budget", self.tracking.budget),
         ];
         for (field, value) in non_negative {
             if !(value.is_finite() && value >= 0.0) {

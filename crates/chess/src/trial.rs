@@ -22,6 +22,30 @@ pub struct PieceMassSpread {
     pub per_kind: [Option<Range>; 6],
 }
 
+impl PieceMassSpread {
+    /// The range of true masses of kind `k` (`Role::ALL` order) around the nominal `nominal`, kg.
+    pub fn range(&self, k: usize, nominal: f64) -> Range {
+        self.per_kind[k].unwrap_or(Range::new(nominal * (1.0 - self.relative), nominal * (1.0 + self.relative)))
+    }
+}
+
+/// Per kind (`Role::ALL` order), the largest difference between a piece's true mass and the
+/// mass the controller is told, kg: true masses `spread` around `true_pieces`' (exactly
+/// theirs without a spread), told `told`'s (nothing: 0).
+pub fn largest_mass_errors(
+    spread: Option<&PieceMassSpread>,
+    true_pieces: &PieceSet,
+    told: Option<&PieceSet>,
+) -> [f64; 6] {
+    std::array::from_fn(|k| {
+        let role = Role::ALL[k];
+        let nominal = true_pieces.dimensions(role).mass;
+        let range = spread.map_or(Range::fixed(nominal), |s| s.range(k, nominal));
+        let told = told.map_or(0.0, |p| p.dimensions(role).mass);
+        (range.high - told).abs().max((told - range.low).abs())
+    })
+}
+
 /// Everything a trial draws.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Uncertainty {
@@ -76,10 +100,7 @@ impl Uncertainty {
         let mut true_pieces = *pieces;
         for (k, role) in Role::ALL.iter().enumerate() {
             let nominal = pieces.dimensions(*role).mass;
-            let range = self.piece_mass.per_kind[k].unwrap_or(Range::new(
-                nominal * (1.0 - self.piece_mass.relative),
-                nominal * (1.0 + self.piece_mass.relative),
-            ));
+            let range = self.piece_mass.range(k, nominal);
             true_pieces.dimensions_mut(*role).mass = range.draw(&mut rng);
         }
         Ok(DrawnTrial { seed, plant, drawn, pieces: true_pieces, sensor_seed: derive_seed(seed, 1) })

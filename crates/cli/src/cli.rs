@@ -212,6 +212,11 @@ pub struct MotionArgs {
     /// are smoothed just enough (0: no limit; default 0).
     #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
     pub jerk: Option<f64>,
+    /// Largest tracking error the motion may add while carrying a piece whose true mass differs
+    /// from the one the controller is told, m: carrying accelerations are bounded by the
+    /// controller's gains and the pieces' mass uncertainty (0: no budget; default 0).
+    #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub tracking_budget: Option<f64>,
     /// LSPB traverse speed, m/s (default 0.25).
     #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub traverse_speed: Option<f64>,
@@ -248,6 +253,7 @@ impl MotionArgs {
         set(&mut limits.clearance_margin, self.clearance_margin);
         set(&mut limits.grid_step, self.grid_step);
         set(&mut limits.jerk, self.jerk);
+        set(&mut limits.tracking.budget, self.tracking_budget);
         set(&mut limits.traverse_speed, self.traverse_speed);
         set(&mut limits.traverse_acceleration, self.traverse_acceleration);
         set(&mut limits.vertical_speed, self.vertical_speed);

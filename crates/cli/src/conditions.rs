@@ -325,6 +325,33 @@ fn read_uncertainty(path: &Path) -> Result<UncertaintyFile> {
 }
 
 impl Study {
+    /// The setup's tracking budget for a controller with `gains`: the pieces' true masses as
+    /// this study may draw them (its uncertainty's spread around the true pieces'), against the
+    /// mass the controller is told (the nominal one of the kind with `feedforward`, nothing
+    /// without, the true one when it `knows_payload`: no error).
+    pub fn tracking(
+        &self,
+        setup: &Setup,
+        gains: &chessarm_core::control::gains::Gains<4>,
+        feedforward: bool,
+        knows_payload: bool,
+    ) -> chessarm_chess::tasks::Tracking {
+        let mut tracking = setup.motion.tracking.with_gains(gains);
+        tracking.mass_error = self.mass_errors(setup, feedforward, knows_payload);
+        tracking
+    }
+
+    /// Per piece kind, the largest difference between a true mass and the one the controller
+    /// is told, kg ([`Self::tracking`]).
+    pub fn mass_errors(&self, setup: &Setup, feedforward: bool, knows_payload: bool) -> [f64; 6] {
+        if knows_payload {
+            return [0.0; 6];
+        }
+        let spread = self.uncertainty.as_ref().map(|u| &u.piece_mass);
+        let told = feedforward.then_some(&setup.pieces);
+        chessarm_chess::trial::largest_mass_errors(spread, &self.plant_pieces, told)
+    }
+
     /// Parses `args` against `setup` (the controller's arm and pieces). Model errors come
     /// from `--uncertainty` only: a single run is never silently randomised by a table in
     /// the setup file.

@@ -145,6 +145,10 @@ pub struct MotionFile {
     /// Largest jerk along the path of time-optimal motions, m/s³ (0: no limit).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub jerk: Option<f64>,
+    /// Largest tracking error the motion may add while carrying a piece of uncertain mass, m
+    /// (0: no budget).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracking_budget: Option<f64>,
     /// Clearance over the tallest piece passed over, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub clearance_margin: Option<f64>,
@@ -216,6 +220,10 @@ impl MotionFile {
             blend: m("blend", self.blend, default.blend)?,
             grid_step: m("grid_step", self.grid_step, default.grid_step)?,
             jerk: m("jerk", self.jerk, default.jerk)?,
+            tracking: chessarm_chess::tasks::Tracking {
+                budget: m("tracking_budget", self.tracking_budget, default.tracking.budget)?,
+                ..default.tracking
+            },
         };
         checked_limits(limits, "motion", "gripper")
     }
@@ -591,6 +599,7 @@ impl From<&Setup> for SetupFile {
                 blend: Some(m.blend),
                 grid_step: Some(m.grid_step),
                 jerk: Some(m.jerk),
+                tracking_budget: Some(m.tracking.budget),
                 clearance_margin: Some(m.clearance_margin),
                 traverse_speed: Some(m.traverse_speed),
                 traverse_acceleration: Some(m.traverse_acceleration),

@@ -289,6 +289,7 @@ fn every_limit_holds_at_ten_times_the_planning_grid() {
         tool_speed: 1.0,
         carry_acceleration: 5.0,
         grip_strength: 2.0 * G,
+        tracking: None,
     };
     let carried = model.with_payload(Some(Payload::upright_cylinder(0.1, 0.08, 0.014, 0.05))).unwrap();
     let result = check_motion(&model, &motion, &[(0.0, f64::INFINITY, carried)], &check, TOOL_DOWN, dt).unwrap();

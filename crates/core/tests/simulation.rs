@@ -451,3 +451,42 @@ fn tracking_metrics_start_where_the_config_says() {
     let error = hold(&mut Plant::new(model), &mut controller, target, 0.1, None, &bad).unwrap_err();
     assert!(error.to_string().contains("tracking metrics"), "{error}");
 }
+
+#[test]
+fn the_tracking_budgets_compliance_is_the_closed_loops_steady_tip_error_per_unit_force() {
+    // A computed-torque PD loop holding still with 5 g more at the tip than its model knows:
+    // the tip settles Δm W (−g) off (TrackingBudget::compliance, W = J Kp⁻¹ M⁻¹ Jᵀ, the same
+    // matrix the planner bounds Δm W p̈ with), to first order in Δm.
+    use chessarm_core::arm::kinematics::FrameChain;
+    use chessarm_core::plan::constraints::TrackingBudget;
+    let model = report_arm();
+    let extra = 0.005;
+    let loaded = model.with_payload(Some(Payload::point_mass(extra))).unwrap();
+    let target = q([0.8, 0.9, -2.1, -0.37]);
+    let mut plant = Plant::new(loaded);
+    let config = SimConfig::new(&plant);
+    let mut pd = pd_controller(model);
+    let summary = hold(&mut plant, &mut pd, target, 10.0, None, &config).unwrap();
+    let tip = |q: &JointVector<4>| FrameChain::new(&model, q).tip();
+    let measured = tip(&target) - tip(&summary.final_state.q);
+    let budget = TrackingBudget { model, kp: [REPORT_PD.0; 4], overshoot: 1.0, mass_error: extra, budget: 1e-3 };
+    let predicted = budget.compliance(&target) * (-model.gravity()) * extra;
+    assert!(predicted.norm() > 1e-4, "too small to test: {predicted}");
+    // First order in Δm: the neglected terms are O(e) relative, e ≈ 3 mrad here; 1 % is
+    // three times that, and a wrong W (another Kp, M without its inverse, J instead of Jᵀ)
+    // is off by far more.
+    assert!((measured - predicted).norm() < 0.01 * predicted.norm(), "measured {measured}, predicted {predicted}");
+    // Symmetric (uniform gains) and positive definite, and scaled by 1/kp.
+    let w = budget.compliance(&target);
+    assert!((w - w.transpose()).amax() < 1e-12 * w.amax());
+    assert!(w.symmetric_eigenvalues().min() > 0.0);
+    let stiffer = TrackingBudget { kp: [4.0 * REPORT_PD.0; 4], ..budget };
+    assert!((stiffer.compliance(&target) * 4.0 - w).amax() < 1e-12 * w.amax());
+    // The overshoot of a step: 1 from critical damping on, 1 + e^{−πζ/√(1−ζ²)} below.
+    assert_eq!(TrackingBudget::<4>::overshoot_of(1.0), 1.0);
+    assert!(
+        (TrackingBudget::<4>::overshoot_of(0.5) - (1.0 + (-std::f64::consts::PI * 0.5 / 0.75f64.sqrt()).exp())).abs()
+            < 1e-15
+    );
+    assert_eq!(TrackingBudget::<4>::overshoot_of(0.0), 2.0);
+}

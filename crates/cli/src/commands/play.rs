@@ -126,6 +126,12 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     args.placement.apply(&mut settings, args.tolerance_mm / 1e3);
     settings.integrator = args.integrator.integrator();
     settings.tolerance = args.tolerance_mm / 1e3;
+    settings.limits.tracking = study.tracking(
+        setup,
+        &settings.controller.gains,
+        settings.payload_feedforward,
+        settings.controller_knows_payload,
+    );
     let mut source = source(args)?;
     let start = match &source {
         Source::Record(record) => record.start.clone(),

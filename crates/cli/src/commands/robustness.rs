@@ -102,6 +102,7 @@ fn run_trial(
     record: &GameRecord,
     spec: &ControllerSpec,
     trial: &Trial,
+    study: &Study,
     options: &TrialOptions,
 ) -> (String, Totals) {
     let mut totals = Totals::default();
@@ -111,6 +112,8 @@ fn run_trial(
         settings.controller = spec.clone();
         settings.pieces = setup.pieces;
         settings.limits = setup.motion;
+        settings.limits.tracking =
+            study.tracking(setup, &spec.gains, options.payload_feedforward, options.controller_knows_payload);
         settings.timing = setup.timing;
         settings.record_every = 0;
         settings.controller_knows_payload = options.controller_knows_payload;
@@ -314,7 +317,7 @@ pub fn run_trials(
                         Ok(trial) => specs
                             .iter()
                             .map(|spec| {
-                                let (status, totals) = run_trial(setup, record, spec, trial, options);
+                                let (status, totals) = run_trial(setup, record, spec, trial, study, options);
                                 row(drawn.index, trial, spec, status, &totals, options.tolerance)
                             })
                             .collect(),

@@ -179,6 +179,8 @@ fn game_candidate(
     settings.controller.kind = options.kind;
     settings.pieces = setup.pieces;
     settings.limits = setup.motion;
+    settings.limits.tracking = setup.motion.tracking.with_gains(gains);
+    settings.limits.tracking.mass_error = options.mass_error;
     settings.timing = setup.timing;
     if let Some(trial) = &options.trial {
         settings.plant = Some(trial.plant);
@@ -306,6 +308,9 @@ pub struct CandidateOptions {
     pub integrator: Integrator,
     /// Start of the tracking metrics, s (see [`SimConfig::tracking_from`]).
     pub tracking_from: f64,
+    /// A game's pieces' largest mass errors for the tracking budget, per kind (see
+    /// [`crate::conditions::Study::tracking`]), kg.
+    pub mass_error: [f64; 6],
 }
 
 /// The start of the tracking metrics for `args`, s: with `--q0` unless `--tracking-from` is
@@ -468,6 +473,11 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         trial,
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(args),
+        mass_error: conditions.mass_errors(
+            setup,
+            !args.placement.no_payload_feedforward,
+            args.controller_knows_payload,
+        ),
     };
     if args.game_file.is_some() && args.tracking_from.is_some() {
         bail!("--tracking-from goes with a scenario; a game starts every move on its trajectory");

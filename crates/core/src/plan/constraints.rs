@@ -221,55 +221,142 @@ impl<const N: usize> PathConstraint<N> for ToolAcceleration {
         )
     }
     fn push_rows(&self, point: &PathPoint<N>, first: u16, table: &mut ConstraintTable) {
-        let limit = id(first, 0);
-        let speed = point.dtip.norm();
-        if speed == 0.0 {
-            return;
-        }
-        let e1 = point.dtip / speed;
-        let g = self.gravity;
-        let normal = point.ddtip - e1 * point.ddtip.dot(&e1);
         // Straight lines have p'' = 0 exactly; blends curve at 1/(blend length) ≫ 1e-9 per m.
-        let curved = normal.norm() > 1e-9;
-        let e2 = if curved {
-            normal.normalize()
-        } else {
-            let across = g - e1 * g.dot(&e1);
-            across.try_normalize(0.0).unwrap_or_else(|| any_normal(&e1))
-        };
-        let e3 = e1.cross(&e2);
-        let radius_squared = self.max * self.max - g.dot(&e3).powi(2);
-        let scale = self.max;
-        // w₁ = speed·u + k1·x − g1, w₂ = k2·x − g2.
-        let (k1, g1) = (point.ddtip.dot(&e1), g.dot(&e1));
-        let (k2, g2) = (point.ddtip.dot(&e2), g.dot(&e2));
-        if !curved {
-            // w₂ = −g2 is constant: |w₁| ≤ √(R² − g2²).
-            let half = radius_squared - g2 * g2;
-            if half < 0.0 {
-                table.push_row(0.0, 0.0, -1.0, limit);
-                return;
-            }
-            let half = half.sqrt();
-            table.push_row(speed / scale, k1 / scale, (half + g1) / scale, limit);
-            table.push_row(-speed / scale, -k1 / scale, (half - g1) / scale, limit);
-            return;
-        }
-        if radius_squared < 0.0 {
+        push_norm_rows(table, &point.dtip, &point.ddtip, &self.gravity, self.max, 1e-9, id(first, 0));
+    }
+}
+
+/// Rows for `‖a u + b x − c‖ ≤ max` (module docs, with `a`, `b`, `c` for `p'`, `p''`, `g`):
+/// an exact interval of `u` where the part of `b` across `a` is at most `straight`, the
+/// inscribed polygon of the disc otherwise.
+#[allow(clippy::too_many_arguments)]
+fn push_norm_rows(
+    table: &mut ConstraintTable,
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    c: &Vector3<f64>,
+    max: f64,
+    straight: f64,
+    limit: LimitId,
+) {
+    let speed = a.norm();
+    if speed == 0.0 {
+        return;
+    }
+    let e1 = a / speed;
+    let g = c;
+    let normal = b - e1 * b.dot(&e1);
+    let curved = normal.norm() > straight;
+    let e2 = if curved {
+        normal.normalize()
+    } else {
+        let across = g - e1 * g.dot(&e1);
+        across.try_normalize(0.0).unwrap_or_else(|| any_normal(&e1))
+    };
+    let e3 = e1.cross(&e2);
+    let radius_squared = max * max - g.dot(&e3).powi(2);
+    let scale = max;
+    // w₁ = speed·u + k1·x − g1, w₂ = k2·x − g2.
+    let (k1, g1) = (b.dot(&e1), g.dot(&e1));
+    let (k2, g2) = (b.dot(&e2), g.dot(&e2));
+    if !curved {
+        // w₂ = k2·x − g2 with k2 = 0 (b along a): |w₁| ≤ √(R² − g2²).
+        let half = radius_squared - g2 * g2;
+        if half < 0.0 {
             table.push_row(0.0, 0.0, -1.0, limit);
             return;
         }
-        let inner = radius_squared.sqrt() * (std::f64::consts::PI / POLYGON_SIDES as f64).cos();
-        for side in 0..POLYGON_SIDES {
-            let angle = 2.0 * std::f64::consts::PI * side as f64 / POLYGON_SIDES as f64;
-            let (sin, cos) = angle.sin_cos();
-            // cos·w₁ + sin·w₂ ≤ inner
-            let alpha = cos * speed;
-            let beta = cos * k1 + sin * k2;
-            let gamma = inner + cos * g1 + sin * g2;
-            let alpha = if alpha.abs() < 1e-12 * speed { 0.0 } else { alpha };
-            table.push_row(alpha / scale, beta / scale, gamma / scale, limit);
+        let half = half.sqrt();
+        table.push_row(speed / scale, k1 / scale, (half + g1) / scale, limit);
+        table.push_row(-speed / scale, -k1 / scale, (half - g1) / scale, limit);
+        return;
+    }
+    if radius_squared < 0.0 {
+        table.push_row(0.0, 0.0, -1.0, limit);
+        return;
+    }
+    let inner = radius_squared.sqrt() * (std::f64::consts::PI / POLYGON_SIDES as f64).cos();
+    for side in 0..POLYGON_SIDES {
+        let angle = 2.0 * std::f64::consts::PI * side as f64 / POLYGON_SIDES as f64;
+        let (sin, cos) = angle.sin_cos();
+        // cos·w₁ + sin·w₂ ≤ inner
+        let alpha = cos * speed;
+        let beta = cos * k1 + sin * k2;
+        let gamma = inner + cos * g1 + sin * g2;
+        let alpha = if alpha.abs() < 1e-12 * speed { 0.0 } else { alpha };
+        table.push_row(alpha / scale, beta / scale, gamma / scale, limit);
+    }
+}
+
+/// The tracking error a carried piece of uncertain mass adds, kept within a budget.
+///
+/// A computed-torque loop `τ = M̂(q̈_d + K_d ė + K_p e) + ĥ` whose model has the nominal piece
+/// while the true one is heavier or lighter by `Δm` feels the extra force `Δm (p̈ − g)` at
+/// the tip: `ë + K_d ė + K_p e = M⁻¹ Jᵀ Δm (p̈ − g)` (`J` the tip's linear Jacobian, `M` the
+/// arm's inertia with the nominal piece). While the acceleration changes slowly against the
+/// loop, `e ≈ K_p⁻¹ M⁻¹ Jᵀ Δm (p̈ − g)` and the tip is off by
+/// `δp = J e = Δm W (p̈ − g)`, `W = J K_p⁻¹ M⁻¹ Jᵀ`. Its gravity part is there at rest too (the
+/// controller's to remove); the motion adds `Δm W p̈`, which after an acceleration step rises
+/// to at most `overshoot` times that (1 for `ζ ≥ 1`, `1 + e^{−πζ/√(1−ζ²)}` below). The
+/// limit: `‖W p̈‖ ≤ budget / (Δm · overshoot)`, a norm of `(W p') u + (W p'') x`, in rows as
+/// [`ToolAcceleration`]'s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackingBudget<const N: usize> {
+    /// The arm with the nominal piece, as the controller models it.
+    pub model: ArmModel<N>,
+    /// Proportional gains, 1/s², per joint.
+    pub kp: [f64; N],
+    /// Largest overshoot factor of the joints' loops (1 when all are damped at least critically).
+    pub overshoot: f64,
+    /// Largest difference between the true and the nominal piece mass, kg.
+    pub mass_error: f64,
+    /// Largest tracking error the motion may add, m.
+    pub budget: f64,
+}
+
+impl<const N: usize> TrackingBudget<N> {
+    /// The overshoot factor of a step disturbance on `ë + 2ζω ė + ω² e`: 1 for `ζ ≥ 1`.
+    pub fn overshoot_of(damping_ratio: f64) -> f64 {
+        if damping_ratio >= 1.0 {
+            1.0
+        } else {
+            let z = damping_ratio.max(0.0);
+            1.0 + (-std::f64::consts::PI * z / (1.0 - z * z).sqrt()).exp()
         }
+    }
+
+    /// `W = J K_p⁻¹ M⁻¹ Jᵀ` at `q` (m per N).
+    pub fn compliance(&self, q: &JointVector<N>) -> nalgebra::Matrix3<f64> {
+        let chain = crate::arm::kinematics::FrameChain::new(&self.model, q);
+        let (jacobian, _) = chain.point_jacobian(&chain.tip(), N - 1);
+        let mass = crate::arm::dynamics::mass_matrix(&self.model, q);
+        let inverse = mass.try_inverse().unwrap_or_else(nalgebra::SMatrix::<f64, N, N>::zeros);
+        let gains = nalgebra::SMatrix::<f64, N, N>::from_diagonal(&JointVector::<N>::from(self.kp.map(|k| 1.0 / k)));
+        jacobian * gains * inverse * jacobian.transpose()
+    }
+
+    /// The largest `‖W p̈‖` the budget allows, m/kg.
+    pub fn limit(&self) -> f64 {
+        self.budget / (self.mass_error * self.overshoot)
+    }
+}
+
+impl<const N: usize> PathConstraint<N> for TrackingBudget<N> {
+    fn parts(&self) -> usize {
+        1
+    }
+    fn name(&self, _: usize) -> String {
+        "tracking budget (carried piece)".to_string()
+    }
+    fn push_rows(&self, point: &PathPoint<N>, first: u16, table: &mut ConstraintTable) {
+        if !(self.mass_error > 0.0) {
+            return;
+        }
+        // W in s²/kg, so ‖W p̈‖ in m/kg; the rows are scaled by the limit. On straight lines
+        // W p'' = 0 exactly.
+        let w = self.compliance(&point.q);
+        let (a, b) = (w * point.dtip, w * point.ddtip);
+        push_norm_rows(table, &a, &b, &Vector3::zeros(), self.limit(), 1e-9 * b.norm(), id(first, 0));
     }
 }
 

@@ -12,7 +12,7 @@
 //! from the samples themselves (inverse dynamics with the carried piece, tool acceleration by
 //! the path's own derivatives), independently of the rows the planner used.
 
-use super::constraints::{PathConstraint, PathPoint, constraint_table};
+use super::constraints::{PathConstraint, PathPoint, TrackingBudget, constraint_table};
 use super::geometric::{GeometricPath, TimedLeg};
 use super::path::{CartesianSample, sample_times};
 use super::topp::{ConstraintTable, LimitId, Timing, ToppError, time_optimal};
@@ -160,6 +160,9 @@ pub struct MotionCheck {
     /// While carrying: largest |p̈|, m/s², and largest |p̈ − g| the grip holds, m/s².
     pub carry_acceleration: f64,
     pub grip_strength: f64,
+    /// While carrying: the tracking budget (its `model` is replaced by the carried interval's
+    /// model, the arm with the nominal piece), if any.
+    pub tracking: Option<TrackingBudget<4>>,
 }
 
 /// A limit a planned motion exceeds.
@@ -234,7 +237,16 @@ pub fn check_motion_at(
             Some(_) => (limits.carry_acceleration, limits.grip_strength),
             None => (f64::INFINITY, f64::INFINITY),
         };
-        let mut checks = [("", 0.0, 0.0, ""); 15];
+        let tracking = match (carried, &limits.tracking) {
+            (Some(model), Some(budget)) => {
+                let budget = TrackingBudget { model: *model, ..*budget };
+                let error =
+                    budget.mass_error * budget.overshoot * (budget.compliance(&joint.q) * sample.acceleration).norm();
+                (error, budget.budget)
+            }
+            _ => (0.0, f64::INFINITY),
+        };
+        let mut checks = [("", 0.0, 0.0, ""); 16];
         for j in 0..4 {
             checks[3 * j] = (JOINT_SPEED[j], joint.qd[j].abs(), limits.joint_speed[j], "rad/s");
             checks[3 * j + 1] = (JOINT_ACCELERATION[j], joint.qdd[j].abs(), limits.joint_acceleration[j], "rad/s²");
@@ -244,6 +256,7 @@ pub fn check_motion_at(
         checks[12] = ("tool speed", sample.velocity.norm(), limits.tool_speed, "m/s");
         checks[13] = ("tool acceleration while carrying", carry.0, carry_max, "m/s²");
         checks[14] = ("grip", carry.1, grip_max, "m/s²");
+        checks[15] = ("tracking budget (carried piece)", tracking.0, tracking.1, "m");
         for (limit, value, max, unit) in checks {
             if value > max * (1.0 + CHECK_TOLERANCE) {
                 return Ok(Err(Violation { time: t, limit: limit.to_string(), value, max, unit }));
