@@ -341,6 +341,11 @@ impl Study {
         tracking
     }
 
+    /// How far the estimated tip moves when every encoder moves a count, m (0: exact angles).
+    pub fn tip_quantum(&self, setup: &Setup) -> f64 {
+        chessarm_core::plan::fine_point::tip_quantum(&setup.arm, &self.sensors.encoders)
+    }
+
     /// Per piece kind, the largest difference between a true mass and the one the controller
     /// is told, kg ([`Self::tracking`]).
     pub fn mass_errors(&self, setup: &Setup, feedforward: bool, knows_payload: bool) -> [f64; 6] {

@@ -123,7 +123,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     settings.timing = setup.timing;
     settings.export_rate = Some(args.export_rate);
     settings.controller_knows_payload = args.controller_knows_payload;
-    args.placement.apply(&mut settings, args.tolerance_mm / 1e3);
+    args.placement.apply(&mut settings, args.tolerance_mm / 1e3, study.tip_quantum(setup));
     settings.integrator = args.integrator.integrator();
     settings.tolerance = args.tolerance_mm / 1e3;
     settings.limits.tracking = study.tracking(

@@ -189,7 +189,7 @@ fn game_candidate(
     }
     settings.record_every = 0;
     settings.controller_knows_payload = options.controller_knows_payload;
-    options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE);
+    options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE, options.tip_quantum);
     settings.integrator = options.integrator;
     let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
         let mut place = 0.0f64;
@@ -311,6 +311,9 @@ pub struct CandidateOptions {
     /// A game's pieces' largest mass errors for the tracking budget, per kind (see
     /// [`crate::conditions::Study::tracking`]), kg.
     pub mass_error: [f64; 6],
+    /// How far the estimated tip moves when every encoder moves a count, m (the fine points'
+    /// default band).
+    pub tip_quantum: f64,
 }
 
 /// The start of the tracking metrics for `args`, s: with `--q0` unless `--tracking-from` is
@@ -478,6 +481,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
             !args.placement.no_payload_feedforward,
             args.controller_knows_payload,
         ),
+        tip_quantum: conditions.tip_quantum(setup),
     };
     if args.game_file.is_some() && args.tracking_from.is_some() {
         bail!("--tracking-from goes with a scenario; a game starts every move on its trajectory");

@@ -38,6 +38,10 @@ pub const BAND_SHARE_OF_TOLERANCE: f64 = 0.1;
 /// a band's width in 0.1 s.
 pub const BAND_CROSSING_TIME: f64 = 0.1;
 
+/// The smallest share of the tolerance the tip band takes by default, however fine the
+/// sensors: 0.25 mm of a 5 mm tolerance.
+pub const FINEST_BAND_SHARE: f64 = 0.05;
+
 /// Default longest wait, s.
 pub const DEFAULT_TIMEOUT: f64 = 1.0;
 
@@ -64,6 +68,17 @@ impl InPosition {
     pub fn for_tolerance(tolerance: f64) -> Self {
         let tip_band = BAND_SHARE_OF_TOLERANCE * tolerance;
         Self { tip_band, speed_band: tip_band / BAND_CROSSING_TIME, timeout: DEFAULT_TIMEOUT }
+    }
+
+    /// The default for sensors whose estimated tip moves by `tip_quantum` (m) when every
+    /// encoder moves by a count ([`tip_quantum`]): a tip band of two quanta, between
+    /// [`FINEST_BAND_SHARE`] and [`BAND_SHARE_OF_TOLERANCE`] of the tolerance (a band the
+    /// estimate cannot resolve would wait on noise; a band finer than needed costs waits).
+    /// Measured (README): 12-bit encoders keep the tenth (0.5 mm), 17-bit ones take the
+    /// twentieth, which halves the p95 placement error for 3–4 % more robot time.
+    pub fn for_sensors(tolerance: f64, tip_quantum: f64) -> Self {
+        let tip_band = (2.0 * tip_quantum).clamp(FINEST_BAND_SHARE * tolerance, BAND_SHARE_OF_TOLERANCE * tolerance);
+        Self { tip_band, speed_band: tip_band / BAND_CROSSING_TIME, ..Self::for_tolerance(tolerance) }
     }
 
     /// Checks every field is finite and > 0, naming the first that is not.
@@ -109,4 +124,17 @@ pub struct Wait {
     pub timed_out: bool,
     /// The estimate when the command went ahead.
     pub check: InPositionCheck,
+}
+
+/// How far the tool tip can move while every encoder of `encoders` moves by one count, m: per
+/// joint a count (`2π / counts_per_rev`, 0 for an exact angle) times its longest lever, the
+/// sum of the DH lengths `|a| + |d|` from the joint to the tip.
+pub fn tip_quantum<const N: usize>(model: &ArmModel<N>, encoders: &[crate::sense::sensors::EncoderSpec; N]) -> f64 {
+    (0..N)
+        .map(|j| {
+            let lever: f64 =
+                (j..N).map(|i| model.link(i).dh.a.abs() + if i > j { model.link(i).dh.d.abs() } else { 0.0 }).sum();
+            encoders[j].counts_per_rev.map_or(0.0, |counts| std::f64::consts::TAU / counts * lever)
+        })
+        .sum()
 }
