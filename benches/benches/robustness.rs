@@ -9,7 +9,7 @@
 use chessarm::cli::{Cli, Command};
 use chessarm::commands::plan::plan_scenario;
 use chessarm::commands::robustness::{TrialOptions, Work, run_trials};
-use chessarm::commands::simulate::controller_specs;
+use chessarm::commands::simulate::{DefaultGains, controller_specs};
 use chessarm::conditions::Study;
 use chessarm::config::Setup;
 use clap::Parser;
@@ -41,7 +41,7 @@ fn trials(c: &mut Criterion) {
         }
         let cli = Cli::parse_from(line);
         let Some(Command::Robustness(args)) = cli.command else { unreachable!("a robustness command line") };
-        let specs = controller_specs(&args.controller, &args.gains).expect("specs");
+        let specs = controller_specs(&args.controller, &args.gains, DefaultGains::Report).expect("specs");
         let study = Study::for_trials(&setup, &args.conditions, 1e-3).expect("conditions");
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("pool");
         group.bench_function(format!("{name}: 100 trials, 2 threads"), |b| {

@@ -100,6 +100,8 @@ impl PlaySettings {
             },
             controller_knows_payload: false,
             payload_feedforward: true,
+            // Sensors of unknown resolution: the coarsest default band (a tenth of the
+            // tolerance); `InPosition::for_sensors` for known ones.
             in_position: Some(InPosition::for_tolerance(DEFAULT_TOLERANCE)),
             plant: None,
             true_pieces: None,

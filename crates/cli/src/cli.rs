@@ -205,7 +205,8 @@ pub struct MotionArgs {
     pub grid_step: Option<f64>,
     /// Pace: the motion's own limits as a uniform speed-up by K would scale them (tool and
     /// LSPB speeds × K, accelerations × K², jerk × K³), after the other flags; the arm's joint
-    /// speeds and torques and the grip stay (default 1).
+    /// speeds and torques, the grip, the dwells, the pauses and the tracking budget stay
+    /// (default 1; robustness --paces multiplies it).
     #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub pace: Option<f64>,
     /// Largest jerk along the path of optimal motions, m/s³: each leg's acceleration steps
@@ -266,11 +267,12 @@ impl MotionArgs {
                 _ => anyhow::bail!("--joint-acceleration takes 1 or 4 values (rad/s²), not {}", values.len()),
             };
         }
-        if let Some(pace) = self.pace {
-            limits = limits.at_pace(pace);
-        }
         let mut setup = setup.clone();
         setup.motion = crate::config::checked_limits(limits, "motion", "gripper")?;
+        if let Some(pace) = self.pace {
+            setup.motion = crate::config::checked_limits(limits.at_pace(pace), "motion", "gripper")
+                .map_err(|error| anyhow::anyhow!("--pace {}: {error}", crate::resources::show(pace)))?;
+        }
         setup.timing = match self.timing {
             TimingChoice::Optimal => chessarm_chess::motion::TimingMode::Optimal,
             TimingChoice::Lspb => chessarm_chess::motion::TimingMode::Lspb,
@@ -287,7 +289,8 @@ pub struct PlacementArgs {
     #[arg(long)]
     pub release_by_clock: bool,
     /// In position: the estimated tip within this distance of the planned point, mm (default:
-    /// a tenth of --tolerance-mm).
+    /// two counts of every encoder at the tip, between a twentieth and a tenth of
+    /// --tolerance-mm: 0.5 mm with hobby encoders, 0.25 mm with servo ones or ideal sensors).
     #[arg(long, value_name = "MM", value_parser = args::positive, allow_hyphen_values = true)]
     pub in_position_band_mm: Option<f64>,
     /// In position: the estimated tip no faster than this, mm/s (default: the band per 0.1 s).
@@ -526,7 +529,8 @@ pub struct TuneArgs {
 /// Outer-loop gains given on the command line; the report's are used for what is left out.
 #[derive(Debug, Args, Clone, Copy, Default)]
 pub struct GainArgs {
-    /// Proportional gain, 1/s²: one value or one per joint (a,b,c,d). Default: the report's.
+    /// Proportional gain, 1/s²: one value or one per joint (a,b,c,d). Default: the report's
+    /// (400; PID 600) for scenarios, 2500 for games (play, robustness of a game).
     #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
     pub kp: Option<[f64; 4]>,
     /// Derivative gain, 1/s: one value or one per joint.

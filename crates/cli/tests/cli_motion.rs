@@ -30,14 +30,24 @@ fn lspb_timing_reproduces_the_timings_and_placements_from_before_the_optimal_pla
     // recursions for this arm: the two agree to 1e-12 relative, and the closed loop carries
     // that rounding into the placements at ≤ 1e-12 mm (measured 6·10⁻¹³); 1e-9 mm (a
     // picometre) leaves room for that and still catches any change of the planner or loop.
-    // Fine points and the nominal piece mass's feed-forward (issue 33) came after: the run
-    // turns both off to be the game that commit played.
+    // Fine points, the nominal piece mass's feed-forward and the games' stiffer gains (issue
+    // 33) came after: the run turns them off to be the game that commit played.
     let golden: Value = serde_json::from_str(&std::fs::read_to_string(fixture("lspb_timings.json")).unwrap()).unwrap();
     for (game, expected) in golden["games"].as_object().unwrap() {
         let dir = tempfile::tempdir().unwrap();
         let played = game_json(
             dir.path(),
-            &[&fixture(game), "--timing", "lspb", "--release-by-clock", "--no-payload-feedforward"],
+            &[
+                &fixture(game),
+                "--timing",
+                "lspb",
+                "--release-by-clock",
+                "--no-payload-feedforward",
+                "--kp",
+                "400",
+                "--kd",
+                "20",
+            ],
         );
         let moves = played["moves"].as_array().unwrap();
         let durations: Vec<&Value> = moves.iter().map(|m| &m["duration_s"]).collect();

@@ -192,3 +192,90 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
         _ => {}
     }
 }
+
+/// One `<!-- monte-carlo: ARGS -->` table: its ARGS and, per row, the fixture and its figures.
+type MonteCarloTable = (String, Vec<(String, Vec<f64>)>);
+
+/// The README's Monte Carlo tables: each `<!-- monte-carlo: ARGS -->` line is followed by a
+/// table whose rows name a fixture (`` `NAME.pgn` ``) and give the success rate, the median,
+/// p95 and largest placement error and the robot seconds per ply that `chessarm ARGS` (with
+/// `GAME` the fixture) prints for its first controller, to the digits shown.
+fn monte_carlo_tables() -> Vec<MonteCarloTable> {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+    let mut tables: Vec<MonteCarloTable> = Vec::new();
+    let mut in_table = false;
+    for line in readme.lines() {
+        if let Some(args) = line.trim().strip_prefix("<!-- monte-carlo:").and_then(|l| l.strip_suffix("-->")) {
+            tables.push((args.trim().to_owned(), Vec::new()));
+            in_table = true;
+            continue;
+        }
+        if !in_table {
+            continue;
+        }
+        if !line.starts_with('|') {
+            if !line.trim().is_empty() || tables.last().is_some_and(|t| !t.1.is_empty()) {
+                in_table = false;
+            }
+            continue;
+        }
+        let cells: Vec<&str> = line.split('|').map(str::trim).filter(|c| !c.is_empty()).collect();
+        let Some(game) = cells.first().and_then(|c| c.strip_prefix('`')).and_then(|c| c.strip_suffix('`')) else {
+            continue;
+        };
+        let numbers: Vec<f64> = cells[1..]
+            .iter()
+            .filter_map(|c| c.trim_end_matches(|ch: char| !ch.is_ascii_digit()).trim().parse().ok())
+            .collect();
+        tables.last_mut().unwrap().1.push((game.to_owned(), numbers));
+    }
+    tables
+}
+
+#[test]
+fn the_readmes_monte_carlo_figures_are_what_its_command_prints() {
+    let tables = monte_carlo_tables();
+    assert!(tables.len() >= 2 && tables.iter().all(|t| t.1.len() == 2), "README Monte Carlo tables: {tables:?}");
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in readme_files() {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures");
+    for (template, rows) in &tables {
+        for (game, figures) in rows {
+            let path = fixtures.join(game);
+            let args: Vec<String> = words(template)
+                .into_iter()
+                .map(|w| if w == "GAME" { path.display().to_string() } else { w })
+                .chain(["--json".to_owned(), "--out".to_owned(), "out".to_owned()])
+                .collect();
+            let output =
+                Command::new(env!("CARGO_BIN_EXE_chessarm")).args(&args).current_dir(dir.path()).output().unwrap();
+            assert!(output.status.success(), "{template}: {}", String::from_utf8_lossy(&output.stderr));
+            let json: Value = serde_json::from_slice(&output.stdout).unwrap();
+            let stats = &json["summary"]["controllers"][0];
+            let number = |v: &Value| v.as_f64().unwrap();
+            let measured = [
+                100.0 * number(&stats["success_rate"]),
+                number(&stats["place_error_mm"]["median"]),
+                number(&stats["place_error_mm"]["p95"]),
+                number(&stats["place_error_mm"]["max"]),
+                number(&stats["seconds_per_ply"]),
+            ];
+            // The figures as the README prints them: the rate in whole percent, the rest to
+            // two decimals.
+            assert_eq!(figures.len(), 5, "{game}: {figures:?}");
+            let shown: Vec<String> = measured
+                .iter()
+                .enumerate()
+                .map(|(i, v)| if i == 0 { format!("{v:.0}") } else { format!("{v:.2}") })
+                .collect();
+            let written: Vec<String> = figures
+                .iter()
+                .enumerate()
+                .map(|(i, v)| if i == 0 { format!("{v:.0}") } else { format!("{v:.2}") })
+                .collect();
+            assert_eq!(written, shown, "{template} on {game}: README {figures:?}, measured {measured:?}");
+        }
+    }
+}

@@ -477,6 +477,12 @@ fn the_unsmoothed_leg_is_the_time_optimal_law_and_a_stretch_is_a_uniform_slow_do
     let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, TOOL_DOWN, 1e-3).unwrap();
     let leg = plan.leg.clone();
     assert_eq!(leg.window(), 0.0);
+    // Unsmoothed, the law is the stretched optimal timing itself, bit for bit.
+    for i in 0..=1000 {
+        let t = leg.duration() * f64::from(i) / 1000.0;
+        let (s, sd, sdd) = leg.timing.sample(t / leg.scale);
+        assert_eq!(leg.law(t), (s, sd / leg.scale, sdd / (leg.scale * leg.scale)), "t = {t}");
+    }
     assert_eq!(leg.clone().smoothed_for_jerk(0.0_f64.recip(), 1e-3).window(), 0.0);
     let smoothed = leg.smoothed_for_jerk(200.0, 1e-3);
     let k = 1.25;

@@ -73,7 +73,14 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<
 
 pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
     if let Some(moves) = &args.moves {
-        return run_moves(&args.motion.apply(setup)?, args, moves);
+        let setup = args.motion.apply(setup)?;
+        if setup.motion.tracking.budget > 0.0 {
+            crate::tell(
+                "note: plan has no controller and no model errors, so the tracking budget does not apply \
+                 (it does in play, robustness and tune)",
+            );
+        }
+        return run_moves(&setup, args, moves);
     }
     let cause = format!("--dt {}", crate::resources::show(args.dt));
     let plan = plan_scenario(setup, &args.scenario, args.dt, &cause)?;
@@ -315,7 +322,8 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         let name = format!("{:03}-{uci}", index + 1);
         let grips = planned.tasks.iter().map(|t| t.task.to_string()).collect();
         let commands = planned.gripper_commands();
-        // The fine points `play` waits at by default (its default tolerance).
+        // The fine points at `play`'s default tolerance for sensors of unknown resolution (the
+        // coarsest default band, a tenth of the tolerance; plan has no --sensors).
         let label = MoveLabel {
             ply: index + 1,
             san: &san,

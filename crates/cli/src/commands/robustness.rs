@@ -632,11 +632,8 @@ fn frontier(
     let mut setups = Vec::with_capacity(paces.len());
     for &pace in paces {
         let mut paced = setup.clone();
-        paced.motion =
-            crate::config::checked_limits(setup.motion.at_pace(pace), "motion", "gripper").with_context(|| {
-                // As typed, for the paces that print long.
-                if (1e-4..1e6).contains(&pace) { format!("--paces {pace}") } else { format!("--paces {pace:e}") }
-            })?;
+        paced.motion = crate::config::checked_limits(setup.motion.at_pace(pace), "motion", "gripper")
+            .with_context(|| format!("--paces {}", crate::resources::show(pace)))?;
         setups.push(paced);
     }
     crate::resources::ensure_fits(

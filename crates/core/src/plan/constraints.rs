@@ -349,7 +349,8 @@ impl<const N: usize> PathConstraint<N> for TrackingBudget<N> {
         "tracking budget (carried piece)".to_string()
     }
     fn push_rows(&self, point: &PathPoint<N>, first: u16, table: &mut ConstraintTable) {
-        if !(self.mass_error > 0.0) {
+        // No error to bound, or a budget too large to bind (its limit overflows).
+        if !(self.mass_error > 0.0 && self.limit().is_finite()) {
             return;
         }
         // W in s²/kg, so ‖W p̈‖ in m/kg; the rows are scaled by the limit. On straight lines
