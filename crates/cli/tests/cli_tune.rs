@@ -186,6 +186,7 @@ fn a_sweep_over_a_game_counts_misplaced_pieces() {
         "--metric",
         "place-error",
         "--release-by-clock",
+        "--no-payload-feedforward",
         "--out",
         out.to_str().unwrap(),
     ]));
@@ -193,7 +194,8 @@ fn a_sweep_over_a_game_counts_misplaced_pieces() {
     let rows = rows(&csv);
     assert_eq!(rows.len(), 4);
     // kp = 25 1/s² with kd = 4 1/s (ωn = 5 rad/s, ζ = 0.4) is far too soft for the moves'
-    // speed: released by the clock (no fine points), pieces land off their squares; kp = 900,
+    // speed: released by the clock (no fine points) and told nothing of the piece it carries,
+    // it puts pieces down off their squares; kp = 900,
     // kd = 40 (ωn = 30 rad/s, ζ = 0.67) places every piece.
     let row = |kp: &str, kd: &str| rows.iter().find(|r| r[1] == kp && r[2] == kd).unwrap();
     assert!(row("25.0", "4.0")[13].parse::<usize>().unwrap() > 0, "{csv}");
