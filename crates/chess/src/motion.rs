@@ -20,8 +20,8 @@
 use crate::pieces::PieceSet;
 use crate::table::{PhysicalPiece, Table};
 use crate::tasks::{
-    MotionLimits, PlannedTask, Task, TaskError, TaskGeometry, TaskPlan, append_move_path, check_segment, describe_move,
-    move_tasks, task_geometry,
+    MAX_MOVE_SAMPLES, MotionLimits, PlannedTask, Task, TaskError, TaskGeometry, TaskPlan, append_move_path,
+    check_segment, describe_move, move_tasks, task_geometry,
 };
 use chessarm_core::arm::model::ArmModel;
 use chessarm_core::arm::task::TOOL_DOWN;
@@ -174,6 +174,7 @@ pub fn plan_move(
             loop {
                 let mut path = CartesianPath::new(start);
                 let tasks = append_move_path(&mut path, position, mv, table, pieces, &current, arm)?;
+                fits(path.duration(), period, || "an LSPB speed or acceleration".to_string()).map_err(wrap)?;
                 match JointTrajectory::from_path(arm, &path, period, TOOL_DOWN) {
                     Ok(trajectory) => {
                         let phases = lspb_phases(&path);
@@ -354,6 +355,19 @@ fn plan_optimal(
             }
         }
     }
+    let mut limit_times: Vec<(String, f64)> = Vec::new();
+    for leg in &legs {
+        for (name, time) in leg.time_per_limit() {
+            match limit_times.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, total)) => *total += time * leg.leg.scale,
+                None => limit_times.push((name, time * leg.leg.scale)),
+            }
+        }
+    }
+    fits(motion.duration(), period, || {
+        let longest = limit_times.iter().max_by(|a, b| a.1.total_cmp(&b.1));
+        longest.map_or_else(|| "a limit".to_string(), |(name, _)| format!("the {name} limit, binding longest,"))
+    })?;
     let trajectory = JointTrajectory::from_path(arm, &motion, period, TOOL_DOWN).map_err(TaskError::Trajectory)?;
     let mut planned = Vec::with_capacity(tasks.len());
     for (k, (task, geometry)) in tasks.iter().zip(&geometries).enumerate() {
@@ -368,15 +382,6 @@ fn plan_optimal(
             },
         });
     }
-    let mut limit_times: Vec<(String, f64)> = Vec::new();
-    for leg in &legs {
-        for (name, time) in leg.time_per_limit() {
-            match limit_times.iter_mut().find(|(n, _)| *n == name) {
-                Some((_, total)) => *total += time * leg.leg.scale,
-                None => limit_times.push((name, time * leg.leg.scale)),
-            }
-        }
-    }
     Ok(PlannedMove {
         motion: MoveMotion::Optimal(motion),
         trajectory,
@@ -387,6 +392,16 @@ fn plan_optimal(
         usage,
         slowdowns: 0,
     })
+}
+
+/// Refuses a move of `duration` s whose trajectory at `period` would have more than
+/// [`MAX_MOVE_SAMPLES`] samples, naming what binds (`binding`).
+fn fits(duration: f64, period: f64, binding: impl Fn() -> String) -> Result<(), TaskError> {
+    let samples = duration / period;
+    if samples.is_finite() && samples <= MAX_MOVE_SAMPLES {
+        return Ok(());
+    }
+    Err(TaskError::TooLong { duration, samples, max: MAX_MOVE_SAMPLES, binding: binding() })
 }
 
 /// Adds a timed leg's time per piece: vertical lines to `vertical`, the rest to `travel`.
@@ -462,6 +477,11 @@ fn time_optimal_leg(
     let mut stretches = 0;
     let mut plan = plan_leg(arm, path, &constraints, limits, refinement, period)?;
     loop {
+        // Before anything samples it: a leg longer than a move may be.
+        fits(plan.leg.duration(), period, || {
+            let longest = plan.time_per_limit().into_iter().max_by(|a, b| a.1.total_cmp(&b.1));
+            longest.map_or_else(|| "a limit".to_string(), |(name, _)| format!("the {name} limit, binding longest,"))
+        })?;
         let mut leg = TimedMotion::new(path.start());
         leg.push(Stretch::Leg(plan.leg.clone()));
         // Every control period, and every planning stage at its ends and its middle, as the

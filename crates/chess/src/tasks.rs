@@ -122,6 +122,11 @@ pub enum TaskError {
         /// The table's error.
         source: TableError,
     },
+    /// A move would last so long that its trajectory could not be held in memory.
+    #[error(
+        "the move would last {duration:.0} s at these limits ({samples:.3e} control periods, at most {max:.0e}): {binding} is far too low"
+    )]
+    TooLong { duration: f64, samples: f64, max: f64, binding: String },
     /// A motion limit is not usable.
     #[error("motion limit {field} = {value}: {reason}")]
     Limits {
@@ -301,6 +306,14 @@ pub fn move_tasks(position: &Chess, mv: &Move, table: &Table) -> Result<Vec<Task
     Ok(tasks)
 }
 
+/// The finest planning grid step, m: a 0.5 m leg then has 5 000 points (40 000 after the
+/// planner's refinements), tens of MB of rows at most.
+pub const MIN_GRID_STEP: f64 = 1e-4;
+
+/// The most control periods a move's trajectory may have: 10⁷ (2.8 h at 1 kHz), 1.3 GB of
+/// samples; a move that would last longer has a limit set far too low.
+pub const MAX_MOVE_SAMPLES: f64 = 1e7;
+
 /// Speed, acceleration and timing limits of the pick-and-place motions.
 ///
 /// The LSPB planner (the report's) uses the traverse and vertical limits and the pauses; the
@@ -471,6 +484,13 @@ impl MotionLimits {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(TaskError::Limits { field, value, reason: "must be finite and >= 0" });
             }
+        }
+        if self.grid_step < MIN_GRID_STEP {
+            return Err(TaskError::Limits {
+                field: "grid_step",
+                value: self.grid_step,
+                reason: "must be at least 1e-4 m (0.1 mm): a finer grid only costs the planner memory and time",
+            });
         }
         if !(self.torque_margin > 0.0 && self.torque_margin <= 1.0) {
             return Err(TaskError::Limits {

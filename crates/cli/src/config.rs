@@ -236,7 +236,7 @@ pub fn checked_limits(limits: MotionLimits, motion_table: &str, gripper_table: &
         TaskError::Limits { field, value, reason } => {
             let gripper = ["carry_acceleration", "grip_strength", "grip_dwell", "release_dwell"];
             let table = if gripper.contains(&field) { gripper_table } else { motion_table };
-            anyhow!("{table}.{field} = {value}: {reason}")
+            anyhow!("{table}.{field} = {}: {reason}", chessarm_core::short_number(value))
         }
         other => anyhow!(other),
     })

@@ -105,9 +105,15 @@ pub enum Corner {
     Hidden,
 }
 
+/// Largest |value| an axis takes in: beyond it the span and its padding could overflow to
+/// infinity, on which the axis' ticks never end (a torque limit of 1e308 drawn as a level).
+/// Such values are left off the axis (and a level there is not drawn).
+const AXIS_LIMIT: f64 = 1e300;
+
 fn range_of(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (low, high) =
-        values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let (low, high) = values
+        .filter(|v| v.is_finite() && v.abs() <= AXIS_LIMIT)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
     if !low.is_finite() {
         return (-1.0, 1.0);
     }
@@ -249,6 +255,11 @@ fn draw_panel(
     for level in &panel.levels {
         let color = PALETTE[level.color % PALETTE.len()];
         let y = shown(level.value);
+        // A level off the axis (one left out of its range) is not drawn: its pixel position
+        // would overflow.
+        if !(y >= y_low && y <= y_high) {
+            continue;
+        }
         let annotation =
             chart.draw_series(DashedLineSeries::new([(x_low, y), (x_high, y)], 10, 6, color.stroke_width(2)))?;
         annotation
@@ -494,6 +505,29 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_axis_stays_finite_whatever_the_values() {
+        for values in
+            [vec![-1e308, 1e308, 1.0], vec![f64::MAX, 2.0], vec![1e300, -1e300], vec![f64::NAN, f64::INFINITY]]
+        {
+            let (low, high) = range_of(values.iter().copied());
+            assert!(low.is_finite() && high.is_finite() && (high - low).is_finite() && high > low, "{values:?}");
+        }
+        // A panel with a level at 1e308 draws (it hung in the axis ticks before).
+        let dir = tempfile::tempdir().unwrap();
+        let panel = Panel {
+            title: "torque".into(),
+            y_label: "N·m".into(),
+            series: vec![Series { label: "τ".into(), points: vec![(0.0, 1.0), (1.0, 2.0)], ..Series::default() }],
+            levels: vec![
+                Level { value: 1e308, label: "limit".into(), color: 1 },
+                Level { value: -1e308, label: "limit".into(), color: 1 },
+            ],
+            ..Panel::default()
+        };
+        plot_panels(&dir.path().join("p.png"), "t", "s", &[panel]).unwrap();
+    }
 
     #[test]
     fn ticks_are_short_and_never_negative_zero() {

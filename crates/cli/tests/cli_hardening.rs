@@ -84,6 +84,46 @@ fn work_that_cannot_fit_in_memory_is_refused_before_it_starts() {
 }
 
 #[test]
+fn limits_far_too_low_or_fine_are_refused_before_the_planner_allocates() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("game");
+    let out = out.to_str().unwrap();
+    let started = std::time::Instant::now();
+    let play = |extra: &[&str]| chessarm(&[&["play", "--moves", "e4", "--out", out][..], extra].concat());
+    // Each aborted (SIGABRT) on an allocation of gigabytes before.
+    assert_one_line_error(&play(&["--grid-step", "1e-7"]), &["grid_step = 1e-7", "at least 1e-4 m"]);
+    assert_one_line_error(
+        &play(&["--carry-acceleration", "1e-9"]),
+        &["move e4", "would last 45762 s", "tool acceleration while carrying limit"],
+    );
+    assert_one_line_error(&play(&["--tool-speed", "1e-9"]), &["move e4", "tool speed limit"]);
+    assert_one_line_error(&play(&["--timing", "lspb", "--traverse-acceleration", "1e-9"]), &["move e4", "LSPB"]);
+    let setup = dir.path().join("fine.toml");
+    std::fs::write(&setup, "[motion]\ngrid_step = 1e-9\n").unwrap();
+    assert_one_line_error(
+        &chessarm(&["--arm", setup.to_str().unwrap(), "play", "--moves", "e4", "--out", out]),
+        &["motion.grid_step = 1e-9"],
+    );
+    // Refused from the estimate, before sampling anything.
+    assert!(started.elapsed().as_secs_f64() < 20.0);
+}
+
+#[test]
+fn a_torque_limit_near_the_largest_number_plots_instead_of_hanging() {
+    // The torque plot's limit lines at ±1e308 made its axis span infinite, and its ticks never
+    // ended (issue 34); now they lie off the axis.
+    let dir = tempfile::tempdir().unwrap();
+    let setup = dir.path().join("strong.toml");
+    std::fs::write(&setup, "[[links]]\ntorque_limit = 1e308\n[[links]]\n[[links]]\n[[links]]\n").unwrap();
+    let out = dir.path().join("sim");
+    let output = chessarm(&["--arm", setup.to_str().unwrap(), "simulate", "--out", out.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    for plot in ["pd_torques.png", "pid_torques.png", "tip_error.png"] {
+        assert!(out.join(plot).metadata().is_ok_and(|m| m.len() > 10_000), "{plot}");
+    }
+}
+
+#[test]
 fn threads_are_bounded_and_the_flag_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
