@@ -208,9 +208,13 @@ fn a_setup_profile_is_used_by_name_and_play_records_the_conditions() {
         replay.contains(&format!("--arm {setup}")) && replay.contains(&format!("--uncertainty {setup}")),
         "{replay}"
     );
-    let alone = dir.path().join("alone");
+    // It writes to its own folder, inside the study's.
     let mut args: Vec<&str> = replay.split(' ').skip(1).collect();
-    args.extend(["--out", alone.to_str().unwrap()]);
+    let folder = args.iter().position(|a| *a == "--out").map(|i| args[i + 1]).unwrap();
+    assert_eq!(std::path::Path::new(folder), study.join("worst-pd"), "{replay}");
+    let alone = dir.path().join("alone");
+    let at = args.iter().position(|a| *a == "--out").unwrap();
+    args[at + 1] = alone.to_str().unwrap();
     let again = json_of(&chessarm(&args));
     assert_eq!(
         again["summary"]["controllers"][0]["placement_error_mm"],

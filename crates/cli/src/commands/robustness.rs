@@ -224,7 +224,10 @@ fn seconds_per_ply(rows: &[&TrialRow]) -> f64 {
 
 /// Per controller: the study's statistics. A failed run counts as an infinite placement
 /// error (JSON null), so a median, p95 or largest error over failures is not a number.
-fn statistics(rows: &[TrialRow], name: &str, replay: &str) -> serde_json::Value {
+/// `replay` is the command that re-runs a trial without its controller, seed and folder; the
+/// worst trial's replay writes to `out/worst-CONTROLLER`, its own folder (not the default
+/// one another run may be using).
+fn statistics(rows: &[TrialRow], name: &str, replay: &str, out: &std::path::Path) -> serde_json::Value {
     let mine: Vec<&TrialRow> = rows.iter().filter(|r| r.controller == name).collect();
     let mut errors: Vec<f64> =
         mine.iter().map(|r| if r.place_error_mm.is_finite() { r.place_error_mm } else { f64::INFINITY }).collect();
@@ -252,7 +255,10 @@ fn statistics(rows: &[TrialRow], name: &str, replay: &str) -> serde_json::Value 
         "seconds_per_ply": seconds_per_ply(&mine),
         "rms_rate_estimate_error_rad_per_s": mine.iter().map(|r| r.rms_rate_estimate_error).sum::<f64>() / mine.len().max(1) as f64,
         "worst_trial_seed": worst.map(|r| r.trial_seed),
-        "replay_worst_trial": worst.map(|r| format!("chessarm {replay} --controller {name} --trial-seed {}", r.trial_seed)),
+        "replay_worst_trial": worst.map(|r| {
+            let folder = out.join(format!("worst-{name}"));
+            format!("chessarm {replay} --controller {name} --trial-seed {} --out {}", r.trial_seed, folder.display())
+        }),
     })
 }
 
@@ -560,7 +566,8 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
             args.conditions.flags()
         ),
     };
-    let stats: Vec<serde_json::Value> = specs.iter().map(|spec| statistics(&rows, &spec.name, &replay)).collect();
+    let stats: Vec<serde_json::Value> =
+        specs.iter().map(|spec| statistics(&rows, &spec.name, &replay, &args.out)).collect();
     let summary = json!({
         "work": match &args.game_file { Some(path) => json!({ "game_file": path.display().to_string(), "game": args.game }), None => json!({ "scenario": args.scenario }) },
         "trials": args.trials,
@@ -654,7 +661,7 @@ fn frontier(
     for (&pace, paced) in paces.iter().zip(&setups) {
         let rows = pool.install(|| run_trials(paced, work, specs, study, &options, 0..args.trials, Some(&bar)))?;
         for spec in specs {
-            points.push(FrontierPoint { pace, stats: statistics(&rows, &spec.name, "") });
+            points.push(FrontierPoint { pace, stats: statistics(&rows, &spec.name, "", out) });
         }
     }
     let wall_time_s = started.elapsed().as_secs_f64();
