@@ -395,24 +395,13 @@ fn the_frontier_runs_the_same_trials_at_every_pace_and_a_faster_pace_takes_less_
     let uncertainty = write(dir.path(), "u.toml", UNCERTAINTY);
     let pgn = write(dir.path(), "short.pgn", "[Result \"*\"]\n\n1. e4 e5 2. Nf3 *\n");
     let out = dir.path().join("frontier");
+    let study = |extra: &[&str]| {
+        let common =
+            ["robustness", &pgn, "--trials", "3", "--controller", "pd,dob", "--sensors", "hobby", "--uncertainty"];
+        json_of(&chessarm(&[&common[..], &[uncertainty.as_str()], extra].concat()))
+    };
     let run = |paces: &str| {
-        let output = chessarm(&[
-            "robustness",
-            &pgn,
-            "--trials",
-            "3",
-            "--controller",
-            "pd,dob",
-            "--sensors",
-            "hobby",
-            "--uncertainty",
-            &uncertainty,
-            "--paces",
-            paces,
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        json_of(&output);
+        study(&["--paces", paces, "--out", out.to_str().unwrap()]);
         std::fs::read_to_string(out.join("frontier.csv")).unwrap()
     };
     // Given out of order and once twice: one row per pace and controller, in pace order.
@@ -446,20 +435,7 @@ fn the_frontier_runs_the_same_trials_at_every_pace_and_a_faster_pace_takes_less_
     assert!(out.join("frontier.png").metadata().unwrap().len() > 10_000);
     // The pace-1 point is the plain study's: same trials, same figures.
     let plain = dir.path().join("plain");
-    let summary = json_of(&chessarm(&[
-        "robustness",
-        &pgn,
-        "--trials",
-        "3",
-        "--controller",
-        "pd,dob",
-        "--sensors",
-        "hobby",
-        "--uncertainty",
-        &uncertainty,
-        "--out",
-        plain.to_str().unwrap(),
-    ]));
+    let summary = study(&["--out", plain.to_str().unwrap()]);
     let stats = &summary["summary"]["controllers"][0];
     let pace_one = rows.iter().find(|r| r[0] == "1" && r[1] == "pd").unwrap();
     assert_eq!(pace_one[8].parse::<f64>().unwrap(), stats["seconds_per_ply"].as_f64().unwrap());
