@@ -146,6 +146,16 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             assert!(terminal.lines().count() < 20, "not a short summary: {terminal}");
             assert!(dir.join("out/simulate/summary.json").exists() && dir.join("out/plan/joint.csv").exists());
             assert!(dir.join("out/simulate/replay.html").exists());
+            // The files the README's demo section lists, one set per controller it names.
+            for controller in ["pd", "pid-plain", "pid"] {
+                for suffix in [".csv", "_joints.png", "_torques.png"] {
+                    let name = format!("{controller}{suffix}");
+                    assert!(dir.join("out/simulate").join(&name).exists(), "{name}");
+                }
+            }
+            let readme =
+                std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+            assert!(readme.contains("- `pd.csv`, `pid-plain.csv`, `pid.csv`:"), "the README's demo files");
         }
         Some("plan") if args.iter().any(|a| a == "--export-rate") => {
             for stem in ["001-e2e4", "002-d7d5", "003-e4d5"] {
