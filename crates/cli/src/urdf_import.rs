@@ -134,6 +134,9 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
     let mut links = BTreeMap::new();
     for link in robot.children().filter(|n| n.has_tag_name("link")) {
         let name = link.attribute("name").ok_or_else(|| anyhow!("{}: a link needs a name", at(&link)))?;
+        if name.trim().is_empty() {
+            bail!("{}: a link's name must not be empty", at(&link));
+        }
         if links.insert(name.to_string(), link).is_some() {
             bail!("{}: a second link named '{name}'", at(&link));
         }
@@ -144,6 +147,13 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
     let mut has_parent = BTreeMap::new();
     for joint in robot.children().filter(|n| n.has_tag_name("joint")) {
         let name = joint.attribute("name").ok_or_else(|| anyhow!("{}: a joint needs a name", at(&joint)))?.to_string();
+        // The names become the exported trajectories' joint_names (ROS), which must be unique.
+        if name.trim().is_empty() {
+            bail!("{}: a joint's name must not be empty", at(&joint));
+        }
+        if let Some(first) = places.get(&name) {
+            bail!("{}: a second joint named '{name}' (the first at {first})", at(&joint));
+        }
         let kind = joint.attribute("type").ok_or_else(|| anyhow!("{}: a joint needs a type", at(&joint)))?.to_string();
         let link_of = |tag: &str| -> Result<String> {
             let element = child(&joint, tag).ok_or_else(|| anyhow!("{}: needs a <{tag} link=\"…\"/>", at(&joint)))?;

@@ -322,6 +322,16 @@ fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
             vec!["<joint name=\"waist\">".into(), "passes 2.000e-3 m from the base origin".into()],
         ),
         (
+            "a joint named twice",
+            edit(r#"<joint name="elbow" type="revolute">"#, r#"<joint name="shoulder" type="revolute">"#),
+            vec![format!("{elbow_line}: <joint name=\"shoulder\">"), "a second joint named 'shoulder'".into()],
+        ),
+        (
+            "an empty joint name",
+            edit(r#"<joint name="elbow" type="revolute">"#, r#"<joint name=" " type="revolute">"#),
+            vec![elbow_line.clone(), "a joint's name must not be empty".into()],
+        ),
+        (
             "a second tree",
             edit(
                 "  <link name=\"tool\"/>",
