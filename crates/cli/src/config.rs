@@ -123,6 +123,25 @@ pub struct PiecesFile {
     pub king: Option<PieceFile>,
 }
 
+/// One number for every joint, or one per joint (as the flags take them: `--joint-acceleration
+/// 20` or `20,20,15,15`).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(untagged, expecting = "expected a number (every joint) or a list of numbers (one per joint)")]
+pub enum OneOrEach {
+    One(f64),
+    Each(Vec<f64>),
+}
+
+impl OneOrEach {
+    /// The values, `count` of them for one number.
+    pub fn each(&self, count: usize) -> Vec<f64> {
+        match self {
+            OneOrEach::One(value) => vec![*value; count],
+            OneOrEach::Each(values) => values.clone(),
+        }
+    }
+}
+
 /// The motion limits in the file (`[motion]`); fields left out keep the defaults.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
@@ -132,7 +151,7 @@ pub struct MotionFile {
     pub tool_speed: Option<f64>,
     /// Largest |joint acceleration| of time-optimal motions, rad/s² (4 numbers).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub joint_acceleration: Option<Vec<f64>>,
+    pub joint_acceleration: Option<OneOrEach>,
     /// Share of each motor's torque limit a time-optimal plan may use, in (0, 1].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub torque_margin: Option<f64>,
@@ -210,7 +229,7 @@ impl MotionFile {
             tool_speed: m("tool_speed", self.tool_speed, default.tool_speed)?,
             joint_acceleration: numbers_or(
                 "motion.joint_acceleration",
-                self.joint_acceleration.as_ref(),
+                self.joint_acceleration.as_ref().map(|given| given.each(4)).as_ref(),
                 "one per joint, rad/s²",
                 default.joint_acceleration,
             )?,
@@ -594,7 +613,7 @@ impl From<&Setup> for SetupFile {
             uncertainty: setup.uncertainty.clone(),
             motion: MotionFile {
                 tool_speed: Some(m.tool_speed),
-                joint_acceleration: Some(m.joint_acceleration.to_vec()),
+                joint_acceleration: Some(OneOrEach::Each(m.joint_acceleration.to_vec())),
                 torque_margin: Some(m.torque_margin),
                 blend: Some(m.blend),
                 grid_step: Some(m.grid_step),

@@ -229,3 +229,26 @@ fn plan_moves_writes_the_path_the_joint_trajectory_and_a_phase_plane_per_move() 
     let output = chessarm(&["plan", "--moves", "e4 e4", "--out", out.to_str().unwrap()]);
     assert_one_line_error(&output, &["e4"]);
 }
+
+#[test]
+fn joint_accelerations_in_the_setup_file_take_one_number_as_the_flag_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let one = write("one.toml", "[motion]\njoint_acceleration = 15\n");
+    let each = write("each.toml", "[motion]\njoint_acceleration = [15, 15, 15, 15]\n");
+    let printed = |setup: &str| {
+        let output = chessarm(&["--arm", setup, "arm"]);
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        String::from_utf8_lossy(&output.stdout).into_owned()
+    };
+    assert_eq!(printed(&one), printed(&each));
+    assert!(printed(&one).contains("joint_acceleration = [\n    15.0,\n    15.0,\n    15.0,\n    15.0,\n]"));
+    let wrong = write("wrong.toml", "[motion]\njoint_acceleration = \"fast\"\n");
+    assert_one_line_error(&chessarm(&["--arm", &wrong, "arm"]), &["wrong.toml", "line 2", "a number (every joint)"]);
+    let three = write("three.toml", "[motion]\njoint_acceleration = [1, 2, 3]\n");
+    assert_one_line_error(&chessarm(&["--arm", &three, "arm"]), &["motion.joint_acceleration has 3 numbers"]);
+}
