@@ -137,6 +137,9 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
         if name.trim().is_empty() {
             bail!("{}: a link's name must not be empty", at(&link));
         }
+        // Every link's inertial is checked, the base's and the fixed ones' too, though only
+        // the moving links' enter the model.
+        inertial(&link)?;
         if links.insert(name.to_string(), link).is_some() {
             bail!("{}: a second link named '{name}'", at(&link));
         }

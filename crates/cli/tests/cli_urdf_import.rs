@@ -322,6 +322,11 @@ fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
             vec!["<joint name=\"waist\">".into(), "passes 2.000e-3 m from the base origin".into()],
         ),
         (
+            "a negative base mass",
+            edit(r#"<mass value="2.0"/>"#, r#"<mass value="-2.0"/>"#),
+            vec!["<link name=\"base_link\">".into(), "<mass value=\"-2\"> is negative".into()],
+        ),
+        (
             "a joint named twice",
             edit(r#"<joint name="elbow" type="revolute">"#, r#"<joint name="shoulder" type="revolute">"#),
             vec![format!("{elbow_line}: <joint name=\"shoulder\">"), "a second joint named 'shoulder'".into()],
