@@ -174,7 +174,17 @@ pub fn plan_move(
             loop {
                 let mut path = CartesianPath::new(start);
                 let tasks = append_move_path(&mut path, position, mv, table, pieces, &current, arm)?;
-                fits(path.duration(), period, || "an LSPB speed or acceleration".to_string()).map_err(wrap)?;
+                fits(path.duration(), period, || {
+                    let phases = lspb_phases(&path);
+                    if phases.pause >= phases.grip.max(phases.travel + phases.vertical) {
+                        "the pause between moves is far too long".to_string()
+                    } else if phases.grip >= phases.travel + phases.vertical {
+                        "the grip or release dwell is far too long".to_string()
+                    } else {
+                        "an LSPB speed or acceleration is far too low".to_string()
+                    }
+                })
+                .map_err(wrap)?;
                 match JointTrajectory::from_path(arm, &path, period, TOOL_DOWN) {
                     Ok(trajectory) => {
                         let phases = lspb_phases(&path);
@@ -365,8 +375,14 @@ fn plan_optimal(
         }
     }
     fits(motion.duration(), period, || {
+        if phases.grip >= phases.travel + phases.vertical {
+            return "the grip or release dwell is far too long".to_string();
+        }
         let longest = limit_times.iter().max_by(|a, b| a.1.total_cmp(&b.1));
-        longest.map_or_else(|| "a limit".to_string(), |(name, _)| format!("the {name} limit, binding longest,"))
+        longest.map_or_else(
+            || "a limit is far too low".to_string(),
+            |(name, _)| format!("the {name} limit, binding longest, is far too low"),
+        )
     })?;
     let trajectory = JointTrajectory::from_path(arm, &motion, period, TOOL_DOWN).map_err(TaskError::Trajectory)?;
     let mut planned = Vec::with_capacity(tasks.len());
@@ -479,8 +495,14 @@ fn time_optimal_leg(
     loop {
         // Before anything samples it: a leg longer than a move may be.
         fits(plan.leg.duration(), period, || {
+            if plan.leg.window() >= plan.leg.base_duration() {
+                return "the jerk limit is far too low (its smoothing window)".to_string();
+            }
             let longest = plan.time_per_limit().into_iter().max_by(|a, b| a.1.total_cmp(&b.1));
-            longest.map_or_else(|| "a limit".to_string(), |(name, _)| format!("the {name} limit, binding longest,"))
+            longest.map_or_else(
+                || "a limit is far too low".to_string(),
+                |(name, _)| format!("the {name} limit, binding longest, is far too low"),
+            )
         })?;
         let mut leg = TimedMotion::new(path.start());
         leg.push(Stretch::Leg(plan.leg.clone()));

@@ -124,7 +124,8 @@ pub enum TaskError {
     },
     /// A move would last so long that its trajectory could not be held in memory.
     #[error(
-        "the move would last {duration:.0} s at these limits ({samples:.3e} control periods, at most {max:.0e}): {binding} is far too low"
+        "the move would last {} s at these limits ({samples:.3e} control periods, at most {max:.0e}): {binding}",
+        chessarm_core::short_number(duration.round())
     )]
     TooLong { duration: f64, samples: f64, max: f64, binding: String },
     /// A motion limit is not usable.

@@ -200,7 +200,7 @@ pub struct MotionArgs {
     /// Clearance over the tallest piece passed over, m (default 0.03).
     #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub clearance_margin: Option<f64>,
-    /// Planning grid step along the path, m (default 0.005).
+    /// Planning grid step along the path, m (default 0.005, at least 1e-4).
     #[arg(long, value_parser = args::positive, allow_hyphen_values = true)]
     pub grid_step: Option<f64>,
     /// Pace: the motion's own limits as a uniform speed-up by K would scale them (tool and

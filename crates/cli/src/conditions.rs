@@ -607,7 +607,7 @@ impl ConditionArgs {
         let mut flags = String::new();
         let mut add = |flag: &str, value: String| flags.push_str(&format!(" --{flag} {value}"));
         if let Some(sensors) = &self.sensors {
-            add("sensors", sensors.clone());
+            add("sensors", crate::output::shell_word(sensors));
         }
         if let Some(estimator) = self.estimator {
             let name = match estimator {
@@ -628,11 +628,11 @@ impl ConditionArgs {
             add("torque-lag", lag.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","));
         }
         if let Some(plant) = &self.plant {
-            add("plant", plant.display().to_string());
+            add("plant", crate::output::shell_word(&plant.display().to_string()));
         }
 
         if let Some(uncertainty) = &self.uncertainty {
-            add("uncertainty", uncertainty.display().to_string());
+            add("uncertainty", crate::output::shell_word(&uncertainty.display().to_string()));
         }
         if self.controller_knows_friction {
             flags.push_str(" --controller-knows-friction");

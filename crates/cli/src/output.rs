@@ -368,3 +368,28 @@ pub fn refuse_unlisted(dir: &Path, might_write: impl Fn(&str) -> bool) -> Result
     }
     Ok(())
 }
+
+/// `word` as one shell word for a command printed for the user to paste: as it is when it
+/// holds only characters no shell treats specially, else in single quotes (a quote inside as
+/// `'\''`).
+pub fn shell_word(word: &str) -> String {
+    let plain = !word.is_empty()
+        && word
+            .chars()
+            .all(|c| c.is_alphanumeric() || matches!(c, '/' | '.' | '-' | '_' | ',' | ':' | '=' | '+' | '@'));
+    if plain { word.to_string() } else { format!("'{}'", word.replace('\'', "'\\''")) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shell_word;
+
+    #[test]
+    fn a_printed_path_is_one_shell_word() {
+        assert_eq!(shell_word("out/robustness/worst-pd"), "out/robustness/worst-pd");
+        assert_eq!(shell_word("my study/worst-pd"), "'my study/worst-pd'");
+        assert_eq!(shell_word("it's"), r"'it'\''s'");
+        assert_eq!(shell_word(""), "''");
+        assert_eq!(shell_word("$HOME;rm"), "'$HOME;rm'");
+    }
+}

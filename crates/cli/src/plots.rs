@@ -186,7 +186,16 @@ fn draw_panel(
     // under the largest value are shown (below that is rounding): smaller values are left out.
     let log = panel.log_y && largest >= 100.0 * smallest;
     let floor = largest.log10() - 6.0;
-    let shown = |y: f64| if log { if y > 0.0 && y.log10() >= floor { y.log10() } else { f64::NAN } } else { y };
+    let shown = |y: f64| {
+        if log {
+            if y > 0.0 && y.log10() >= floor { y.log10() } else { f64::NAN }
+        } else if y.abs() <= AXIS_LIMIT {
+            y
+        } else {
+            // Off any axis (and its pixel row would overflow): left out, as a NaN is.
+            f64::NAN
+        }
+    };
     // Each series as runs of drawable points: a left-out value breaks the line.
     let series: Vec<Vec<Vec<(f64, f64)>>> = panel
         .series

@@ -327,6 +327,11 @@ fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
             vec!["<link name=\"base_link\">".into(), "<mass value=\"-2\"> is negative".into()],
         ),
         (
+            "an empty link name",
+            edit(r#"<link name="pedestal">"#, r#"<link name="">"#),
+            vec!["a link's name must not be empty".into()],
+        ),
+        (
             "a joint named twice",
             edit(r#"<joint name="elbow" type="revolute">"#, r#"<joint name="shoulder" type="revolute">"#),
             vec![format!("{elbow_line}: <joint name=\"shoulder\">"), "a second joint named 'shoulder'".into()],

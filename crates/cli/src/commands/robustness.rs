@@ -257,7 +257,8 @@ fn statistics(rows: &[TrialRow], name: &str, replay: &str, out: &std::path::Path
         "worst_trial_seed": worst.map(|r| r.trial_seed),
         "replay_worst_trial": worst.map(|r| {
             let folder = out.join(format!("worst-{name}"));
-            format!("chessarm {replay} --controller {name} --trial-seed {} --out {}", r.trial_seed, folder.display())
+            let folder = crate::output::shell_word(&folder.display().to_string());
+            format!("chessarm {replay} --controller {name} --trial-seed {} --out {folder}", r.trial_seed)
         }),
     })
 }
@@ -545,12 +546,13 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let knows = if args.controller_knows_payload { " --controller-knows-payload" } else { "" };
     // The replay names the setup file, and takes the model errors from its [uncertainty] table
     // when they came from there.
-    let mut arm = setup.path.as_ref().map_or(String::new(), |p| format!("--arm {} ", p.display()));
+    let word = |path: &std::path::Path| crate::output::shell_word(&path.display().to_string());
+    let mut arm = setup.path.as_ref().map_or(String::new(), |p| format!("--arm {} ", word(p)));
     if let Some(path) = &setup.urdf_path {
-        arm.push_str(&format!("--urdf {} ", path.display()));
+        arm.push_str(&format!("--urdf {} ", word(path)));
     }
     let from_setup = match (&args.conditions.uncertainty, &setup.path, &setup.uncertainty) {
-        (None, Some(path), Some(_)) => format!(" --uncertainty {}", path.display()),
+        (None, Some(path), Some(_)) => format!(" --uncertainty {}", word(path)),
         _ => String::new(),
     };
     let replay = match &work {
@@ -561,7 +563,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         ),
         Work::Game(_) => format!(
             "{arm}play {} --game {}{knows}{}{from_setup}",
-            args.game_file.as_ref().map_or(String::new(), |p| p.display().to_string()),
+            args.game_file.as_ref().map_or(String::new(), |p| word(p)),
             args.game,
             args.conditions.flags()
         ),
