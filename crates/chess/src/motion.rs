@@ -378,11 +378,7 @@ fn plan_optimal(
         if phases.grip >= phases.travel + phases.vertical {
             return "the grip or release dwell is far too long".to_string();
         }
-        let longest = limit_times.iter().max_by(|a, b| a.1.total_cmp(&b.1));
-        longest.map_or_else(
-            || "a limit is far too low".to_string(),
-            |(name, _)| format!("the {name} limit, binding longest, is far too low"),
-        )
+        too_low(&limit_times)
     })?;
     let trajectory = JointTrajectory::from_path(arm, &motion, period, TOOL_DOWN).map_err(TaskError::Trajectory)?;
     let mut planned = Vec::with_capacity(tasks.len());
@@ -418,6 +414,16 @@ fn fits(duration: f64, period: f64, binding: impl Fn() -> String) -> Result<(), 
         return Ok(());
     }
     Err(TaskError::TooLong { duration, samples, max: MAX_MOVE_SAMPLES, binding: binding() })
+}
+
+/// What to blame for a motion too long: the limit that was binding longest in `limit_times`
+/// (name, s).
+fn too_low(limit_times: &[(String, f64)]) -> String {
+    let longest = limit_times.iter().max_by(|a, b| a.1.total_cmp(&b.1));
+    longest.map_or_else(
+        || "a limit is far too low".to_string(),
+        |(name, _)| format!("the {name} limit, binding longest, is far too low"),
+    )
 }
 
 /// Adds a timed leg's time per piece: vertical lines to `vertical`, the rest to `travel`.
@@ -498,11 +504,7 @@ fn time_optimal_leg(
             if plan.leg.window() >= plan.leg.base_duration() {
                 return "the jerk limit is far too low (its smoothing window)".to_string();
             }
-            let longest = plan.time_per_limit().into_iter().max_by(|a, b| a.1.total_cmp(&b.1));
-            longest.map_or_else(
-                || "a limit is far too low".to_string(),
-                |(name, _)| format!("the {name} limit, binding longest, is far too low"),
-            )
+            too_low(&plan.time_per_limit())
         })?;
         let mut leg = TimedMotion::new(path.start());
         leg.push(Stretch::Leg(plan.leg.clone()));

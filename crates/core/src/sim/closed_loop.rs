@@ -459,10 +459,11 @@ where
     let target = now.tip.unwrap_or_else(|| FrameChain::new(&model, &now.desired.q).tip());
     let check = InPosition::measure(&model, &estimate.q, &estimate.qd, &target);
     let waited = (run.step - since) as f64 * run.dt;
+    let in_position = gate.holds(&check);
     let timed_out = waited + 0.5 * run.dt >= gate.timeout;
-    if gate.holds(&check) || timed_out {
+    if in_position || timed_out {
         let reached = since as f64 * run.dt;
-        waits.push(Wait { event, reached, duration: waited, timed_out: timed_out && !gate.holds(&check), check });
+        waits.push(Wait { event, reached, duration: waited, timed_out: timed_out && !in_position, check });
         *waiting = None;
         true
     } else {
