@@ -473,6 +473,9 @@ fn parse_chunk(
     if let Some(tag) = &chunk.long_tag {
         return Err(NotationError::TagTooLong { game: *games + 1, tag: tag.clone(), max_bytes: MAX_PGN_TAG_BYTES });
     }
+    if let Some(reason) = &chunk.unbalanced {
+        return Err(NotationError::MalformedPgn { game: *games + 1, reason: reason.clone() });
+    }
     let mut reader = Reader::build(chunk.text).set_supported_tag_line_length(MAX_PGN_TAG_BYTES).finish();
     let mut visitor = GameVisitor;
     let mut first_of_chunk = true;
@@ -646,6 +649,9 @@ struct GameChunk<'a> {
     bad_token: Option<BadToken>,
     /// The name of the first tag longer than [`MAX_PGN_TAG_BYTES`].
     long_tag: Option<String>,
+    /// What is wrong with the game's parentheses, if anything: a `)` that closes no variation, or
+    /// a `(` never closed (which would swallow the rest of the game silently).
+    unbalanced: Option<String>,
 }
 
 /// Bytes that end a movetext token, as in `pgn-reader`.
@@ -695,6 +701,8 @@ fn scan_chunk(bytes: &[u8], start: usize) -> GameChunk<'_> {
     let mut depth = 0usize;
     let mut ply = 0usize;
     let mut bad_token = None;
+    let mut unbalanced = None;
+    let mut opened_after = 0usize;
     while i < bytes.len() {
         match bytes[i] {
             b'{' => i = bytes[i..].iter().position(|&b| b == b'}').map_or(bytes.len(), |p| i + p + 1),
@@ -709,10 +717,16 @@ fn scan_chunk(bytes: &[u8], start: usize) -> GameChunk<'_> {
                 }
             }
             b'(' => {
+                if depth == 0 {
+                    opened_after = ply;
+                }
                 depth += 1;
                 i += 1;
             }
             b')' => {
+                if depth == 0 && unbalanced.is_none() {
+                    unbalanced = Some(format!("a ')' after ply {ply} closes no variation"));
+                }
                 depth = depth.saturating_sub(1);
                 i += 1;
             }
@@ -752,7 +766,12 @@ fn scan_chunk(bytes: &[u8], start: usize) -> GameChunk<'_> {
             }
         }
     }
-    GameChunk { text: &bytes[start..i], end: i, has_content, bad_token, long_tag }
+    if depth > 0 && unbalanced.is_none() {
+        unbalanced = Some(format!(
+            "a variation '(' opened after ply {opened_after} is never closed with ')' (the rest of the game would be skipped)"
+        ));
+    }
+    GameChunk { text: &bytes[start..i], end: i, has_content, bad_token, long_tag, unbalanced }
 }
 
 /// Index of the `\n` ending the line containing `i` (or the end of the text).

@@ -205,6 +205,24 @@ escaped! {
     time_constants => time_constants_unescaped -> [f64; 4];
     count => count_unescaped -> usize;
     share => share_unescaped -> f64;
+    mass => mass_unescaped -> f64;
+}
+
+/// A mass, kg: finite, ≥ 0 and at most [`MAX_MASS`] (the model refuses heavier bodies).
+///
+/// [`MAX_MASS`]: chessarm_core::arm::model::MAX_MASS
+fn mass_unescaped(text: &str) -> Result<f64, String> {
+    let value = non_negative_unescaped(text)?;
+    let most = chessarm_core::arm::model::MAX_MASS;
+    if value > most {
+        Err(format!(
+            "{} kg is beyond {} kg, a typo in units",
+            chessarm_core::short_number(value),
+            chessarm_core::short_number(most)
+        ))
+    } else {
+        Ok(value)
+    }
 }
 
 /// A share in (0, 1].

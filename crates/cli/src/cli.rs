@@ -128,7 +128,7 @@ pub struct RobustnessArgs {
     pub placement: PlacementArgs,
     /// The scenario's pawn mass as the controller believes it, kg (default: the setup's pawn);
     /// its true mass follows the [uncertainty] piece_mass draws.
-    #[arg(long, value_parser = args::non_negative, allow_hyphen_values = true)]
+    #[arg(long, value_parser = args::mass, allow_hyphen_values = true)]
     pub payload_mass: Option<f64>,
     /// The controller's model includes each gripped piece (its true mass).
     #[arg(long)]
@@ -483,7 +483,7 @@ pub struct TuneArgs {
     #[arg(long, value_parser = args::range)]
     pub ki: Option<args::GainRange>,
     /// Mass of the gripped piece, kg, carried from grip to release.
-    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, value_parser = args::mass, allow_hyphen_values = true)]
     pub payload_mass: f64,
     /// The controller's model includes the gripped piece.
     #[arg(long)]
@@ -611,7 +611,7 @@ pub struct DynamicsArgs {
     #[arg(long, value_name = "QD1,QD2,QD3,QD4", value_parser = args::four, allow_hyphen_values = true, default_value = "0,0,0,0")]
     pub qd: [f64; 4],
     /// Mass of a gripped pawn-sized piece at the tool, kg.
-    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, value_parser = args::mass, allow_hyphen_values = true)]
     pub payload_mass: f64,
 }
 
@@ -640,7 +640,7 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
     pub q0: Option<[f64; 4]>,
     /// Mass of the gripped piece (pawn-sized), kg, carried from grip to release.
-    #[arg(long, default_value_t = 0.0, value_parser = args::non_negative, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, value_parser = args::mass, allow_hyphen_values = true)]
     pub payload_mass: f64,
     /// The controller's model includes the gripped piece.
     #[arg(long)]

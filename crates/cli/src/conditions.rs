@@ -94,6 +94,17 @@ impl SensorFile {
     /// The profile named `name`, every number checked (errors name `sensors.NAME.field`).
     pub fn to_profile(&self, name: &str) -> Result<SensorProfile<4>> {
         let field = |f: &str| format!("sensors.{name}.{f}");
+        if self.counts_per_rev.is_none()
+            && self.noise_counts.is_none()
+            && self.offset.is_none()
+            && self.delay_samples.is_none()
+            && self.rate_noise.is_none()
+        {
+            bail!(
+                "sensors.{name}: the table is empty; give counts_per_rev, noise_counts, offset, delay_samples or \
+                 rate_noise (exact sensors are --sensors ideal)"
+            );
+        }
         let counts = self.counts_per_rev.as_ref().map(|c| c.values(&field("counts_per_rev"))).transpose()?;
         let noise = self.noise_counts.as_ref().map(|c| c.values(&field("noise_counts"))).transpose()?;
         let offset = self.offset.as_ref().map(|c| c.values(&field("offset"))).transpose()?;

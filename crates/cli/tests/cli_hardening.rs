@@ -631,3 +631,44 @@ fn a_best_pick_on_the_edge_of_the_sweep_is_called_out() {
     let text = String::from_utf8(output.stdout).unwrap();
     assert!(text.contains("300.000") && !text.contains("warning"), "{text}");
 }
+
+#[test]
+fn values_that_would_fail_later_are_refused_at_load_naming_their_field() {
+    // Issue 34, item 12: each was accepted and failed seconds later as "NaN", "not positive
+    // definite" or a Kalman filter's complaint, without naming what the user wrote.
+    let links = |field: &str| format!("[[links]]\n{field}\n[[links]]\n[[links]]\n[[links]]\n");
+    for (file, needles) in [
+        (links("alpha = 1e308"), &["link 1 (alpha) = 1e308", "one turn"][..]),
+        (links("theta_offset = -7"), &["link 1 (theta_offset) = -7"]),
+        (links("d = 1e6"), &["link 1 (d) = 1e6", "100 m"]),
+        (links("mass = 1e300"), &["link 1 mass = 1e300", "10 000 kg"]),
+        (links("com = [0, 1e200, 0]"), &["link 1 com = [0, 1e200, 0]"]),
+        (links("motor_mass = 1e9"), &["link 1 (motor_mass) = 1e9"]),
+        ("[sensors.mine]\n".into(), &["sensors.mine", "the table is empty"]),
+        ("[sensors.mine]\ncounts_per_rev = 4096\nnoise_counts = 1e308\n".into(), &["noise_counts = 1e308", "4096"]),
+        ("[sensors.mine]\ncounts_per_rev = 4096\nrate_noise = 1e308\n".into(), &["rate_noise = 1e308", "1000 rad/s"]),
+    ] {
+        assert_one_line_error(&printed_setup(&file), needles);
+    }
+    assert_one_line_error(&chessarm(&["simulate", "--payload-mass", "1e308"]), &["--payload-mass", "1e308 kg"]);
+    // The largest values allowed still load.
+    for file in [links("alpha = 6.28"), links("mass = 1e4"), "[sensors.mine]\nrate_noise = 1000\n".into()] {
+        assert!(printed_setup(&file).status.success(), "{file}");
+    }
+}
+
+#[test]
+fn a_pgn_variation_left_open_or_closed_twice_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (text, needle) in [
+        ("1. e4 (1. d4 e5 2. Nf3\n", "'(' opened after ply 1 is never closed"),
+        ("1. e4 e5 ) 2. Nf3 *\n", "a ')' after ply 2 closes no variation"),
+    ] {
+        let pgn = dir.path().join("game.pgn");
+        std::fs::write(&pgn, text).unwrap();
+        let out = dir.path().join("out");
+        let output = chessarm(&["play", pgn.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        assert_one_line_error(&output, &["game 1", needle]);
+        assert!(!out.exists(), "{text}: a refused game wrote {}", out.display());
+    }
+}

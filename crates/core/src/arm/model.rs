@@ -8,12 +8,26 @@
 
 use nalgebra::{Matrix3, SVector, SymmetricEigen, Vector3};
 
+use crate::short_number as short;
+
 /// A vector with one entry per joint (rad, rad/s, rad/s² or N·m depending on use).
 pub type JointVector<const N: usize> = SVector<f64, N>;
 
 /// Standard gravitational acceleration used by the report, m/s². Kept as the default so results
 /// compare with the report (ERRATA item 11).
 pub const REPORT_GRAVITY: f64 = 9.8;
+
+/// The largest length a model takes (DH `a` and `d`, a centre of mass), m: a desk arm is well
+/// under a metre; beyond this a value is a typo in units, and its squares would overflow.
+pub const MAX_LENGTH: f64 = 100.0;
+
+/// The largest mass a model takes (a link, a motor, a payload), kg: a chess arm's link or piece
+/// heavier than ten tonnes is a typo in units, and the mass matrix would lose its definiteness.
+pub const MAX_MASS: f64 = 1.0e4;
+
+/// The largest constant angle a model takes (DH `alpha`, `theta_offset`), rad: one turn either
+/// way says every angle there is.
+pub const MAX_CONSTANT_ANGLE: f64 = std::f64::consts::TAU;
 
 /// Standard Denavit–Hartenberg parameters of one joint/link:
 /// `A_i = Rz(θ_i + theta_offset) · Tz(d) · Tx(a) · Rx(alpha)`.
@@ -202,7 +216,9 @@ impl<const N: usize> ArmModel<N> {
     /// The same arm carrying `payload` at the tool (or nothing, with `None`).
     pub fn with_payload(&self, payload: Option<Payload>) -> Result<Self, ModelError> {
         if let Some(p) = &payload {
-            validate_inertial("payload", &p.inertial, true)?;
+            // Not bounded by MAX_MASS: a library user may study any load; one too heavy for the
+            // arithmetic is caught where the mass matrix is factored (the edges bound it).
+            check_inertial("payload", &p.inertial, true, false)?;
         }
         let mut model = *self;
         model.payload = payload;
@@ -308,7 +324,21 @@ fn validate_link(index: usize, link: &Link) -> Result<(), ModelError> {
     let dh = &link.dh;
     for (field, value) in [("a", dh.a), ("alpha", dh.alpha), ("d", dh.d), ("theta_offset", dh.theta_offset)] {
         if !value.is_finite() {
-            return Err(invalid(name(field), value, "must be finite"));
+            return Err(invalid(name(field), short(value), "must be finite"));
+        }
+    }
+    for (field, value) in [("a", dh.a), ("d", dh.d)] {
+        if value.abs() > MAX_LENGTH {
+            return Err(invalid(name(field), short(value), "a length beyond ±100 m (MAX_LENGTH) is a typo in units"));
+        }
+    }
+    for (field, value) in [("alpha", dh.alpha), ("theta_offset", dh.theta_offset)] {
+        if value.abs() > MAX_CONSTANT_ANGLE {
+            return Err(invalid(
+                name(field),
+                short(value),
+                "an angle beyond one turn (±2π rad); give it within [-2π, 2π]",
+            ));
         }
     }
     if dh.a < 0.0 {
@@ -317,8 +347,22 @@ fn validate_link(index: usize, link: &Link) -> Result<(), ModelError> {
     validate_inertial(&format!("link {}", index + 1), &link.inertial, false)?;
     for (field, value) in [("motor_mass", link.motor_mass), ("rotor_inertia", link.rotor_inertia)] {
         if !(value.is_finite() && value >= 0.0) {
-            return Err(invalid(name(field), value, "must be finite and >= 0"));
+            return Err(invalid(name(field), short(value), "must be finite and >= 0"));
         }
+    }
+    if link.motor_mass > MAX_MASS {
+        return Err(invalid(
+            name("motor_mass"),
+            short(link.motor_mass),
+            "a mass beyond 10 000 kg (MAX_MASS) is a typo in units",
+        ));
+    }
+    if link.rotor_inertia > MAX_MASS * MAX_LENGTH * MAX_LENGTH {
+        return Err(invalid(
+            name("rotor_inertia"),
+            short(link.rotor_inertia),
+            "beyond MAX_MASS·MAX_LENGTH² (1e8 kg·m²)",
+        ));
     }
     let lim = &link.limits;
     if !(lim.lower.is_finite() && lim.upper.is_finite()) || lim.lower >= lim.upper {
@@ -343,20 +387,44 @@ fn validate_link(index: usize, link: &Link) -> Result<(), ModelError> {
 
 /// Checks mass, centre of mass and inertia tensor. A physical inertia tensor is symmetric with
 /// principal moments that are positive (non-negative for a point-like body) and satisfy the
-/// triangle inequality `I_a + I_b ≥ I_c`.
+/// triangle inequality `I_a + I_b ≥ I_c`. A body beyond [`MAX_MASS`], a centre of mass beyond
+/// [`MAX_LENGTH`] or a moment beyond `MAX_MASS·MAX_LENGTH²` is refused as a typo in units.
 pub fn validate_inertial(owner: &str, inertial: &Inertial, allow_point: bool) -> Result<(), ModelError> {
+    check_inertial(owner, inertial, allow_point, true)
+}
+
+/// [`validate_inertial`], with the bounds [`MAX_MASS`] and [`MAX_LENGTH`] only when `bounded`.
+fn check_inertial(owner: &str, inertial: &Inertial, allow_point: bool, bounded: bool) -> Result<(), ModelError> {
     let mass_ok = inertial.mass.is_finite() && if allow_point { inertial.mass >= 0.0 } else { inertial.mass > 0.0 };
     if !mass_ok {
         let reason = if allow_point { "mass must be finite and >= 0" } else { "mass must be finite and > 0" };
-        return Err(invalid(format!("{owner} mass"), inertial.mass, reason));
+        return Err(invalid(format!("{owner} mass"), short(inertial.mass), reason));
     }
+    if bounded && inertial.mass > MAX_MASS {
+        return Err(invalid(
+            format!("{owner} mass"),
+            short(inertial.mass),
+            "a mass beyond 10 000 kg (MAX_MASS) is a typo in units",
+        ));
+    }
+    let shown_com = || format!("[{}]", inertial.com.iter().map(|v| short(*v)).collect::<Vec<_>>().join(", "));
     if inertial.com.iter().any(|v| !v.is_finite()) {
-        return Err(invalid(format!("{owner} com"), format!("{:?}", inertial.com.as_slice()), "must be finite"));
+        return Err(invalid(format!("{owner} com"), shown_com(), "must be finite"));
+    }
+    if bounded && inertial.com.iter().any(|v| v.abs() > MAX_LENGTH) {
+        return Err(invalid(
+            format!("{owner} com"),
+            shown_com(),
+            "a length beyond ±100 m (MAX_LENGTH) is a typo in units",
+        ));
     }
     let tensor = &inertial.inertia;
-    let shown = || format!("{:?}", tensor.as_slice());
+    let shown = || format!("[{}]", tensor.iter().map(|v| short(*v)).collect::<Vec<_>>().join(", "));
     if tensor.iter().any(|v| !v.is_finite()) {
         return Err(invalid(format!("{owner} inertia"), shown(), "must be finite"));
+    }
+    if bounded && tensor.iter().any(|v| v.abs() > MAX_MASS * MAX_LENGTH * MAX_LENGTH) {
+        return Err(invalid(format!("{owner} inertia"), shown(), "beyond MAX_MASS·MAX_LENGTH² (1e8 kg·m²)"));
     }
     let scale = tensor.abs().max().max(f64::MIN_POSITIVE);
     if (tensor - tensor.transpose()).abs().max() > 1e-12 * scale {

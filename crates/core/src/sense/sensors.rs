@@ -21,10 +21,15 @@ use super::{Measurement, SenseError, invalid};
 use crate::arm::model::JointVector;
 use crate::control::JointState;
 use crate::lanes::{Lanes, Real, array4};
+use crate::short_number as short;
 use std::f64::consts::TAU;
 
 /// Longest measurement delay a profile may have, samples.
 pub const MAX_DELAY_SAMPLES: usize = 64;
+
+/// Largest σ of a rate sensor, rad/s: 1000 rad/s is ten thousand revolutions a minute, faster
+/// than any joint turns; the Kalman filter's Riccati equation squares it.
+pub const MAX_RATE_NOISE: f64 = 1.0e3;
 
 /// One joint's angle sensor.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -138,7 +143,16 @@ impl<const N: usize> SensorProfile<N> {
                 return Err(invalid(field(j, "counts_per_rev"), counts, "must be a whole number of counts, 1 to 2^40"));
             }
             if !(encoder.noise_counts.is_finite() && encoder.noise_counts >= 0.0) {
-                return Err(invalid(field(j, "noise_counts"), encoder.noise_counts, "must be finite and >= 0"));
+                return Err(invalid(field(j, "noise_counts"), short(encoder.noise_counts), "must be finite and >= 0"));
+            }
+            if let Some(counts) = encoder.counts_per_rev
+                && encoder.noise_counts > counts
+            {
+                return Err(invalid(
+                    field(j, "noise_counts"),
+                    short(encoder.noise_counts),
+                    format!("a σ beyond one turn ({} counts) says nothing of the angle", short(counts)),
+                ));
             }
             if encoder.noise_counts > 0.0 && encoder.counts_per_rev.is_none() {
                 return Err(invalid(
@@ -161,7 +175,16 @@ impl<const N: usize> SensorProfile<N> {
         if let Some(noise) = &self.rate_noise
             && let Some((j, value)) = noise.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0))
         {
-            return Err(invalid(field(j, "rate_noise"), value, "must be finite and >= 0"));
+            return Err(invalid(field(j, "rate_noise"), short(*value), "must be finite and >= 0"));
+        }
+        if let Some(noise) = &self.rate_noise
+            && let Some((j, value)) = noise.iter().enumerate().find(|(_, v)| **v > MAX_RATE_NOISE)
+        {
+            return Err(invalid(
+                field(j, "rate_noise"),
+                short(*value),
+                format!("a σ beyond {} rad/s is faster than any joint turns", short(MAX_RATE_NOISE)),
+            ));
         }
         Ok(())
     }
