@@ -17,7 +17,7 @@ use chessarm_core::arm::task::{TOOL_DOWN, inverse_kinematics, tool_point};
 use chessarm_core::nalgebra::Vector3;
 use numpy::ndarray::{ArrayD, IxDyn};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyException, PyValueError};
+use pyo3::exceptions::{PyException, PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -102,15 +102,21 @@ struct States {
 fn states(name: &str, array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyResult<States> {
     let shape = array.shape().to_vec();
     let view = array.as_array();
-    let rows: Vec<[f64; 4]> = match shape.as_slice() {
-        [4] => vec![std::array::from_fn(|j| view[[j]])],
-        [_, 4] => (0..shape[0]).map(|i| std::array::from_fn(|j| view[[i, j]])).collect(),
+    let count = match shape.as_slice() {
+        [4] => 1,
+        [n, 4] => *n,
         _ => {
             return Err(PyValueError::new_err(format!(
                 "{name}: shape {shape:?}; a joint state has shape (4,), many states (n, 4)"
             )));
         }
     };
+    let mut rows: Vec<[f64; 4]> = reserved(name, count, 4)?;
+    if shape.len() == 1 {
+        rows.push(std::array::from_fn(|j| view[[j]]));
+    } else {
+        rows.extend((0..count).map(|i| std::array::from_fn(|j| view[[i, j]])));
+    }
     if let Some((i, row)) = rows.iter().enumerate().find(|(_, row)| row.iter().any(|v| !v.is_finite())) {
         return Err(PyValueError::new_err(format!("{name}[{i}] = {row:?} is not finite")));
     }
@@ -122,6 +128,20 @@ fn states(name: &str, array: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyRes
         return Err(PyValueError::new_err(format!("{name}[{i}] = {row:?} rad: an angle is beyond ±{limit:e} rad")));
     }
     Ok(States { rows, single: shape.len() == 1 })
+}
+
+/// An empty vector with room for `count` items of `numbers` f64 each, or `MemoryError` naming
+/// `what` and the bytes it would take (Rust would abort the interpreter on a failed allocation).
+fn reserved<T>(what: &str, count: usize, numbers: usize) -> PyResult<Vec<T>> {
+    let mut values = Vec::new();
+    values.try_reserve_exact(count).map_err(|_| {
+        let bytes = (count as f64) * (numbers * 8) as f64;
+        PyMemoryError::new_err(format!(
+            "{what}: {count} states need {} GB, more than this machine can give; pass fewer at a time",
+            chessarm_core::short_number(bytes / 1e9)
+        ))
+    })?;
+    Ok(values)
 }
 
 /// The arguments' states, all one or all many of the same count.
@@ -182,23 +202,55 @@ impl Arm {
         f: impl Fn(&ArmModel<4>, &[JointVector<4>]) -> Result<[f64; K], String> + Send + Sync,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         debug_assert_eq!(shape.iter().product::<usize>(), K);
+        // Every argument's copy and the result, estimated before anything is allocated: a batch
+        // the machine cannot hold is a MemoryError, as the CLI refuses it from the same estimate.
+        if let Some((name, first)) = arguments.first()
+            && let [rows, 4] = first.shape()
+        {
+            let numbers = (4 * arguments.len() + K) as f64;
+            chessarm::resources::ensure_fits(
+                &format!("{name} of shape ({rows}, 4)"),
+                "numbers",
+                *rows as f64 * numbers,
+                8.0,
+            )
+            .map_err(|e| PyMemoryError::new_err(e.to_string()))?;
+        }
         let (all, single) = matched(arguments)?;
         let count = all[0].len();
         let model = self.model;
-        let values = py
-            .detach(|| {
-                let mut values = Vec::with_capacity(count * shape.iter().product::<usize>());
-                let mut state = Vec::with_capacity(all.len());
-                for i in 0..count {
-                    state.clear();
-                    state.extend(all.iter().map(|rows| JointVector::<4>::from(rows[i])));
-                    let one = f(&model, &state).map_err(|e| if count > 1 { format!("state {i}: {e}") } else { e })?;
-                    values.extend_from_slice(&one);
+        let mut values: Vec<[f64; K]> = reserved("the result", count, K)?;
+        let at = |i: usize, e: String| if count > 1 { format!("state {i}: {e}") } else { e };
+        let names: Vec<&str> = arguments.iter().map(|(name, _)| *name).collect();
+        py.detach(|| {
+            let mut state = Vec::with_capacity(all.len());
+            for i in 0..count {
+                state.clear();
+                state.extend(all.iter().map(|rows| JointVector::<4>::from(rows[i])));
+                let one = f(&model, &state).map_err(|e| DynamicsError::new_err(at(i, e)))?;
+                // The CLI refuses what overflows; so does Python, rather than return inf or NaN.
+                if one.iter().any(|v| !v.is_finite()) {
+                    let given = names
+                        .iter()
+                        .zip(&state)
+                        .map(|(name, v)| {
+                            format!(
+                                "{name} = [{}]",
+                                v.iter().map(|x| chessarm_core::short_number(*x)).collect::<Vec<_>>().join(", ")
+                            )
+                        })
+                        .collect::<Vec<_>>()
+                        .join(", ");
+                    return Err(PyValueError::new_err(at(
+                        i,
+                        format!("the result at {given} is not a finite number (it overflows); give smaller values"),
+                    )));
                 }
-                Ok::<_, String>(values)
-            })
-            .map_err(DynamicsError::new_err)?;
-        Ok(output(py, values, count, shape, single))
+                values.push(one);
+            }
+            Ok(())
+        })?;
+        Ok(output(py, values.into_flattened(), count, shape, single))
     }
 }
 

@@ -154,3 +154,36 @@ def test_setup_files_and_urdf_round_trip(tmp_path):
     again = chessarm.Arm.from_urdf(urdf)
     np.testing.assert_allclose(again.mass_matrix(STATES), arm.mass_matrix(STATES), rtol=0, atol=1e-12)
     assert chessarm.Arm.from_urdf(EXAMPLE_URDF).joint_names == ["waist", "shoulder", "elbow", "wrist"]
+
+
+def test_what_the_cli_refuses_raises_and_never_returns_inf_or_nan():
+    # Issue 34, item 10: these returned inf or NaN where `chessarm dynamics` says "overflows".
+    arm = chessarm.Arm.default()
+    zero = [0.0, 0.0, 0.0, 0.0]
+    for call, needle in [
+        (lambda: arm.rnea(zero, [1e200, 0, 0, 0], zero), "v = [1e200, 0, 0, 0]"),
+        (lambda: arm.forward_dynamics(zero, [1e300, 0, 0, 0], zero), "v = [1e300, 0, 0, 0]"),
+        (lambda: arm.aba(zero, zero, [1e308, 1e308, 0, 0]), "tau = [1e308, 1e308, 0, 0]"),
+    ]:
+        with pytest.raises(ValueError, match="overflows") as raised:
+            call()
+        assert needle in str(raised.value)
+    # Many states: the message names the one that overflowed.
+    v = np.zeros((3, 4))
+    v[2, 0] = 1e200
+    with pytest.raises(ValueError, match=r"state 2: .*v = \[1e200"):
+        arm.rnea(np.zeros((3, 4)), v, np.zeros((3, 4)))
+    # Large finite values that do not overflow still give numbers.
+    assert np.isfinite(arm.rnea(zero, [1e50, 0, 0, 0], zero)).all()
+
+
+def test_a_batch_the_machine_cannot_hold_is_a_memory_error_not_an_abort():
+    # 10^10 states (broadcast, so the input itself takes no memory): their copies and results
+    # would take 1.6 TB. Rust aborts the interpreter on a failed allocation; the estimate first
+    # turns it into MemoryError naming the shape.
+    many = np.broadcast_to(np.zeros(4), (10**10, 4))
+    arm = chessarm.Arm.default()
+    with pytest.raises(MemoryError, match=r"q of shape \(10000000000, 4\)"):
+        arm.rnea(many, many, many)
+    with pytest.raises(MemoryError):
+        arm.mass_matrix(many)
