@@ -318,14 +318,13 @@ pub struct Trial {
 }
 
 fn read_toml<T: serde::de::DeserializeOwned>(flag: &str, path: &Path) -> Result<T> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{flag} {}: cannot read", path.display()))?;
+    let text = crate::input::read_text(flag, path, crate::input::MAX_SETUP_BYTES)?;
     toml::from_str(&text).map_err(|e| anyhow!("{flag} {}: {}", path.display(), crate::config::toml_error(&text, &e)))
 }
 
 /// An uncertainty file: the fields at its top level, or a setup file's `[uncertainty]` table.
 fn read_uncertainty(path: &Path) -> Result<UncertaintyFile> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("--uncertainty {}: cannot read", path.display()))?;
+    let text = crate::input::read_text("--uncertainty", path, crate::input::MAX_SETUP_BYTES)?;
     let value: toml::Value = toml::from_str(&text)
         .map_err(|e| anyhow!("--uncertainty {}: {}", path.display(), crate::config::toml_error(&text, &e)))?;
     let table = match value.get("uncertainty") {

@@ -344,8 +344,7 @@ impl Setup {
         match path {
             None => Ok(Self::default()),
             Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .with_context(|| format!("cannot read arm file {}", path.display()))?;
+                let text = crate::input::read_text("arm file", path, crate::input::MAX_SETUP_BYTES)?;
                 let setup = Self::parse(&text).with_context(|| format!("arm file {}", path.display()))?;
                 Ok(Self { path: Some(path.to_path_buf()), ..setup })
             }

@@ -7,6 +7,7 @@ pub mod commands;
 pub mod conditions;
 pub mod config;
 pub mod hardware;
+pub mod input;
 pub mod output;
 pub mod plots;
 pub mod progress;

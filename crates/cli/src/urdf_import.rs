@@ -44,7 +44,7 @@ pub struct ImportedArm {
 /// The file cannot be read, is not XML, or describes something chessarm cannot model; the
 /// message names the file, the element and its line.
 pub fn load(path: &Path) -> Result<ImportedArm> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read URDF file {}", path.display()))?;
+    let text = crate::input::read_text("URDF file", path, crate::input::MAX_URDF_BYTES)?;
     from_urdf(&text).with_context(|| format!("URDF file {}", path.display()))
 }
 

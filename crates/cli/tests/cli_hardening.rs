@@ -672,3 +672,29 @@ fn a_pgn_variation_left_open_or_closed_twice_is_refused() {
         assert!(!out.exists(), "{text}: a refused game wrote {}", out.display());
     }
 }
+
+#[test]
+fn input_files_are_read_with_a_size_bound() {
+    // Issue 34, item 7: `--urdf /dev/zero` ate a gigabyte and a 400 MB URDF aborted the XML
+    // parser; every input file is now read up to a bound and refused beyond it.
+    let dir = tempfile::tempdir().unwrap();
+    let big_setup = dir.path().join("big.toml");
+    std::fs::write(&big_setup, format!("{}\n", "# comment\n".repeat(110_000))).unwrap();
+    let big_urdf = dir.path().join("big.urdf");
+    std::fs::write(&big_urdf, format!("<robot name=\"r\">{}</robot>\n", " ".repeat(16_000_001))).unwrap();
+    let cases: [(&[&str], &[&str]); 6] = [
+        (&["--urdf", "/dev/zero", "arm"], &["URDF file /dev/zero", "longer than 16.0 MB"]),
+        (&["--arm", "/dev/zero", "arm"], &["arm file /dev/zero", "longer than 1.0 MB"]),
+        (&["--arm", big_setup.to_str().unwrap(), "arm"], &["big.toml", "longer than 1.0 MB"]),
+        (&["--urdf", big_urdf.to_str().unwrap(), "arm"], &["big.urdf", "longer than 16.0 MB"]),
+        (&["simulate", "--uncertainty", "/dev/zero"], &["--uncertainty /dev/zero", "longer than 1.0 MB"]),
+        (&["--arm", dir.path().to_str().unwrap(), "arm"], &["is a folder"]),
+    ];
+    for (args, needles) in cases {
+        assert_one_line_error(&chessarm(args), needles);
+    }
+    // Text that is not UTF-8 says so, with where.
+    let binary = dir.path().join("binary.toml");
+    std::fs::write(&binary, b"gravity = [0, 0, -9.8]\n\xff\xfe").unwrap();
+    assert_one_line_error(&chessarm(&["--arm", binary.to_str().unwrap(), "arm"]), &["not UTF-8", "byte 23"]);
+}

@@ -420,5 +420,5 @@ fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
         assert_one_line_error(&output, &needles);
     }
     let missing = chessarm(&["--urdf", "no/such.urdf", "fk", "--q", "0,0,0,0"]);
-    assert_one_line_error(&missing, &["cannot read URDF file no/such.urdf"]);
+    assert_one_line_error(&missing, &["URDF file no/such.urdf: cannot read"]);
 }

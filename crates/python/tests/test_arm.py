@@ -187,3 +187,8 @@ def test_a_batch_the_machine_cannot_hold_is_a_memory_error_not_an_abort():
         arm.rnea(many, many, many)
     with pytest.raises(MemoryError):
         arm.mass_matrix(many)
+    # A file that never ends is refused after its bound (it was OOM-killed at 24 GB).
+    with pytest.raises(chessarm.ModelError, match=r"/dev/zero: longer than 16.0 MB"):
+        chessarm.Arm.from_urdf("/dev/zero")
+    with pytest.raises(chessarm.ModelError, match=r"/dev/zero: longer than 1.0 MB"):
+        chessarm.Arm.from_file("/dev/zero")
