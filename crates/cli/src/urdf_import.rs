@@ -145,7 +145,8 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
         }
     }
     let mut children: BTreeMap<String, Vec<JointElement<'_, '_>>> = BTreeMap::new();
-    // Where each joint is, for the messages of the conversion to DH.
+    // Each joint's element, for the messages (its line is found only when one is needed: finding
+    // it counts lines from the start, which for every joint would be quadratic in the file).
     let mut places = BTreeMap::new();
     let mut has_parent = BTreeMap::new();
     for joint in robot.children().filter(|n| n.has_tag_name("joint")) {
@@ -155,7 +156,7 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
             bail!("{}: a joint's name must not be empty", at(&joint));
         }
         if let Some(first) = places.get(&name) {
-            bail!("{}: a second joint named '{name}' (the first at {first})", at(&joint));
+            bail!("{}: a second joint named '{name}' (the first at {})", at(&joint), at(first));
         }
         let kind = joint.attribute("type").ok_or_else(|| anyhow!("{}: a joint needs a type", at(&joint)))?.to_string();
         let link_of = |tag: &str| -> Result<String> {
@@ -170,7 +171,7 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
         if let Some(other) = has_parent.insert(child_link.clone(), name.clone()) {
             bail!("{}: link '{child_link}' is already the child of joint '{other}'", at(&joint));
         }
-        places.insert(name.clone(), at(&joint));
+        places.insert(name.clone(), joint);
         children.entry(parent).or_default().push(JointElement { node: joint, name, kind, child: child_link });
     }
     let roots: Vec<&String> = links.keys().filter(|name| !has_parent.contains_key(*name)).collect();
@@ -261,7 +262,8 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
         current = joint.child.clone();
         path.push(current.clone());
     }
-    if let Some((name, node)) = links.iter().find(|(name, _)| !path.contains(name)) {
+    let on_path: std::collections::HashSet<&String> = path.iter().collect();
+    if let Some((name, node)) = links.iter().find(|(name, _)| !on_path.contains(name)) {
         bail!(
             "{}: link '{name}' is not on the chain from '{base_link}': chessarm needs one chain, not a second tree",
             at(node)
@@ -291,7 +293,7 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
             ChainError::Shape { joint, .. } | ChainError::Model { joint, .. } => joint,
         };
         match places.get(joint) {
-            Some(place) => anyhow!("{place}: {}", error.to_string().split_once(": ").map_or("", |(_, why)| why)),
+            Some(place) => anyhow!("{}: {}", at(place), error.to_string().split_once(": ").map_or("", |(_, why)| why)),
             None => anyhow!("{error}"),
         }
     })?;
