@@ -6,6 +6,7 @@ pub mod cli;
 pub mod commands;
 pub mod conditions;
 pub mod config;
+pub mod folder_lock;
 pub mod hardware;
 pub mod input;
 pub mod output;
@@ -167,28 +168,51 @@ pub fn run(cli: Cli) -> Result<()> {
         (setup.arm, setup.joint_names, setup.base_link) = (imported.model, imported.joint_names, imported.base_link);
         setup.urdf_path = Some(path.clone());
     }
-    match cli.command {
-        None => commands::demo::run(&setup, &cli::DemoArgs { out: "out".into() }),
-        Some(Command::Demo(args)) => commands::demo::run(&setup, &args),
-        Some(Command::Dynamics(args)) => commands::simulate::dynamics(&setup, &args),
-        Some(Command::Simulate(args)) => commands::simulate::run(&setup, &args),
-        Some(Command::Gains(args)) => commands::gains::run(&setup, &args),
+    let default_out = std::path::PathBuf::from("out");
+    let out = match &cli.command {
+        None => Some(&default_out),
+        Some(Command::Demo(args)) => Some(&args.out),
+        Some(Command::Simulate(args)) => Some(&args.out),
+        Some(Command::Tune(args)) => Some(&args.out),
+        Some(Command::Play(args)) => Some(&args.out),
+        Some(Command::Robustness(args)) => Some(&args.out),
+        Some(Command::Plan(args)) => Some(&args.out),
+        Some(
+            Command::Dynamics(_) | Command::Gains(_) | Command::Arm | Command::Fk(_) | Command::Ik(_) | Command::Urdf,
+        ) => None,
+    };
+    let folder = out.map(|dir| folder_lock::RunFolder::take(dir)).transpose()?;
+    let result = dispatch(&setup, cli.command);
+    if let Some(folder) = folder {
+        folder.end(result.is_ok());
+    }
+    result
+}
+
+/// Runs `command` (the demo when there is none).
+fn dispatch(setup: &Setup, command: Option<Command>) -> Result<()> {
+    match command {
+        None => commands::demo::run(setup, &cli::DemoArgs { out: "out".into() }),
+        Some(Command::Demo(args)) => commands::demo::run(setup, &args),
+        Some(Command::Dynamics(args)) => commands::simulate::dynamics(setup, &args),
+        Some(Command::Simulate(args)) => commands::simulate::run(setup, &args),
+        Some(Command::Gains(args)) => commands::gains::run(setup, &args),
         Some(Command::Tune(mut args)) => {
             args.shard = args::resolve_shard(args.shard, &args.batch, |name| std::env::var(name).ok())
                 .map_err(anyhow::Error::msg)?;
-            commands::tune::run(&setup, &args)
+            commands::tune::run(setup, &args)
         }
-        Some(Command::Play(args)) => commands::play::run(&setup, &args),
+        Some(Command::Play(args)) => commands::play::run(setup, &args),
         Some(Command::Robustness(mut args)) => {
             args.shard = args::resolve_shard(args.shard, &args.batch, |name| std::env::var(name).ok())
                 .map_err(anyhow::Error::msg)?;
-            commands::robustness::run(&setup, &args)
+            commands::robustness::run(setup, &args)
         }
         Some(Command::Arm) => print_text(&setup.to_toml()?),
-        Some(Command::Fk(args)) => commands::kinematics::fk(&setup, &args),
-        Some(Command::Ik(args)) => commands::kinematics::ik(&setup, &args),
+        Some(Command::Fk(args)) => commands::kinematics::fk(setup, &args),
+        Some(Command::Ik(args)) => commands::kinematics::ik(setup, &args),
         Some(Command::Urdf) => print_text(&urdf::to_urdf(&setup.arm, "chessarm", &setup.joint_names)),
-        Some(Command::Plan(args)) => commands::plan::run(&setup, &args),
+        Some(Command::Plan(args)) => commands::plan::run(setup, &args),
     }
 }
 

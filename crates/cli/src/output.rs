@@ -187,7 +187,12 @@ fn read_list(dir: &Path) -> Result<HashSet<String>> {
 
 /// A file name without folders, so a damaged list cannot reach outside its folder.
 fn is_plain_name(name: &str) -> bool {
-    !name.is_empty() && name != "." && name != ".." && name != WRITTEN_LIST && !name.contains(['/', '\\', '\0'])
+    !name.is_empty()
+        && name != "."
+        && name != ".."
+        && name != WRITTEN_LIST
+        && name != crate::folder_lock::LOCK_FILE
+        && !name.contains(['/', '\\', '\0'])
 }
 
 /// Forgets the lists read so far (they are read again when next needed).
@@ -227,6 +232,7 @@ fn not_ours(path: &Path) -> anyhow::Error {
 pub fn claim(path: &Path) -> Result<()> {
     let (dir, name) = split(path)?;
     ensure_dir(&dir)?;
+    crate::folder_lock::lock(&dir)?;
     let mut guard = listed();
     let names = match guard.get_or_insert_with(HashMap::new).entry(dir.clone()) {
         Entry::Occupied(entry) => entry.into_mut(),
@@ -322,6 +328,7 @@ pub fn remove_stale(paths: &[PathBuf]) -> Result<()> {
             continue;
         }
         let (dir, name) = split(path)?;
+        crate::folder_lock::lock(&dir)?;
         if !read_list(&dir)?.contains(&name) {
             return Err(not_ours(path));
         }
@@ -336,6 +343,9 @@ pub fn remove_stale(paths: &[PathBuf]) -> Result<()> {
 ///
 /// A list or a file that cannot be read or removed.
 pub fn remove_listed_in(dir: &Path) -> Result<()> {
+    if dir.is_dir() {
+        crate::folder_lock::lock(dir)?;
+    }
     for name in read_list(dir)? {
         remove_file_if_there(&dir.join(name))?;
     }

@@ -177,10 +177,10 @@ fn play_removes_only_the_files_an_earlier_run_wrote() {
     std::fs::remove_file(moves.join("001-e2e4.csv")).unwrap();
 
     assert!(chessarm(&["play", "--moves", "e4 e5", "--out", out_text]).status.success());
-    assert_eq!(names(&moves), [".chessarm-written", "001-e2e4.csv", "002-e7e5.csv", "notes.txt"]);
+    assert_eq!(names(&moves), [".chessarm-lock", ".chessarm-written", "001-e2e4.csv", "002-e7e5.csv", "notes.txt"]);
     // The next game removes the earlier game's CSVs, and only those.
     assert!(chessarm(&["play", "--moves", "d4", "--out", out_text]).status.success());
-    assert_eq!(names(&moves), [".chessarm-written", "001-d2d4.csv", "notes.txt"]);
+    assert_eq!(names(&moves), [".chessarm-lock", ".chessarm-written", "001-d2d4.csv", "notes.txt"]);
     assert_eq!(std::fs::read_to_string(moves.join("notes.txt")).unwrap(), "my notes");
 }
 
@@ -268,8 +268,11 @@ fn a_signal_during_a_write_leaves_no_temporary_and_no_partial_file() {
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
-        // Only the list of what chessarm writes there: no temporary, no partial result.
-        assert_eq!(left, [".chessarm-written"], "{signal}");
+        // Only the list of what chessarm writes there and the folder's lock (released by the
+        // kernel with the process): no temporary, no partial result.
+        let mut left = left;
+        left.sort();
+        assert_eq!(left, [".chessarm-lock", ".chessarm-written"], "{signal}");
     }
 }
 
@@ -697,4 +700,42 @@ fn input_files_are_read_with_a_size_bound() {
     let binary = dir.path().join("binary.toml");
     std::fs::write(&binary, b"gravity = [0, 0, -9.8]\n\xff\xfe").unwrap();
     assert_one_line_error(&chessarm(&["--arm", binary.to_str().unwrap(), "arm"]), &["not UTF-8", "byte 23"]);
+}
+
+#[test]
+fn a_second_run_into_a_folder_in_use_stops_naming_the_first() {
+    // Issue 34, item 9: two runs into one --out both exited 0 and mixed their files.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("game");
+    let out_text = out.to_str().unwrap();
+    // The first run pauses 1.5 s at every file it writes (about 15 s in all), holding its folder.
+    let first = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(["play", "--moves", "e4 e5", "--out", out_text])
+        .env("CHESSARM_TEST_SLOW_WRITES_MS", "1500")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Its lock is taken before any work, and says who holds it.
+    let pid = format!("pid {}", first.id());
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while !std::fs::read_to_string(out.join(".chessarm-lock")).is_ok_and(|text| text.contains(&pid)) {
+        assert!(std::time::Instant::now() < deadline, "the first run never locked its folder");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let second = chessarm(&["play", "--moves", "d4", "--out", out_text]);
+    assert_one_line_error(&second, &[out_text, "is in use by another chessarm run", &pid, "--moves e4 e5"]);
+    // A folder inside it is refused too, and not created.
+    let inner = out.join("study");
+    assert_one_line_error(&chessarm(&["simulate", "--out", inner.to_str().unwrap()]), &[out_text, &pid]);
+    assert!(!inner.exists());
+    let finished = first.wait_with_output().unwrap();
+    assert!(finished.status.success(), "{}", String::from_utf8_lossy(&finished.stderr));
+    // The first run's game alone: two plies, nothing of the refused d4.
+    let game: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
+    let plies = game["moves"].as_array().map(Vec::len);
+    assert_eq!(plies, Some(2), "{game}");
+    // Once it has ended the folder is free again (the kernel dropped the lock with the process).
+    let third = chessarm(&["play", "--moves", "d4", "--out", out_text]);
+    assert!(third.status.success(), "{}", String::from_utf8_lossy(&third.stderr));
 }
