@@ -161,6 +161,27 @@ pub fn check_setup_toml(data: &[u8]) {
     }
 }
 
+/// URDF: an imported arm's URDF (`chessarm urdf`) imports again to the same joint names and
+/// base, and prints again as the same text (a fixed point of export ∘ import); errors (with
+/// their context chain) are one line.
+pub fn check_urdf(data: &[u8]) {
+    let input = text(data);
+    match chessarm::urdf_import::from_urdf(&input) {
+        Ok(imported) => {
+            let printed = chessarm::urdf::to_urdf(&imported.model, "chessarm", &imported.joint_names);
+            let again = chessarm::urdf_import::from_urdf(&printed)
+                .unwrap_or_else(|e| panic!("the export of {input:?} does not import: {e:#}\n{printed}"));
+            assert_eq!(again.joint_names, imported.joint_names, "joint names of the export of {input:?}");
+            let reprinted = chessarm::urdf::to_urdf(&again.model, "chessarm", &again.joint_names);
+            assert_eq!(reprinted, printed, "export ∘ import is not a fixed point for {input:?}");
+        }
+        Err(e) => {
+            let message = format!("{e:#}");
+            assert!(!has_line_break(&message), "URDF error message is not one line: {message:?}");
+        }
+    }
+}
+
 fn same_bits(a: &[f64], b: &[f64]) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
 }

@@ -6,7 +6,7 @@
 #![forbid(unsafe_code)]
 
 mod checks;
-pub use checks::{check_fen, check_move_list, check_numbers, check_pgn, check_setup_toml};
+pub use checks::{check_fen, check_move_list, check_numbers, check_pgn, check_setup_toml, check_urdf};
 
 #[cfg(feature = "uci")]
 mod uci_check;

@@ -739,3 +739,14 @@ fn a_second_run_into_a_folder_in_use_stops_naming_the_first() {
     let third = chessarm(&["play", "--moves", "d4", "--out", out_text]);
     assert!(third.status.success(), "{}", String::from_utf8_lossy(&third.stderr));
 }
+
+#[test]
+fn ci_runs_every_test_that_needs_an_outside_tool() {
+    // Tests whose tool is missing are counted as ignored (cfgs from the build script); CI
+    // installs every tool, so there none may be ignored for want of one.
+    if std::env::var("CI").as_deref() == Ok("true") {
+        assert!(cfg!(tool_stockfish), "CI must install Stockfish");
+        assert!(cfg!(tool_browser), "CI must install Chromium, Node.js and playwright-core");
+        assert!(cfg!(tool_python), "CI must set CHESSARM_PYTHON to a Python with the package and mujoco");
+    }
+}

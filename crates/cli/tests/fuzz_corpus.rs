@@ -57,6 +57,11 @@ fn setup_toml_corpus() {
 }
 
 #[test]
+fn urdf_corpus() {
+    run_corpus("urdf", checks::check_urdf);
+}
+
+#[test]
 fn numbers_corpus() {
     run_corpus("numbers", checks::check_numbers);
 }
