@@ -6,19 +6,33 @@
 
 use std::path::{Path, PathBuf};
 
-/// The folders of `PATH`, and `/usr/games` where Debian puts chess engines.
+/// Where packages install programs (`/usr/games`: Debian's chess engines). These folders are
+/// watched: the build script runs again when a program comes or goes there.
+const INSTALL_DIRS: [&str; 5] = ["/usr/games", "/usr/bin", "/usr/local/bin", "/snap/bin", "/opt/homebrew/bin"];
+
+/// The folders of `PATH`, then the install folders.
 fn search_dirs() -> Vec<PathBuf> {
     let mut dirs: Vec<PathBuf> = std::env::var_os("PATH").map(|p| std::env::split_paths(&p).collect()).unwrap_or_default();
-    dirs.push(PathBuf::from("/usr/games"));
+    dirs.extend(INSTALL_DIRS.iter().map(PathBuf::from));
     dirs
 }
 
-/// Whether `program` is an executable file in one of the search folders.
-fn has_program(program: &str) -> bool {
+/// Whether `path` is an executable file.
+fn is_program(path: &Path) -> bool {
     use std::os::unix::fs::PermissionsExt;
-    search_dirs().iter().any(|dir| {
-        std::fs::metadata(dir.join(program)).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
-    })
+    std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+}
+
+/// Whether `program` is an executable file in one of the search folders (the one it is found
+/// in is watched too).
+fn has_program(program: &str) -> bool {
+    match search_dirs().into_iter().find(|dir| is_program(&dir.join(program))) {
+        Some(dir) => {
+            println!("cargo::rerun-if-changed={}", dir.join(program).display());
+            true
+        }
+        None => false,
+    }
 }
 
 /// Declares `name` as a cfg and sets it when `present`.
@@ -29,12 +43,14 @@ fn tool_cfg(name: &str, present: bool) {
     }
 }
 
-/// Reruns the build script when a tool may have come or gone: `PATH` or a folder on it changed.
+/// Reruns the build script when a tool may have come or gone from the install folders. `PATH`
+/// itself is not watched: it differs between a terminal, an editor and `pip`'s build, and each
+/// difference would rebuild the crates; a tool installed elsewhere later is found after
+/// `touch build/test_tools.rs`.
 fn watch_search_dirs() {
-    println!("cargo::rerun-if-env-changed=PATH");
-    for dir in search_dirs() {
-        if dir.is_dir() {
-            println!("cargo::rerun-if-changed={}", dir.display());
+    for dir in INSTALL_DIRS {
+        if Path::new(dir).is_dir() {
+            println!("cargo::rerun-if-changed={dir}");
         }
     }
 }
@@ -49,11 +65,9 @@ fn stockfish_cfg() {
 fn browser_cfg(browser_dir: &Path) {
     println!("cargo::rerun-if-changed={}", browser_dir.display());
     println!("cargo::rerun-if-env-changed=CHESSARM_CHROMIUM");
-    let chromium = match std::env::var_os("CHESSARM_CHROMIUM") {
-        Some(path) => Path::new(&path).is_file(),
-        None => has_program("chromium"),
-    };
-    let present = chromium && has_program("node") && browser_dir.join("node_modules/playwright-core").is_dir();
+    // Where the browser tests look for it (crates/cli/tests/cli_replay.rs).
+    let chromium = std::env::var_os("CHESSARM_CHROMIUM").map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from);
+    let present = is_program(&chromium) && has_program("node") && browser_dir.join("node_modules/playwright-core").is_dir();
     tool_cfg("tool_browser", present);
 }
 

@@ -39,6 +39,6 @@ pub fn read_text(what: &str, path: &Path, max_bytes: u64) -> Result<String> {
         );
     }
     String::from_utf8(bytes).map_err(|e| {
-        anyhow::anyhow!("{what} {}: not UTF-8 text (byte {} is not)", path.display(), e.utf8_error().valid_up_to())
+        anyhow::anyhow!("{what} {}: not UTF-8 text (from byte offset {})", path.display(), e.utf8_error().valid_up_to())
     })
 }

@@ -126,7 +126,8 @@ struct JointElement<'a, 'input> {
 ///
 /// As [`load`], without the file name.
 pub fn from_urdf(text: &str) -> Result<ImportedArm> {
-    let document = Document::parse(text).map_err(|e| anyhow!("not valid XML: {e}"))?;
+    let document =
+        Document::parse(text).map_err(|e| anyhow!("not valid XML: {}", crate::escape_controls(&e.to_string())))?;
     let robot = document.root_element();
     if !robot.has_tag_name("robot") {
         bail!("{}: the root element must be <robot>", at(&robot));

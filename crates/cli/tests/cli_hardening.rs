@@ -699,7 +699,7 @@ fn input_files_are_read_with_a_size_bound() {
     // Text that is not UTF-8 says so, with where.
     let binary = dir.path().join("binary.toml");
     std::fs::write(&binary, b"gravity = [0, 0, -9.8]\n\xff\xfe").unwrap();
-    assert_one_line_error(&chessarm(&["--arm", binary.to_str().unwrap(), "arm"]), &["not UTF-8", "byte 23"]);
+    assert_one_line_error(&chessarm(&["--arm", binary.to_str().unwrap(), "arm"]), &["not UTF-8", "byte offset 23"]);
 }
 
 #[test]
@@ -725,6 +725,9 @@ fn a_second_run_into_a_folder_in_use_stops_naming_the_first() {
     }
     let second = chessarm(&["play", "--moves", "d4", "--out", out_text]);
     assert_one_line_error(&second, &[out_text, "is in use by another chessarm run", &pid, "--moves e4 e5"]);
+    // The refused run left the first run's lock alone: a third is refused the same way.
+    assert!(std::fs::read_to_string(out.join(".chessarm-lock")).unwrap().contains(&pid));
+    assert_one_line_error(&chessarm(&["plan", "--out", out_text]), &["is in use", &pid]);
     // A folder inside it is refused too, and not created.
     let inner = out.join("study");
     assert_one_line_error(&chessarm(&["simulate", "--out", inner.to_str().unwrap()]), &[out_text, &pid]);
@@ -745,8 +748,33 @@ fn ci_runs_every_test_that_needs_an_outside_tool() {
     // Tests whose tool is missing are counted as ignored (cfgs from the build script); CI
     // installs every tool, so there none may be ignored for want of one.
     if std::env::var("CI").as_deref() == Ok("true") {
-        assert!(cfg!(tool_stockfish), "CI must install Stockfish");
-        assert!(cfg!(tool_browser), "CI must install Chromium, Node.js and playwright-core");
-        assert!(cfg!(tool_python), "CI must set CHESSARM_PYTHON to a Python with the package and mujoco");
+        let tools = [
+            (cfg!(tool_stockfish), "Stockfish"),
+            (cfg!(tool_browser), "Chromium, Node.js and playwright-core"),
+            (cfg!(tool_python), "CHESSARM_PYTHON, a Python with the package and mujoco"),
+        ];
+        let missing: Vec<&str> = tools.iter().filter(|(found, _)| !found).map(|(_, tool)| *tool).collect();
+        assert!(missing.is_empty(), "CI must install {missing:?}");
     }
+}
+
+#[test]
+fn a_refused_run_removes_only_the_folders_it_made() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    // `made/../yours/deeper`: `made` and `deeper` are the run's to remove, `yours` (empty) is not.
+    std::fs::create_dir(dir.path().join("yours")).unwrap();
+    let out = dir.path().join("made/../yours/deeper");
+    let output = chessarm(&["play", "--moves", "e9", "--out", out.to_str().unwrap()]);
+    assert_one_line_error(&output, &["'e9'"]);
+    assert!(dir.path().join("yours").is_dir(), "the user's folder was removed");
+    assert!(!dir.path().join("made").exists() && !dir.path().join("yours/deeper").exists());
+    // An argument that is not UTF-8 (a folder name in Latin-1) is recorded in the lock, not a panic.
+    let latin = dir.path().join(std::ffi::OsStr::from_bytes(b"caf\xe9"));
+    let output = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args([std::ffi::OsStr::new("plan"), std::ffi::OsStr::new("--out"), latin.as_os_str()])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(std::fs::read_to_string(latin.join(".chessarm-lock")).unwrap().contains("caf\u{fffd}"));
 }
