@@ -174,7 +174,10 @@ impl RunFolder {
         // Whatever an earlier run in this process left (a panic) is not this run's.
         release_all();
         // The folders that exist, checked before anything is created inside another run's.
-        for folder in dir.ancestors().filter(|a| !a.as_os_str().is_empty() && a.is_dir()) {
+        // Absolute, so that the working folder and those above it are checked too.
+        let absolute =
+            std::path::absolute(dir).with_context(|| format!("cannot find output folder {}", dir.display()))?;
+        for folder in absolute.ancestors().filter(|a| a.is_dir()) {
             refuse_if_held_elsewhere(folder)?;
         }
         let mut folder = Self { created: Vec::new(), dir: dir.to_path_buf() };
