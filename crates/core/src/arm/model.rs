@@ -29,6 +29,11 @@ pub const MAX_MASS: f64 = 1.0e4;
 /// way says every angle there is.
 pub const MAX_CONSTANT_ANGLE: f64 = std::f64::consts::TAU;
 
+/// Why a value beyond [`MAX_LENGTH`], [`MAX_MASS`] or `MAX_MASS·MAX_LENGTH²` is refused.
+const TOO_LONG: &str = "a length beyond ±100 m (MAX_LENGTH) is a typo in units";
+const TOO_HEAVY: &str = "a mass beyond 10 000 kg (MAX_MASS) is a typo in units";
+const TOO_MUCH_INERTIA: &str = "beyond MAX_MASS·MAX_LENGTH² (1e8 kg·m²)";
+
 /// Standard Denavit–Hartenberg parameters of one joint/link:
 /// `A_i = Rz(θ_i + theta_offset) · Tz(d) · Tx(a) · Rx(alpha)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -329,7 +334,7 @@ fn validate_link(index: usize, link: &Link) -> Result<(), ModelError> {
     }
     for (field, value) in [("a", dh.a), ("d", dh.d)] {
         if value.abs() > MAX_LENGTH {
-            return Err(invalid(name(field), short(value), "a length beyond ±100 m (MAX_LENGTH) is a typo in units"));
+            return Err(invalid(name(field), short(value), TOO_LONG));
         }
     }
     for (field, value) in [("alpha", dh.alpha), ("theta_offset", dh.theta_offset)] {
@@ -351,18 +356,10 @@ fn validate_link(index: usize, link: &Link) -> Result<(), ModelError> {
         }
     }
     if link.motor_mass > MAX_MASS {
-        return Err(invalid(
-            name("motor_mass"),
-            short(link.motor_mass),
-            "a mass beyond 10 000 kg (MAX_MASS) is a typo in units",
-        ));
+        return Err(invalid(name("motor_mass"), short(link.motor_mass), TOO_HEAVY));
     }
     if link.rotor_inertia > MAX_MASS * MAX_LENGTH * MAX_LENGTH {
-        return Err(invalid(
-            name("rotor_inertia"),
-            short(link.rotor_inertia),
-            "beyond MAX_MASS·MAX_LENGTH² (1e8 kg·m²)",
-        ));
+        return Err(invalid(name("rotor_inertia"), short(link.rotor_inertia), TOO_MUCH_INERTIA));
     }
     let lim = &link.limits;
     if !(lim.lower.is_finite() && lim.upper.is_finite()) || lim.lower >= lim.upper {
@@ -401,22 +398,14 @@ fn check_inertial(owner: &str, inertial: &Inertial, allow_point: bool, bounded: 
         return Err(invalid(format!("{owner} mass"), short(inertial.mass), reason));
     }
     if bounded && inertial.mass > MAX_MASS {
-        return Err(invalid(
-            format!("{owner} mass"),
-            short(inertial.mass),
-            "a mass beyond 10 000 kg (MAX_MASS) is a typo in units",
-        ));
+        return Err(invalid(format!("{owner} mass"), short(inertial.mass), TOO_HEAVY));
     }
     let shown_com = || format!("[{}]", inertial.com.iter().map(|v| short(*v)).collect::<Vec<_>>().join(", "));
     if inertial.com.iter().any(|v| !v.is_finite()) {
         return Err(invalid(format!("{owner} com"), shown_com(), "must be finite"));
     }
     if bounded && inertial.com.iter().any(|v| v.abs() > MAX_LENGTH) {
-        return Err(invalid(
-            format!("{owner} com"),
-            shown_com(),
-            "a length beyond ±100 m (MAX_LENGTH) is a typo in units",
-        ));
+        return Err(invalid(format!("{owner} com"), shown_com(), TOO_LONG));
     }
     let tensor = &inertial.inertia;
     let shown = || format!("[{}]", tensor.iter().map(|v| short(*v)).collect::<Vec<_>>().join(", "));
@@ -424,7 +413,7 @@ fn check_inertial(owner: &str, inertial: &Inertial, allow_point: bool, bounded: 
         return Err(invalid(format!("{owner} inertia"), shown(), "must be finite"));
     }
     if bounded && tensor.iter().any(|v| v.abs() > MAX_MASS * MAX_LENGTH * MAX_LENGTH) {
-        return Err(invalid(format!("{owner} inertia"), shown(), "beyond MAX_MASS·MAX_LENGTH² (1e8 kg·m²)"));
+        return Err(invalid(format!("{owner} inertia"), shown(), TOO_MUCH_INERTIA));
     }
     let scale = tensor.abs().max().max(f64::MIN_POSITIVE);
     if (tensor - tensor.transpose()).abs().max() > 1e-12 * scale {
