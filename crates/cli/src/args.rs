@@ -206,7 +206,34 @@ escaped! {
     count => count_unescaped -> usize;
     share => share_unescaped -> f64;
     mass => mass_unescaped -> f64;
+    locks => locks_unescaped -> Locks;
 }
+
+/// `JOINT=VALUE[,JOINT=VALUE…]`: joints to hold, each at a finite value (rad, or m for a
+/// prismatic joint).
+fn locks_unescaped(text: &str) -> Result<Locks, String> {
+    text.split(',')
+        .map(|part| {
+            let (name, value) =
+                part.split_once('=').ok_or_else(|| format!("'{part}' needs JOINT=VALUE (in '{text}')"))?;
+            let name = name.trim();
+            if name.is_empty() {
+                return Err(format!("'{part}' names no joint (in '{text}')"));
+            }
+            let value =
+                value.trim().parse::<f64>().map_err(|_| format!("'{}' is not a number (in '{text}')", value.trim()))?;
+            if !value.is_finite() {
+                return Err(format!("'{}' is not finite (in '{text}')", value));
+            }
+            Ok((name.to_string(), value))
+        })
+        .collect::<Result<_, _>>()
+        .map(Locks)
+}
+
+/// The joints `--lock` holds, by name, with their values as typed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Locks(pub Vec<(String, f64)>);
 
 /// A mass, kg: finite, ≥ 0 and at most [`MAX_MASS`] (the model refuses heavier bodies).
 ///

@@ -15,10 +15,23 @@ pub struct Cli {
     /// Setup file (TOML) describing the arm and the board; `chessarm arm` prints the default.
     #[arg(long, global = true, value_name = "FILE")]
     pub arm: Option<PathBuf>,
-    /// The arm from a URDF file instead (a base yaw and three parallel pitch joints, then a
-    /// fixed tool link at the tool tip); the board and the rest come from --arm or the defaults.
+    /// The arm from a URDF file instead: a base yaw and three parallel pitch joints on the way
+    /// from the root link to the tool link; grippers and other branches are held and their mass
+    /// carried. Angles are the file's, positions in its root link's frame; the board and the
+    /// rest come from --arm or the defaults.
     #[arg(long, global = true, value_name = "FILE")]
     pub urdf: Option<PathBuf>,
+    /// With --urdf: hold these joints at these values (rad, m for a prismatic joint), e.g.
+    /// `--lock wrist_roll=0`; a joint's <mimic> followers follow.
+    #[arg(long, global = true, value_name = "JOINT=VALUE,…", value_parser = args::locks, requires = "urdf")]
+    pub lock: Option<args::Locks>,
+    /// With --urdf: the link at the tool tip (default: a link named like tool, tcp, ee or
+    /// end_effector at the end of a fixed joint, or the only such link).
+    #[arg(long, global = true, value_name = "LINK", requires = "urdf")]
+    pub tool: Option<String>,
+    /// With --urdf: the tool point in the tool link's frame, m (default 0,0,0).
+    #[arg(long, global = true, value_name = "X,Y,Z", value_parser = args::three, requires = "urdf")]
+    pub tool_offset: Option<[f64; 3]>,
     /// Print the result as one line of JSON on standard output (for scripts) instead of a
     /// summary for people; tables and progress then go to standard error.
     #[arg(long, global = true)]

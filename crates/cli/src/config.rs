@@ -309,6 +309,9 @@ pub struct Setup {
     pub joint_names: [String; 4],
     /// The base frame's name (the URDF's root link, or `base_link`), for exports.
     pub base_link: String,
+    /// The file's sense of each arm joint and the joints it holds (a URDF's), for every angle
+    /// a user gives or reads.
+    pub convention: JointConvention,
     /// The motion limits (`[motion]`, `[gripper]`, then the motion flags).
     pub motion: MotionLimits,
     /// How robot moves are timed (set by `--timing`; the file does not say).
@@ -327,9 +330,50 @@ impl Default for Setup {
             urdf_path: None,
             joint_names: default_joint_names(),
             base_link: "base_link".into(),
+            convention: JointConvention::default(),
             motion: MotionLimits::default(),
             timing: TimingMode::default(),
         }
+    }
+}
+
+/// How the model's joints are the user's: the sign of each arm joint (the file's angle, rate
+/// and torque are `sign ·` the model's) and the other joints of the file, held.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointConvention {
+    pub signs: [f64; 4],
+    pub locked: Vec<crate::urdf_import::LockedJoint>,
+}
+
+impl Default for JointConvention {
+    fn default() -> Self {
+        Self { signs: [1.0; 4], locked: Vec::new() }
+    }
+}
+
+impl JointConvention {
+    /// Joint values in the user's convention from the model's (or back: the map is its own
+    /// inverse), rad, rad/s, rad/s² or N·m.
+    pub fn user(&self, values: impl Into<[f64; 4]>) -> [f64; 4] {
+        let values = values.into();
+        // `+ 0.0`: no negative zero for a zero in a flipped joint.
+        std::array::from_fn(|i| self.signs[i] * values[i] + 0.0)
+    }
+}
+
+impl Setup {
+    /// Joint `j`'s limits in the user's convention (a URDF's own sense), rad.
+    pub fn user_limits(&self, j: usize) -> (f64, f64) {
+        let limits = self.arm.link(j).limits;
+        if self.convention.signs[j] < 0.0 { (-limits.upper, -limits.lower) } else { (limits.lower, limits.upper) }
+    }
+
+    /// The arm of a URDF in place of the setup's.
+    pub fn take_urdf_arm(&mut self, imported: crate::urdf_import::ImportedArm) {
+        self.arm = imported.model;
+        self.joint_names = imported.joint_names;
+        self.base_link = imported.base_link;
+        self.convention = JointConvention { signs: imported.signs, locked: imported.locked };
     }
 }
 
@@ -487,6 +531,7 @@ impl SetupFile {
             urdf_path: None,
             joint_names: default_joint_names(),
             base_link: "base_link".into(),
+            convention: JointConvention::default(),
             motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
             timing: TimingMode::default(),
         })

@@ -7,9 +7,16 @@
 //!   `accelerations` rad/s², `effort` (empty), `time_from_start` {`sec`, `nanosec`}), so
 //!   `rosidl_runtime_py.set_message_fields(JointTrajectory(), data["trajectory"])` fills the
 //!   message; `gripper` lists the commands (`close`/`open`, the instant, the piece and where).
-//! - `NNN-<uci>.csv`: `t` s, `q1..q4` rad, `qd1..qd4` rad/s, `qdd1..qdd4` rad/s², `gripper`
-//!   (`open`/`closed`), `piece` (the piece held, empty when open): one row per sample, to stream
-//!   to servos row by row at the times in `t`.
+//! - `NNN-<uci>.csv`: `t` s, `q1..q4` rad, `qd1..qd4` rad/s, `qdd1..qdd4` rad/s², one column
+//!   per held joint (its position, rad or m), `gripper` (`open`/`closed`), `piece` (the piece
+//!   held, empty when open): one row per sample, to stream to servos row by row at the times in
+//!   `t`.
+//!
+//! With `--urdf`, `joint_names` lists every moving joint of the file: the four arm joints in the
+//! file's own sense (a base yaw about −z included), then every held joint (`--lock`, gripper
+//! joints, their `<mimic>` followers) at its value, a gripper joint at its open or close value
+//! as the gripper is at that sample (the limit further from zero opens), so a ROS 2 driver of
+//! the real arm takes the message as it is.
 //!
 //! Times are from the move's start; each move starts where the previous one ended, at rest.
 
@@ -49,7 +56,7 @@ pub struct MoveLabel<'a> {
 pub fn write_move(
     dir: &Path,
     stem: &str,
-    (base_link, joint_names): (&str, &[String; 4]),
+    (base_link, joint_names, convention): (&str, &[String; 4], &crate::config::JointConvention),
     points: &[HardwarePoint],
     commands: &[GripperCommand],
     label: &MoveLabel<'_>,
@@ -57,6 +64,20 @@ pub fn write_move(
 ) -> Result<Vec<String>> {
     let json_path = dir.join(format!("{stem}.json"));
     let csv_path = dir.join(format!("{stem}.csv"));
+    // Every joint of the arm's file: the four arm joints in its sense, then each held one at
+    // its value (a gripper joint at its open or close value as the gripper is).
+    let names: Vec<&str> =
+        joint_names.iter().map(String::as_str).chain(convention.locked.iter().map(|j| j.name.as_str())).collect();
+    let whole = |p: &HardwarePoint| -> [Vec<f64>; 3] {
+        let held = |value: fn(&crate::urdf_import::LockedJoint, bool) -> f64| {
+            convention.locked.iter().map(move |j| plain(value(j, p.gripper_closed)))
+        };
+        [
+            convention.user(p.q).map(plain).into_iter().chain(held(|j, closed| j.at(closed))).collect(),
+            convention.user(p.qd).map(plain).into_iter().chain(held(|_, _| 0.0)).collect(),
+            convention.user(p.qdd).map(plain).into_iter().chain(held(|_, _| 0.0)).collect(),
+        ]
+    };
     let mut grips: usize = 0;
     let gripper: Vec<Value> = commands
         .iter()
@@ -91,14 +112,17 @@ pub fn write_move(
     let value = json!({
         "trajectory": {
             "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": base_link},
-            "joint_names": joint_names,
-            "points": points.iter().map(|p| json!({
-                "positions": p.q.map(plain).as_slice(),
-                "velocities": p.qd.map(plain).as_slice(),
-                "accelerations": p.qdd.map(plain).as_slice(),
-                "effort": [],
-                "time_from_start": ros_duration(p.t),
-            })).collect::<Vec<_>>(),
+            "joint_names": names,
+            "points": points.iter().map(|p| {
+                let [q, qd, qdd] = whole(p);
+                json!({
+                    "positions": q,
+                    "velocities": qd,
+                    "accelerations": qdd,
+                    "effort": [],
+                    "time_from_start": ros_duration(p.t),
+                })
+            }).collect::<Vec<_>>(),
         },
         "gripper": gripper,
         "move": {"ply": label.ply, "san": label.san, "uci": label.uci},
@@ -115,13 +139,14 @@ pub fn write_move(
         let mut writer = csv::Writer::from_writer(out);
         let mut header = vec!["t".to_string()];
         header.extend(numbered("q", 4).chain(numbered("qd", 4)).chain(numbered("qdd", 4)));
+        // Each held joint's position under its own name (its rates are 0).
+        header.extend(convention.locked.iter().map(|j| j.name.clone()));
         header.extend(["gripper".to_string(), "piece".to_string()]);
         writer.write_record(&header)?;
         for point in points {
             let mut row: Vec<String> = vec![format!("{:?}", point.t)];
-            row.extend(
-                point.q.iter().chain(point.qd.iter()).chain(point.qdd.iter()).map(|v| format!("{:?}", plain(*v))),
-            );
+            let [q, qd, qdd] = whole(point);
+            row.extend(q[..4].iter().chain(&qd[..4]).chain(&qdd[..4]).chain(&q[4..]).map(|v| format!("{v:?}")));
             row.push(if point.gripper_closed { "closed" } else { "open" }.to_string());
             row.push(point.grip.and_then(|g| label.grips.get(g)).cloned().unwrap_or_default());
             writer.write_record(&row)?;

@@ -18,6 +18,7 @@ pub mod urdf;
 pub mod urdf_import;
 
 use anyhow::Result;
+use chessarm_core::nalgebra::Vector3;
 use cli::{Cli, Command};
 use config::Setup;
 
@@ -164,9 +165,20 @@ pub fn run(cli: Cli) -> Result<()> {
     JSON_OUTPUT.store(cli.json, std::sync::atomic::Ordering::Relaxed);
     let mut setup = Setup::load(cli.arm.as_deref())?;
     if let Some(path) = &cli.urdf {
-        let imported = urdf_import::load(path)?;
-        (setup.arm, setup.joint_names, setup.base_link) = (imported.model, imported.joint_names, imported.base_link);
+        let options = urdf_import::ImportOptions {
+            locks: cli.lock.clone().map(|locks| locks.0).unwrap_or_default(),
+            tool: cli.tool.clone(),
+            tool_offset: cli.tool_offset.map_or_else(Vector3::zeros, Vector3::from),
+        };
+        let imported = urdf_import::load(path, &options)?;
+        for note in &imported.notes {
+            eprintln!("{}: {note}", path.display());
+        }
+        for warning in &imported.warnings {
+            eprintln!("warning: {}: {warning}", path.display());
+        }
         setup.urdf_path = Some(path.clone());
+        setup.take_urdf_arm(imported);
     }
     let default_out = std::path::PathBuf::from("out");
     let out = match &cli.command {

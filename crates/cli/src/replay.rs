@@ -289,6 +289,7 @@ pub fn replay_json(replay: &Replay<'_>) -> ReplayData {
     let board = replay.board;
     let dh: Vec<[f64; 4]> =
         replay.arm.links().iter().map(|l| [l.dh.a, l.dh.alpha, l.dh.d, l.dh.theta_offset].map(|v| v + 0.0)).collect();
+    let base = [replay.arm.base().x, replay.arm.base().y, replay.arm.base().z].map(|v| v + 0.0);
     let squares: Vec<Value> = Square::ALL
         .iter()
         .map(|&s| {
@@ -336,6 +337,7 @@ pub fn replay_json(replay: &Replay<'_>) -> ReplayData {
         "phase_names": PHASES,
         "arm": {
             "dh": dh,
+            "base": base,
             "link_radius": LINK_RADIUS,
             "joint_radius": JOINT_RADIUS,
             "joint_length": JOINT_LENGTH,

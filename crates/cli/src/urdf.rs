@@ -115,7 +115,7 @@ pub fn to_urdf<const N: usize>(model: &ArmModel<N>, name: &str, joint_names: &[S
         let _ = writeln!(text, "  </link>");
         let parent = if i == 0 { "base_link".to_string() } else { format!("link{i}") };
         let (translation, rotation) =
-            if i == 0 { (Vector3::zeros(), Rotation3::identity()) } else { dh_fixed_part(&model.link(i - 1).dh) };
+            if i == 0 { (model.base(), Rotation3::identity()) } else { dh_fixed_part(&model.link(i - 1).dh) };
         let rotation = rotation * Rotation3::from_axis_angle(&Vector3::z_axis(), link.dh.theta_offset);
         let limits = &link.limits;
         let _ = writeln!(text, r#"  <joint name="{}" type="revolute">"#, escape(joint_name));

@@ -35,6 +35,16 @@ pub struct ImportedArm {
     pub joint_names: [String; 4],
     /// The root link (the base frame's name).
     pub base_link: String,
+    /// Per arm joint, ±1: the file's angle is `sign ·` the model's (−1 for a base yaw about −z).
+    pub signs: [f64; 4],
+    /// Every other moving joint of the file, held at its value, in the file's order.
+    pub locked: Vec<LockedJoint>,
+    /// The link whose origin (plus `--tool-offset`) is the tool point.
+    pub tool_link: String,
+    /// What the import chose for the user (tool frame, held joints), for the terminal.
+    pub notes: Vec<String>,
+    /// Values that look like placeholders, for the terminal.
+    pub warnings: Vec<String>,
 }
 
 /// Reads the arm of the URDF file at `path`.
@@ -43,9 +53,9 @@ pub struct ImportedArm {
 ///
 /// The file cannot be read, is not XML, or describes something chessarm cannot model; the
 /// message names the file, the element and its line.
-pub fn load(path: &Path) -> Result<ImportedArm> {
+pub fn load(path: &Path, options: &ImportOptions) -> Result<ImportedArm> {
     let text = crate::input::read_text("URDF file", path, crate::input::MAX_URDF_BYTES)?;
-    from_urdf(&text).with_context(|| format!("URDF file {}", path.display()))
+    from_urdf(&text, options).with_context(|| format!("URDF file {}", path.display()))
 }
 
 /// Where a node is, for messages: `line L: <joint name="x">`.
@@ -112,20 +122,118 @@ fn inertial(link: &Node<'_, '_>) -> Result<Option<Inertial>> {
     Ok(Some(body.transformed(&origin(&element)?)))
 }
 
-/// One `<joint>` read from the file.
+/// How a URDF becomes chessarm's arm: joints to lock and the tool frame (`--lock`, `--tool`,
+/// `--tool-offset`).
+#[derive(Debug, Clone, Default)]
+pub struct ImportOptions {
+    /// Joints held at a value (rad, or m for a prismatic joint), by name, as the user gave them.
+    pub locks: Vec<(String, f64)>,
+    /// The tool link (`None`: a well-known name or the single leaf).
+    pub tool: Option<String>,
+    /// The tool point in the tool link's frame, m.
+    pub tool_offset: Vector3<f64>,
+}
+
+/// Names that mark a tool frame, as whole words of a link's name (`ee_gripper_link`,
+/// `end_effector_link`, `gripper_frame_link`, `tcp`).
+const TOOL_WORDS: [&[&str]; 7] =
+    [&["tool"], &["tcp"], &["ee"], &["eef"], &["tip"], &["end", "effector"], &["gripper", "frame"]];
+
+fn well_known_tool(name: &str) -> bool {
+    let last = name.rsplit('/').next().unwrap_or(name).to_ascii_lowercase();
+    let words: Vec<&str> = last.split(['_', '-', '.']).filter(|w| !w.is_empty()).collect();
+    TOOL_WORDS.iter().any(|pattern| words.windows(pattern.len()).any(|w| w == *pattern))
+}
+
+/// A joint's motion at `value`: a turn about `axis` (rad) or a slide along it (m).
+fn motion(kind: &str, axis: &Vector3<f64>, value: f64) -> Pose {
+    let unit = chessarm_core::nalgebra::Unit::new_normalize(*axis);
+    if kind == "prismatic" {
+        Pose::from_parts((axis.normalize() * value).into(), chessarm_core::nalgebra::Rotation3::identity())
+    } else {
+        Pose::from_parts(Vector3::zeros().into(), chessarm_core::nalgebra::Rotation3::from_axis_angle(&unit, value))
+    }
+}
+
+/// A joint's `<axis xyz>` (URDF's default `1 0 0`), refused when it has no direction.
+fn axis_of(joint: &Node<'_, '_>) -> Result<Vector3<f64>> {
+    let axis = match child(joint, "axis") {
+        Some(axis) => Vector3::from(triple(&axis, "xyz", [1.0, 0.0, 0.0])?),
+        None => Vector3::x(),
+    };
+    if axis.norm() == 0.0 {
+        bail!("{}: <axis xyz=\"0 0 0\"> has no direction", at(joint));
+    }
+    Ok(axis)
+}
+
+/// `<mimic joint multiplier offset>`: this joint's value is `multiplier·leader + offset`.
+fn mimic(joint: &Node<'_, '_>) -> Result<Option<(String, f64, f64)>> {
+    let Some(element) = child(joint, "mimic") else { return Ok(None) };
+    let leader = element.attribute("joint").ok_or_else(|| anyhow!("{}: <mimic> needs joint=\"…\"", at(joint)))?;
+    Ok(Some((
+        leader.to_string(),
+        number(&element, "multiplier")?.unwrap_or(1.0),
+        number(&element, "offset")?.unwrap_or(0.0),
+    )))
+}
+
+/// A joint held at one value: locked by the user, a gripper joint at its default, or a joint
+/// that follows another (`<mimic>`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LockedJoint {
+    pub name: String,
+    /// `revolute`, `continuous` or `prismatic`.
+    pub kind: String,
+    /// The value it is held at in the model, rad or m (the URDF's convention).
+    pub value: f64,
+    /// For a joint after the arm's last joint with limits (a gripper's): the value that opens
+    /// the gripper and the one that closes it (the limit further from zero opens).
+    pub gripper: Option<[f64; 2]>,
+}
+
+impl LockedJoint {
+    /// Its value with the gripper closed or open (a gripper joint's close or open value; any
+    /// other joint's held value).
+    pub fn at(&self, closed: bool) -> f64 {
+        match self.gripper {
+            Some([open, close]) => {
+                if closed {
+                    close
+                } else {
+                    open
+                }
+            }
+            None => self.value,
+        }
+    }
+}
+
+/// One joint of the file.
 struct JointElement<'a, 'input> {
     node: Node<'a, 'input>,
     name: String,
     kind: String,
+    parent: String,
     child: String,
 }
 
-/// The arm described by URDF `text`.
+/// What a link is carried by: the base (0) or arm joint `k`'s link (`k`, 1-based), and its
+/// pose in that link's frame.
+type Carried = (usize, Pose);
+
+/// The arm described by URDF `text`, as [`ImportOptions`] say.
 ///
 /// # Errors
 ///
 /// As [`load`], without the file name.
-pub fn from_urdf(text: &str) -> Result<ImportedArm> {
+pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
+    if text.contains("xmlns:xacro") || text.contains("<xacro:") {
+        bail!(
+            "this is a xacro file (a template of URDF), not URDF: expand it first, e.g. `xacro FILE.urdf.xacro > \
+             arm.urdf` (pip install xacro, or ROS 2: `ros2 run xacro xacro FILE.urdf.xacro > arm.urdf`)"
+        );
+    }
     let document =
         Document::parse(text).map_err(|e| anyhow!("not valid XML: {}", crate::escape_controls(&e.to_string())))?;
     let robot = document.root_element();
@@ -138,28 +246,34 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
         if name.trim().is_empty() {
             bail!("{}: a link's name must not be empty", at(&link));
         }
-        // Every link's inertial is checked, the base's and the fixed ones' too, though only
-        // the moving links' enter the model.
+        // Every link's inertial is checked, the base's too, though it does not move.
         inertial(&link)?;
         if links.insert(name.to_string(), link).is_some() {
             bail!("{}: a second link named '{name}'", at(&link));
         }
     }
-    let mut children: BTreeMap<String, Vec<JointElement<'_, '_>>> = BTreeMap::new();
-    // Each joint's element, for the messages (its line is found only when one is needed: finding
-    // it counts lines from the start, which for every joint would be quadratic in the file).
-    let mut places = BTreeMap::new();
-    let mut has_parent = BTreeMap::new();
+    let mut joints: Vec<JointElement<'_, '_>> = Vec::new();
+    // Each joint's index by name; each link's parent joint; each link's child joints.
+    let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
+    let mut parent_joint: BTreeMap<String, usize> = BTreeMap::new();
+    let mut children: BTreeMap<String, Vec<usize>> = BTreeMap::new();
     for joint in robot.children().filter(|n| n.has_tag_name("joint")) {
         let name = joint.attribute("name").ok_or_else(|| anyhow!("{}: a joint needs a name", at(&joint)))?.to_string();
         // The names become the exported trajectories' joint_names (ROS), which must be unique.
         if name.trim().is_empty() {
             bail!("{}: a joint's name must not be empty", at(&joint));
         }
-        if let Some(first) = places.get(&name) {
-            bail!("{}: a second joint named '{name}' (the first at {})", at(&joint), at(first));
+        if let Some(first) = by_name.get(&name) {
+            bail!("{}: a second joint named '{name}' (the first at {})", at(&joint), at(&joints[*first].node));
         }
         let kind = joint.attribute("type").ok_or_else(|| anyhow!("{}: a joint needs a type", at(&joint)))?.to_string();
+        if !matches!(kind.as_str(), "fixed" | "revolute" | "continuous" | "prismatic") {
+            bail!(
+                "{}: type=\"{kind}\": chessarm takes revolute, continuous, prismatic (locked) and fixed joints; a \
+                 {kind} joint cannot be modelled",
+                at(&joint)
+            );
+        }
         let link_of = |tag: &str| -> Result<String> {
             let element = child(&joint, tag).ok_or_else(|| anyhow!("{}: needs a <{tag} link=\"…\"/>", at(&joint)))?;
             let link = element.attribute("link").ok_or_else(|| anyhow!("{}: <{tag}> needs link=\"…\"", at(&joint)))?;
@@ -169,143 +283,598 @@ pub fn from_urdf(text: &str) -> Result<ImportedArm> {
             Ok(link.to_string())
         };
         let (parent, child_link) = (link_of("parent")?, link_of("child")?);
-        if let Some(other) = has_parent.insert(child_link.clone(), name.clone()) {
-            bail!("{}: link '{child_link}' is already the child of joint '{other}'", at(&joint));
+        let index = joints.len();
+        if let Some(other) = parent_joint.insert(child_link.clone(), index) {
+            bail!("{}: link '{child_link}' is already the child of joint '{}'", at(&joint), joints[other].name);
         }
-        places.insert(name.clone(), joint);
-        children.entry(parent).or_default().push(JointElement { node: joint, name, kind, child: child_link });
+        by_name.insert(name.clone(), index);
+        children.entry(parent.clone()).or_default().push(index);
+        joints.push(JointElement { node: joint, name, kind, parent, child: child_link });
     }
-    let roots: Vec<&String> = links.keys().filter(|name| !has_parent.contains_key(*name)).collect();
+    let roots: Vec<&String> = links.keys().filter(|name| !parent_joint.contains_key(*name)).collect();
     let root = match roots.as_slice() {
         [root] => (*root).clone(),
         [] if links.is_empty() => bail!("{}: the robot has no links", at(&robot)),
-        [] => bail!("every link is some joint's child: the joints form a loop, not a chain from a base"),
+        [] => bail!("every link is some joint's child: the joints form a loop, not a tree from a base"),
         many => bail!(
-            "links {} have no parent joint: the file must describe one chain from a single base link",
+            "links {} have no parent joint: the file must describe one tree from a single base link",
             many.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
         ),
     };
+    // Every link is reached from the root (no loop hides behind a second root).
+    let mut order: Vec<String> = Vec::with_capacity(links.len());
+    let mut stack = vec![root.clone()];
+    while let Some(link) = stack.pop() {
+        for &j in children.get(&link).map_or(&[][..], Vec::as_slice).iter().rev() {
+            stack.push(joints[j].child.clone());
+        }
+        order.push(link);
+    }
+    if order.len() != links.len() {
+        let reached: std::collections::HashSet<&String> = order.iter().collect();
+        let (name, node) =
+            links.iter().find(|(name, _)| !reached.contains(name)).map_or(("", None), |(n, l)| (n, Some(l)));
+        bail!(
+            "{}: link '{name}' is not reached from '{root}': its joints form a loop",
+            node.map_or_else(String::new, at)
+        );
+    }
 
-    // Walk the chain from the root.
-    let mut moving: Vec<ChainJoint> = Vec::new();
-    // The pose of the current link in the frame of the last moving joint's link (or the base).
-    let mut fixed = Pose::identity();
-    let base_link = root.clone();
-    let mut current = root;
-    let mut path = vec![current.clone()];
-    // Fixed joints after the last moving one (to the tool).
-    let mut tool_joints = 0;
-    loop {
-        let joints = children.get(&current).map_or(&[][..], Vec::as_slice);
-        let joint = match joints {
-            [] => break,
-            [joint] => joint,
-            many => bail!(
-                "{}: link '{current}' has {} child joints ({}): chessarm needs a single chain, not a branching tree",
-                at(&many[0].node),
-                many.len(),
-                many.iter().map(|j| format!("'{}'", j.name)).collect::<Vec<_>>().join(", ")
-            ),
+    let mut notes = Vec::new();
+    let tool_link = choose_tool(options, &links, &joints, &children, &root, &mut notes)?;
+    // The joints from the root to the tool link, in order.
+    let mut path = Vec::new();
+    let mut link = tool_link.clone();
+    while let Some(&j) = parent_joint.get(&link) {
+        path.push(j);
+        link = joints[j].parent.clone();
+    }
+    path.reverse();
+    let on_path: std::collections::HashSet<usize> = path.iter().copied().collect();
+
+    // Locks the user gave, checked.
+    let mut values: BTreeMap<usize, f64> = BTreeMap::new();
+    for (name, value) in &options.locks {
+        let Some(&j) = by_name.get(name) else {
+            let movable: Vec<String> =
+                joints.iter().filter(|j| j.kind != "fixed").map(|j| format!("'{}'", j.name)).collect();
+            bail!("--lock {name}={value}: the file has no joint '{name}' (its moving joints: {})", movable.join(", "));
         };
-        let pose = fixed * origin(&joint.node)?;
-        let child_node = links[&joint.child];
-        match joint.kind.as_str() {
-            "fixed" => {
-                fixed = pose;
-                tool_joints += 1;
-                if let Some(body) = inertial(&child_node)?
-                    && let Some(last) = moving.last_mut()
-                    && body.mass >= MARKER_MASS
-                {
-                    chessarm_core::arm::model::validate_inertial("its <inertial>", &body, true)
-                        .map_err(|e| anyhow!("{}: {e}", at(&child_node)))?;
-                    last.body = last.body.combine(&body.transformed(&fixed));
-                }
-            }
-            "revolute" | "continuous" => {
-                if moving.len() == 4 {
-                    bail!(
-                        "{}: a fifth moving joint; chessarm's arm has four (a base yaw and three pitch joints)",
-                        at(&joint.node)
-                    );
-                }
-                let body = inertial(&child_node)?.ok_or_else(|| {
-                    anyhow!(
-                        "{}: has no <inertial>; chessarm needs the mass, centre of mass and inertia of every link a \
-                         joint moves (this one is moved by joint '{}')",
-                        at(&child_node),
-                        joint.name
-                    )
-                })?;
-                if body.mass <= 0.0 {
-                    bail!("{}: <mass value=\"{}\">: a moving link needs a mass > 0", at(&child_node), body.mass);
-                }
-                let axis = match child(&joint.node, "axis") {
-                    Some(axis) => Vector3::from(triple(&axis, "xyz", [1.0, 0.0, 0.0])?),
-                    None => Vector3::x(),
-                };
-                moving.push(ChainJoint {
-                    name: joint.name.clone(),
-                    origin: pose,
-                    axis,
-                    limits: limits(&joint.node, &joint.kind)?,
-                    friction: friction(&joint.node)?,
-                    body,
-                });
-                fixed = Pose::identity();
-                tool_joints = 0;
-            }
-            other => bail!(
-                "{}: type=\"{other}\": chessarm's arm has revolute joints only (a {other} joint cannot be modelled)",
-                at(&joint.node)
-            ),
+        let joint = &joints[j];
+        if joint.kind == "fixed" {
+            bail!("--lock {name}={value}: {} is a fixed joint already", at(&joint.node));
         }
-        current = joint.child.clone();
-        path.push(current.clone());
+        if let Some((leader, ..)) = mimic(&joint.node)? {
+            bail!("--lock {name}={value}: {} follows '{leader}' (<mimic>): lock '{leader}' instead", at(&joint.node));
+        }
+        if values.insert(j, *value).is_some() {
+            bail!("--lock {name}: given twice");
+        }
     }
-    let on_path: std::collections::HashSet<&String> = path.iter().collect();
-    if let Some((name, node)) = links.iter().find(|(name, _)| !on_path.contains(name)) {
+    // The arm's joints: the moving joints on the way to the tool that are not locked.
+    let arm: Vec<usize> =
+        path.iter().copied().filter(|j| joints[*j].kind != "fixed" && !values.contains_key(j)).collect();
+    if let Some(&j) = arm.iter().find(|j| joints[**j].kind == "prismatic") {
         bail!(
-            "{}: link '{name}' is not on the chain from '{base_link}': chessarm needs one chain, not a second tree",
-            at(node)
+            "{}: a prismatic joint on the way to the tool: chessarm's arm turns, it does not slide; hold it with --lock \
+             {}=VALUE (m)",
+            at(&joints[j].node),
+            joints[j].name
         );
     }
-    let count = moving.len();
-    let Ok(joints) = <[ChainJoint; 4]>::try_from(moving) else {
-        bail!(
-            "the chain {} has {count} moving joint{}; chessarm's arm has four (a base yaw and three pitch joints)",
-            path.join(" → "),
-            if count == 1 { "" } else { "s" }
-        );
+    if arm.len() != 4 {
+        bail!("{}", wrong_count(&joints, &path, &arm, &values, &tool_link, &root)?);
+    }
+
+    // Every other moving joint is held: at the user's value, its leader's (mimic), or a default.
+    let mut locked = Vec::new();
+    let arm_set: std::collections::HashSet<usize> = arm.iter().copied().collect();
+    let after_arm = |j: usize| -> bool {
+        // Whether joint j lies after the arm's last joint (a gripper's).
+        let mut link = joints[j].parent.clone();
+        loop {
+            match parent_joint.get(&link) {
+                Some(&p) if p == arm[3] => return true,
+                Some(&p) if arm_set.contains(&p) => return false,
+                Some(&p) => link = joints[p].parent.clone(),
+                None => return false,
+            }
+        }
     };
-    if tool_joints == 0 {
-        let last = path.last().map_or("", String::as_str);
+    let mut defaults = Vec::new();
+    for (j, joint) in joints.iter().enumerate() {
+        if joint.kind == "fixed" || arm_set.contains(&j) {
+            continue;
+        }
+        let range = lock_range(&joint.node, &joint.kind)?;
+        let value = match (values.get(&j), mimic(&joint.node)?) {
+            (Some(value), _) => *value,
+            (None, Some(_)) => mimic_value(j, &joints, &by_name, &values, &arm_set, 0)?,
+            (None, None) => {
+                let value = match range {
+                    Some((lower, upper)) if !(lower..=upper).contains(&0.0) => {
+                        if lower > 0.0 {
+                            lower
+                        } else {
+                            upper
+                        }
+                    }
+                    _ => 0.0,
+                };
+                if on_path.contains(&j) {
+                    unreachable!("a moving joint on the path is either the arm's or locked");
+                }
+                defaults.push(format!("{} = {}", joint.name, chessarm_core::short_number(value)));
+                value
+            }
+        };
+        if let Some((lower, upper)) = range
+            && !(lower - 1e-12..=upper + 1e-12).contains(&value)
+        {
+            bail!(
+                "{}: held at {} {}, outside its <limit lower=\"{lower}\" upper=\"{upper}\">",
+                at(&joint.node),
+                chessarm_core::short_number(value),
+                if joint.kind == "prismatic" { "m" } else { "rad" }
+            );
+        }
+        values.insert(j, value);
+        let gripper = match range {
+            Some((lower, upper)) if after_arm(j) => {
+                Some(if upper.abs() >= lower.abs() { [upper, lower] } else { [lower, upper] })
+            }
+            _ => None,
+        };
+        locked.push(LockedJoint { name: joint.name.clone(), kind: joint.kind.clone(), value, gripper });
+    }
+    if !defaults.is_empty() {
+        notes.push(format!(
+            "held for the dynamics at the file's zero pose (or the nearest limit): {} (--lock NAME=VALUE to choose)",
+            defaults.join(", ")
+        ));
+    }
+
+    // Every link's carrier (the base or an arm joint's link) and pose in its frame, root first.
+    let mut carried: BTreeMap<String, Carried> = BTreeMap::new();
+    carried.insert(root.clone(), (0, Pose::identity()));
+    for link in order.iter().skip(1) {
+        let j = parent_joint[link];
+        let joint = &joints[j];
+        let (carrier, parent_pose) = carried[&joint.parent];
+        let at_joint = parent_pose * origin(&joint.node)?;
+        let entry = match arm.iter().position(|a| *a == j) {
+            Some(k) => (k + 1, Pose::identity()),
+            None if joint.kind == "fixed" => (carrier, at_joint),
+            None => (carrier, at_joint * motion(&joint.kind, &axis_of(&joint.node)?, values[&j])),
+        };
+        carried.insert(link.clone(), entry);
+    }
+
+    // Problems that edits fix, gathered to be told at once after the shape is known.
+    let mut problems: Vec<String> = Vec::new();
+    let mut bodies = [Inertial::zero(); 4];
+    let mut own_inertial = [false; 4];
+    for link in &order {
+        let (carrier, pose) = carried[link];
+        if carrier == 0 {
+            continue;
+        }
+        let node = links[link];
+        let moved_link = parent_joint.get(link).is_some_and(|j| arm.get(carrier - 1) == Some(j));
+        let Some(body) = inertial(&node)? else { continue };
+        if moved_link {
+            own_inertial[carrier - 1] = true;
+        } else if body.mass < MARKER_MASS {
+            continue;
+        }
+        if let Err(e) = chessarm_core::arm::model::validate_inertial("its <inertial>", &body, true) {
+            problems.push(format!("{}: {e}", at(&node)));
+            continue;
+        }
+        bodies[carrier - 1] = bodies[carrier - 1].combine(&body.transformed(&pose));
+    }
+    for (k, &j) in arm.iter().enumerate() {
+        let moved = &joints[j].child;
+        if bodies[k].mass <= 0.0 {
+            problems.push(if own_inertial[k] {
+                format!("{}: <mass value=\"0\">: a moving link needs a mass > 0", at(&links[moved.as_str()]))
+            } else {
+                format!(
+                    "{}: has no <inertial>; chessarm needs the mass, centre of mass and inertia of every link a joint \
+                     moves (this one is moved by joint '{}')",
+                    at(&links[moved.as_str()]),
+                    joints[j].name
+                )
+            });
+        }
+    }
+    let (tool_carrier, tool_pose) = carried[&tool_link];
+    if tool_carrier != 4 {
         bail!(
-            "{}: the chain ends at link '{last}', moved by joint '{}': add a fixed joint to a tool link whose origin \
-             is the tool tip",
-            links.get(last).map_or_else(String::new, at),
-            joints[3].name
+            "{}: the tool link '{tool_link}' is not moved by the arm's last joint '{}': give the link at the tool tip \
+             with --tool LINK",
+            at(&links[tool_link.as_str()]),
+            joints[arm[3]].name
         );
     }
-    let joint_names = joints.clone().map(|joint| joint.name);
-    let chain = SerialChain { joints, tool: fixed, gravity: gravity(&robot)? };
-    let model = model_from_chain(&chain).map_err(|error| {
-        let joint = match &error {
-            ChainError::Shape { joint, .. } | ChainError::Model { joint, .. } => joint,
+    let tool = tool_pose * Pose::from_parts(options.tool_offset.into(), chessarm_core::nalgebra::Rotation3::identity());
+
+    // The chain: each arm joint's frame in the previous arm joint's link frame.
+    let mut signs = [1.0; 4];
+    let mut chain_joints = Vec::with_capacity(4);
+    for (k, &j) in arm.iter().enumerate() {
+        let joint = &joints[j];
+        let (_, parent_pose) = carried[&joint.parent];
+        let mut axis = axis_of(&joint.node)?;
+        let joint_origin = parent_pose * origin(&joint.node)?;
+        let mut joint_limits = match limits(&joint.node, &joint.kind) {
+            Ok(limits) => limits,
+            Err(e) => {
+                problems.push(e.to_string());
+                JointLimits { lower: -PI, upper: PI, velocity: 1.0, torque: 1.0 }
+            }
         };
-        match places.get(joint) {
-            Some(place) => anyhow!("{}: {}", at(place), error.to_string().split_once(": ").map_or("", |(_, why)| why)),
-            None => anyhow!("{error}"),
+        if k == 0 {
+            // A base yaw about −z (the SO-101's): the model turns about +z, so its angle is
+            // the URDF's negated, and the limits swap.
+            let up = (joint_origin.rotation * axis).normalize();
+            if up.z < 0.0 && up.xy().norm() < chessarm_core::arm::chain::AXIS_TOLERANCE {
+                axis = -axis;
+                signs[0] = -1.0;
+                joint_limits = JointLimits { lower: -joint_limits.upper, upper: -joint_limits.lower, ..joint_limits };
+                notes.push(format!(
+                    "joint '{}' turns about −z: chessarm's model turns its base about +z, and every angle, rate and \
+                     torque of it you give or read stays in the file's sense",
+                    joint.name
+                ));
+            }
         }
-    })?;
-    Ok(ImportedArm { model, joint_names, base_link })
+        chain_joints.push(ChainJoint {
+            name: joint.name.clone(),
+            origin: joint_origin,
+            axis,
+            limits: joint_limits,
+            friction: friction(&joint.node)?,
+            body: bodies[k],
+        });
+    }
+    let Ok(chain_joints) = <[ChainJoint; 4]>::try_from(chain_joints) else { unreachable!("four arm joints") };
+    let chain = SerialChain { joints: chain_joints, tool, gravity: gravity(&robot)? };
+    let located = |error: ChainError| {
+        let joint = match &error {
+            ChainError::Shape { joint, .. } | ChainError::Model { joint, .. } => joint.clone(),
+        };
+        let why = error.to_string().split_once(": ").map_or(String::new(), |(_, why)| why.to_string());
+        match by_name.get(&joint) {
+            Some(&j) => format!("{}: {why}", at(&joints[j].node)),
+            None => error.to_string(),
+        }
+    };
+    // The shape first: the one refusal no edit of a value fixes.
+    let mut probe = chain.clone();
+    for joint in &mut probe.joints {
+        joint.body = Inertial::point(1.0, Vector3::zeros());
+        joint.limits = JointLimits { lower: -PI, upper: PI, velocity: 1.0, torque: 1.0 };
+    }
+    if let Err(error @ ChainError::Shape { .. }) = model_from_chain(&probe) {
+        bail!("{}", located(error));
+    }
+    if !problems.is_empty() {
+        if problems.len() == 1 {
+            bail!("{}", problems[0]);
+        }
+        let listed: Vec<String> = problems.iter().enumerate().map(|(i, p)| format!("({}) {p}", i + 1)).collect();
+        bail!("{} problems: {}", problems.len(), listed.join("; "));
+    }
+    let model = model_from_chain(&chain).map_err(|error| anyhow!("{}", located(error)))?;
+    let joint_names = chain.joints.clone().map(|joint| joint.name);
+    let warnings = placeholder_warnings(&model, &joint_names, &joints, &links, &by_name, &arm);
+    Ok(ImportedArm { model, joint_names, base_link: root, signs, locked, tool_link, notes, warnings })
+}
+
+/// The tool link: `--tool`, else a leaf reached by a fixed joint with a tool's name (or the
+/// only such leaf); the choice goes to `notes`.
+fn choose_tool(
+    options: &ImportOptions,
+    links: &BTreeMap<String, Node<'_, '_>>,
+    joints: &[JointElement<'_, '_>],
+    children: &BTreeMap<String, Vec<usize>>,
+    root: &str,
+    notes: &mut Vec<String>,
+) -> Result<String> {
+    let leaves: Vec<&JointElement<'_, '_>> =
+        joints.iter().filter(|j| j.kind == "fixed" && !children.contains_key(&j.child)).collect();
+    let listed = |names: &[&str]| names.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ");
+    if let Some(tool) = &options.tool {
+        if !links.contains_key(tool) {
+            let names: Vec<&str> = leaves.iter().map(|j| j.child.as_str()).collect();
+            bail!(
+                "--tool {tool}: the file has no link '{tool}' (links at the end of a fixed joint: {})",
+                listed(&names)
+            );
+        }
+        if tool == root {
+            bail!("--tool {tool}: that is the base link");
+        }
+        return Ok(tool.clone());
+    }
+    let named: Vec<&str> = leaves.iter().map(|j| j.child.as_str()).filter(|n| well_known_tool(n)).collect();
+    let all: Vec<&str> = leaves.iter().map(|j| j.child.as_str()).collect();
+    let (tool, why) = match (named.as_slice(), all.as_slice()) {
+        ([one], _) => (*one, "its name marks a tool frame"),
+        ([], [one]) => (*one, "the only link at the end of a fixed joint"),
+        ([], []) => bail!(
+            "no tool frame: no link hangs from a fixed joint at the end of the tree; add a fixed joint to a link whose \
+             origin is the tool tip, or give --tool LINK (and --tool-offset X,Y,Z in its frame, m)"
+        ),
+        ([], many) | (many, _) => bail!(
+            "which link is the tool? candidates: {}; give --tool LINK (and --tool-offset X,Y,Z, m, for a point in its \
+             frame)",
+            listed(many)
+        ),
+    };
+    notes.push(format!("tool frame: link '{tool}' ({why}; --tool LINK to choose another)"));
+    Ok(tool.to_string())
+}
+
+/// The value of a `<mimic>` joint: `multiplier·leader + offset`, the leader held or itself a
+/// follower (chains of followers up to the number of joints).
+fn mimic_value(
+    j: usize,
+    joints: &[JointElement<'_, '_>],
+    by_name: &BTreeMap<String, usize>,
+    values: &BTreeMap<usize, f64>,
+    arm: &std::collections::HashSet<usize>,
+    depth: usize,
+) -> Result<f64> {
+    let joint = &joints[j];
+    let Some((leader, multiplier, offset)) = mimic(&joint.node)? else {
+        return Ok(values.get(&j).copied().unwrap_or(0.0));
+    };
+    let Some(&l) = by_name.get(&leader) else {
+        bail!("{}: <mimic joint=\"{leader}\"> names no joint of the file", at(&joint.node));
+    };
+    if arm.contains(&l) {
+        bail!(
+            "{}: follows the arm's joint '{leader}' (<mimic>): chessarm's arm has four independent joints",
+            at(&joint.node)
+        );
+    }
+    if depth > joints.len() {
+        bail!("{}: its <mimic> joints follow each other in a loop", at(&joint.node));
+    }
+    let lead = match values.get(&l) {
+        Some(value) => *value,
+        None if mimic(&joints[l].node)?.is_some() => mimic_value(l, joints, by_name, values, arm, depth + 1)?,
+        None => {
+            let range = lock_range(&joints[l].node, &joints[l].kind)?;
+            match range {
+                Some((lower, upper)) if !(lower..=upper).contains(&0.0) => {
+                    if lower > 0.0 {
+                        lower
+                    } else {
+                        upper
+                    }
+                }
+                _ => 0.0,
+            }
+        }
+    };
+    Ok(multiplier * lead + offset)
+}
+
+/// A held joint's range: `<limit lower upper>` of a revolute or prismatic joint (`None` for a
+/// continuous one or one without a limit).
+fn lock_range(joint: &Node<'_, '_>, kind: &str) -> Result<Option<(f64, f64)>> {
+    if kind == "continuous" {
+        return Ok(None);
+    }
+    let Some(element) = child(joint, "limit") else { return Ok(None) };
+    match (number(&element, "lower")?, number(&element, "upper")?) {
+        (Some(lower), Some(upper)) if lower <= upper => Ok(Some((lower, upper))),
+        (Some(lower), Some(upper)) => {
+            bail!("{}: <limit lower=\"{lower}\" upper=\"{upper}\">: lower above upper", at(joint))
+        }
+        _ => Ok(None),
+    }
+}
+
+/// Why the way to the tool does not have four moving joints, with the `--lock` that fixes it
+/// when one exists.
+fn wrong_count(
+    joints: &[JointElement<'_, '_>],
+    path: &[usize],
+    arm: &[usize],
+    values: &BTreeMap<usize, f64>,
+    tool: &str,
+    root: &str,
+) -> Result<String> {
+    let names: Vec<String> = arm.iter().map(|j| format!("'{}'", joints[*j].name)).collect();
+    let mut route = vec![root.to_string()];
+    route.extend(path.iter().map(|j| joints[*j].child.clone()));
+    let count = arm.len();
+    let head = format!(
+        "the way from '{root}' to the tool link '{tool}' ({}) has {count} moving joint{}{}{}; chessarm's arm has four \
+         (a base yaw and three pitch joints)",
+        route.join(" → "),
+        if count == 1 { "" } else { "s" },
+        if names.is_empty() { "" } else { ": " },
+        names.join(", ")
+    );
+    if count < 4 {
+        return Ok(head);
+    }
+    // Which joints to hold so that the rest is a yaw and three parallel pitches: every choice
+    // of `count − 4` of them, tried at 0 (or the nearest limit) on the geometry alone.
+    let mut fixes = Vec::new();
+    let extra = count - 4;
+    let choices: Vec<Vec<usize>> = combinations(count, extra);
+    for choice in choices.iter().take(64) {
+        let held: Vec<usize> = choice.iter().map(|i| arm[*i]).collect();
+        let kept: Vec<usize> = arm.iter().copied().filter(|j| !held.contains(j)).collect();
+        if geometry_fits(joints, path, &kept, values, &held)? {
+            let locks: Vec<String> = held.iter().map(|j| format!("{}=0", joints[*j].name)).collect();
+            fixes.push(format!("--lock {}", locks.join(",")));
+        }
+    }
+    Ok(match fixes.as_slice() {
+        [] => format!("{head}; no choice of joints to lock leaves that shape"),
+        [one] => format!("{head}: hold the other with {one} (any value within its limits)"),
+        many => format!("{head}: hold the others, e.g. {}", many.join(" or ")),
+    })
+}
+
+/// Every way to choose `k` of `n` indices, in order.
+fn combinations(n: usize, k: usize) -> Vec<Vec<usize>> {
+    let mut all = Vec::new();
+    let mut current = Vec::new();
+    fn go(start: usize, n: usize, k: usize, current: &mut Vec<usize>, all: &mut Vec<Vec<usize>>) {
+        if current.len() == k {
+            all.push(current.clone());
+            return;
+        }
+        for i in start..n {
+            current.push(i);
+            go(i + 1, n, k, current, all);
+            current.pop();
+        }
+    }
+    go(0, n, k, &mut current, &mut all);
+    all
+}
+
+/// Whether the joints `kept` of `path`, with `held` (and the user's locks) at 0, make a yaw and
+/// three parallel pitch joints (geometry only: unit masses, placeholder limits).
+fn geometry_fits(
+    joints: &[JointElement<'_, '_>],
+    path: &[usize],
+    kept: &[usize],
+    values: &BTreeMap<usize, f64>,
+    held: &[usize],
+) -> Result<bool> {
+    let mut pose = Pose::identity();
+    let mut chain = Vec::new();
+    for &j in path {
+        let joint = &joints[j];
+        let at_joint = pose * origin(&joint.node)?;
+        if kept.contains(&j) {
+            let mut axis = axis_of(&joint.node)?;
+            if chain.is_empty() && (at_joint.rotation * axis).z < 0.0 {
+                axis = -axis;
+            }
+            chain.push(ChainJoint {
+                name: joint.name.clone(),
+                origin: at_joint,
+                axis,
+                limits: JointLimits { lower: -PI, upper: PI, velocity: 1.0, torque: 1.0 },
+                friction: Friction::default(),
+                body: Inertial::point(1.0, Vector3::zeros()),
+            });
+            pose = Pose::identity();
+        } else if joint.kind == "fixed" {
+            pose = at_joint;
+        } else {
+            let value = if held.contains(&j) { 0.0 } else { values.get(&j).copied().unwrap_or(0.0) };
+            pose = at_joint * motion(&joint.kind, &axis_of(&joint.node)?, value);
+        }
+    }
+    let Ok(joints) = <[ChainJoint; 4]>::try_from(chain) else { return Ok(false) };
+    // A tool point off the last axis (any point will do for the shape).
+    let tool = Pose::from_parts(Vector3::new(0.05, 0.0, 0.05).into(), chessarm_core::nalgebra::Rotation3::identity());
+    let chain = SerialChain { joints, tool: pose * tool, gravity: Vector3::new(0.0, 0.0, -REPORT_GRAVITY) };
+    Ok(!matches!(model_from_chain(&chain), Err(ChainError::Shape { .. })))
+}
+
+/// Values that look like a URDF's placeholders rather than the arm's physics: torque limits
+/// far above what holding the arm against gravity needs (more than [`PLACEHOLDER_TORQUE_RATIO`]
+/// times the largest gravity torque of the pitch joints over their ranges), and links whose
+/// inertia means a radius of gyration beyond the whole arm's reach.
+fn placeholder_warnings(
+    model: &ArmModel<4>,
+    names: &[String; 4],
+    joints: &[JointElement<'_, '_>],
+    links: &BTreeMap<String, Node<'_, '_>>,
+    by_name: &BTreeMap<String, usize>,
+    arm: &[usize],
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let need = gravity_need(model);
+    let largest = need.iter().copied().fold(0.0, f64::max);
+    for (k, name) in names.iter().enumerate() {
+        let torque = model.link(k).limits.torque;
+        // The yaw holds no weight: it is compared with the largest pitch need.
+        let reference = if k == 0 { largest } else { need[k] };
+        if reference > 0.0 && torque > PLACEHOLDER_TORQUE_RATIO * reference {
+            let node = by_name.get(name).map(|j| at(&joints[*j].node)).unwrap_or_default();
+            warnings.push(format!(
+                "{node}: effort=\"{}\" N·m is {:.0}× the {:.3} N·m gravity asks of it at worst: a placeholder? The \
+                 planner and the controllers take it as the motor's limit (give the servo's stall torque)",
+                chessarm_core::short_number(torque),
+                torque / reference,
+                reference
+            ));
+        }
+    }
+    let reach: f64 = model.links().iter().map(|l| l.dh.a.abs() + l.dh.d.abs()).sum::<f64>() + model.base().norm();
+    let _ = arm;
+    for (name, node) in links {
+        let Ok(Some(body)) = inertial(node) else { continue };
+        if body.mass <= 0.0 {
+            continue;
+        }
+        let largest_moment = body.inertia.symmetric_eigenvalues().max();
+        let gyration = (largest_moment.max(0.0) / body.mass).sqrt();
+        if gyration > reach {
+            warnings.push(format!(
+                "{}: link '{name}' of {} kg has an inertia of {} kg·m², as if its mass were {:.2} m from its centre, \
+                 beyond the arm's reach of {:.2} m: a placeholder? It is taken as given",
+                at(node),
+                chessarm_core::short_number(body.mass),
+                chessarm_core::short_number(largest_moment),
+                gyration,
+                reach
+            ));
+        }
+    }
+    warnings
+}
+
+/// A torque limit more than this many times the largest gravity torque is a placeholder.
+pub const PLACEHOLDER_TORQUE_RATIO: f64 = 20.0;
+
+/// The largest gravity torque of each joint over a grid of its pitch joints' ranges, N·m.
+fn gravity_need(model: &ArmModel<4>) -> [f64; 4] {
+    let mut need = [0.0; 4];
+    let steps = 7;
+    let value = |k: usize, i: usize| {
+        let limits = model.link(k).limits;
+        limits.lower + (limits.upper - limits.lower) * i as f64 / (steps - 1) as f64
+    };
+    for a in 0..steps {
+        for b in 0..steps {
+            for c in 0..steps {
+                let q = chessarm_core::arm::model::JointVector::<4>::new(0.0, value(1, a), value(2, b), value(3, c));
+                let torque = chessarm_core::arm::dynamics::gravity_torques(model, &q);
+                for k in 0..4 {
+                    need[k] = f64::max(need[k], torque[k].abs());
+                }
+            }
+        }
+    }
+    need
 }
 
 /// A joint's `<limit>`: lower, upper (rad), effort (N·m), velocity (rad/s).
 fn limits(joint: &Node<'_, '_>, kind: &str) -> Result<JointLimits> {
-    let element = child(joint, "limit").ok_or_else(|| {
-        anyhow!("{}: has no <limit>; chessarm needs lower, upper (rad), effort (N·m) and velocity (rad/s)", at(joint))
-    })?;
+    let Some(element) = child(joint, "limit") else {
+        bail!(
+            "{}: has no <limit>; chessarm needs {}effort (N·m) and velocity (rad/s): add <limit {}effort=\"…\" \
+             velocity=\"…\"/> with the servo's stall torque and top speed",
+            at(joint),
+            if kind == "continuous" { "" } else { "lower, upper (rad), " },
+            if kind == "continuous" { "" } else { "lower=\"…\" upper=\"…\" " }
+        )
+    };
     let range = |name: &str, default: f64| -> Result<f64> {
         match (kind, number(&element, name)?) {
             ("continuous", _) => Ok(default),

@@ -201,7 +201,7 @@ fn a_configuration_set_with_another_model_is_that_models_configuration() {
     let bits = |c: &Configuration<f64>| {
         let mut all: Vec<u64> = c.mass_matrix.iter().flatten().map(|v| v.to_bits()).collect();
         all.extend(c.bias(&fast_b, &qd).iter().map(|v| v.to_bits()));
-        all.extend(c.tip_in_base().iter().map(|v| v.to_bits()));
+        all.extend(c.tip_in_base(&fast_b.base).iter().map(|v| v.to_bits()));
         all
     };
     assert_eq!(bits(&reused), bits(&fresh));

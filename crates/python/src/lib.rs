@@ -190,6 +190,22 @@ fn row_major(m: &chessarm_core::nalgebra::Matrix4<f64>) -> [f64; 16] {
 struct Arm {
     model: ArmModel<4>,
     joint_names: [String; 4],
+    /// Per joint, ±1: the user's angles, rates and torques are `sign ·` the model's (a URDF's
+    /// base yaw about −z is −1), so every array in or out is in the file's own sense.
+    signs: [f64; 4],
+}
+
+/// How a result turns with the joints' signs `S`.
+#[derive(Clone, Copy)]
+enum Turn {
+    /// Not at all (poses, tool points).
+    None,
+    /// Per joint (`S v`).
+    Joints,
+    /// Rows and columns (`S M S`, 4×4).
+    Both,
+    /// Columns (a Jacobian, rows × 4).
+    Columns,
 }
 
 impl Arm {
@@ -198,7 +214,7 @@ impl Arm {
         &self,
         py: Python<'py>,
         arguments: &[(&str, &PyArrayLikeDyn<'_, f64, AllowTypeChange>)],
-        shape: &[usize],
+        (shape, turn): (&[usize], Turn),
         f: impl Fn(&ArmModel<4>, &[JointVector<4>]) -> Result<[f64; K], String> + Send + Sync,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         debug_assert_eq!(shape.iter().product::<usize>(), K);
@@ -226,8 +242,19 @@ impl Arm {
             let mut state = Vec::with_capacity(all.len());
             for i in 0..count {
                 state.clear();
-                state.extend(all.iter().map(|rows| JointVector::<4>::from(rows[i])));
-                let one = f(&model, &state).map_err(|e| DynamicsError::new_err(at(i, e)))?;
+                let signs = JointVector::<4>::from(self.signs);
+                state.extend(all.iter().map(|rows| JointVector::<4>::from(rows[i]).component_mul(&signs)));
+                let mut one = f(&model, &state).map_err(|e| DynamicsError::new_err(at(i, e)))?;
+                let columns = if K >= 4 { K / shape[0].max(1) } else { 0 };
+                for (k, value) in one.iter_mut().enumerate() {
+                    *value *= match turn {
+                        Turn::None => 1.0,
+                        Turn::Joints => signs[k],
+                        Turn::Both => signs[k / 4] * signs[k % 4],
+                        Turn::Columns => signs[k % columns.max(1)],
+                    };
+                    *value += 0.0;
+                }
                 // The CLI refuses what overflows; so does Python, rather than return inf or NaN.
                 if one.iter().any(|v| !v.is_finite()) {
                     let given = names
@@ -260,21 +287,40 @@ impl Arm {
     #[staticmethod]
     fn default() -> Self {
         let setup = Setup::default();
-        Self { model: setup.arm, joint_names: setup.joint_names }
+        Self { model: setup.arm, joint_names: setup.joint_names, signs: [1.0; 4] }
     }
 
     /// The arm of a setup file (TOML, as `chessarm --arm FILE`).
     #[staticmethod]
     fn from_file(path: PathBuf) -> PyResult<Self> {
         let setup = Setup::load(Some(&path)).map_err(|e| ModelError::new_err(message(&e)))?;
-        Ok(Self { model: setup.arm, joint_names: setup.joint_names })
+        Ok(Self { model: setup.arm, joint_names: setup.joint_names, signs: [1.0; 4] })
     }
 
-    /// The arm of a URDF file (as `chessarm --urdf FILE`).
+    /// The arm of a URDF file (as `chessarm --urdf FILE`): `lock` holds joints at values
+    /// (`{"wrist_roll": 0.0}`, as `--lock`), `tool` names the tool link and `tool_offset` the
+    /// tool point in its frame (m). Angles in and out are in the file's own sense.
     #[staticmethod]
-    fn from_urdf(path: PathBuf) -> PyResult<Self> {
-        let imported = chessarm::urdf_import::load(&path).map_err(|e| ModelError::new_err(message(&e)))?;
-        Ok(Self { model: imported.model, joint_names: imported.joint_names })
+    #[pyo3(signature = (path, lock = None, tool = None, tool_offset = None))]
+    fn from_urdf(
+        path: PathBuf,
+        lock: Option<std::collections::BTreeMap<String, f64>>,
+        tool: Option<String>,
+        tool_offset: Option<[f64; 3]>,
+    ) -> PyResult<Self> {
+        let options = chessarm::urdf_import::ImportOptions {
+            locks: lock.unwrap_or_default().into_iter().collect(),
+            tool,
+            tool_offset: Vector3::from(tool_offset.unwrap_or([0.0; 3])),
+        };
+        if let Some((name, value)) = options.locks.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(PyValueError::new_err(format!("lock {name} = {value} is not finite")));
+        }
+        if options.tool_offset.iter().any(|v| !v.is_finite()) {
+            return Err(PyValueError::new_err(format!("tool_offset = {tool_offset:?} is not finite")));
+        }
+        let imported = chessarm::urdf_import::load(&path, &options).map_err(|e| ModelError::new_err(message(&e)))?;
+        Ok(Self { model: imported.model, joint_names: imported.joint_names, signs: imported.signs })
     }
 
     /// The joints' names (the URDF's, or joint1…joint4).
@@ -301,7 +347,7 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<16>(py, &[("q", &q)], &[4, 4], |model, s| {
+        self.map::<16>(py, &[("q", &q)], (&[4, 4], Turn::None), |model, s| {
             Ok(row_major(&FrameChain::new(model, &s[0]).body_pose(3).to_homogeneous()))
         })
     }
@@ -312,7 +358,7 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<4>(py, &[("q", &q)], &[4], |model, s| Ok(tool_point(model, &s[0]).into()))
+        self.map::<4>(py, &[("q", &q)], (&[4], Turn::None), |model, s| Ok(tool_point(model, &s[0]).into()))
     }
 
     /// Geometric Jacobian of the tool tip, 6×4: rows vx, vy, vz, ωx, ωy, ωz in the base frame
@@ -322,7 +368,7 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<24>(py, &[("q", &q)], &[6, 4], |model, s| {
+        self.map::<24>(py, &[("q", &q)], (&[6, 4], Turn::Columns), |model, s| {
             let chain = FrameChain::new(model, &s[0]);
             let (linear, angular) = chain.point_jacobian(&chain.tip(), 3);
             Ok(std::array::from_fn(|k| {
@@ -341,7 +387,8 @@ impl Arm {
         }
         let q = inverse_kinematics(&self.model, &Vector3::from(xyz), pitch)
             .map_err(|e| UnreachableError::new_err(e.to_string()))?;
-        Ok(output(py, q.as_slice().to_vec(), 1, &[4], true))
+        let q: Vec<f64> = q.iter().zip(self.signs).map(|(v, sign)| sign * v + 0.0).collect();
+        Ok(output(py, q, 1, &[4], true))
     }
 
     /// Joint-space mass matrix M(q), kg·m².
@@ -350,7 +397,7 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<16>(py, &[("q", &q)], &[4, 4], |model, s| Ok(row_major(&mass_matrix(model, &s[0]))))
+        self.map::<16>(py, &[("q", &q)], (&[4, 4], Turn::Both), |model, s| Ok(row_major(&mass_matrix(model, &s[0]))))
     }
 
     /// Inverse dynamics (closed form for the yaw–pitch family, recursive Newton–Euler otherwise):
@@ -362,7 +409,7 @@ impl Arm {
         v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         a: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<4>(py, &[("q", &q), ("v", &v), ("a", &a)], &[4], |model, s| {
+        self.map::<4>(py, &[("q", &q), ("v", &v), ("a", &a)], (&[4], Turn::Joints), |model, s| {
             Ok(inverse_dynamics(model, &s[0], &s[1], &s[2]).into())
         })
     }
@@ -376,7 +423,7 @@ impl Arm {
         v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         tau: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<4>(py, &[("q", &q), ("v", &v), ("tau", &tau)], &[4], |model, s| {
+        self.map::<4>(py, &[("q", &q), ("v", &v), ("tau", &tau)], (&[4], Turn::Joints), |model, s| {
             // Friction cancelled: the core's forward dynamics adds τ_friction(v).
             let tau = s[2] - friction_torques(model, &s[1]);
             forward_dynamics(model, &s[0], &s[1], &tau).map(Into::into).map_err(|e| e.to_string())
@@ -392,7 +439,7 @@ impl Arm {
         v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         tau: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<4>(py, &[("q", &q), ("v", &v), ("tau", &tau)], &[4], |model, s| {
+        self.map::<4>(py, &[("q", &q), ("v", &v), ("tau", &tau)], (&[4], Turn::Joints), |model, s| {
             forward_dynamics(model, &s[0], &s[1], &s[2]).map(Into::into).map_err(|e| e.to_string())
         })
     }
@@ -403,7 +450,7 @@ impl Arm {
         py: Python<'py>,
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<4>(py, &[("q", &q)], &[4], |model, s| Ok(gravity_torques(model, &s[0]).into()))
+        self.map::<4>(py, &[("q", &q)], (&[4], Turn::Joints), |model, s| Ok(gravity_torques(model, &s[0]).into()))
     }
 
     /// Coriolis matrix C(q, v) (Christoffel symbols; Ṁ − 2C skew-symmetric), N·m·s/rad.
@@ -413,7 +460,7 @@ impl Arm {
         q: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         v: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        self.map::<16>(py, &[("q", &q), ("v", &v)], &[4, 4], |model, s| {
+        self.map::<16>(py, &[("q", &q), ("v", &v)], (&[4, 4], Turn::Both), |model, s| {
             Ok(row_major(&coriolis_matrix(model, &s[0], &s[1])))
         })
     }

@@ -38,7 +38,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     let bar = crate::progress::bar(steps * specs.len() as u64 + steps / 10, "demo");
     bar.set_message("planning");
     let plan = plan_scenario(setup, SCENARIO, 0.005, "the demo")?;
-    let plan_files = write_plan(&plan, &args.out.join("plan"), cfg!(feature = "xlsx"))?;
+    let plan_files = write_plan(&plan, &args.out.join("plan"), cfg!(feature = "xlsx"), &setup.convention)?;
     bar.inc(steps / 10);
     bar.set_message("simulating");
     let (runs, study) = run_study(setup, SCENARIO, &specs, &options, &args.out.join("simulate"), Some(&bar))?;

@@ -13,8 +13,8 @@ use serde_json::json;
 /// Warns (on stderr) about each angle of `flag` outside its joint's limits: most often an
 /// angle typed in degrees where radians are read.
 pub fn warn_outside_limits(setup: &Setup, flag: &str, q: &[f64; 4]) {
-    for (j, (value, link)) in q.iter().zip(setup.arm.links()).enumerate() {
-        let (lower, upper) = (link.limits.lower, link.limits.upper);
+    for (j, value) in q.iter().enumerate() {
+        let (lower, upper) = setup.user_limits(j);
         if !(lower..=upper).contains(value) {
             crate::tell(&format!(
                 "warning: {flag} joint {} = {} rad is outside its limits [{lower:.4}, {upper:.4}] rad; angles are \
@@ -30,7 +30,7 @@ pub fn warn_outside_limits(setup: &Setup, flag: &str, q: &[f64; 4]) {
 
 pub fn fk(setup: &Setup, args: &FkArgs) -> Result<()> {
     warn_outside_limits(setup, "--q", &args.q);
-    let q = JointVector::<4>::from(args.q);
+    let q = JointVector::<4>::from(setup.convention.user(args.q));
     let chain = FrameChain::new(&setup.arm, &q);
     let task = tool_point(&setup.arm, &q);
     let frames: Vec<_> = (0..4)
@@ -63,7 +63,7 @@ pub fn ik(setup: &Setup, args: &IkArgs) -> Result<()> {
         (None, Some(name)) => setup.board.above(parse_square(name)?, args.height),
         _ => bail!("give either --xyz or --square"),
     };
-    let q = inverse_kinematics(&setup.arm, &target, args.pitch)?;
+    let q = setup.convention.user(inverse_kinematics(&setup.arm, &target, args.pitch)?);
     let human = format!(
         "q = [{}] rad (elbow up, tool pitch {:.6} rad) for the tip at ({:.6}, {:.6}, {:.6}) m\n",
         q.iter().map(|v| format!("{:.6}", v + 0.0)).collect::<Vec<_>>().join(", "),

@@ -1,6 +1,7 @@
 //! `plan`: a scenario's Cartesian path and joint trajectory, as CSV, plots and XLSX.
 
 use crate::cli::PlanArgs;
+use crate::config::JointConvention;
 use crate::config::Setup;
 use crate::config::checked_limits;
 use crate::hardware::MoveLabel;
@@ -84,7 +85,7 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
     }
     let cause = format!("--dt {}", crate::resources::show(args.dt));
     let plan = plan_scenario(setup, &args.scenario, args.dt, &cause)?;
-    let mut files = write_plan(&plan, &args.out, args.xlsx)?;
+    let mut files = write_plan(&plan, &args.out, args.xlsx, &setup.convention)?;
     let hardware = hardware_dir(&args.out)?;
     let commands: Vec<GripperCommand> =
         plan.path.events().iter().map(|e| GripperCommand { time: e.time, action: e.action }).collect();
@@ -126,8 +127,8 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
 const XLSX_ROWS: usize = 1_048_576;
 
 /// Writes cartesian.csv, joint.csv, the two plots and (with `xlsx`) joint.xlsx into `out`.
-pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool) -> Result<Vec<String>> {
-    let samples = Samples { name: &plan.name, cartesian: &plan.cartesian, joint: plan.joint.samples() };
+pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool, convention: &JointConvention) -> Result<Vec<String>> {
+    let samples = Samples { name: &plan.name, cartesian: &plan.cartesian, joint: plan.joint.samples(), convention };
     write_samples(&samples, out, xlsx)
 }
 
@@ -136,6 +137,8 @@ struct Samples<'a> {
     name: &'a str,
     cartesian: &'a [CartesianSample],
     joint: &'a [JointSample],
+    /// The joints' convention of the files (a URDF's own sense).
+    convention: &'a JointConvention,
 }
 
 fn write_samples(plan: &Samples<'_>, out: &Path, xlsx: bool) -> Result<Vec<String>> {
@@ -161,7 +164,7 @@ fn write_samples(plan: &Samples<'_>, out: &Path, xlsx: bool) -> Result<Vec<Strin
     )?;
     files.push(cartesian_csv);
     let joint_csv = out.join("joint.csv");
-    write_csv(&joint_csv, &joint_header(), plan.joint.iter().map(joint_row))?;
+    write_csv(&joint_csv, &joint_header(), plan.joint.iter().map(|s| joint_row(s, plan.convention)))?;
     files.push(joint_csv);
     let cartesian_png = out.join("cartesian.png");
     plot_cartesian(&cartesian_png, plan)?;
@@ -187,9 +190,12 @@ fn joint_header() -> Vec<String> {
     header
 }
 
-fn joint_row(sample: &JointSample) -> Vec<f64> {
+/// A sample's row, the joints in the user's convention (a URDF's own sense).
+fn joint_row(sample: &JointSample, convention: &JointConvention) -> Vec<f64> {
     let mut row = vec![sample.t];
-    row.extend(sample.q.iter().chain(sample.qd.iter()).chain(sample.qdd.iter()));
+    for values in [sample.q, sample.qd, sample.qdd] {
+        row.extend(convention.user(values));
+    }
     row
 }
 
@@ -260,7 +266,7 @@ fn write_xlsx(path: &Path, plan: &Samples<'_>) -> Result<()> {
         sheet.write_string(0, column as u16, name)?;
     }
     for (row, sample) in plan.joint.iter().enumerate() {
-        for (column, value) in joint_row(sample).iter().enumerate() {
+        for (column, value) in joint_row(sample, plan.convention).iter().enumerate() {
             sheet.write_number(row as u32 + 1, column as u16, *value)?;
         }
     }
@@ -375,7 +381,11 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         offset += duration;
     }
     let name = format!("moves {moves}");
-    files.extend(write_samples(&Samples { name: &name, cartesian: &cartesian, joint: &joint }, &args.out, args.xlsx)?);
+    files.extend(write_samples(
+        &Samples { name: &name, cartesian: &cartesian, joint: &joint, convention: &setup.convention },
+        &args.out,
+        args.xlsx,
+    )?);
     files.extend(phase_files);
     let mut human = format!("{:>4} {:>8} {:>8} {:>10}  {}\n", "ply", "san", "uci", "time s", "longest limit");
     for summary in &summaries {
@@ -428,7 +438,15 @@ fn write_hardware(
     let points = hardware_points(&setup.arm, motion, commands, TOOL_DOWN, rate).map_err(|e| {
         anyhow!("{}: the hardware trajectory: {e}", if label.uci.is_empty() { label.san } else { label.uci })
     })?;
-    crate::hardware::write_move(dir, stem, (&setup.base_link, &setup.joint_names), &points, commands, label, rate)
+    crate::hardware::write_move(
+        dir,
+        stem,
+        (&setup.base_link, &setup.joint_names, &setup.convention),
+        &points,
+        commands,
+        label,
+        rate,
+    )
 }
 
 /// The control period moves are planned for, s (as `play` simulates them).

@@ -214,7 +214,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         }
         say(&bar, move_line(&report));
         if report.mover == Mover::Robot {
-            write_move_csv(&moves_dir, &report)?;
+            write_move_csv(&moves_dir, &report, &setup.convention)?;
         }
         if let Some(hardware) = report.hardware.take() {
             ensure_dir(&hardware_dir)?;
@@ -229,7 +229,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             crate::hardware::write_move(
                 &hardware_dir,
                 &format!("{:03}-{}", report.ply, report.uci),
-                (&setup.base_link, &setup.joint_names),
+                (&setup.base_link, &setup.joint_names, &setup.convention),
                 &hardware.points,
                 &hardware.commands,
                 &label,
@@ -576,7 +576,7 @@ impl ReplayBuilder {
     }
 }
 
-fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
+fn write_move_csv(dir: &Path, report: &MoveReport, convention: &crate::config::JointConvention) -> Result<()> {
     let mut header = vec!["t".to_string()];
     header.extend(numbered("q", 4).chain(numbered("q_des", 4)));
     header.extend(["x", "y", "z", "x_des", "y_des", "z_des", "tip_error_mm"].map(String::from));
@@ -586,7 +586,8 @@ fn write_move_csv(dir: &Path, report: &MoveReport) -> Result<()> {
         &header,
         report.records.iter().map(|r| {
             let mut row = vec![report.start_time + r.t];
-            row.extend(r.state.q.iter().chain(r.reference.q.iter()).chain(r.tip.iter()).chain(r.tip_desired.iter()));
+            row.extend(convention.user(r.state.q).into_iter().chain(convention.user(r.reference.q)));
+            row.extend(r.tip.iter().chain(r.tip_desired.iter()));
             row.push((r.tip - r.tip_desired).norm() * 1e3);
             row
         }),

@@ -3,6 +3,7 @@
 use crate::cli::{ControllerName, DynamicsArgs, GainArgs, SimulateArgs};
 use crate::commands::plan::{Plan, plan_scenario};
 use crate::conditions::{Study, Trial};
+use crate::config::JointConvention;
 use crate::config::Setup;
 use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
 use crate::plots::{Corner, Level, Mark, Panel, Series, Style, plot_panels, tick};
@@ -255,11 +256,12 @@ fn run_header() -> Vec<String> {
     header
 }
 
-fn run_row(record: &StepRecord<4>) -> Vec<f64> {
+/// A step's row, the joints in the user's convention (a URDF's own sense).
+fn run_row(record: &StepRecord<4>, convention: &JointConvention) -> Vec<f64> {
     let error = record.reference.q - record.state.q;
     let mut row = vec![record.t];
-    for part in [&record.state.q, &record.state.qd, &record.reference.q, &record.reference.qd, &error, &record.torque] {
-        row.extend(part.iter());
+    for part in [record.state.q, record.state.qd, record.reference.q, record.reference.qd, error, record.torque] {
+        row.extend(convention.user(part));
     }
     row.extend(record.tip.iter().chain(record.tip_desired.iter()));
     row
@@ -296,10 +298,15 @@ fn stretches(records: &[StepRecord<4>], saturated: impl Fn(&StepRecord<4>) -> bo
 
 /// Writes `<name>.csv`, `<name>_joints.png` and `<name>_torques.png` for one run: the torque
 /// plot has a panel per joint with its torque limits drawn and the stretches at a limit shaded.
-pub fn write_run(run: &ControllerRun, out: &Path, torque_limits: &[f64; 4]) -> Result<Vec<String>> {
+pub fn write_run(
+    run: &ControllerRun,
+    out: &Path,
+    torque_limits: &[f64; 4],
+    convention: &JointConvention,
+) -> Result<Vec<String>> {
     let name = &run.spec.name;
     let csv = out.join(format!("{name}.csv"));
-    write_csv(&csv, &run_header(), run.records.iter().map(run_row))?;
+    write_csv(&csv, &run_header(), run.records.iter().map(|r| run_row(r, convention)))?;
     let upper = name.to_uppercase();
     let joints = out.join(format!("{name}_joints.png"));
     let panels: Vec<Panel> = (0..4)
@@ -536,7 +543,7 @@ pub fn run_study(
     let torque_limits: [f64; 4] = std::array::from_fn(|j| setup.arm.link(j).limits.torque);
     for spec in specs {
         let run = run_controller(setup, &plan, spec, options, progress)?;
-        files.extend(write_run(&run, out, &torque_limits)?);
+        files.extend(write_run(&run, out, &torque_limits, &setup.convention)?);
         runs.push(run);
     }
     let events: Vec<(f64, &str)> = plan
@@ -745,12 +752,17 @@ pub fn dynamics(setup: &Setup, args: &DynamicsArgs) -> Result<()> {
     } else {
         setup.arm
     };
-    let q = JointVector::<4>::from(args.q);
-    let qd = JointVector::<4>::from(args.qd);
+    // In the model's convention; the results back in the user's (a URDF's own sense):
+    // `M → S M S`, torques `→ S τ` with `S` the joints' signs.
+    let q = JointVector::<4>::from(setup.convention.user(args.q));
+    let qd = JointVector::<4>::from(setup.convention.user(args.qd));
     crate::commands::kinematics::warn_outside_limits(setup, "--q", &args.q);
-    let terms = DynamicsTerms::new(&model, &q, &qd);
-    let coriolis = coriolis_torques(&model, &q, &qd);
-    let gravity = gravity_torques(&model, &q);
+    let signs = setup.convention.signs;
+    let mut terms = DynamicsTerms::new(&model, &q, &qd);
+    terms.mass_matrix =
+        chessarm_core::nalgebra::Matrix4::from_fn(|r, c| signs[r] * signs[c] * terms.mass_matrix[(r, c)]);
+    let coriolis = JointVector::<4>::from(setup.convention.user(coriolis_torques(&model, &q, &qd)));
+    let gravity = JointVector::<4>::from(setup.convention.user(gravity_torques(&model, &q)));
     // JSON has no infinity: an overflowed term would print as null with success.
     for (name, finite) in [
         ("M(q)", terms.mass_matrix.iter().all(|v| v.is_finite())),

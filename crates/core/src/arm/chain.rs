@@ -4,7 +4,9 @@
 //!
 //! At the zero configuration the joint frames are `W_k = W_{k−1} · origin_k` (base frame
 //! `W_0 = I`), joint `k` turns about the line through `p_k = W_k·0` along `u_k = R(W_k)·axis_k`,
-//! and the tool point is `W_4 · tool`. The DH frames follow from those lines:
+//! and the tool point is `W_4 · tool`. DH frame 0 keeps the base frame's axes and stands on the
+//! base axis at the base frame's height, `b = (p_1x, p_1y, 0)` ([`ArmModel::with_base`]); every
+//! point below is relative to it. The DH frames follow from those lines:
 //! - `z_{k−1} = u_k` (so the DH joint angle is the chain's, sign included);
 //! - frame 1: `x1 = ±(ẑ × u2)` (the common normal of the vertical base axis and the shoulder
 //!   axis, pointing from the base axis to the shoulder axis, or where they meet, to the side
@@ -27,9 +29,6 @@ use std::f64::consts::{FRAC_PI_2, PI};
 /// How far (rad) an axis may be from the family's directions and still count as them: CAD
 /// exports round angles (π/2 written as 1.5708 is 3.7·10⁻⁶ off). Axes within it are made exact.
 pub const AXIS_TOLERANCE: f64 = 1e-5;
-
-/// How far (m) the base axis may pass from the base origin and count as through it.
-const BASE_AXIS_TOLERANCE: f64 = 1e-6;
 
 /// How close (m) two lines or points must be to count as meeting.
 const LENGTH_TOLERANCE: f64 = 1e-9;
@@ -119,20 +118,12 @@ pub fn model_from_chain(chain: &SerialChain) -> Result<ArmModel<4>, ChainError> 
             ),
         ));
     }
-    // CAD rounding of the frames above the base (π/2 as 1.5708) moves the axis by ~1e-7 m
-    // per 0.1 m of offset: a micrometre is rounding, anything more a real offset.
-    if points[0].xy().norm() > BASE_AXIS_TOLERANCE {
-        return Err(shape(
-            first,
-            format!(
-                "its axis passes {:.3e} m from the base origin (at x = {:.3e}, y = {:.3e} m); the base frame must \
-                 have the yaw axis at x = y = 0 (move the base link's origin onto it)",
-                points[0].xy().norm(),
-                points[0].x,
-                points[0].y
-            ),
-        ));
-    }
+    // The base axis need not pass through the base frame's origin (a URDF's root link may sit
+    // behind it): DH frame 0 is put on it, at the base frame's height, with the base frame's
+    // axes ([`ArmModel::with_base`]); every point below is taken from there.
+    let base = Vector3::new(points[0].x, points[0].y, 0.0);
+    let points = points.map(|p| p - base);
+    let tool = tool - base;
     // Joints 2–4: horizontal and parallel.
     if axes[1].dot(&up).abs() > AXIS_TOLERANCE {
         return Err(shape(
@@ -239,9 +230,9 @@ pub fn model_from_chain(chain: &SerialChain) -> Result<ArmModel<4>, ChainError> 
         link.dh = dh[k];
         link.limits = joint.limits;
         link.friction = joint.friction;
-        link.inertial = joint.body.transformed(&(dh_frames[k].inverse() * frames[k]));
+        link.inertial = joint.body.transformed(&(dh_frames[k].inverse() * Translation3::from(-base) * frames[k]));
     }
-    ArmModel::new(links, chain.gravity).map_err(|source| {
+    ArmModel::new(links, chain.gravity).and_then(|model| model.with_base(base)).map_err(|source| {
         let joint = match &source {
             ModelError::InvalidField { field, .. } => {
                 let number = field.split_whitespace().nth(1).and_then(|n| n.trim_matches(['(', ')']).parse().ok());

@@ -126,7 +126,8 @@ pub struct BodyFrames<const N: usize> {
     pub com: [Vector3<f64>; N],
     /// Inertia of body j about its COM in world axes, kg·m².
     pub inertia: [SymmetricMatrix3; N],
-    /// The tool tip, origin of the last DH frame, m.
+    /// The tool tip, origin of the last DH frame, m (in the base frame, [`ArmModel::base`]
+    /// included; every other field is relative to DH frame 0, which only translations part).
     pub tip: Vector3<f64>,
 }
 
@@ -168,7 +169,7 @@ impl<const N: usize> BodyFrames<N> {
                 self.joint_point[i + 1] = *origin;
                 self.axis_moment[i + 1] = origin.cross(&axis);
             } else {
-                self.tip = *origin;
+                self.tip = model.base() + origin;
             }
         });
     }
@@ -502,7 +503,7 @@ impl<const N: usize> ConfigurationDynamics<N> {
         &self.trig
     }
 
-    /// The tool tip at this configuration, m (base frame).
+    /// The tool tip at this configuration, m (base frame, [`ArmModel::base`] included).
     pub fn tip(&self) -> Vector3<f64> {
         self.frames.tip
     }

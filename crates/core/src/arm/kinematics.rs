@@ -103,10 +103,13 @@ pub fn compose_frames<const N: usize>(
 pub struct FrameChain<const N: usize> {
     poses: [Pose; N],
     trig: JointTrig<N>,
+    /// The origin of DH frame 0 (on the base axis), m.
+    base: Vector3<f64>,
 }
 
 impl<const N: usize> FrameChain<N> {
-    /// Forward kinematics: `T_0i = A_1 ⋯ A_i` for every i.
+    /// Forward kinematics: `T_0i = A_1 ⋯ A_i` for every i, placed at the model's base
+    /// ([`ArmModel::base`]): every pose is in the base frame.
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>) -> Self {
         Self::from_trig(model, JointTrig::new(model, q))
     }
@@ -115,10 +118,11 @@ impl<const N: usize> FrameChain<N> {
     /// ([`compose_frames`]).
     pub fn from_trig(model: &ArmModel<N>, trig: JointTrig<N>) -> Self {
         let mut poses = [Pose::identity(); N];
+        let base = model.base();
         compose_frames(model, &trig, |i, rotation, origin| {
-            poses[i] = Pose::from_parts(Translation3::from(*origin), Rotation3::from_matrix_unchecked(*rotation));
+            poses[i] = Pose::from_parts(Translation3::from(base + origin), Rotation3::from_matrix_unchecked(*rotation));
         });
-        Self { poses, trig }
+        Self { poses, trig, base }
     }
 
     /// The joint sines and cosines this chain was built from.
@@ -134,7 +138,7 @@ impl<const N: usize> FrameChain<N> {
     /// Unit axis `z_j` (world) and a point on it, `p_j` (m), of joint `j` (0-based).
     pub fn joint_axis(&self, j: usize) -> (Vector3<f64>, Vector3<f64>) {
         if j == 0 {
-            (Vector3::z(), Vector3::zeros())
+            (Vector3::z(), self.base)
         } else {
             let pose = &self.poses[j - 1];
             (pose.rotation.matrix().column(2).into_owned(), pose.translation.vector)

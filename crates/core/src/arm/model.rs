@@ -173,6 +173,8 @@ fn invalid(field: String, value: impl std::fmt::Display, reason: &'static str) -
 pub struct ArmModel<const N: usize = 4> {
     links: [Link; N],
     gravity: Vector3<f64>,
+    /// Where the base yaw axis stands in the base frame: the origin of DH frame 0, m.
+    base: Vector3<f64>,
     payload: Option<Payload>,
     bodies: [Inertial; N],
     /// `(sin α_i, cos α_i)` of every link, cached for the kinematics.
@@ -206,6 +208,7 @@ impl<const N: usize> ArmModel<N> {
         let mut model = Self {
             links,
             gravity,
+            base: Vector3::zeros(),
             payload: None,
             bodies: [Inertial::zero(); N],
             twist_trig,
@@ -234,6 +237,32 @@ impl<const N: usize> ArmModel<N> {
         Ok(model)
     }
 
+    /// The same arm standing with DH frame 0 at `base` in the base frame (m): a URDF's root
+    /// link need not lie on the yaw axis. Frame 0 keeps the base frame's axes, so only
+    /// positions move (`p = base + T_0i·p_i`); torques do not change (gravity is uniform and
+    /// the base does not move).
+    pub fn with_base(&self, base: Vector3<f64>) -> Result<Self, ModelError> {
+        for (axis, value) in ["x", "y", "z"].iter().zip(base.iter()) {
+            if !value.is_finite() {
+                return Err(invalid(format!("base.{axis}"), short(*value), "must be finite"));
+            }
+            if value.abs() > MAX_LENGTH {
+                return Err(invalid(format!("base.{axis}"), short(*value), TOO_LONG));
+            }
+        }
+        let mut model = *self;
+        model.base = base;
+        if self.structured {
+            model.yaw_pitch = super::yaw_pitch::YawPitch::new(&model).ok();
+        }
+        Ok(model)
+    }
+
+    /// The origin of DH frame 0 (on the base yaw axis) in the base frame, m.
+    pub fn base(&self) -> Vector3<f64> {
+        self.base
+    }
+
     /// The yaw–pitch constants, when the dynamics take the structured path.
     pub fn yaw_pitch(&self) -> Option<&super::yaw_pitch::YawPitch<f64>> {
         self.yaw_pitch.as_ref()
@@ -250,7 +279,7 @@ impl<const N: usize> ArmModel<N> {
 
     /// The same arm with other links (e.g. other limits), keeping gravity and payload.
     pub fn with_links(&self, links: [Link; N]) -> Result<Self, ModelError> {
-        let model = Self::new(links, self.gravity)?;
+        let model = Self::new(links, self.gravity)?.with_base(self.base)?;
         let model = if self.structured { model } else { model.with_general_dynamics() };
         model.with_payload(self.payload)
     }

@@ -59,7 +59,7 @@ pub struct PlanarGeometry {
 pub enum IkError {
     #[error("target {} is not a finite point", show(.target))]
     NotFinite { target: [f64; 3] },
-    #[error("target {} lies on the base axis (x = y = 0), where the base angle is undefined", show(.target))]
+    #[error("target {} lies on the base axis, where the base angle is undefined", show(.target))]
     OnBaseAxis { target: [f64; 3] },
     #[error(
         "target {} lies {} m from the base axis, within the arm's sideways offset of {} m, which no base angle reaches",
@@ -215,7 +215,8 @@ const REACH_ROUNDING: f64 = 64.0 * f64::EPSILON;
 /// Closed-form inverse kinematics, elbow up, for the tool tip at `target` (m, base frame) with
 /// the given tool `pitch` (rad; [`TOOL_DOWN`] to grip pieces).
 ///
-/// With `r = √(x² + y²)` and the sideways offset `s` ([`PlanarGeometry::lateral`]), the pitch
+/// `(x, y, z)` is the target relative to the base axis' foot ([`ArmModel::base`]). With
+/// `r = √(x² + y²)` and the sideways offset `s` ([`PlanarGeometry::lateral`]), the pitch
 /// plane lies `R = √(r² − s²)` m out along `u(θ)` with `θ = atan2(y, x) + atan2(e·s, R)`, so
 /// `q1 = θ − o1`. In that plane, with `X = R − a1`, `H = z − d1` (height above the shoulder):
 /// the wrist sits at `X_w = X − l4 cos(pitch)`, `H_w = H − l4 sin(pitch)`. With
@@ -235,6 +236,8 @@ pub fn inverse_kinematics(model: &ArmModel<4>, target: &Vector3<f64>, pitch: f64
     if !(target.iter().all(|v| v.is_finite()) && pitch.is_finite()) {
         return Err(IkError::NotFinite { target: shown });
     }
+    // From here on relative to DH frame 0, on the base axis.
+    let target = &(target - model.base());
     let radial = target.x.hypot(target.y);
     if radial < 1e-9 {
         return Err(IkError::OnBaseAxis { target: shown });

@@ -105,6 +105,8 @@ pub struct YawPitch<S> {
     pub yaw_inertia: S,
     /// The tool tip's `y` in `Y`, m.
     pub tip_y: S,
+    /// Where `Y`'s origin (on the base axis) stands in the base frame, m ([`ArmModel::base`]).
+    pub base: [S; 3],
     /// `(h_j, Î_xz,j)` (j ≥ 1), `h = (Î_xx − Î_zz)/2`: `R_y(2φ_j)` of them is
     /// `(Ī_j − I_zz,j(φ_j), −I_zz,j′(φ_j)/2)`, kg·m².
     pub spin: [[S; 2]; 4],
@@ -237,6 +239,7 @@ impl YawPitch<f64> {
             pitch_base,
             yaw_inertia,
             tip_y: y_so_far,
+            base: array(model.base()),
             spin,
             rotor,
             gravity_z: g.z,
@@ -270,6 +273,7 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
             pitch_base: m4(&|a, i, j| a.pitch_base[i][j]),
             yaw_inertia: lanes(&|a| a.yaw_inertia),
             tip_y: lanes(&|a| a.tip_y),
+            base: v3(&|a, k| a.base[k]),
             spin: std::array::from_fn(|j| v2(&|a, k| a.spin[j][k])),
             rotor: v4(&|a, j| a.rotor[j]),
             gravity_z: lanes(&|a| a.gravity_z),
@@ -298,6 +302,7 @@ impl<const L: usize> YawPitch<crate::lanes::Lanes<L>> {
             pitch_base: self.pitch_base.map(|row| v4(&row)),
             yaw_inertia: self.yaw_inertia.get(i),
             tip_y: self.tip_y.get(i),
+            base: v3(&self.base),
             spin: self.spin.map(|v| v2(&v)),
             rotor: v4(&self.rotor),
             gravity_z: self.gravity_z.get(i),
@@ -525,11 +530,13 @@ impl<S: Real> Configuration<S> {
         }
     }
 
-    /// The tool tip in the base frame, m: `R_z(ψ)` of the tip in `Y`.
+    /// The tool tip in the base frame, m: `base + R_z(ψ)` of the tip in `Y`, with `base` the
+    /// model's [`YawPitch::base`].
     #[inline(always)]
-    pub fn tip_in_base(&self) -> [S; 3] {
+    pub fn tip_in_base(&self, base: &[S; 3]) -> [S; 3] {
         let (s, c) = self.angles.angle[0].sin_cos();
-        [c * self.tip[0] - s * self.tip[1], s * self.tip[0] + c * self.tip[1], self.tip[2]]
+        let [bx, by, bz] = *base;
+        [bx + (c * self.tip[0] - s * self.tip[1]), by + (s * self.tip[0] + c * self.tip[1]), bz + self.tip[2]]
     }
 
     /// `C(q, q̇) q̇ + g(q)`, N·m: the module's `b` from the rates, then `Sᵀ b`.

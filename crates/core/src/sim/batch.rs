@@ -539,10 +539,11 @@ where
     };
     // Each live lane holds its command over the coming step; the others none.
     let live = live_lanes(loops);
+    let base: [Lanes<L>; 3] = std::array::from_fn(|k| Lanes(std::array::from_fn(|i| models[i].base()[k])));
     let (tip, tip_error) = level.run(
         #[inline(always)]
         || {
-            let tip = start.configuration.tip_in_base();
+            let tip = start.configuration.tip_in_base(&base);
             let error = array4(|j| Lanes::splat(desired.q[j]) - state.q[j]);
             let tip_error = super::closed_loop::tip_error(&tip, &tip_desired);
             law.tracking.record(&command, &error, tip_error, tracked);
@@ -746,7 +747,7 @@ fn simulate_batch<const L: usize>(runs: &mut [LaneRun<'_>], level: SimdLevel) ->
             ),
             None => {
                 let mut active = 0;
-                let tip = start.configuration.tip_in_base();
+                let tip = start.configuration.tip_in_base(&fast.base);
                 // The reference sample of the last lane that took one: lanes on the same reference
                 // (a sweep's, a campaign's) are at the same step, so they share it.
                 let mut shared: Option<(&(dyn ReferenceSource<4> + Sync), ReferenceNow<4>)> = None;

@@ -114,7 +114,7 @@ impl<const N: usize> Plant<N> {
                     return Err(DynamicsError::NotPositiveDefinite(state.q.iter().copied().collect()));
                 }
                 self.start = StateDynamics {
-                    tip: Vector3::from(start.configuration.tip_in_base()),
+                    tip: Vector3::from(start.configuration.tip_in_base(&fast.base)),
                     terms: DynamicsTerms {
                         mass_matrix: from_rows(&start.configuration.mass_matrix),
                         bias: from_array(start.bias),
