@@ -2,7 +2,9 @@
 //!
 //! The report's layout: squares 6 cm apart, files a–h along x at −21 … +21 cm, rank r along y
 //! at 12 + 6(r − 1) cm (the base sits two squares before rank 1), board surface at z = 0.
-//! All values in metres.
+//! A board may be turned about the vertical by `yaw`: the files then run along
+//! `(cos yaw, sin yaw)` and the ranks along `(−sin yaw, cos yaw)`. All values in metres and
+//! radians.
 
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use shakmaty::{File, Rank, Square};
@@ -25,12 +27,14 @@ pub struct BoardGeometry {
     pub center: Vector2<f64>,
     /// Height of the board surface, m.
     pub surface_height: f64,
+    /// Turn of the board about the vertical, rad (0: files along x, ranks along y).
+    pub yaw: f64,
 }
 
 impl Default for BoardGeometry {
     /// The report's board: 6 cm squares, centred on the y axis, rank 1 at y = 12 cm.
     fn default() -> Self {
-        Self { square_size: 0.06, center: Vector2::new(0.0, 0.33), surface_height: 0.0 }
+        Self { square_size: 0.06, center: Vector2::new(0.0, 0.33), surface_height: 0.0, yaw: 0.0 }
     }
 }
 
@@ -45,7 +49,7 @@ impl BoardGeometry {
             });
         }
         for (field, value) in
-            [("center.x", self.center.x), ("center.y", self.center.y), ("surface_height", self.surface_height)]
+            [("center.x", self.center.x), ("center.y", self.center.y), ("surface_height", self.surface_height), ("yaw", self.yaw)]
         {
             if !value.is_finite() {
                 return Err(BoardError::Geometry { field, value, reason: "must be finite" });
@@ -54,15 +58,21 @@ impl BoardGeometry {
         Ok(self)
     }
 
+    /// The table point (x, y, m) at `files` squares along the files and `ranks` along the
+    /// ranks from the board's centre: `centre + R(yaw)·(files, ranks)·square_size`.
+    pub fn on_table(&self, files: f64, ranks: f64) -> Vector2<f64> {
+        let (sin, cos) = self.yaw.sin_cos();
+        // At yaw 0 exactly the report's sums, bit for bit.
+        let (u, v) = (files * self.square_size, ranks * self.square_size);
+        if self.yaw == 0.0 { self.center + Vector2::new(u, v) } else { self.center + Vector2::new(cos * u - sin * v, sin * u + cos * v) }
+    }
+
     /// Centre of `square` on the board surface, m.
     pub fn square_center(&self, square: Square) -> Vector3<f64> {
         let file = f64::from(u8::from(square.file())) - 3.5;
         let rank = f64::from(u8::from(square.rank())) - 3.5;
-        Vector3::new(
-            self.center.x + file * self.square_size,
-            self.center.y + rank * self.square_size,
-            self.surface_height,
-        )
+        let xy = self.on_table(file, rank);
+        Vector3::new(xy.x, xy.y, self.surface_height)
     }
 
     /// The point `height` m above the centre of `square`.
@@ -73,8 +83,11 @@ impl BoardGeometry {
     /// The square under a point and the point's horizontal offset from its centre (m), or
     /// `None` off the board.
     pub fn square_at(&self, point: &Vector3<f64>) -> Option<(Square, Vector2<f64>)> {
-        let file = ((point.x - self.center.x) / self.square_size + 4.0).floor();
-        let rank = ((point.y - self.center.y) / self.square_size + 4.0).floor();
+        let (sin, cos) = self.yaw.sin_cos();
+        let (dx, dy) = (point.x - self.center.x, point.y - self.center.y);
+        let (u, v) = if self.yaw == 0.0 { (dx, dy) } else { (cos * dx + sin * dy, -sin * dx + cos * dy) };
+        let file = (u / self.square_size + 4.0).floor();
+        let rank = (v / self.square_size + 4.0).floor();
         if !(0.0..8.0).contains(&file) || !(0.0..8.0).contains(&rank) {
             return None;
         }

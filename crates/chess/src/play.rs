@@ -520,8 +520,12 @@ impl Game {
                 .piece_at(step.task.from)
                 .map(|p| p.position)
                 .unwrap_or_else(|| self.table.nominal_position(step.task.from));
-            let placed =
-                placed_position(&summary.tip_at_marks[2 * index], &summary.tip_at_marks[2 * index + 1], &standing);
+            let placed = placed_position(
+                &self.arm.base().xy(),
+                &summary.tip_at_marks[2 * index],
+                &summary.tip_at_marks[2 * index + 1],
+                &standing,
+            );
             let target = self.table.nominal_position(step.task.to);
             if let Some(piece) = self.table.index_at(step.task.from) {
                 report.handled.push(Handling {
@@ -578,16 +582,25 @@ pub fn gripper_events(settings: &PlaySettings, table: &Table, planned: &[Planned
 /// Where the tool rests before the first move: above the middle of rank 1 at the highest
 /// traverse height any task can need, m.
 pub fn home_tool(board: &BoardGeometry, pieces: &PieceSet, limits: &MotionLimits) -> Vector3<f64> {
-    let rank_one = board.square_center(shakmaty::Square::D1);
-    Vector3::new(board.center.x, rank_one.y, board.surface_height + limits.highest_traverse(pieces))
+    // Above the middle of rank 1, between d1 and e1.
+    let home = board.on_table(0.0, -3.5);
+    Vector3::new(home.x, home.y, board.surface_height + limits.highest_traverse(pieces))
 }
 
 /// Where a piece that stood at `standing` (board plane, m) is put down when gripped with the
 /// tool tip at `grip_tip` and released at `release_tip`. The piece moves rigidly with the
 /// gripper from grip to release: its offset from the tool tip turns with the tool's yaw, which
 /// for this arm is the tip's bearing about the base axis (joint 1).
-pub fn placed_position(grip_tip: &Vector3<f64>, release_tip: &Vector3<f64>, standing: &Vector2<f64>) -> Vector2<f64> {
-    let (grip, release) = (grip_tip.xy(), release_tip.xy());
+/// The bearing is taken about the base axis, which stands at `base` (x, y, m;
+/// [`ArmModel::base`]).
+pub fn placed_position(
+    base: &Vector2<f64>,
+    grip_tip: &Vector3<f64>,
+    release_tip: &Vector3<f64>,
+    standing: &Vector2<f64>,
+) -> Vector2<f64> {
+    let (grip, release) = (grip_tip.xy() - base, release_tip.xy() - base);
+    let standing = &(standing - base);
     let turn = Rotation2::new(release.y.atan2(release.x) - grip.y.atan2(grip.x));
-    release + turn * (standing - grip)
+    base + release + turn * (standing - grip)
 }

@@ -235,7 +235,7 @@ impl Table {
                 (side(color) * (RESERVE_X[0] + step * slot as f64), RESERVE_Y)
             }
         };
-        g.center + Vector2::new(x, y) * g.square_size
+        g.on_table(x, y)
     }
 
     /// The piece meant to stand at `location`, if any.

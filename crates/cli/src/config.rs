@@ -85,6 +85,10 @@ pub struct BoardFile {
     /// Height of the board surface, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub surface_height: Option<f64>,
+    /// Turn of the board about the vertical, rad (0: files along x, ranks along y, away from
+    /// the arm).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub yaw: Option<f64>,
 }
 
 /// One kind of chess piece in the file; fields left out keep that kind's default.
@@ -490,6 +494,7 @@ impl SetupFile {
                 default_board.center.into(),
             )?),
             surface_height: number_or("board.surface_height", board.surface_height, default_board.surface_height)?,
+            yaw: number_or("board.yaw", board.yaw, default_board.yaw)?,
         }
         .validated()?;
         let pick = |kind: &str, given: Option<PieceFile>, default: PieceDimensions| -> Result<PieceDimensions> {
@@ -643,6 +648,7 @@ impl From<&Setup> for SetupFile {
                 square_size: Some(setup.board.square_size),
                 center: Some(setup.board.center.iter().copied().collect()),
                 surface_height: Some(setup.board.surface_height),
+                yaw: (setup.board.yaw != 0.0).then_some(setup.board.yaw),
             },
             pieces: PiecesFile {
                 pawn: piece(&p.pawn),

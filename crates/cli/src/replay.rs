@@ -346,6 +346,7 @@ pub fn replay_json(replay: &Replay<'_>) -> ReplayData {
         "board": {
             "square_size": board.square_size,
             "center": [board.center.x, board.center.y],
+            "yaw": board.yaw,
             "surface_height": board.surface_height,
             "squares": squares,
             "slots": slots,

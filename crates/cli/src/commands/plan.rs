@@ -37,6 +37,8 @@ pub struct Plan {
     pub joint: JointTrajectory,
     /// Where the scenario's piece stands and the centre of its target square (board plane, m).
     pub placement: Option<(Vector2<f64>, Vector2<f64>)>,
+    /// Where the arm's base axis stands (x, y, m): a gripped piece turns about it.
+    pub base: Vector2<f64>,
 }
 
 /// Bytes one planned sample takes in memory: the Cartesian and joint samples and the points of
@@ -69,7 +71,7 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<
     let joint = JointTrajectory::from_path(&setup.arm, &path, dt, TOOL_DOWN)
         .map_err(|e| anyhow!("scenario '{name}' cannot be followed: {e}"))?;
     let placement = Some((setup.board.square_center(scenario.from).xy(), setup.board.square_center(scenario.to).xy()));
-    Ok(Plan { name: name.to_string(), path, cartesian, joint, placement })
+    Ok(Plan { name: name.to_string(), path, cartesian, joint, placement, base: setup.arm.base().xy() })
 }
 
 pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {

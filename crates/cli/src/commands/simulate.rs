@@ -616,7 +616,7 @@ fn write_study_replay(
                             grip_time,
                             release_time,
                             standing,
-                            placed: placed_position(at_grip, at_release, &standing),
+                            placed: placed_position(&plan.base, at_grip, at_release, &standing),
                             grip_tip: Some(*at_grip),
                         }]
                     }
@@ -702,7 +702,7 @@ pub fn options_from(setup: &Setup, args: &SimulateArgs) -> Result<RunOptions> {
 pub fn placement_error(plan: &Plan, summary: &SimSummary<4>) -> Option<f64> {
     let (grip, release) = (summary.tip_at_marks.first()?, summary.tip_at_marks.get(1)?);
     let (standing, target) = plan.placement?;
-    Some((chessarm_chess::play::placed_position(grip, release, &standing) - target).norm())
+    Some((chessarm_chess::play::placed_position(&plan.base, grip, release, &standing) - target).norm())
 }
 
 /// Checks `--dt` against `--control-rate` before anything runs, naming both flags as typed.
