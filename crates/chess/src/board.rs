@@ -48,9 +48,12 @@ impl BoardGeometry {
                 reason: "must be finite and > 0",
             });
         }
-        for (field, value) in
-            [("center.x", self.center.x), ("center.y", self.center.y), ("surface_height", self.surface_height), ("yaw", self.yaw)]
-        {
+        for (field, value) in [
+            ("center.x", self.center.x),
+            ("center.y", self.center.y),
+            ("surface_height", self.surface_height),
+            ("yaw", self.yaw),
+        ] {
             if !value.is_finite() {
                 return Err(BoardError::Geometry { field, value, reason: "must be finite" });
             }
@@ -64,7 +67,11 @@ impl BoardGeometry {
         let (sin, cos) = self.yaw.sin_cos();
         // At yaw 0 exactly the report's sums, bit for bit.
         let (u, v) = (files * self.square_size, ranks * self.square_size);
-        if self.yaw == 0.0 { self.center + Vector2::new(u, v) } else { self.center + Vector2::new(cos * u - sin * v, sin * u + cos * v) }
+        if self.yaw == 0.0 {
+            self.center + Vector2::new(u, v)
+        } else {
+            self.center + Vector2::new(cos * u - sin * v, sin * u + cos * v)
+        }
     }
 
     /// Centre of `square` on the board surface, m.

@@ -8,6 +8,7 @@ pub mod opponent;
 pub mod outcome;
 pub mod pieces;
 pub mod play;
+pub mod reach;
 pub mod scenario;
 pub mod table;
 pub mod tasks;

@@ -131,8 +131,8 @@ pub enum PlayError {
     Table { mv: String, source: TableError },
     #[error("the arm's home position is unreachable: {0}")]
     Home(IkError),
-    #[error("the table cannot be served by this arm: {0}")]
-    Reach(TableError),
+    #[error("the table cannot be served by this arm: {0}; `chessarm board --fit` finds a board it serves")]
+    Reach(crate::reach::ReachError),
     #[error("tolerance {0} m must be finite and > 0")]
     Tolerance(f64),
     #[error(transparent)]
@@ -297,8 +297,7 @@ impl Game {
         }
         let limits = settings.limits.validated()?;
         let table = Table::from_position(board, &start);
-        let traverse = limits.highest_traverse(&settings.pieces);
-        table.check_reachable(&arm, &settings.pieces, traverse).map_err(PlayError::Reach)?;
+        crate::reach::check_table(&arm, &board, &settings.pieces, &limits).map_err(PlayError::Reach)?;
         let tool = home_tool(&board, &settings.pieces, &limits);
         let q = inverse_kinematics(&arm, &tool, TOOL_DOWN).map_err(PlayError::Home)?;
         let misplaced =

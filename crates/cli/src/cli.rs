@@ -63,6 +63,10 @@ pub enum Command {
     Ik(IkArgs),
     /// Print the arm as URDF (links with mass, COM and inertia; joints with limits; a tool frame).
     Urdf,
+    /// Whether the arm serves the board (every square and slot at every grip height, every
+    /// traverse, holding the heaviest piece); with --fit, the largest board it serves and its
+    /// pose, printed as a setup file (pieces scaled with the squares).
+    Board(BoardArgs),
     /// Plan a scenario (Cartesian LSPB path → IK → joint trajectory) or chess moves (--moves,
     /// time-optimal with a phase-plane plot); CSV, plots, optional XLSX.
     Plan(PlanArgs),
@@ -671,6 +675,16 @@ pub struct DemoArgs {
     /// Output folder (plan/ and simulate/ go inside).
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct BoardArgs {
+    /// Find the largest board the arm serves and print it as a setup file (use it with --arm).
+    #[arg(long)]
+    pub fit: bool,
+    /// Draw the reach map (per square: the margin, or grey where not served) into this PNG.
+    #[arg(long, value_name = "FILE.png")]
+    pub map: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -190,7 +190,13 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Robustness(args)) => Some(&args.out),
         Some(Command::Plan(args)) => Some(&args.out),
         Some(
-            Command::Dynamics(_) | Command::Gains(_) | Command::Arm | Command::Fk(_) | Command::Ik(_) | Command::Urdf,
+            Command::Dynamics(_)
+            | Command::Gains(_)
+            | Command::Arm
+            | Command::Fk(_)
+            | Command::Ik(_)
+            | Command::Urdf
+            | Command::Board(_),
         ) => None,
     };
     let folder = out.map(|dir| folder_lock::RunFolder::take(dir)).transpose()?;
@@ -225,6 +231,7 @@ fn dispatch(setup: &Setup, command: Option<Command>) -> Result<()> {
         Some(Command::Ik(args)) => commands::kinematics::ik(setup, &args),
         Some(Command::Urdf) => print_text(&urdf::to_urdf(&setup.arm, "chessarm", &setup.joint_names)),
         Some(Command::Plan(args)) => commands::plan::run(setup, &args),
+        Some(Command::Board(args)) => commands::board::run(setup, &args),
     }
 }
 

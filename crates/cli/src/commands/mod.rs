@@ -1,5 +1,6 @@
 //! One module per command.
 
+pub mod board;
 pub mod demo;
 pub mod gains;
 pub mod kinematics;

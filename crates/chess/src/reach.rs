@@ -1,0 +1,439 @@
+//! What a game asks of the arm's reach, checked before it starts, and the largest board that
+//! an arm serves (`chessarm board --fit`).
+//!
+//! **The set a game can ask for.** Every move is vertical moves over a location (a square, a
+//! graveyard or reserve slot) between a piece's grip height and a traverse height, and
+//! traverses between two locations (or the home point) at heights in between, their corners
+//! blended in the vertical plane of the traverse. So the tool tip, pointing down, stays on the
+//! straight segments between any two of those points (in the table plane) at heights from the
+//! lowest grip height to the highest traverse ([`MotionLimits::highest_traverse`]). A point
+//! is *served* when inverse kinematics reaches it within the joint limits and the motors hold
+//! the arm there with the heaviest piece within their torque limits times the planner's torque
+//! margin (`|g_i(q)| ≤ margin·τ_max,i`).
+//!
+//! **The check** ([`check_table`]) samples that set: every location and the home point at
+//! every grip height, the traverse height and every [`HEIGHT_STEP`] between, and every segment
+//! between two of them every [`SEGMENT_STEP`] at the same heights.
+//!
+//! **The fit** ([`fit_board`]) uses that for the yaw–pitch family, reach depends on the radial
+//! distance `r` from the base axis and the height only, and the base angle on the bearing:
+//! it tabulates, along the bearing of the base joint's mid-range, which `r` (every
+//! [`RADIAL_STEP`]) are served at every height, so a board is served when the radial interval
+//! its points span (from the segments' closest approach to the farthest point) lies in one
+//! served stretch and its bearings within the base joint's range. It searches the square size
+//! by bisection, and per size the board's distance along that bearing and its turn (rank 1
+//! towards the arm, or a side), keeping the pose of the largest margin; the winner is then
+//! checked with [`check_table`], shrinking by 1 % until it passes.
+
+use crate::board::BoardGeometry;
+use crate::pieces::PieceSet;
+use crate::table::{Location, Table};
+use crate::tasks::MotionLimits;
+use chessarm_core::arm::dynamics::gravity_torques;
+use chessarm_core::arm::model::{ArmModel, JointVector};
+use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
+use chessarm_core::nalgebra::{Vector2, Vector3};
+use shakmaty::{Board, Square};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// Heights between the lowest grip and the highest traverse are checked this far apart, m.
+pub const HEIGHT_STEP: f64 = 0.01;
+/// Points along a traverse are checked this far apart, m.
+pub const SEGMENT_STEP: f64 = 0.01;
+/// The fit's radial table has a point every this, m.
+pub const RADIAL_STEP: f64 = 0.001;
+
+/// Why the arm does not serve a table, naming the point.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReachError {
+    #[error("{place} {height:.4} m above the table at ({x:.4}, {y:.4}) m: {source}")]
+    Unreachable { place: String, height: f64, x: f64, y: f64, source: IkError },
+    #[error(
+        "{place} {height:.4} m above the table at ({x:.4}, {y:.4}) m: joint {joint} needs {need:.3} N·m to hold the arm \
+         and the heaviest piece, above {limit:.3} N·m (its torque limit × the margin {margin})"
+    )]
+    TooHeavy { place: String, height: f64, x: f64, y: f64, joint: usize, need: f64, limit: f64, margin: f64 },
+    #[error(
+        "the board and its slots surround the arm's base at ({x:.4}, {y:.4}) m: give board.center away from it (the \
+         board's squares, graveyard and reserve must lie to one side of the base)"
+    )]
+    AroundBase { x: f64, y: f64 },
+    #[error("no board with squares of at least {smallest} m is served by this arm: {why}")]
+    NoFit { smallest: f64, why: String },
+}
+
+/// Every location a game uses and the home point, with a name for messages.
+fn places(geometry: &BoardGeometry, pieces: &PieceSet, limits: &MotionLimits) -> Vec<(String, Vector2<f64>)> {
+    let table = Table::new(*geometry, &Board::empty());
+    let mut all: Vec<(String, Vector2<f64>)> = Square::ALL
+        .into_iter()
+        .map(Location::Square)
+        .chain(Location::off_board())
+        .map(|location| (location.to_string(), table.nominal_position(location)))
+        .collect();
+    let home = crate::play::home_tool(geometry, pieces, limits);
+    all.push(("the home point".to_string(), home.xy()));
+    all
+}
+
+/// The heights to check, m above the table: each grip height, the highest traverse and every
+/// [`HEIGHT_STEP`] from the lowest grip up to it.
+fn heights(pieces: &PieceSet, limits: &MotionLimits) -> Vec<f64> {
+    let mut heights: Vec<f64> = pieces.all().iter().map(|(_, d)| d.grip_height).collect();
+    let top = limits.highest_traverse(pieces);
+    let low = heights.iter().copied().fold(top, f64::min);
+    let steps = ((top - low) / HEIGHT_STEP).ceil() as usize;
+    heights.extend((0..=steps).map(|k| (low + k as f64 * HEIGHT_STEP).min(top)));
+    heights.sort_by(f64::total_cmp);
+    heights.dedup();
+    heights
+}
+
+/// The heaviest piece's payload, for the holding check.
+fn heaviest(pieces: &PieceSet) -> chessarm_core::arm::model::Payload {
+    let (role, _) = pieces
+        .all()
+        .into_iter()
+        .max_by(|a, b| a.1.mass.total_cmp(&b.1.mass))
+        .unwrap_or((shakmaty::Role::King, &pieces.king));
+    pieces.payload(role)
+}
+
+/// Whether the arm serves the tool tip at `point` (pointing down), holding the heaviest piece.
+fn serve(
+    arm: &ArmModel<4>,
+    loaded: &ArmModel<4>,
+    point: &Vector3<f64>,
+    margin: f64,
+) -> Result<JointVector<4>, Failure> {
+    let q = inverse_kinematics(arm, point, TOOL_DOWN).map_err(Failure::Ik)?;
+    let need = gravity_torques(loaded, &q);
+    for j in 0..4 {
+        let limit = margin * loaded.link(j).limits.torque;
+        if need[j].abs() > limit {
+            return Err(Failure::Torque { joint: j + 1, need: need[j].abs(), limit });
+        }
+    }
+    Ok(q)
+}
+
+/// Why one point is not served.
+#[derive(Debug, Clone, PartialEq)]
+enum Failure {
+    Ik(IkError),
+    Torque { joint: usize, need: f64, limit: f64 },
+}
+
+fn failure(place: String, height: f64, point: &Vector3<f64>, why: Failure, margin: f64) -> ReachError {
+    let (x, y) = (point.x, point.y);
+    match why {
+        Failure::Ik(source) => ReachError::Unreachable { place, height, x, y, source },
+        Failure::Torque { joint, need, limit } => {
+            ReachError::TooHeavy { place, height, x, y, joint, need, limit, margin }
+        }
+    }
+}
+
+/// The arm with the heaviest piece in its grip, for the holding check.
+fn loaded(arm: &ArmModel<4>, pieces: &PieceSet) -> ArmModel<4> {
+    arm.with_payload(Some(heaviest(pieces))).unwrap_or(*arm)
+}
+
+/// Distance (m) from `point` to the segment `a`–`b`.
+fn segment_distance(point: &Vector2<f64>, a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
+    let ab = b - a;
+    let length_squared = ab.norm_squared();
+    let t = if length_squared > 0.0 { ((point - a).dot(&ab) / length_squared).clamp(0.0, 1.0) } else { 0.0 };
+    (point - (a + ab * t)).norm()
+}
+
+/// Whether the base point lies inside the polygon of the points (as seen by the bearings: the
+/// points surround it when no half-plane through it holds them all).
+fn surrounds(base: &Vector2<f64>, points: &[Vector2<f64>]) -> bool {
+    let mut bearings: Vec<f64> = points.iter().map(|p| (p.y - base.y).atan2(p.x - base.x)).collect();
+    bearings.sort_by(f64::total_cmp);
+    // The largest gap between neighbouring bearings; the points lie in a half-plane through the
+    // base when it is at least π.
+    let gap = bearings.windows(2).map(|w| w[1] - w[0]).fold(bearings[0] + TAU - bearings[bearings.len() - 1], f64::max);
+    gap < PI
+}
+
+/// Checks that the arm serves everything a game on `geometry` can ask (see the module): the
+/// first point it does not serve is the error.
+///
+/// # Errors
+///
+/// The point, its height, and why (out of reach, a joint limit, a torque), or the board around
+/// the base.
+pub fn check_table(
+    arm: &ArmModel<4>,
+    geometry: &BoardGeometry,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+) -> Result<(), ReachError> {
+    let all = places(geometry, pieces, limits);
+    let base = arm.base().xy();
+    let points: Vec<Vector2<f64>> = all.iter().map(|(_, p)| *p).collect();
+    if surrounds(&base, &points) {
+        return Err(ReachError::AroundBase { x: base.x, y: base.y });
+    }
+    let loaded = loaded(arm, pieces);
+    let heights = heights(pieces, limits);
+    let z0 = geometry.surface_height;
+    let margin = limits.torque_margin;
+    // The locations themselves first (their messages name them), then the traverses.
+    for (name, p) in &all {
+        for &h in &heights {
+            let point = Vector3::new(p.x, p.y, z0 + h);
+            serve(arm, &loaded, &point, margin).map_err(|why| failure(name.clone(), h, &point, why, margin))?;
+        }
+    }
+    for (i, (from_name, a)) in all.iter().enumerate() {
+        for (to_name, b) in &all[i + 1..] {
+            let steps = ((b - a).norm() / SEGMENT_STEP).ceil().max(1.0) as usize;
+            for k in 1..steps {
+                let p = a + (b - a) * (k as f64 / steps as f64);
+                for &h in &heights {
+                    let point = Vector3::new(p.x, p.y, z0 + h);
+                    serve(arm, &loaded, &point, margin).map_err(|why| {
+                        failure(format!("the way from {from_name} to {to_name}"), h, &point, why, margin)
+                    })?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The radial reach of an arm along one bearing: which distances from the base axis are served
+/// at every height a game uses.
+struct Radial {
+    /// The bearing (rad, in the base frame) the table was taken along.
+    bearing: f64,
+    /// Served at every height, per `RADIAL_STEP` from 0.
+    served: Vec<bool>,
+    /// The base angle's range as bearings of the front branch, rad.
+    bearings: (f64, f64),
+}
+
+impl Radial {
+    fn new(arm: &ArmModel<4>, pieces: &PieceSet, limits: &MotionLimits, surface: f64) -> Self {
+        let links = arm.links();
+        let (lower, upper) = (links[0].limits.lower, links[0].limits.upper);
+        let offset = links[0].dh.theta_offset;
+        // The bearing of the base joint's mid-range (a joint of more than a turn: its 0).
+        let middle = if upper - lower >= TAU { 0.0 } else { 0.5 * (lower + upper) };
+        let bearing = middle + offset;
+        let reach: f64 = links.iter().map(|l| l.dh.a.abs() + l.dh.d.abs()).sum();
+        let count = (reach / RADIAL_STEP).ceil() as usize + 1;
+        let heights = heights(pieces, limits);
+        let loaded = loaded(arm, pieces);
+        let base = arm.base();
+        let direction = Vector3::new(bearing.cos(), bearing.sin(), 0.0);
+        let served = (0..count)
+            .map(|k| {
+                let r = k as f64 * RADIAL_STEP;
+                heights.iter().all(|h| {
+                    let point = base + direction * r + Vector3::new(0.0, 0.0, surface + h);
+                    serve(arm, &loaded, &point, limits.torque_margin)
+                        // The front branch only: the base turned towards the point.
+                        .is_ok_and(|q| wrap(q[0] + offset - bearing).abs() < FRAC_PI_2)
+                })
+            })
+            .collect();
+        Self { bearing, served, bearings: (lower + offset, upper + offset) }
+    }
+
+    /// The served stretch `[low, high]` (m) that holds `r`, if `r` is served.
+    fn stretch(&self, r: f64) -> Option<(f64, f64)> {
+        let k = (r / RADIAL_STEP).round() as usize;
+        if !self.served.get(k).copied().unwrap_or(false) {
+            return None;
+        }
+        let low = (0..=k).rev().take_while(|i| self.served[*i]).last().unwrap_or(k);
+        let high = (k..self.served.len()).take_while(|i| self.served[*i]).last().unwrap_or(k);
+        Some((low as f64 * RADIAL_STEP, high as f64 * RADIAL_STEP))
+    }
+}
+
+/// `angle` in `(−π, π]`.
+fn wrap(angle: f64) -> f64 {
+    chessarm_core::arm::task::wrap_angle(angle)
+}
+
+/// How well one board pose is served by the radial table: the smallest margin (m) of any point
+/// to the edge of the served stretch and of any bearing to the base joint's range (as arc
+/// length at the farthest point), or `None` when something is not served.
+fn proxy_margin(radial: &Radial, base: &Vector2<f64>, points: &[Vector2<f64>]) -> Option<f64> {
+    if surrounds(base, points) {
+        return None;
+    }
+    let far = points.iter().map(|p| (p - base).norm()).fold(0.0, f64::max);
+    let mut near = f64::INFINITY;
+    for (i, a) in points.iter().enumerate() {
+        for b in &points[i + 1..] {
+            near = near.min(segment_distance(base, a, b));
+        }
+    }
+    let (low, high) = radial.stretch(far)?;
+    if near < low - 1e-12 {
+        return None;
+    }
+    let radial_margin = (near - low).min(high - far);
+    // Bearings relative to the table's bearing, within the base joint's range (front branch).
+    let (from, to) = radial.bearings;
+    let mut bearing_margin = f64::INFINITY;
+    for p in points {
+        let relative = wrap((p.y - base.y).atan2(p.x - base.x) - radial.bearing);
+        let bearing = radial.bearing + relative;
+        let inside = if to - from >= TAU { f64::INFINITY } else { (bearing - from).min(to - bearing) };
+        if inside < 0.0 {
+            return None;
+        }
+        bearing_margin = bearing_margin.min(inside * far);
+    }
+    Some(radial_margin.min(bearing_margin))
+}
+
+/// The fitted board and what it leaves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fit {
+    pub board: BoardGeometry,
+    /// The piece set scaled to the fitted squares.
+    pub pieces: PieceSet,
+    /// The smallest margin of the radial table over the board's points, m.
+    pub margin: f64,
+    /// How many board poses the search tried.
+    pub tried: usize,
+}
+
+/// `pieces` scaled from squares of `from` m to `to` m: lengths × `to/from`, masses × its cube.
+pub fn scaled_pieces(pieces: &PieceSet, from: f64, to: f64) -> PieceSet {
+    let k = to / from;
+    let mut scaled = *pieces;
+    for role in shakmaty::Role::ALL {
+        let d = scaled.dimensions_mut(role);
+        d.height *= k;
+        d.base_diameter *= k;
+        d.grip_height *= k;
+        d.mass *= k * k * k;
+    }
+    scaled
+}
+
+/// The largest board (and its pose, and the pieces scaled to it from `pieces` on squares of
+/// `square_size` m) that the arm serves, on a table at `surface` m (see the module).
+///
+/// # Errors
+///
+/// No board with squares of at least 1 cm is served.
+pub fn fit_board(
+    arm: &ArmModel<4>,
+    pieces: &PieceSet,
+    square_size: f64,
+    limits: &MotionLimits,
+    surface: f64,
+) -> Result<Fit, ReachError> {
+    const SMALLEST: f64 = 0.01;
+    let base = arm.base().xy();
+    let mut tried = 0;
+    // The best pose for squares of `s` m: (margin, board), or None.
+    let mut best_at = |s: f64| -> Option<(f64, BoardGeometry, PieceSet)> {
+        let scaled = scaled_pieces(pieces, square_size, s);
+        let radial = Radial::new(arm, &scaled, limits, surface);
+        let reach = radial.served.len() as f64 * RADIAL_STEP;
+        let direction = Vector2::new(radial.bearing.cos(), radial.bearing.sin());
+        let mut best: Option<(f64, BoardGeometry)> = None;
+        // Rank 1 towards the arm, the board turned a quarter either way (the arm beside the
+        // a- or h-file), or rank 8 towards the arm.
+        for turn in [0.0, FRAC_PI_2, -FRAC_PI_2, PI] {
+            let yaw = wrap(radial.bearing - FRAC_PI_2 + turn);
+            let steps = (reach / 0.002).ceil() as usize;
+            for k in 0..=steps {
+                let distance = k as f64 * 0.002;
+                let board = BoardGeometry {
+                    square_size: s,
+                    center: base + direction * distance,
+                    surface_height: surface,
+                    yaw: if yaw.abs() < 1e-12 { 0.0 } else { yaw },
+                };
+                tried += 1;
+                let points: Vec<Vector2<f64>> = places(&board, &scaled, limits).into_iter().map(|(_, p)| p).collect();
+                if let Some(margin) = proxy_margin(&radial, &base, &points)
+                    && best.is_none_or(|(m, _)| margin > m)
+                {
+                    best = Some((margin, board));
+                }
+            }
+        }
+        best.map(|(margin, board)| (margin, board, scaled))
+    };
+    let Some(mut found) = best_at(SMALLEST) else {
+        return Err(ReachError::NoFit {
+            smallest: SMALLEST,
+            why: "not even squares of 1 cm: the arm's reach with the tool pointing down, its joint limits or its \
+                  torques leave no room"
+                .into(),
+        });
+    };
+    // Bisection on the square size, to 0.1 mm.
+    let (mut low, mut high) = (SMALLEST, 0.2);
+    while high - low > 1e-4 {
+        let middle = 0.5 * (low + high);
+        match best_at(middle) {
+            Some(fit) => {
+                low = middle;
+                found = fit;
+            }
+            None => high = middle,
+        }
+    }
+    // The proxy's grid against the full check: shrink by 1 % until it passes.
+    for _ in 0..20 {
+        let (margin, board, scaled) = found;
+        match check_table(arm, &board, &scaled, limits) {
+            Ok(()) => return Ok(Fit { board, pieces: scaled, margin, tried }),
+            Err(error) => {
+                let smaller = board.square_size * 0.99;
+                found =
+                    best_at(smaller).ok_or_else(|| ReachError::NoFit { smallest: smaller, why: error.to_string() })?;
+            }
+        }
+    }
+    let (_, board, scaled) = found;
+    check_table(arm, &board, &scaled, limits)
+        .map_err(|error| ReachError::NoFit { smallest: board.square_size, why: error.to_string() })?;
+    Err(ReachError::NoFit { smallest: board.square_size, why: "the search did not settle".into() })
+}
+
+/// Per square, the radial table's margin (m) at the square's centre over all heights, or why
+/// it is not served: for the reach map.
+pub fn square_margins(
+    arm: &ArmModel<4>,
+    geometry: &BoardGeometry,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+) -> Vec<(Square, Result<f64, String>)> {
+    let radial = Radial::new(arm, pieces, limits, geometry.surface_height);
+    let base = arm.base().xy();
+    let loaded = loaded(arm, pieces);
+    let heights = heights(pieces, limits);
+    Square::ALL
+        .into_iter()
+        .map(|square| {
+            let c = geometry.square_center(square);
+            let r = (c.xy() - base).norm();
+            for &h in &heights {
+                let point = Vector3::new(c.x, c.y, geometry.surface_height + h);
+                if let Err(why) = serve(arm, &loaded, &point, limits.torque_margin) {
+                    return (
+                        square,
+                        Err(failure(square.to_string(), h, &point, why, limits.torque_margin).to_string()),
+                    );
+                }
+            }
+            let margin = radial.stretch(r).map_or(0.0, |(low, high)| (r - low).min(high - r));
+            (square, Ok(margin))
+        })
+        .collect()
+}
