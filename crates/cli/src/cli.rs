@@ -414,6 +414,9 @@ pub struct PlayArgs {
     pub motion: MotionArgs,
     #[command(flatten)]
     pub placement: PlacementArgs,
+    /// Integration time step of the plant, s (as `simulate`'s; smaller when a run diverges).
+    #[arg(long, default_value_t = 0.001, value_parser = args::positive, allow_hyphen_values = true)]
+    pub dt: f64,
     /// Integrator of the plant.
     #[arg(long, value_enum, default_value_t)]
     pub integrator: IntegratorChoice,

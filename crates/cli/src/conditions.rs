@@ -272,9 +272,14 @@ pub struct ConditionArgs {
     #[arg(long, value_name = "S", value_parser = args::time_constants, allow_hyphen_values = true)]
     pub torque_lag: Option<[f64; 4]>,
     /// The controller is told --arm's friction (viscous, coulomb) and compensates it; without
-    /// it, friction acts in the plant only.
-    #[arg(long)]
+    /// it, friction acts in the plant only. The default with --urdf (the file's <dynamics> are
+    /// part of its model).
+    #[arg(long, conflicts_with = "controller_ignores_friction")]
     pub controller_knows_friction: bool,
+    /// With --urdf: the controller does not compensate the file's <dynamics> friction (it acts
+    /// in the plant only), as without --urdf.
+    #[arg(long)]
+    pub controller_ignores_friction: bool,
     /// The true arm and pieces: a second setup file (the controller keeps --arm's model).
     #[arg(long, value_name = "FILE")]
     pub plant: Option<PathBuf>,
@@ -288,6 +293,14 @@ pub struct ConditionArgs {
     /// Run one trial of `robustness` alone: the trial_seed of its row in robustness.csv.
     #[arg(long, value_name = "SEED", conflicts_with = "seed")]
     pub trial_seed: Option<u64>,
+}
+
+impl ConditionArgs {
+    /// Whether the controllers compensate the arm's friction: `--controller-knows-friction`,
+    /// or by default with `--urdf` (unless `--controller-ignores-friction`).
+    pub fn knows_friction(&self, setup: &Setup) -> bool {
+        self.controller_knows_friction || (setup.urdf_path.is_some() && !self.controller_ignores_friction)
+    }
 }
 
 /// The conditions of a study, parsed once; [`Study::trial`] draws one run's.
@@ -478,8 +491,32 @@ impl Study {
             plant_file: args.plant.clone(),
             uncertainty,
             uncertainty_file,
-            controller_knows_friction: args.controller_knows_friction,
+            controller_knows_friction: args.knows_friction(setup),
         })
+    }
+
+    /// The plant's friction the controllers do not compensate, per joint (viscous N·m·s/rad,
+    /// Coulomb N·m), or `None` when there is none or they do.
+    pub fn unmodelled_friction(&self) -> Option<Vec<[f64; 2]>> {
+        (!self.controller_knows_friction && self.plant.has_friction())
+            .then(|| self.plant.links().iter().map(|l| [l.friction.viscous, l.friction.coulomb]).collect())
+    }
+
+    /// A line for the terminal when the plant has friction the controllers do not compensate:
+    /// what it is, against the torque limits, and the flag that changes it.
+    pub fn friction_note(&self) -> Option<String> {
+        self.unmodelled_friction()?;
+        let links = self.plant.links();
+        let share = links
+            .iter()
+            .map(|l| (l.friction.coulomb + l.friction.viscous * l.limits.velocity) / l.limits.torque)
+            .fold(0.0, f64::max);
+        Some(format!(
+            "note: the plant has friction the controller does not compensate (Coulomb {} N·m, viscous {} N·m·s/rad per              joint; at top speed up to {:.1} % of a torque limit): tracking errors grow with it;              --controller-knows-friction compensates it\n",
+            links.iter().map(|l| chessarm_core::short_number(l.friction.coulomb)).collect::<Vec<_>>().join(", "),
+            links.iter().map(|l| chessarm_core::short_number(l.friction.viscous)).collect::<Vec<_>>().join(", "),
+            100.0 * share
+        ))
     }
 
     /// Whether every run sees the exact state of the controller's own arm and pieces.
@@ -557,6 +594,7 @@ impl Study {
             "estimator": estimator,
             "torque_lag_s": self.torque_lag.as_slice(),
             "controller_knows_friction": self.controller_knows_friction,
+            "unmodelled_friction": self.unmodelled_friction(),
             "plant_file": self.plant_file.as_ref().map(|p| p.display().to_string()),
             "uncertainty": self.uncertainty_file,
         })

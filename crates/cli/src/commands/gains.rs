@@ -63,7 +63,7 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
             name: name.into(),
             kind: ControllerKind::ComputedTorque,
             gains,
-            knows_friction: args.conditions.controller_knows_friction,
+            knows_friction: args.conditions.knows_friction(setup),
         };
         // What the design promises: the exact response of the error dynamics.
         let shape = ResponseShape::of(zeta, ratio);

@@ -103,7 +103,7 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let setup = &args.motion.apply(setup)?;
     let mut spec = controller_specs(&[args.controller.into()], &args.gains, DefaultGains::Game)?.remove(0);
-    spec.knows_friction = args.conditions.controller_knows_friction;
+    spec.knows_friction = args.conditions.knows_friction(setup);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     let settings_name = spec.name.clone();
     settings.controller = spec;
@@ -112,6 +112,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let ideal = study.is_ideal(setup);
     if !ideal {
         crate::tell(&study.note(args.conditions.run_seed()));
+    }
+    if let Some(note) = study.friction_note() {
+        crate::tell(&note);
     }
     if !ideal {
         settings.plant = Some(trial.plant);
@@ -125,6 +128,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     settings.controller_knows_payload = args.controller_knows_payload;
     args.placement.apply(&mut settings, args.tolerance_mm / 1e3, study.tip_quantum(setup));
     settings.integrator = args.integrator.integrator();
+    settings.dt = args.dt;
     settings.tolerance = args.tolerance_mm / 1e3;
     settings.limits.tracking = study.tracking(
         setup,
@@ -259,6 +263,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let mut summary = game_json(&game, &reports, wall_time_s, &dependence, &result);
     summary["controller"] = json!(settings_name);
     summary["conditions"] = if ideal { Value::Null } else { study.describe() };
+    summary["dt_s"] = json!(args.dt);
+    // Friction the plant has and the controller does not compensate, said in game.json too.
+    summary["unmodelled_friction"] = json!(study.unmodelled_friction());
     summary["trial"] = if ideal { Value::Null } else { trial.describe() };
     let all_waits = chessarm_chess::play::WaitTotals::of(reports.iter().flat_map(|r| &r.waits));
     let game_json_path = args.out.join("game.json");

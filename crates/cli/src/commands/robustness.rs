@@ -468,7 +468,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let defaults = if args.game_file.is_some() { DefaultGains::Game } else { DefaultGains::Report };
     let mut specs = controller_specs(&args.controller, &args.gains, defaults)?;
     for spec in &mut specs {
-        spec.knows_friction = args.conditions.controller_knows_friction;
+        spec.knows_friction = args.conditions.knows_friction(setup);
     }
     let study = Study::for_trials(setup, &args.conditions, 1e-3)?;
     if args.conditions.trial_seed.is_some() {

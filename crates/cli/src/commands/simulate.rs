@@ -731,7 +731,7 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     }
     let mut specs = controller_specs(&args.controller, &args.gains, DefaultGains::Report)?;
     for spec in &mut specs {
-        spec.knows_friction = args.conditions.controller_knows_friction;
+        spec.knows_friction = args.conditions.knows_friction(setup);
     }
     let options = options_from(setup, args)?;
     let total = study_steps(setup, &args.scenario, &options)?.saturating_mul(specs.len() as u64);

@@ -472,7 +472,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         controller_knows_payload: args.controller_knows_payload,
         placement: args.placement.clone(),
         kind,
-        knows_friction: args.conditions.controller_knows_friction,
+        knows_friction: args.conditions.knows_friction(setup),
         trial,
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(args),
