@@ -517,6 +517,18 @@ impl SetupFile {
             king: pick("king", given.king, default.king)?,
         }
         .validated()?;
+        // A piece wider than a square would touch its neighbours where they stand.
+        for (role, d) in pieces.all() {
+            if d.base_diameter >= board.square_size {
+                bail!(
+                    "pieces.{}.base_diameter = {} m is not narrower than a square (board.square_size = {} m): a piece \
+                     must fit its square (`chessarm board --fit` scales the pieces with the squares)",
+                    chessarm_chess::pieces::role_name(role),
+                    d.base_diameter,
+                    board.square_size
+                );
+            }
+        }
         for (name, profile) in &self.sensors {
             if chessarm_core::sense::SensorProfile::<4>::named(name).is_some() {
                 bail!("sensors.{name}: a built-in profile has this name; choose another");

@@ -7,7 +7,7 @@
 //!   `accelerations` rad/s², `effort` (empty), `time_from_start` {`sec`, `nanosec`}), so
 //!   `rosidl_runtime_py.set_message_fields(JointTrajectory(), data["trajectory"])` fills the
 //!   message; `gripper` lists the commands (`close`/`open`, the instant, the piece and where).
-//! - `NNN-<uci>.csv`: `t` s, `q1..q4` rad, `qd1..qd4` rad/s, `qdd1..qdd4` rad/s², one column
+//! - `NNN-<uci>.csv`: `t` s, `q1..q4` rad, `qd1..qd4` rad/s, `qdd1..qdd4` rad/s², `q_<name>`
 //!   per held joint (its position, rad or m), `gripper` (`open`/`closed`), `piece` (the piece
 //!   held, empty when open): one row per sample, to stream to servos row by row at the times in
 //!   `t`.
@@ -139,8 +139,8 @@ pub fn write_move(
         let mut writer = csv::Writer::from_writer(out);
         let mut header = vec!["t".to_string()];
         header.extend(numbered("q", 4).chain(numbered("qd", 4)).chain(numbered("qdd", 4)));
-        // Each held joint's position under its own name (its rates are 0).
-        header.extend(convention.locked.iter().map(|j| j.name.clone()));
+        // Each held joint's position as `q_<name>` (its rates are 0).
+        header.extend(convention.locked.iter().map(|j| format!("q_{}", j.name)));
         header.extend(["gripper".to_string(), "piece".to_string()]);
         writer.write_record(&header)?;
         for point in points {

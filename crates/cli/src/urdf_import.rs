@@ -382,6 +382,7 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
         }
     };
     let mut defaults = Vec::new();
+    let user_locked: std::collections::HashSet<usize> = values.keys().copied().collect();
     for (j, joint) in joints.iter().enumerate() {
         if joint.kind == "fixed" || arm_set.contains(&j) {
             continue;
@@ -419,8 +420,9 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
             );
         }
         values.insert(j, value);
+        // A gripper's joint: off the way to the tool, after the arm, not held by the user.
         let gripper = match range {
-            Some((lower, upper)) if after_arm(j) => {
+            Some((lower, upper)) if after_arm(j) && !on_path.contains(&j) && !user_locked.contains(&j) => {
                 Some(if upper.abs() >= lower.abs() { [upper, lower] } else { [lower, upper] })
             }
             _ => None,

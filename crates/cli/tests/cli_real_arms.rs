@@ -1,0 +1,153 @@
+//! The makers' own arms (`tests/fixtures/real-arms`, their official URDFs as published): the two
+//! commands a maker runs — `board --fit`, then `play` on the fitted board — play the Opera game
+//! with every piece in place, with ideal and with hobby sensors; the hardware export lists every
+//! joint of the file, and its angles, put into the file's own kinematics (parsed by urdf-rs, not
+//! chessarm, every joint in the file's sense and the held ones at their exported values), put
+//! the tool link where the game planned each grip and release.
+//! (The dynamics of the same files against Pinocchio: `crates/python/tests/test_real_arms.py`.)
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use chessarm_core::nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
+use common::{chessarm, json_of};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
+const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
+
+/// Each file, the flags it needs (the SO-101's fifth joint held), its tool link, and how far
+/// the file's own kinematics may be from chessarm's: the SO-101's CAD export rounds π to
+/// 3.14159 and π/2 to 1.5708 (≤ 3.7e-6 rad), which chessarm's import makes exact for the arm's
+/// axes (within 1e-5 rad), so the two differ by that rounding times the levers (≤ 0.5 m):
+/// 5e-6 m; the other two files write their angles in full: rounding of the products, 1e-9 m.
+const ARMS: [(&str, &[&str], &str, f64); 3] = [
+    ("open_manipulator_x", &[], "end_effector_link", 1e-9),
+    ("px100", &[], "px100/ee_gripper_link", 1e-9),
+    ("so101_new_calib", &["--lock", "wrist_roll=0"], "gripper_frame_link", 5e-6),
+];
+
+fn urdf(name: &str) -> PathBuf {
+    Path::new(FIXTURES).join(format!("{name}.urdf"))
+}
+
+/// The pose of `link` in the root link's frame for the joint values `values` (by name; a joint
+/// not named is at 0), composed from the file's origins, axes and joint types.
+fn file_fk(robot: &urdf_rs::Robot, link: &str, values: &BTreeMap<String, f64>) -> Isometry3<f64> {
+    let mut pose = Isometry3::identity();
+    let mut current = link.to_string();
+    while let Some(joint) = robot.joints.iter().find(|j| j.child.link == current) {
+        let o = &joint.origin;
+        let origin = Isometry3::from_parts(
+            Translation3::new(o.xyz[0], o.xyz[1], o.xyz[2]),
+            UnitQuaternion::from_euler_angles(o.rpy[0], o.rpy[1], o.rpy[2]),
+        );
+        let axis = Unit::new_normalize(Vector3::new(joint.axis.xyz[0], joint.axis.xyz[1], joint.axis.xyz[2]));
+        let value = values.get(&joint.name).copied().unwrap_or(0.0);
+        let motion = match joint.joint_type {
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
+                Isometry3::from_parts(Translation3::identity(), UnitQuaternion::from_axis_angle(&axis, value))
+            }
+            urdf_rs::JointType::Prismatic => {
+                Isometry3::from_parts(Translation3::from(axis.into_inner() * value), UnitQuaternion::identity())
+            }
+            _ => Isometry3::identity(),
+        };
+        pose = origin * motion * pose;
+        current = joint.parent.link.clone();
+    }
+    pose
+}
+
+#[test]
+fn each_makers_arm_fits_a_board_and_plays_the_opera_game_with_every_piece_in_place() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, flags, tool, tolerance) in ARMS {
+        let path = urdf(name);
+        let base: Vec<&str> = [&["--urdf", path.to_str().unwrap()][..], flags].concat();
+        // 1. The largest board the arm serves, as a setup file.
+        let fit = json_of(&chessarm(&[&base[..], &["board", "--fit"]].concat()));
+        assert_eq!(fit["served"], true, "{name}: {fit}");
+        let square = fit["square_size_m"].as_f64().unwrap();
+        // Smaller than the default 6 cm squares (every file refuses the default board), and a
+        // playable board (at least a 1 cm square).
+        assert!((0.01..0.06).contains(&square), "{name}: {square}");
+        eprintln!("{name}: squares of {:.1} mm in {:.2} s", square * 1e3, fit["seconds"].as_f64().unwrap());
+        let setup = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&setup, fit["setup"].as_str().unwrap()).unwrap();
+        // The default board is not served, and says which command finds one that is.
+        let refused = chessarm(
+            &[&base[..], &["play", "--moves", "e4", "--out"], &[dir.path().join("x").to_str().unwrap()]].concat(),
+        );
+        assert!(!refused.status.success());
+        assert!(String::from_utf8_lossy(&refused.stderr).contains("chessarm board --fit"), "{name}");
+        // 2. The Opera game on it, ideal sensors and hobby ones.
+        for sensors in ["ideal", "hobby"] {
+            let out = dir.path().join(format!("{name}-{sensors}"));
+            let args = [
+                &base[..],
+                &["--arm", setup.to_str().unwrap(), "play", OPERA, "--sensors", sensors, "--out"],
+                &[out.to_str().unwrap()],
+            ]
+            .concat();
+            let game = json_of(&chessarm(&args));
+            assert_eq!(game["result"], "1-0", "{name} {sensors}: {game}");
+            assert_eq!(game["misplaced"], 0, "{name} {sensors}: {game}");
+            assert_eq!(game["final_fen_physical"], game["final_fen_rules"], "{name} {sensors}");
+            if sensors == "ideal" {
+                check_hardware(name, &out.join("hardware"), tool, tolerance);
+            }
+        }
+    }
+}
+
+/// Every move's export names every moving joint of the file, and at every gripper command the
+/// file's own kinematics put the tool link where the game planned it.
+fn check_hardware(name: &str, dir: &Path, tool: &str, tolerance: f64) {
+    let robot = urdf_rs::read_file(urdf(name)).unwrap();
+    let moving: std::collections::BTreeSet<String> = robot
+        .joints
+        .iter()
+        .filter(|j| !matches!(j.joint_type, urdf_rs::JointType::Fixed))
+        .map(|j| j.name.clone())
+        .collect();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 33, "{name}: one export per robot move");
+    let mut checked = 0;
+    for file in &files {
+        let value: Value = serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+        let trajectory = &value["trajectory"];
+        let names: Vec<String> =
+            trajectory["joint_names"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().to_string()).collect();
+        assert_eq!(names.iter().cloned().collect::<std::collections::BTreeSet<_>>(), moving, "{name}: {file:?}");
+        let time = |p: &Value| {
+            p["time_from_start"]["sec"].as_f64().unwrap() + p["time_from_start"]["nanosec"].as_f64().unwrap() * 1e-9
+        };
+        for command in value["gripper"].as_array().unwrap() {
+            let planned: Vec<f64> = common::numbers(&command["wait_until_in_position"]["tool_tip_m"]);
+            let t = command["t"].as_f64().unwrap();
+            let point = trajectory["points"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|p| (time(p) - t).abs() < 1e-9)
+                .unwrap_or_else(|| panic!("{name}: no sample at the command's time {t} s in {file:?}"));
+            let values: BTreeMap<String, f64> =
+                names.iter().cloned().zip(common::numbers(&point["positions"])).collect();
+            let tip = file_fk(&robot, tool, &values).translation.vector;
+            let error = (tip - Vector3::new(planned[0], planned[1], planned[2])).norm();
+            assert!(error < tolerance, "{name} {file:?} at {t} s: the file's FK puts the tool {error:e} m off");
+            checked += 1;
+        }
+    }
+    // Two commands (close, open) per grip; the Opera game's robot moves grip 33 times or more.
+    assert!(checked >= 66, "{name}: {checked}");
+}
