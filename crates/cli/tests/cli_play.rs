@@ -271,3 +271,44 @@ fn ctrl_c_during_an_engine_game_takes_the_engine_s_helpers_with_it() {
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
 }
+
+#[test]
+fn a_game_that_stops_part_way_leaves_nothing_that_passes_for_a_whole_game() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    // A finished game in the folder first: its game.json must not survive the failed one.
+    let first = chessarm(&["play", "--moves", "e4", "--out", out.to_str().unwrap()]);
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    assert!(out.join("hardware").is_dir());
+    // The robot plays white (its own engine); the opponent's engine answers an illegal move at
+    // ply 2, after the robot's first move was planned, simulated and exported.
+    let illegal = fake_engine(dir.path(), "illegal.sh", "echo 'bestmove e2e5'");
+    let output =
+        chessarm(&["play", "--engine", &illegal, "--robot", "white", "--plies", "4", "--out", out.to_str().unwrap()]);
+    // The moves so far on the terminal (with --json, on stderr), then the error, one line.
+    assert_eq!(output.status.code(), Some(2));
+    assert!(output.stdout.is_empty());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let last = stderr.trim_end().lines().last().unwrap();
+    for needle in ["stopped at ply 2", "1 played", "e2e5"] {
+        assert!(last.starts_with("error:") && last.contains(needle), "{needle}: {stderr}");
+    }
+    let record: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    assert_eq!(record["complete"], false, "{record}");
+    assert_eq!(record["failed_at_ply"], 2, "{record}");
+    assert!(record["error"].as_str().unwrap().contains("e2e5"), "{record}");
+    // The trajectories of the move it made are kept aside, where no driver looks for a game.
+    assert!(!out.join("hardware").exists());
+    let aside: Vec<String> = std::fs::read_dir(out.join("hardware-incomplete"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".json"))
+        .collect();
+    assert_eq!(aside.len(), 1, "{aside:?}");
+    assert!(aside[0].starts_with("001-"), "{aside:?}");
+    // A whole game says so.
+    let whole = chessarm(&["play", "--moves", "e4", "--out", out.to_str().unwrap()]);
+    assert!(whole.status.success(), "{}", String::from_utf8_lossy(&whole.stderr));
+    let record: Value = serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    assert_eq!(record["complete"], true);
+}

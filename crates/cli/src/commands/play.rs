@@ -194,61 +194,92 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     // The tip error of every recorded step (robot time s, mm), for the game's plot.
     let mut tip_errors: Vec<(f64, f64)> = Vec::new();
     let mut replay = ReplayBuilder::new(first_number, start_pose);
-    for ply in 0..total {
-        if crate::cancelled() {
-            return Err(crate::interrupted());
-        }
-        // A given game is replayed whole; an engine game stops at its result.
-        if matches!(source, Source::Engines { .. }) && game.outcome().is_some() {
-            break;
-        }
-        let turn = game.position().turn();
-        let mv = match &mut source {
-            Source::Record(record) => record.moves[ply],
-            Source::Engines { robot, opponent, .. } => {
-                let player =
-                    if robot_moves(args.robot, turn) && args.robot != RobotSide::Both { robot } else { opponent };
-                player.choose_move(game.position()).with_context(|| format!("ply {}", ply + 1))?
+    let mut played = || -> Result<()> {
+        for ply in 0..total {
+            if crate::cancelled() {
+                return Err(crate::interrupted());
             }
-        };
-        let mover = if robot_moves(args.robot, turn) { Mover::Robot } else { Mover::Opponent };
-        let mut report = game.play(&mv, mover)?;
-        if reports.is_empty() {
-            say(&bar, header.clone());
-        }
-        say(&bar, move_line(&report));
-        if report.mover == Mover::Robot {
-            write_move_csv(&moves_dir, &report, &setup.convention)?;
-        }
-        if let Some(hardware) = report.hardware.take() {
-            ensure_dir(&hardware_dir)?;
-            let label = MoveLabel {
-                ply: report.ply,
-                san: &report.san,
-                uci: &report.uci,
-                grips: hardware.grips.clone(),
-                fine_points: hardware.fine_points.clone(),
-                in_position: hardware.in_position,
+            // A given game is replayed whole; an engine game stops at its result.
+            if matches!(source, Source::Engines { .. }) && game.outcome().is_some() {
+                break;
+            }
+            let turn = game.position().turn();
+            let mv = match &mut source {
+                Source::Record(record) => record.moves[ply],
+                Source::Engines { robot, opponent, .. } => {
+                    let player =
+                        if robot_moves(args.robot, turn) && args.robot != RobotSide::Both { robot } else { opponent };
+                    player.choose_move(game.position()).with_context(|| format!("ply {}", ply + 1))?
+                }
             };
-            crate::hardware::write_move(
-                &hardware_dir,
-                &format!("{:03}-{}", report.ply, report.uci),
-                (&setup.base_link, &setup.joint_names, &setup.convention),
-                &hardware.points,
-                &hardware.commands,
-                &label,
-                args.export_rate,
-            )?;
+            let mover = if robot_moves(args.robot, turn) { Mover::Robot } else { Mover::Opponent };
+            let mut report = game.play(&mv, mover)?;
+            if reports.is_empty() {
+                say(&bar, header.clone());
+            }
+            say(&bar, move_line(&report));
+            if report.mover == Mover::Robot {
+                write_move_csv(&moves_dir, &report, &setup.convention)?;
+            }
+            if let Some(hardware) = report.hardware.take() {
+                ensure_dir(&hardware_dir)?;
+                let label = MoveLabel {
+                    ply: report.ply,
+                    san: &report.san,
+                    uci: &report.uci,
+                    grips: hardware.grips.clone(),
+                    fine_points: hardware.fine_points.clone(),
+                    in_position: hardware.in_position,
+                };
+                crate::hardware::write_move(
+                    &hardware_dir,
+                    &format!("{:03}-{}", report.ply, report.uci),
+                    (&setup.base_link, &setup.joint_names, &setup.convention),
+                    &hardware.points,
+                    &hardware.commands,
+                    &label,
+                    args.export_rate,
+                )?;
+            }
+            bar.inc(1);
+            // The recorded steps are in the move's CSV now: only the plot's and the replay's share
+            // of them stays (16 of a step's 300-odd bytes, and the replay's frames), so that
+            // memory does not grow with the records of every move.
+            tip_errors
+                .extend(report.records.iter().map(|r| (report.start_time + r.t, (r.tip - r.tip_desired).norm() * 1e3)));
+            replay.add(&report);
+            report.records = Vec::new();
+            reports.push(report);
         }
-        bar.inc(1);
-        // The recorded steps are in the move's CSV now: only the plot's and the replay's share
-        // of them stays (16 of a step's 300-odd bytes, and the replay's frames), so that
-        // memory does not grow with the records of every move.
-        tip_errors
-            .extend(report.records.iter().map(|r| (report.start_time + r.t, (r.tip - r.tip_desired).norm() * 1e3)));
-        replay.add(&report);
-        report.records = Vec::new();
-        reports.push(report);
+        Ok(())
+    };
+    if let Err(error) = played() {
+        bar.finish_and_clear();
+        // A game that stops part-way for any reason leaves nothing that passes for a whole
+        // game: game.json says where and why, and the hardware trajectories so far move to
+        // hardware-incomplete/ (a driver reading hardware/ finds none).
+        let record = json!({
+            "complete": false,
+            "failed_at_ply": reports.len() + 1,
+            "plies_played": reports.len(),
+            "error": crate::one_line(&error),
+        });
+        write_json(&args.out.join("game.json"), &record)?;
+        if hardware_dir.is_dir() {
+            let incomplete = args.out.join("hardware-incomplete");
+            if incomplete.is_dir() {
+                remove_listed_in(&incomplete)?;
+                let _ = std::fs::remove_dir(&incomplete);
+            }
+            std::fs::rename(&hardware_dir, &incomplete)
+                .with_context(|| format!("cannot move {} aside", hardware_dir.display()))?;
+        }
+        return Err(error.context(format!(
+            "the game stopped at ply {} ({} played; {} says so)",
+            reports.len() + 1,
+            reports.len(),
+            args.out.join("game.json").display()
+        )));
     }
     bar.finish_and_clear();
     let wall_time_s = started.elapsed().as_secs_f64();
@@ -261,6 +292,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     }
     let result = game_result(&game, &source, args, reports.len());
     let mut summary = game_json(&game, &reports, wall_time_s, &dependence, &result);
+    summary["complete"] = json!(true);
     summary["controller"] = json!(settings_name);
     summary["conditions"] = if ideal { Value::Null } else { study.describe() };
     summary["dt_s"] = json!(args.dt);
