@@ -26,9 +26,9 @@ fn import(c: &mut Criterion) {
     group.sample_size(10);
     for extra in [0, 10_000, 100_000] {
         let text = with_fixed_links(extra);
-        chessarm::urdf_import::from_urdf(&text).expect("the arm loads");
+        chessarm::urdf_import::from_urdf(&text, &Default::default()).expect("the arm loads");
         group.bench_function(format!("{extra} fixed links after the tool ({} kB)", text.len() / 1000), |b| {
-            b.iter(|| chessarm::urdf_import::from_urdf(black_box(&text)))
+            b.iter(|| chessarm::urdf_import::from_urdf(black_box(&text), &Default::default()))
         });
     }
     group.finish();

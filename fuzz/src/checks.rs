@@ -168,10 +168,10 @@ pub fn check_setup_toml(data: &[u8]) {
 /// errors (with their context chain) are one line.
 pub fn check_urdf(data: &[u8]) {
     let input = text(data);
-    match chessarm::urdf_import::from_urdf(&input) {
+    match chessarm::urdf_import::from_urdf(&input, &chessarm::urdf_import::ImportOptions::default()) {
         Ok(imported) => {
             let printed = chessarm::urdf::to_urdf(&imported.model, "chessarm", &imported.joint_names);
-            let again = chessarm::urdf_import::from_urdf(&printed)
+            let again = chessarm::urdf_import::from_urdf(&printed, &chessarm::urdf_import::ImportOptions::default())
                 .unwrap_or_else(|e| panic!("the export of {input:?} does not import: {e:#}\n{printed}"));
             assert_eq!(again.joint_names, imported.joint_names, "joint names of the export of {input:?}");
             let close = |what: &str, a: &[f64], b: &[f64]| {
@@ -179,6 +179,7 @@ pub fn check_urdf(data: &[u8]) {
                 let far = a.iter().zip(b).any(|(x, y)| (x - y).abs() > 1e-9 * scale);
                 assert!(!far, "{what} of the re-imported export of {input:?}: {a:?} vs {b:?}");
             };
+            close("base", imported.model.base().as_slice(), again.model.base().as_slice());
             for (k, (one, two)) in imported.model.links().iter().zip(again.model.links()).enumerate() {
                 let angles = |l: &chessarm_core::arm::model::Link| {
                     let (a, t) = (l.dh.alpha, l.dh.theta_offset);

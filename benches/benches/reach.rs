@@ -1,0 +1,29 @@
+//! What a game asks of the arm's reach (issue 35): the pre-flight check of the report's board
+//! (every location at every height, every traverse between two of them), and `board --fit` for
+//! a maker's arm from its official URDF (the OpenManipulator-X, as published).
+
+use chessarm::config::Setup;
+use chessarm_chess::reach::{check_table, fit_board};
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+
+fn reach(c: &mut Criterion) {
+    let mut group = c.benchmark_group("reach");
+    group.sample_size(10);
+    let setup = Setup::default();
+    group.bench_function("pre-flight check, the report's arm and board", |b| {
+        b.iter(|| check_table(black_box(&setup.arm), &setup.board, &setup.pieces, &setup.motion))
+    });
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../crates/cli/tests/fixtures/real-arms/open_manipulator_x.urdf");
+    let arm = chessarm::urdf_import::load(std::path::Path::new(path), &Default::default()).expect("the arm loads");
+    group.bench_function("board --fit, OpenManipulator-X", |b| {
+        b.iter(|| {
+            fit_board(black_box(&arm.model), &setup.pieces, setup.board.square_size, &setup.motion, 0.0)
+                .expect("a board fits")
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, reach);
+criterion_main!(benches);
