@@ -3,17 +3,20 @@
 //!
 //! **The set a game can ask for.** Every move is vertical moves over a location (a square, a
 //! graveyard or reserve slot) between a piece's grip height and a traverse height, and
-//! traverses between two locations (or the home point) at heights in between, their corners
-//! blended in the vertical plane of the traverse. So the tool tip, pointing down, stays on the
-//! straight segments between any two of those points (in the table plane) at heights from the
-//! lowest grip height to the highest traverse ([`MotionLimits::highest_traverse`]). A point
+//! traverses between two locations (or the home point) at a traverse height, their corners
+//! blended in the vertical plane of the traverse within [`MotionLimits::blend`] of the ends. So
+//! the tool tip, pointing down, stays on the straight segments between any two of those points
+//! (in the table plane): within the blend of an end at any height from the lowest grip height to
+//! the highest traverse ([`MotionLimits::highest_traverse`]), farther from both ends at a
+//! traverse height, never below the clearance margin plus the lowest grip height. A point
 //! is *served* when inverse kinematics reaches it within the joint limits and the motors hold
 //! the arm there with the heaviest piece within their torque limits times the planner's torque
 //! margin (`|g_i(q)| ≤ margin·τ_max,i`).
 //!
 //! **The check** ([`check_table`]) samples that set: every location and the home point at
-//! every grip height, the traverse height and every [`HEIGHT_STEP`] between, and every segment
-//! between two of them every [`SEGMENT_STEP`] at the same heights.
+//! every grip height, the highest traverse and every [`HEIGHT_STEP`] between, and every segment
+//! between two of them every [`SEGMENT_STEP`] at those heights (beyond the blends, those of a
+//! traverse).
 //!
 //! **The fit** ([`fit_board`]) uses that for the yaw–pitch family, reach depends on the radial
 //! distance `r` from the base axis and the height only, and the base angle on the bearing:
@@ -50,9 +53,19 @@ pub enum ReachError {
     Unreachable { place: String, height: f64, x: f64, y: f64, source: IkError },
     #[error(
         "{place} {height:.4} m above the table at ({x:.4}, {y:.4}) m: joint {joint} needs {need:.3} N·m to hold the arm \
-         and the heaviest piece, above {limit:.3} N·m (its torque limit × the margin {margin})"
+         and the heaviest piece, above {limit:.3} N·m (its torque limit {torque} N·m × the margin {margin})"
     )]
-    TooHeavy { place: String, height: f64, x: f64, y: f64, joint: usize, need: f64, limit: f64, margin: f64 },
+    TooHeavy {
+        place: String,
+        height: f64,
+        x: f64,
+        y: f64,
+        joint: usize,
+        need: f64,
+        limit: f64,
+        torque: f64,
+        margin: f64,
+    },
     #[error(
         "the board and its slots surround the arm's base at ({x:.4}, {y:.4}) m: give board.center away from it (the \
          board's squares, graveyard and reserve must lie to one side of the base)"
@@ -111,7 +124,12 @@ fn serve(
     for j in 0..4 {
         let limit = margin * loaded.link(j).limits.torque;
         if need[j].abs() > limit {
-            return Err(Failure::Torque { joint: j + 1, need: need[j].abs(), limit });
+            return Err(Failure::Torque {
+                joint: j + 1,
+                need: need[j].abs(),
+                limit,
+                torque: loaded.link(j).limits.torque,
+            });
         }
     }
     Ok(q)
@@ -121,15 +139,15 @@ fn serve(
 #[derive(Debug, Clone, PartialEq)]
 enum Failure {
     Ik(IkError),
-    Torque { joint: usize, need: f64, limit: f64 },
+    Torque { joint: usize, need: f64, limit: f64, torque: f64 },
 }
 
 fn failure(place: String, height: f64, point: &Vector3<f64>, why: Failure, margin: f64) -> ReachError {
     let (x, y) = (point.x, point.y);
     match why {
         Failure::Ik(source) => ReachError::Unreachable { place, height, x, y, source },
-        Failure::Torque { joint, need, limit } => {
-            ReachError::TooHeavy { place, height, x, y, joint, need, limit, margin }
+        Failure::Torque { joint, need, limit, torque } => {
+            ReachError::TooHeavy { place, height, x, y, joint, need, limit, torque, margin }
         }
     }
 }
@@ -188,12 +206,17 @@ pub fn check_table(
             serve(arm, &loaded, &point, margin).map_err(|why| failure(name.clone(), h, &point, why, margin))?;
         }
     }
+    let lowest_traverse = limits.clearance_margin + heights[0];
+    let blend = limits.blend;
     for (i, (from_name, a)) in all.iter().enumerate() {
         for (to_name, b) in &all[i + 1..] {
-            let steps = ((b - a).norm() / SEGMENT_STEP).ceil().max(1.0) as usize;
+            let length = (b - a).norm();
+            let steps = (length / SEGMENT_STEP).ceil().max(1.0) as usize;
             for k in 1..steps {
-                let p = a + (b - a) * (k as f64 / steps as f64);
-                for &h in &heights {
+                let along = k as f64 / steps as f64;
+                let p = a + (b - a) * along;
+                let near_end = (along * length).min((1.0 - along) * length) <= blend;
+                for &h in heights.iter().filter(|h| near_end || **h >= lowest_traverse - 1e-12) {
                     let point = Vector3::new(p.x, p.y, z0 + h);
                     serve(arm, &loaded, &point, margin).map_err(|why| {
                         failure(format!("the way from {from_name} to {to_name}"), h, &point, why, margin)
@@ -432,7 +455,8 @@ pub fn square_margins(
                     );
                 }
             }
-            let margin = radial.stretch(r).map_or(0.0, |(low, high)| (r - low).min(high - r));
+            // To the table's resolution (RADIAL_STEP): a point within a step of an edge has 0.
+            let margin = radial.stretch(r).map_or(0.0, |(low, high)| (r - low).min(high - r).max(0.0));
             (square, Ok(margin))
         })
         .collect()

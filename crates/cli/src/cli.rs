@@ -685,6 +685,9 @@ pub struct BoardArgs {
     /// Find the largest board the arm serves and print it as a setup file (use it with --arm).
     #[arg(long)]
     pub fit: bool,
+    /// With --fit: write the setup file here (the summary then goes to standard output).
+    #[arg(long, value_name = "FILE.toml", requires = "fit")]
+    pub save: Option<PathBuf>,
     /// Draw the reach map (per square: the margin, or grey where not served) into this PNG.
     #[arg(long, value_name = "FILE.png")]
     pub map: Option<PathBuf>,

@@ -293,6 +293,27 @@ pub struct SetupFile {
     /// The gripper's limits and dwell times.
     #[serde(default)]
     pub gripper: GripperFile,
+    /// Where the base axis stands in the base frame, m (x, y, z; default the origin).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub base: Option<Vec<f64>>,
+    /// How the arm of `--urdf` is read: joints held, the tool link and point.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub urdf: Option<UrdfFile>,
+}
+
+/// `[urdf]`: for `--urdf`, as its flags say (the flags win).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct UrdfFile {
+    /// Joints held at a value, rad (m for a prismatic joint), as `--lock`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub lock: BTreeMap<String, f64>,
+    /// The tool link, as `--tool`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tool: Option<String>,
+    /// The tool point in the tool link's frame, m, as `--tool-offset`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tool_offset: Option<Vec<f64>>,
 }
 
 /// What a setup file describes, validated.
@@ -316,6 +337,8 @@ pub struct Setup {
     /// The file's sense of each arm joint and the joints it holds (a URDF's), for every angle
     /// a user gives or reads.
     pub convention: JointConvention,
+    /// `[urdf]`: how `--urdf` is read (with the flags applied once it is).
+    pub urdf: UrdfFile,
     /// The motion limits (`[motion]`, `[gripper]`, then the motion flags).
     pub motion: MotionLimits,
     /// How robot moves are timed (set by `--timing`; the file does not say).
@@ -335,6 +358,7 @@ impl Default for Setup {
             joint_names: default_joint_names(),
             base_link: "base_link".into(),
             convention: JointConvention::default(),
+            urdf: UrdfFile::default(),
             motion: MotionLimits::default(),
             timing: TimingMode::default(),
         }
@@ -405,9 +429,24 @@ impl Setup {
         file.to_setup()
     }
 
-    /// The setup as TOML, with a header that names the units.
+    /// The setup as TOML, with a header that names the units: the arm as standard DH (and its
+    /// base), whatever it was read from.
     pub fn to_toml(&self) -> Result<String> {
         let body = toml::to_string_pretty(&SetupFile::from(self))?;
+        Ok(format!("{HEADER}{body}"))
+    }
+
+    /// The setup as TOML for use with the arm it was made for: with `--urdf`, no `[[links]]` (the
+    /// URDF gives the arm) and `[urdf]` with the joints held and the tool; else as [`Setup::to_toml`].
+    pub fn to_toml_beside_urdf(&self) -> Result<String> {
+        if self.urdf_path.is_none() {
+            return self.to_toml();
+        }
+        let mut file = SetupFile::from(self);
+        file.links = Vec::new();
+        file.base = None;
+        file.urdf = Some(self.urdf.clone());
+        let body = toml::to_string_pretty(&file)?;
         Ok(format!("{HEADER}{body}"))
     }
 }
@@ -482,7 +521,16 @@ impl SetupFile {
             links
         };
         let gravity = numbers_or("gravity", self.gravity.as_ref(), "x, y, z in m/s²", defaults.arm.gravity().into())?;
-        let arm = ArmModel::new(links, Vector3::from(gravity))?;
+        let base = numbers_or("base", self.base.as_ref(), "x, y, z of the base axis' foot in m", [0.0; 3])?;
+        let arm = ArmModel::new(links, Vector3::from(gravity))?.with_base(Vector3::from(base))?;
+        if let Some(urdf) = &self.urdf {
+            for (name, value) in &urdf.lock {
+                finite(&format!("urdf.lock.{name}"), *value)?;
+            }
+            if let Some(offset) = &urdf.tool_offset {
+                numbers::<3>("urdf.tool_offset", offset, "x, y, z in the tool link's frame, m")?;
+            }
+        }
         let board = &self.board;
         let default_board = defaults.board;
         let board = BoardGeometry {
@@ -549,6 +597,7 @@ impl SetupFile {
             joint_names: default_joint_names(),
             base_link: "base_link".into(),
             convention: JointConvention::default(),
+            urdf: self.urdf.clone().unwrap_or_default(),
             motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
             timing: TimingMode::default(),
         })
@@ -654,7 +703,10 @@ impl From<&Setup> for SetupFile {
         };
         let p = &setup.pieces;
         let m = &setup.motion;
+        let base = setup.arm.base();
         SetupFile {
+            base: (base != Vector3::zeros()).then(|| base.iter().copied().collect()),
+            urdf: None,
             gravity: Some(setup.arm.gravity().iter().copied().collect()),
             board: BoardFile {
                 square_size: Some(setup.board.square_size),

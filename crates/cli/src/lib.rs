@@ -164,12 +164,31 @@ pub fn files_text(files: &[String]) -> String {
 pub fn run(cli: Cli) -> Result<()> {
     JSON_OUTPUT.store(cli.json, std::sync::atomic::Ordering::Relaxed);
     let mut setup = Setup::load(cli.arm.as_deref())?;
+    if cli.urdf.is_none() && setup.urdf != config::UrdfFile::default() {
+        anyhow::bail!(
+            "{}: its [urdf] table is for the arm of a URDF: give --urdf FILE with it",
+            cli.arm.as_ref().map_or(String::new(), |p| p.display().to_string())
+        );
+    }
     if let Some(path) = &cli.urdf {
+        // The setup file's [urdf], then the flags over it.
+        let mut urdf = setup.urdf.clone();
+        for (name, value) in cli.lock.clone().map(|locks| locks.0).unwrap_or_default() {
+            urdf.lock.insert(name, value);
+        }
+        if let Some(tool) = &cli.tool {
+            urdf.tool = Some(tool.clone());
+        }
+        if let Some(offset) = cli.tool_offset {
+            urdf.tool_offset = Some(offset.to_vec());
+        }
+        let offset = urdf.tool_offset.as_deref().unwrap_or(&[0.0; 3]);
         let options = urdf_import::ImportOptions {
-            locks: cli.lock.clone().map(|locks| locks.0).unwrap_or_default(),
-            tool: cli.tool.clone(),
-            tool_offset: cli.tool_offset.map_or_else(Vector3::zeros, Vector3::from),
+            locks: urdf.lock.iter().map(|(name, value)| (name.clone(), *value)).collect(),
+            tool: urdf.tool.clone(),
+            tool_offset: Vector3::new(offset[0], offset[1], offset[2]),
         };
+        setup.urdf = urdf;
         let imported = urdf_import::load(path, &options)?;
         for note in &imported.notes {
             eprintln!("{}: {note}", path.display());

@@ -164,9 +164,12 @@ fn plan_writes_each_moves_planned_trajectory_with_its_gripper_commands() {
 fn play_writes_a_trajectory_for_each_robot_move_with_the_urdfs_joint_names() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("play");
+    let board = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm-board.toml");
     let output = chessarm(&[
         "--urdf",
         FIXTURE,
+        "--arm",
+        board,
         "play",
         "--moves",
         "e4 e5 Nf3",

@@ -171,12 +171,12 @@ fn limits_the_arm_cannot_keep_exit_2_naming_the_move_the_limit_and_the_value() {
     // A grip weaker than gravity: the piece would slip at rest.
     let output = chessarm(&["play", "--moves", "e4", "--out", out, "--grip-strength", "8"]);
     assert_one_line_error(&output, &["move e4 (e2e4)", "grip", "9.8", "8 m/s²"]);
-    // A shoulder motor too weak to hold the arm up.
+    // A shoulder motor too weak to hold the arm up: refused before the first move.
     let setup = dir.path().join("weak.toml");
     let links = "[[links]]\n\n[[links]]\ntorque_limit = 0.5\n\n[[links]]\n\n[[links]]\n";
     std::fs::write(&setup, links).unwrap();
     let output = chessarm(&["--arm", setup.to_str().unwrap(), "play", "--moves", "e4", "--out", out]);
-    assert_one_line_error(&output, &["move e4 (e2e4)", "joint 2", "gravity", "0.5 N·m"]);
+    assert_one_line_error(&output, &["cannot be served", "joint 2", "to hold the arm", "0.5 N·m"]);
 }
 
 #[test]

@@ -256,7 +256,28 @@ fn a_urdf_arm_reaches_every_square_and_plays_a_move() {
     }
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("play");
-    let report = json_of(&chessarm(&["--urdf", FIXTURE, "play", "--moves", "e4", "--out", out.to_str().unwrap()]));
+    // On the report's board a traverse (a1 to the white reserve) passes nearer the base than this
+    // arm folds: the pre-flight refuses it, naming the point and `board --fit`.
+    let refused = chessarm(&["--urdf", FIXTURE, "play", "--moves", "e4", "--out", out.to_str().unwrap()]);
+    // (The import's notes come first on stderr: the tool frame it took, a placeholder torque.)
+    assert_eq!(refused.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    let last = stderr.trim_end().lines().last().unwrap();
+    for needle in ["error:", "cannot be served", "the way from a1 to white reserve slot 0", "board --fit"] {
+        assert!(last.contains(needle), "{needle}: {stderr}");
+    }
+    let board = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm-board.toml");
+    let report = json_of(&chessarm(&[
+        "--urdf",
+        FIXTURE,
+        "--arm",
+        board,
+        "play",
+        "--moves",
+        "e4",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
     assert_eq!(report["misplaced"].as_u64(), Some(0), "{report}");
 }
 

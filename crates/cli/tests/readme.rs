@@ -113,6 +113,13 @@ fn example_folder() -> tempfile::TempDir {
             std::fs::write(dir.path().join(name), text).unwrap();
         }
     }
+    // The makers' URDFs the README's examples name, at the same path.
+    let real_arms = Path::new("crates/cli/tests/fixtures/real-arms");
+    std::fs::create_dir_all(dir.path().join(real_arms)).unwrap();
+    for entry in std::fs::read_dir(root.join(real_arms)).unwrap() {
+        let entry = entry.unwrap();
+        std::fs::copy(entry.path(), dir.path().join(real_arms).join(entry.file_name())).unwrap();
+    }
     // The repository's examples/ folder, which the README's examples name.
     let examples = root.join("examples");
     std::fs::create_dir(dir.path().join("examples")).unwrap();

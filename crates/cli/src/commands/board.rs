@@ -7,6 +7,7 @@ use crate::plots::{HeatMap, plot_heat_map};
 use anyhow::{Result, anyhow};
 use chessarm_chess::reach::{check_table, fit_board, square_margins};
 use serde_json::json;
+use std::io::Write;
 
 pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     let limits = setup.motion;
@@ -43,12 +44,11 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         args.map.as_ref().map_or(String::new(), |m| format!("; reach map {}", m.display())),
     );
     if args.fit {
-        // The setup file on stdout (with --json, one JSON line instead); the summary on stderr.
-        crate::tell(&summary);
-        let mut text = fitted.to_toml()?;
+        let mut text = fitted.to_toml_beside_urdf()?;
         if setup.urdf_path.is_some() {
             text = format!(
-                "# The board fitted to the arm of --urdf {}: use it with the same --urdf (and --lock).\n{text}",
+                "# The board fitted to the arm of --urdf {}: use it with the same --urdf ([urdf] holds its --lock and \
+                 --tool).\n{text}",
                 setup.urdf_path.as_ref().map_or(String::new(), |p| p.display().to_string())
             );
         }
@@ -61,8 +61,20 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
             "poses_tried": tried,
             "seconds": seconds,
             "setup": text,
+            "setup_file": args.save.as_ref().map(|p| p.display().to_string()),
         });
-        crate::emit(&text, &value)?;
+        match &args.save {
+            // The setup in its file, the summary on stdout.
+            Some(path) => {
+                crate::output::write_atomic(path, |out| Ok(out.write_all(text.as_bytes())?))?;
+                crate::emit(&format!("{summary}setup file: {}\n", path.display()), &value)?;
+            }
+            // The setup file on stdout (with --json, one JSON line instead); the summary on stderr.
+            None => {
+                crate::tell(&summary);
+                crate::emit(&text, &value)?;
+            }
+        }
     } else {
         crate::emit(
             &summary,
