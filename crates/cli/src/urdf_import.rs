@@ -241,13 +241,19 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
         bail!("{}: the root element must be <robot>", at(&robot));
     }
     let mut links = BTreeMap::new();
+    // Problems that edits fix, gathered to be told at once after the shape is known.
+    let mut problems: Vec<String> = Vec::new();
+    let mut bad_inertial = std::collections::HashSet::new();
     for link in robot.children().filter(|n| n.has_tag_name("link")) {
         let name = link.attribute("name").ok_or_else(|| anyhow!("{}: a link needs a name", at(&link)))?;
         if name.trim().is_empty() {
             bail!("{}: a link's name must not be empty", at(&link));
         }
         // Every link's inertial is checked, the base's too, though it does not move.
-        inertial(&link)?;
+        if let Err(e) = inertial(&link) {
+            problems.push(e.to_string());
+            bad_inertial.insert(name.to_string());
+        }
         if links.insert(name.to_string(), link).is_some() {
             bail!("{}: a second link named '{name}'", at(&link));
         }
@@ -452,8 +458,6 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
         carried.insert(link.clone(), entry);
     }
 
-    // Problems that edits fix, gathered to be told at once after the shape is known.
-    let mut problems: Vec<String> = Vec::new();
     let mut bodies = [Inertial::zero(); 4];
     let mut own_inertial = [false; 4];
     for link in &order {
@@ -463,7 +467,8 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
         }
         let node = links[link];
         let moved_link = parent_joint.get(link).is_some_and(|j| arm.get(carrier - 1) == Some(j));
-        let Some(body) = inertial(&node)? else { continue };
+        // (A link whose <inertial> is wrong is among the problems already.)
+        let Ok(Some(body)) = inertial(&node) else { continue };
         if moved_link {
             own_inertial[carrier - 1] = true;
         } else if body.mass < MARKER_MASS {
@@ -477,7 +482,7 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
     }
     for (k, &j) in arm.iter().enumerate() {
         let moved = &joints[j].child;
-        if bodies[k].mass <= 0.0 {
+        if bodies[k].mass <= 0.0 && !bad_inertial.contains(moved) {
             problems.push(if own_inertial[k] {
                 format!("{}: <mass value=\"0\">: a moving link needs a mass > 0", at(&links[moved.as_str()]))
             } else {
@@ -540,6 +545,34 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
             body: bodies[k],
         });
     }
+    // Speed and torque limits not given (a continuous joint without <limit>, or 0): the other
+    // arm joints' smallest, said as a warning; none given at all is a problem.
+    let mut filled = Vec::new();
+    for k in 0..chain_joints.len() {
+        for (name, pick) in [("velocity", 0), ("effort", 1)] {
+            let get = |l: &JointLimits| if pick == 0 { l.velocity } else { l.torque };
+            if get(&chain_joints[k].limits) > 0.0 {
+                continue;
+            }
+            let others = chain_joints.iter().map(|j| get(&j.limits)).filter(|v| *v > 0.0).fold(f64::INFINITY, f64::min);
+            let node = at(&joints[arm[k]].node);
+            if others.is_finite() {
+                let limits = &mut chain_joints[k].limits;
+                if pick == 0 {
+                    limits.velocity = others
+                } else {
+                    limits.torque = others
+                }
+                filled.push(format!(
+                    "{node}: no {name} limit given (missing or 0): taken as {} {}, the smallest of the other arm joints'",
+                    chessarm_core::short_number(others),
+                    if pick == 0 { "rad/s" } else { "N·m" }
+                ));
+            } else {
+                problems.push(format!("{node}: no arm joint gives a {name} limit: add <limit {name}=\"…\"/>"));
+            }
+        }
+    }
     let Ok(chain_joints) = <[ChainJoint; 4]>::try_from(chain_joints) else { unreachable!("four arm joints") };
     let chain = SerialChain { joints: chain_joints, tool, gravity: gravity(&robot)? };
     let located = |error: ChainError| {
@@ -570,7 +603,8 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
     }
     let model = model_from_chain(&chain).map_err(|error| anyhow!("{}", located(error)))?;
     let joint_names = chain.joints.clone().map(|joint| joint.name);
-    let warnings = placeholder_warnings(&model, &joint_names, &joints, &links, &by_name, &arm);
+    let mut warnings = placeholder_warnings(&model, &joint_names, &joints, &links, &by_name, &arm);
+    warnings.extend(filled);
     Ok(ImportedArm { model, joint_names, base_link: root, signs, locked, tool_link, notes, warnings })
 }
 
@@ -867,8 +901,14 @@ fn gravity_need(model: &ArmModel<4>) -> [f64; 4] {
 }
 
 /// A joint's `<limit>`: lower, upper (rad), effort (N·m), velocity (rad/s).
+/// A continuous joint without `<limit>` has the range ±π and no speed or torque limit of its
+/// own (0: the caller takes the other arm joints'); a speed or torque limit of 0 means the same
+/// (CAD exporters write 0 for "not given").
 fn limits(joint: &Node<'_, '_>, kind: &str) -> Result<JointLimits> {
     let Some(element) = child(joint, "limit") else {
+        if kind == "continuous" {
+            return Ok(JointLimits { lower: -PI, upper: PI, velocity: 0.0, torque: 0.0 });
+        }
         bail!(
             "{}: has no <limit>; chessarm needs {}effort (N·m) and velocity (rad/s): add <limit {}effort=\"…\" \
              velocity=\"…\"/> with the servo's stall torque and top speed",
@@ -899,8 +939,8 @@ fn limits(joint: &Node<'_, '_>, kind: &str) -> Result<JointLimits> {
         );
     }
     for (name, value) in [("velocity", limits.velocity), ("effort", limits.torque)] {
-        if value <= 0.0 {
-            bail!("{}: <limit {name}=\"{value}\">: must be > 0", at(joint));
+        if value < 0.0 {
+            bail!("{}: <limit {name}=\"{value}\">: must be >= 0 (0: not given)", at(joint));
         }
     }
     Ok(limits)

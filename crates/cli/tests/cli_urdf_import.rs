@@ -479,3 +479,88 @@ fn fixed_links_after_the_tool_are_followed_to_the_chain_s_end() {
         assert!((a - b).abs() < 1e-12, "{imported:?} vs {default:?}");
     }
 }
+
+/// The import's answers to what makers' files contain, on edits of the example arm: each taken
+/// as published (with what the terminal says) or refused in one error that lists every problem.
+#[test]
+fn makers_files_are_taken_as_published_or_refused_with_every_problem_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = std::fs::read_to_string(FIXTURE).unwrap();
+    let edit = |from: &str, to: &str| {
+        assert!(fixture.contains(from), "{from}");
+        fixture.replacen(from, to, 1)
+    };
+    let run = |name: &str, text: &str, extra: &[&str]| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        chessarm(&[&["--urdf", path.to_str().unwrap()][..], extra, &["fk", "--q", "0.3,1.0,-1.2,-0.5"]].concat())
+    };
+    let tip = |output: &std::process::Output| -> Vec<f64> { numbers(&json_of(output)["tip"]) };
+    let published = tip(&run("as-is.urdf", &fixture, &[]));
+    let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12);
+
+    // A gripper: two fingers (one a <mimic>) and a camera branch off the wrist, massless markers;
+    // the tool is still found by its name, the fingers held at 0 or their nearest limit.
+    let fingers = "\n  <link name=\"finger_l\"><inertial><mass value=\"0.01\"/><inertia ixx=\"1e-7\" ixy=\"0\" ixz=\"0\" iyy=\"1e-7\" iyz=\"0\" izz=\"1e-7\"/></inertial></link>\
+        \n  <link name=\"finger_r\"><inertial><mass value=\"0.01\"/><inertia ixx=\"1e-7\" ixy=\"0\" ixz=\"0\" iyy=\"1e-7\" iyz=\"0\" izz=\"1e-7\"/></inertial></link>\
+        \n  <joint name=\"finger_l_joint\" type=\"prismatic\"><parent link=\"gripper\"/><child link=\"finger_l\"/><axis xyz=\"0 1 0\"/><limit lower=\"0.005\" upper=\"0.03\" effort=\"5\" velocity=\"1\"/></joint>\
+        \n  <joint name=\"finger_r_joint\" type=\"prismatic\"><parent link=\"gripper\"/><child link=\"finger_r\"/><axis xyz=\"0 1 0\"/><limit lower=\"-0.03\" upper=\"-0.005\" effort=\"5\" velocity=\"1\"/><mimic joint=\"finger_l_joint\" multiplier=\"-1\"/></joint>\
+        \n  <link name=\"camera\"/>\n  <joint name=\"camera_mount\" type=\"continuous\"><parent link=\"wrist_link\"/><child link=\"camera\"/></joint>\n</robot>";
+    let gripper = edit("\n</robot>", fingers);
+    let output = run("gripper.urdf", &gripper, &[]);
+    let stderr = String::from_utf8_lossy(&output.stderr).to_string();
+    assert!(stderr.contains("tool frame: link 'tool'"), "{stderr}");
+    assert!(stderr.contains("finger_l_joint = 0.005"), "{stderr}");
+    // The fingers' 20 g moves the dynamics, not the kinematics.
+    assert!(close(&tip(&output), &published));
+    // --lock on a follower is refused naming its leader; a value outside the limits too.
+    let locked = run("gripper.urdf", &gripper, &["--lock", "finger_r_joint=-0.01"]);
+    common::assert_one_line_error(&locked, &["--lock finger_r_joint=-0.01", "follows 'finger_l_joint'"]);
+    let outside = run("gripper.urdf", &gripper, &["--lock", "finger_l_joint=0.5"]);
+    common::assert_one_line_error(&outside, &["held at 0.5 m", "outside its <limit"]);
+    let unknown = run("gripper.urdf", &gripper, &["--lock", "nose=0"]);
+    common::assert_one_line_error(&unknown, &["no joint 'nose'", "'finger_l_joint'"]);
+
+    // A fifth joint (a wrist roll before the tool): refused naming the lock that fixes it, taken
+    // with the lock, and at the lock's value 0 the tool is where it was.
+    let roll = edit(
+        "  <joint name=\"tool_flange\" type=\"fixed\">",
+        "  <joint name=\"tool_flange\" type=\"revolute\"><axis xyz=\"1 0 0\"/><limit lower=\"-3\" upper=\"3\" effort=\"2\" velocity=\"3\"/>",
+    );
+    let five = run("roll.urdf", &roll, &[]);
+    common::assert_one_line_error(&five, &["5 moving joints", "--lock tool_flange=0"]);
+    assert!(close(&tip(&run("roll.urdf", &roll, &["--lock", "tool_flange=0"])), &published));
+
+    // A continuous base without <limit>: ±π, with the other joints' smallest speed and torque.
+    let continuous = edit("<joint name=\"waist\" type=\"revolute\">", "<joint name=\"waist\" type=\"continuous\">")
+        .replacen("<limit lower=\"-3.1\" upper=\"3.1\" effort=\"12\" velocity=\"3\"/>", "", 1);
+    let output = run("continuous.urdf", &continuous, &[]);
+    let stderr = String::from_utf8_lossy(&output.stderr).to_string();
+    assert!(stderr.contains("no effort limit given") && stderr.contains("taken as 6 N·m"), "{stderr}");
+    assert!(close(&tip(&output), &published));
+
+    // A base off the yaw axis: the model's base position, the same tool points moved with it.
+    let moved =
+        edit(r#"<origin xyz="0 0 0.04" rpy="0 0 0.25"/>"#, r#"<origin xyz="0.012 -0.02 0.04" rpy="0 0 0.25"/>"#);
+    let shifted = tip(&run("moved.urdf", &moved, &[]));
+    assert!(close(&shifted, &[published[0] + 0.012, published[1] - 0.02, published[2]]), "{shifted:?}");
+
+    // Several problems: every one in one error, after the shape.
+    let broken = edit(r#"<limit lower="-3.0" upper="3.0" effort="18" velocity="3"/>"#, "").replacen(
+        "<mass value=\"0.45\"/>",
+        "<mass value=\"-1\"/>",
+        1,
+    );
+    let output = run("broken.urdf", &broken, &[]);
+    common::assert_one_line_error(
+        &output,
+        &["2 problems", "(1)", "<link name=\"forearm\">", "(2)", "<joint name=\"elbow\">", "has no <limit>"],
+    );
+    // A xacro file is recognised.
+    let xacro = fixture.replacen(
+        "<robot name=\"offset_arm\">",
+        "<robot name=\"offset_arm\" xmlns:xacro=\"http://www.ros.org/wiki/xacro\">",
+        1,
+    );
+    common::assert_one_line_error(&run("arm.urdf.xacro", &xacro, &[]), &["xacro file", "expand it first"]);
+}
