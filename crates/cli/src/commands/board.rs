@@ -7,7 +7,6 @@ use crate::plots::{HeatMap, plot_heat_map};
 use anyhow::{Result, anyhow};
 use chessarm_chess::reach::{check_table, fit_board, square_margins};
 use serde_json::json;
-use std::io::Write;
 
 pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     let limits = setup.motion;

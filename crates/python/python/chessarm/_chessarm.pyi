@@ -1,7 +1,7 @@
 """Type stubs of the compiled part of chessarm (``chessarm._chessarm``)."""
 
 from os import PathLike
-from typing import List, Sequence, Tuple, Union
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -39,8 +39,16 @@ class Arm:
     def from_file(path: Union[str, "PathLike[str]"]) -> "Arm":
         """The arm of a setup file (TOML), as ``chessarm --arm FILE``."""
     @staticmethod
-    def from_urdf(path: Union[str, "PathLike[str]"]) -> "Arm":
-        """The arm of a URDF file, as ``chessarm --urdf FILE``."""
+    def from_urdf(
+        path: Union[str, "PathLike[str]"],
+        lock: Optional[Dict[str, float]] = None,
+        tool: Optional[str] = None,
+        tool_offset: Optional[Sequence[float]] = None,
+    ) -> "Arm":
+        """The arm of a URDF file, as ``chessarm --urdf FILE [--lock …] [--tool …] [--tool-offset …]``:
+        ``lock`` holds joints at values (rad, m for a prismatic joint), ``tool`` names the tool
+        link, ``tool_offset`` the tool point in its frame (m). Every array in and out is in the
+        file's own joint convention (a base yaw about −z included)."""
     @property
     def joint_names(self) -> List[str]: ...
     @property
