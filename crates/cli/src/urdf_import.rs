@@ -398,16 +398,7 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
             (Some(value), _) => *value,
             (None, Some(_)) => mimic_value(j, &joints, &by_name, &values, &arm_set, 0)?,
             (None, None) => {
-                let value = match range {
-                    Some((lower, upper)) if !(lower..=upper).contains(&0.0) => {
-                        if lower > 0.0 {
-                            lower
-                        } else {
-                            upper
-                        }
-                    }
-                    _ => 0.0,
-                };
+                let value = default_hold(range);
                 if on_path.contains(&j) {
                     unreachable!("a moving joint on the path is either the arm's or locked");
                 }
@@ -682,21 +673,19 @@ fn mimic_value(
     let lead = match values.get(&l) {
         Some(value) => *value,
         None if mimic(&joints[l].node)?.is_some() => mimic_value(l, joints, by_name, values, arm, depth + 1)?,
-        None => {
-            let range = lock_range(&joints[l].node, &joints[l].kind)?;
-            match range {
-                Some((lower, upper)) if !(lower..=upper).contains(&0.0) => {
-                    if lower > 0.0 {
-                        lower
-                    } else {
-                        upper
-                    }
-                }
-                _ => 0.0,
-            }
-        }
+        None => default_hold(lock_range(&joints[l].node, &joints[l].kind)?),
     };
     Ok(multiplier * lead + offset)
+}
+
+/// Where a joint nobody holds is held: the file's zero pose, or the limit nearest it when 0 is
+/// outside `range`.
+fn default_hold(range: Option<(f64, f64)>) -> f64 {
+    match range {
+        Some((lower, _)) if lower > 0.0 => lower,
+        Some((_, upper)) if upper < 0.0 => upper,
+        _ => 0.0,
+    }
 }
 
 /// A held joint's range: `<limit lower upper>` of a revolute or prismatic joint (`None` for a
