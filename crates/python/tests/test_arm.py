@@ -134,7 +134,7 @@ def test_errors_are_python_exceptions_with_the_clis_messages(tmp_path):
     assert np.all(np.isfinite(arm.rnea([0.0, 0.1, 0.2, 0.3], [3e6, 0.0, 0.0, 0.0], [0.0] * 4)))
     bad = tmp_path / "bad.urdf"
     bad.write_text(EXAMPLE_URDF.read_text().replace('name="elbow" type="revolute"', 'name="elbow" type="prismatic"'))
-    with pytest.raises(chessarm.ModelError, match=r"line \d+: <joint name=\"elbow\">: type=\"prismatic\""):
+    with pytest.raises(chessarm.ModelError, match=r"line \d+: <joint name=\"elbow\">: a prismatic joint on the way to the tool"):
         chessarm.Arm.from_urdf(bad)
     toml = tmp_path / "arm.toml"
     toml.write_text("[[links]]\na = -1.0\n[[links]]\n[[links]]\n[[links]]\n")
