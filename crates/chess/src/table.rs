@@ -18,8 +18,6 @@
 
 use crate::board::BoardGeometry;
 use crate::pieces::{PieceSet, piece_name};
-use chessarm_core::arm::model::ArmModel;
-use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use shakmaty::{Board, Chess, Color, Piece, Position, Role, Square};
 use std::fmt;
@@ -127,16 +125,6 @@ pub enum TableError {
         x: f64,
         /// y, m.
         y: f64,
-    },
-    /// The arm cannot put its tool tip, pointing down, above a location.
-    #[error("{location} is unreachable {height:.4} m above the table: {source}")]
-    Unreachable {
-        /// The location.
-        location: Location,
-        /// Tool-tip height above the table surface, m.
-        height: f64,
-        /// Why inverse kinematics failed.
-        source: IkError,
     },
 }
 
@@ -428,33 +416,6 @@ impl Table {
             .filter(|p| distance_to_segment(p.position, from, to) <= clearance_radius)
             .map(|p| pieces.dimensions(p.piece.role).height)
             .reduce(f64::max)
-    }
-
-    /// Checks that the arm reaches, with the tool pointing down, every square and every
-    /// graveyard and reserve slot at the grip height of every kind of piece and at
-    /// `traverse_height` (m above the table). The first failure names the location, the
-    /// height and the IK error.
-    pub fn check_reachable(
-        &self,
-        arm: &ArmModel<4>,
-        pieces: &PieceSet,
-        traverse_height: f64,
-    ) -> Result<(), TableError> {
-        let mut heights: Vec<f64> = pieces.all().iter().map(|(_, d)| d.grip_height).collect();
-        heights.push(traverse_height);
-        let locations = Square::ALL.into_iter().map(Location::Square).chain(Location::off_board());
-        for location in locations {
-            let xy = self.nominal_position(location);
-            for &height in &heights {
-                let point = Vector3::new(xy.x, xy.y, self.geometry.surface_height + height);
-                inverse_kinematics(arm, &point, TOOL_DOWN).map_err(|source| TableError::Unreachable {
-                    location,
-                    height,
-                    source,
-                })?;
-            }
-        }
-        Ok(())
     }
 }
 

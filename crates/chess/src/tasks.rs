@@ -505,7 +505,7 @@ impl MotionLimits {
 
     /// The highest traverse any task can need, m above the table: the tallest piece, the
     /// margin, and the longest carried piece below the tool (the largest grip height).
-    /// Use it with [`Table::check_reachable`].
+    /// The top of the heights [`crate::reach::check_table`] checks.
     pub fn highest_traverse(&self, pieces: &PieceSet) -> f64 {
         pieces.tallest() + self.clearance_margin + pieces.highest_grip()
     }

@@ -512,7 +512,7 @@ impl Study {
             .map(|l| (l.friction.coulomb + l.friction.viscous * l.limits.velocity) / l.limits.torque)
             .fold(0.0, f64::max);
         Some(format!(
-            "note: the plant has friction the controller does not compensate (Coulomb {} N·m, viscous {} N·m·s/rad per              joint; at top speed up to {:.1} % of a torque limit): tracking errors grow with it;              --controller-knows-friction compensates it\n",
+            "note: the plant has friction the controller does not compensate (Coulomb {} N·m, viscous {} N·m·s/rad per joint; at top speed up to {:.1} % of a torque limit): tracking errors grow with it; --controller-knows-friction compensates it\n",
             links.iter().map(|l| chessarm_core::short_number(l.friction.coulomb)).collect::<Vec<_>>().join(", "),
             links.iter().map(|l| chessarm_core::short_number(l.friction.viscous)).collect::<Vec<_>>().join(", "),
             100.0 * share

@@ -337,8 +337,9 @@ pub struct Setup {
     /// The file's sense of each arm joint and the joints it holds (a URDF's), for every angle
     /// a user gives or reads.
     pub convention: JointConvention,
-    /// `[urdf]`: how `--urdf` is read (with the flags applied once it is).
-    pub urdf: UrdfFile,
+    /// `[urdf]`: how `--urdf` is read (with the flags applied once it is); `None` when the
+    /// setup file has no such table (a file with one is for `--urdf` only, even empty).
+    pub urdf: Option<UrdfFile>,
     /// The motion limits (`[motion]`, `[gripper]`, then the motion flags).
     pub motion: MotionLimits,
     /// How robot moves are timed (set by `--timing`; the file does not say).
@@ -358,7 +359,7 @@ impl Default for Setup {
             joint_names: default_joint_names(),
             base_link: "base_link".into(),
             convention: JointConvention::default(),
-            urdf: UrdfFile::default(),
+            urdf: None,
             motion: MotionLimits::default(),
             timing: TimingMode::default(),
         }
@@ -445,7 +446,7 @@ impl Setup {
         let mut file = SetupFile::from(self);
         file.links = Vec::new();
         file.base = None;
-        file.urdf = Some(self.urdf.clone());
+        file.urdf = Some(self.urdf.clone().unwrap_or_default());
         let body = toml::to_string_pretty(&file)?;
         Ok(format!("{HEADER}{body}"))
     }
@@ -597,7 +598,7 @@ impl SetupFile {
             joint_names: default_joint_names(),
             base_link: "base_link".into(),
             convention: JointConvention::default(),
-            urdf: self.urdf.clone().unwrap_or_default(),
+            urdf: self.urdf.clone(),
             motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
             timing: TimingMode::default(),
         })

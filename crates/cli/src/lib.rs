@@ -164,7 +164,7 @@ pub fn files_text(files: &[String]) -> String {
 pub fn run(cli: Cli) -> Result<()> {
     JSON_OUTPUT.store(cli.json, std::sync::atomic::Ordering::Relaxed);
     let mut setup = Setup::load(cli.arm.as_deref())?;
-    if cli.urdf.is_none() && setup.urdf != config::UrdfFile::default() {
+    if cli.urdf.is_none() && setup.urdf.is_some() {
         anyhow::bail!(
             "{}: its [urdf] table is for the arm of a URDF: give --urdf FILE with it",
             cli.arm.as_ref().map_or(String::new(), |p| p.display().to_string())
@@ -172,7 +172,7 @@ pub fn run(cli: Cli) -> Result<()> {
     }
     if let Some(path) = &cli.urdf {
         // The setup file's [urdf], then the flags over it.
-        let mut urdf = setup.urdf.clone();
+        let mut urdf = setup.urdf.clone().unwrap_or_default();
         for (name, value) in cli.lock.clone().map(|locks| locks.0).unwrap_or_default() {
             urdf.lock.insert(name, value);
         }
@@ -188,7 +188,7 @@ pub fn run(cli: Cli) -> Result<()> {
             tool: urdf.tool.clone(),
             tool_offset: Vector3::new(offset[0], offset[1], offset[2]),
         };
-        setup.urdf = urdf;
+        setup.urdf = Some(urdf);
         let imported = urdf_import::load(path, &options)?;
         for note in &imported.notes {
             eprintln!("{}: {note}", path.display());

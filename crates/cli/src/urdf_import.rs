@@ -228,14 +228,24 @@ type Carried = (usize, Pose);
 ///
 /// As [`load`], without the file name.
 pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
-    if text.contains("xmlns:xacro") || text.contains("<xacro:") {
-        bail!(
+    // A xacro element, or a `${…}` / `$(…)` substitution left in an attribute (an expanded
+    // file may keep the namespace declaration: that alone is no sign).
+    let xacro = || {
+        anyhow!(
             "this is a xacro file (a template of URDF), not URDF: expand it first, e.g. `xacro FILE.urdf.xacro > \
              arm.urdf` (pip install xacro, or ROS 2: `ros2 run xacro xacro FILE.urdf.xacro > arm.urdf`)"
-        );
+        )
+    };
+    if text.contains("<xacro:") {
+        return Err(xacro());
     }
     let document =
         Document::parse(text).map_err(|e| anyhow!("not valid XML: {}", crate::escape_controls(&e.to_string())))?;
+    // A `${…}` or `$(…)` substitution left in an attribute is xacro too (an expanded file may
+    // keep the namespace declaration: that alone is no sign).
+    if document.descendants().any(|n| n.attributes().any(|a| a.value().contains("${") || a.value().contains("$("))) {
+        return Err(xacro());
+    }
     let robot = document.root_element();
     if !robot.has_tag_name("robot") {
         bail!("{}: the root element must be <robot>", at(&robot));
@@ -357,6 +367,21 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
             bail!("--lock {name}: given twice");
         }
     }
+    // A joint on the way to the tool that follows another (<mimic>: a parallel linkage) moves
+    // with it: not a joint of chessarm's arm, nor one that holds still.
+    for &j in &path {
+        if joints[j].kind != "fixed"
+            && !values.contains_key(&j)
+            && let Some((leader, ..)) = mimic(&joints[j].node)?
+        {
+            bail!(
+                "{}: follows '{leader}' (<mimic>) on the way to the tool: chessarm's arm has four independent joints \
+                 (a parallel linkage is one); hold it with --lock {}=VALUE",
+                at(&joints[j].node),
+                joints[j].name
+            );
+        }
+    }
     // The arm's joints: the moving joints on the way to the tool that are not locked.
     let arm: Vec<usize> =
         path.iter().copied().filter(|j| joints[*j].kind != "fixed" && !values.contains_key(j)).collect();
@@ -425,6 +450,15 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
             _ => None,
         };
         locked.push(LockedJoint { name: joint.name.clone(), kind: joint.kind.clone(), value, gripper });
+    }
+    // A <mimic> follower opens and closes with its leader: multiplier·leader + offset (its own
+    // limits, if any, do not decide it).
+    for index in 0..locked.len() {
+        let Some(&j) = by_name.get(&locked[index].name) else { continue };
+        let Some((leader, multiplier, offset)) = mimic(&joints[j].node)? else { continue };
+        if let Some([open, close]) = locked.iter().find(|l| l.name == leader).and_then(|l| l.gripper) {
+            locked[index].gripper = Some([multiplier * open + offset, multiplier * close + offset]);
+        }
     }
     if !defaults.is_empty() {
         notes.push(format!(
@@ -733,12 +767,20 @@ fn wrong_count(
     // of `count − 4` of them, tried at 0 (or the nearest limit) on the geometry alone.
     let mut fixes = Vec::new();
     let extra = count - 4;
-    let choices: Vec<Vec<usize>> = combinations(count, extra);
-    for choice in choices.iter().take(64) {
+    // One or two joints too many (a wrist roll, a second wrist): every choice is tried; beyond
+    // that no suggestion (the choices grow as the binomial coefficient).
+    let choices: Vec<Vec<usize>> = if extra <= 2 { combinations(count, extra) } else { Vec::new() };
+    for choice in &choices {
         let held: Vec<usize> = choice.iter().map(|i| arm[*i]).collect();
         let kept: Vec<usize> = arm.iter().copied().filter(|j| !held.contains(j)).collect();
         if geometry_fits(joints, path, &kept, values, &held)? {
-            let locks: Vec<String> = held.iter().map(|j| format!("{}=0", joints[*j].name)).collect();
+            let locks: Vec<String> = held
+                .iter()
+                .map(|j| {
+                    let value = lock_range(&joints[*j].node, &joints[*j].kind).map(default_hold).unwrap_or(0.0);
+                    format!("{}={}", joints[*j].name, chessarm_core::short_number(value))
+                })
+                .collect();
             fixes.push(format!("--lock {}", locks.join(",")));
         }
     }
@@ -799,7 +841,11 @@ fn geometry_fits(
         } else if joint.kind == "fixed" {
             pose = at_joint;
         } else {
-            let value = if held.contains(&j) { 0.0 } else { values.get(&j).copied().unwrap_or(0.0) };
+            let value = if held.contains(&j) {
+                lock_range(&joint.node, &joint.kind).map(default_hold).unwrap_or(0.0)
+            } else {
+                values.get(&j).copied().unwrap_or(0.0)
+            };
             pose = at_joint * motion(&joint.kind, &axis_of(&joint.node)?, value);
         }
     }

@@ -556,11 +556,21 @@ fn makers_files_are_taken_as_published_or_refused_with_every_problem_at_once() {
         &output,
         &["2 problems", "(1)", "<link name=\"forearm\">", "(2)", "<joint name=\"elbow\">", "has no <limit>"],
     );
-    // A xacro file is recognised.
-    let xacro = fixture.replacen(
+    // A xacro file is recognised (its elements, or a substitution left in a value); an expanded
+    // file that keeps the namespace declaration is URDF.
+    let namespace = fixture.replacen(
         "<robot name=\"offset_arm\">",
         "<robot name=\"offset_arm\" xmlns:xacro=\"http://www.ros.org/wiki/xacro\">",
         1,
     );
-    common::assert_one_line_error(&run("arm.urdf.xacro", &xacro, &[]), &["xacro file", "expand it first"]);
+    assert!(close(&tip(&run("expanded.urdf", &namespace, &[])), &published));
+    let element = namespace.replacen(
+        "<link name=\"pedestal\">",
+        "<xacro:property name=\"h\" value=\"0.03\"/>\n  <link name=\"pedestal\">",
+        1,
+    );
+    common::assert_one_line_error(&run("arm.urdf.xacro", &element, &[]), &["xacro file", "expand it first"]);
+    let substitution =
+        fixture.replacen(r#"<origin xyz="0 0 0.03" rpy="0 0 0"/>"#, r#"<origin xyz="0 0 ${h}" rpy="0 0 0"/>"#, 1);
+    common::assert_one_line_error(&run("sub.urdf", &substitution, &[]), &["xacro file"]);
 }

@@ -71,7 +71,9 @@ def test_tune_rows_equal_the_clis_csv(tmp_path):
 
 
 def test_plan_with_moves_and_the_urdf_arm():
-    planned = chessarm.plan("e4", urdf=ROOT / "examples" / "offset-arm.urdf")
+    planned = chessarm.plan(
+        "e4", urdf=ROOT / "examples" / "offset-arm.urdf", arm=ROOT / "examples" / "offset-arm-board.toml"
+    )
     assert planned.joint.q_des.shape[1] == 4
     assert planned.hardware["hardware/001-e2e4.json"]["trajectory"]["joint_names"] == ["waist", "shoulder", "elbow", "wrist"]
 

@@ -293,9 +293,10 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
     let record = parse_move_list(moves, start)?;
     let limits = checked_limits(setup.motion, "motion", "gripper")?;
     let mut table = Table::from_position(setup.board, &record.start);
-    table
-        .check_reachable(&setup.arm, &setup.pieces, limits.highest_traverse(&setup.pieces))
-        .map_err(|e| anyhow!("the table cannot be served by this arm: {e}"))?;
+    // The same check as `play`'s before its first move.
+    chessarm_chess::reach::check_table(&setup.arm, &setup.board, &setup.pieces, &limits).map_err(|e| {
+        anyhow!("the table cannot be served by this arm: {e}; `chessarm board --fit` finds a board it serves")
+    })?;
     let mut tool = home_tool(&setup.board, &setup.pieces, &limits);
     let mut position = record.start.clone();
     ensure_dir(&args.out)?;

@@ -188,7 +188,8 @@ pub fn run_controller(
     };
     let events = pawn_events(setup, trial, &plan.path, options.payload_mass, options.controller_knows_payload);
     let marks: Vec<f64> = plan.path.events().iter().map(|e| e.time).collect();
-    let initial = options.q0.map(|q0| JointState::at_rest(JointVector::from(q0)));
+    // --q0 is in the user's convention (a URDF's own sense), the model's from here.
+    let initial = options.q0.map(|q0| JointState::at_rest(JointVector::from(setup.convention.user(q0))));
     let mut recorder = Recorder { records: Vec::with_capacity(plan.joint.samples().len() + 1), progress };
     let started = Instant::now();
     let summary = simulate_sensed(
@@ -308,6 +309,8 @@ pub fn write_run(
     let csv = out.join(format!("{name}.csv"));
     write_csv(&csv, &run_header(), run.records.iter().map(|r| run_row(r, convention)))?;
     let upper = name.to_uppercase();
+    // The plots in the user's convention too (a URDF's own sense).
+    let sign = convention.signs;
     let joints = out.join(format!("{name}_joints.png"));
     let panels: Vec<Panel> = (0..4)
         .map(|j| Panel {
@@ -316,13 +319,13 @@ pub fn write_run(
             series: vec![
                 Series {
                     label: format!("θ{} actual", j + 1),
-                    points: run.records.iter().map(|r| (r.t, r.state.q[j])).collect(),
+                    points: run.records.iter().map(|r| (r.t, sign[j] * r.state.q[j])).collect(),
                     color: 2,
                     style: Style::Line,
                 },
                 Series {
                     label: format!("θ{} desired", j + 1),
-                    points: run.records.iter().map(|r| (r.t, r.reference.q[j])).collect(),
+                    points: run.records.iter().map(|r| (r.t, sign[j] * r.reference.q[j])).collect(),
                     color: 0,
                     style: Style::Dashed,
                 },
@@ -348,7 +351,7 @@ pub fn write_run(
                 y_label: "torque (N·m)".into(),
                 series: vec![Series {
                     label: format!("τ{}", j + 1),
-                    points: run.records.iter().map(|r| (r.t, r.torque[j])).collect(),
+                    points: run.records.iter().map(|r| (r.t, sign[j] * r.torque[j])).collect(),
                     color: j,
                     style: Style::Line,
                 }],

@@ -392,7 +392,7 @@ fn scenario_study(setup: &Setup, args: &TuneArgs, trial: Option<&Trial>) -> Resu
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
     }
-    let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(q)));
+    let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(setup.convention.user(q))));
     Ok(ScenarioStudy { trajectory: plan.joint, events, marks, initial })
 }
 
