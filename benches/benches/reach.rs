@@ -18,7 +18,7 @@ fn reach(c: &mut Criterion) {
     let arm = chessarm::urdf_import::load(std::path::Path::new(path), &Default::default()).expect("the arm loads");
     group.bench_function("board --fit, OpenManipulator-X", |b| {
         b.iter(|| {
-            fit_board(black_box(&arm.model), &setup.pieces, setup.board.square_size, &setup.motion, 0.0)
+            fit_board(black_box(&arm.model), &setup.pieces, setup.board.square_size, &setup.motion, (0.0, 0.05))
                 .expect("a board fits")
         })
     });

@@ -170,10 +170,11 @@ pub fn check_urdf(data: &[u8]) {
     let input = text(data);
     match chessarm::urdf_import::from_urdf(&input, &chessarm::urdf_import::ImportOptions::default()) {
         Ok(imported) => {
-            let printed = chessarm::urdf::to_urdf(&imported.model, "chessarm", &imported.joint_names);
+            let printed = chessarm::urdf::to_urdf(&imported.model, "chessarm", &imported.joint_names, &imported.signs);
             let again = chessarm::urdf_import::from_urdf(&printed, &chessarm::urdf_import::ImportOptions::default())
                 .unwrap_or_else(|e| panic!("the export of {input:?} does not import: {e:#}\n{printed}"));
             assert_eq!(again.joint_names, imported.joint_names, "joint names of the export of {input:?}");
+            assert_eq!(again.signs, imported.signs, "joint senses of the export of {input:?}");
             let close = |what: &str, a: &[f64], b: &[f64]| {
                 let scale = a.iter().chain(b).fold(0.0_f64, |m, v| m.max(v.abs()));
                 let far = a.iter().zip(b).any(|(x, y)| (x - y).abs() > 1e-9 * scale);

@@ -29,12 +29,15 @@ pub struct BoardGeometry {
     pub surface_height: f64,
     /// Turn of the board about the vertical, rad (0: files along x, ranks along y).
     pub yaw: f64,
+    /// How far every square, slot and traverse stays from the arm's base axis, m: the base's
+    /// own room (its servo and mount), where the arm would fold over itself.
+    pub base_clearance: f64,
 }
 
 impl Default for BoardGeometry {
     /// The report's board: 6 cm squares, centred on the y axis, rank 1 at y = 12 cm.
     fn default() -> Self {
-        Self { square_size: 0.06, center: Vector2::new(0.0, 0.33), surface_height: 0.0, yaw: 0.0 }
+        Self { square_size: 0.06, center: Vector2::new(0.0, 0.33), surface_height: 0.0, yaw: 0.0, base_clearance: 0.05 }
     }
 }
 
@@ -57,6 +60,13 @@ impl BoardGeometry {
             if !value.is_finite() {
                 return Err(BoardError::Geometry { field, value, reason: "must be finite" });
             }
+        }
+        if !(self.base_clearance.is_finite() && self.base_clearance >= 0.0) {
+            return Err(BoardError::Geometry {
+                field: "base_clearance",
+                value: self.base_clearance,
+                reason: "must be finite and >= 0",
+            });
         }
         Ok(self)
     }

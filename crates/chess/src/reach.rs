@@ -41,6 +41,9 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Heights between the lowest grip and the highest traverse are checked this far apart, m.
 pub const HEIGHT_STEP: f64 = 0.01;
+/// The fit keeps every point of its board at least this far inside the served stretch, m: the
+/// default placement tolerance (a piece may stand that far off its nominal place).
+pub const FIT_MARGIN: f64 = 0.005;
 /// Points along a traverse are checked this far apart, m.
 pub const SEGMENT_STEP: f64 = 0.01;
 /// The fit's radial table has a point every this, m.
@@ -66,6 +69,11 @@ pub enum ReachError {
         torque: f64,
         margin: f64,
     },
+    #[error(
+        "{place} at ({x:.4}, {y:.4}) m passes {distance:.4} m from the arm's base axis, within board.base_clearance = \
+         {clearance} m (the base's own room): give board.center farther from it, or `chessarm board --fit`"
+    )]
+    NearBase { place: String, x: f64, y: f64, distance: f64, clearance: f64 },
     #[error(
         "the board and its slots surround the arm's base at ({x:.4}, {y:.4}) m: give board.center away from it (the \
          board's squares, graveyard and reserve must lie to one side of the base)"
@@ -199,6 +207,26 @@ pub fn check_table(
     let heights = heights(pieces, limits);
     let z0 = geometry.surface_height;
     let margin = limits.torque_margin;
+    // Nothing within the base's own room: no location, no traverse.
+    let clearance = geometry.base_clearance;
+    let near = |place: String, p: &Vector2<f64>| -> Result<(), ReachError> {
+        let distance = (p - base).norm();
+        if distance < clearance {
+            return Err(ReachError::NearBase { place, x: p.x, y: p.y, distance, clearance });
+        }
+        Ok(())
+    };
+    for (name, p) in &all {
+        near(name.clone(), p)?;
+    }
+    for (i, (from_name, a)) in all.iter().enumerate() {
+        for (to_name, b) in &all[i + 1..] {
+            let ab = b - a;
+            let t =
+                if ab.norm_squared() > 0.0 { ((base - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0) } else { 0.0 };
+            near(format!("the way from {from_name} to {to_name}"), &(a + ab * t))?;
+        }
+    }
     // The locations themselves first (their messages name them), then the traverses.
     for (name, p) in &all {
         for &h in &heights {
@@ -240,7 +268,7 @@ struct Radial {
 }
 
 impl Radial {
-    fn new(arm: &ArmModel<4>, pieces: &PieceSet, limits: &MotionLimits, surface: f64) -> Self {
+    fn new(arm: &ArmModel<4>, pieces: &PieceSet, limits: &MotionLimits, surface: f64, clearance: f64) -> Self {
         let links = arm.links();
         let (lower, upper) = (links[0].limits.lower, links[0].limits.upper);
         let offset = links[0].dh.theta_offset;
@@ -256,12 +284,13 @@ impl Radial {
         let served = (0..count)
             .map(|k| {
                 let r = k as f64 * RADIAL_STEP;
-                heights.iter().all(|h| {
-                    let point = base + direction * r + Vector3::new(0.0, 0.0, surface + h);
-                    serve(arm, &loaded, &point, limits.torque_margin)
-                        // The front branch only: the base turned towards the point.
-                        .is_ok_and(|q| wrap(q[0] + offset - bearing).abs() < FRAC_PI_2)
-                })
+                r >= clearance
+                    && heights.iter().all(|h| {
+                        let point = base + direction * r + Vector3::new(0.0, 0.0, surface + h);
+                        serve(arm, &loaded, &point, limits.torque_margin)
+                            // The front branch only: the base turned towards the point.
+                            .is_ok_and(|q| wrap(q[0] + offset - bearing).abs() < FRAC_PI_2)
+                    })
             })
             .collect();
         Self { bearing, served, bearings: (lower + offset, upper + offset) }
@@ -355,7 +384,7 @@ pub fn fit_board(
     pieces: &PieceSet,
     square_size: f64,
     limits: &MotionLimits,
-    surface: f64,
+    (surface, clearance): (f64, f64),
 ) -> Result<Fit, ReachError> {
     const SMALLEST: f64 = 0.01;
     let base = arm.base().xy();
@@ -363,7 +392,7 @@ pub fn fit_board(
     // The best pose for squares of `s` m: (margin, board), or None.
     let mut best_at = |s: f64| -> Option<(f64, BoardGeometry, PieceSet)> {
         let scaled = scaled_pieces(pieces, square_size, s);
-        let radial = Radial::new(arm, &scaled, limits, surface);
+        let radial = Radial::new(arm, &scaled, limits, surface, clearance);
         let reach = radial.served.len() as f64 * RADIAL_STEP;
         let direction = Vector2::new(radial.bearing.cos(), radial.bearing.sin());
         let mut best: Option<(f64, BoardGeometry)> = None;
@@ -379,10 +408,12 @@ pub fn fit_board(
                     center: base + direction * distance,
                     surface_height: surface,
                     yaw: if yaw.abs() < 1e-12 { 0.0 } else { yaw },
+                    base_clearance: clearance,
                 };
                 tried += 1;
                 let points: Vec<Vector2<f64>> = places(&board, &scaled, limits).into_iter().map(|(_, p)| p).collect();
-                if let Some(margin) = proxy_margin(&radial, &base, &points)
+                // A margin for pieces that stand a little off their nominal places.
+                if let Some(margin) = proxy_margin(&radial, &base, &points).filter(|m| *m >= FIT_MARGIN)
                     && best.is_none_or(|(m, _)| margin > m)
                 {
                     best = Some((margin, board));
@@ -437,7 +468,7 @@ pub fn square_margins(
     pieces: &PieceSet,
     limits: &MotionLimits,
 ) -> Vec<(Square, Result<f64, String>)> {
-    let radial = Radial::new(arm, pieces, limits, geometry.surface_height);
+    let radial = Radial::new(arm, pieces, limits, geometry.surface_height, geometry.base_clearance);
     let base = arm.base().xy();
     let loaded = loaded(arm, pieces);
     let heights = heights(pieces, limits);

@@ -20,7 +20,13 @@ fn report_layout_of_the_squares() {
     assert!(close(board.square_center(Square::D4), Vector3::new(-0.03, 0.30, 0.0)));
     assert!(close(board.square_center(Square::H8), Vector3::new(0.21, 0.54, 0.0)));
     // Configurable size and offset.
-    let small = BoardGeometry { square_size: 0.05, center: Vector2::new(0.1, 0.4), surface_height: 0.02, yaw: 0.0 };
+    let small = BoardGeometry {
+        square_size: 0.05,
+        center: Vector2::new(0.1, 0.4),
+        surface_height: 0.02,
+        yaw: 0.0,
+        base_clearance: 0.05,
+    };
     assert!(close(small.square_center(Square::A1), Vector3::new(0.1 - 0.175, 0.4 - 0.175, 0.02)));
 }
 

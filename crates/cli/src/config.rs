@@ -89,6 +89,9 @@ pub struct BoardFile {
     /// the arm).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub yaw: Option<f64>,
+    /// How far every square, slot and traverse stays from the base axis, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub base_clearance: Option<f64>,
 }
 
 /// One kind of chess piece in the file; fields left out keep that kind's default.
@@ -544,6 +547,7 @@ impl SetupFile {
             )?),
             surface_height: number_or("board.surface_height", board.surface_height, default_board.surface_height)?,
             yaw: number_or("board.yaw", board.yaw, default_board.yaw)?,
+            base_clearance: number_or("board.base_clearance", board.base_clearance, default_board.base_clearance)?,
         }
         .validated()?;
         let pick = |kind: &str, given: Option<PieceFile>, default: PieceDimensions| -> Result<PieceDimensions> {
@@ -714,6 +718,7 @@ impl From<&Setup> for SetupFile {
                 center: Some(setup.board.center.iter().copied().collect()),
                 surface_height: Some(setup.board.surface_height),
                 yaw: (setup.board.yaw != 0.0).then_some(setup.board.yaw),
+                base_clearance: Some(setup.board.base_clearance),
             },
             pieces: PiecesFile {
                 pawn: piece(&p.pawn),

@@ -245,10 +245,24 @@ fn dispatch(setup: &Setup, command: Option<Command>) -> Result<()> {
                 .map_err(anyhow::Error::msg)?;
             commands::robustness::run(setup, &args)
         }
-        Some(Command::Arm) => print_text(&setup.to_toml()?),
+        Some(Command::Arm) => {
+            // Standard DH turns every joint about its +z: a joint the file turns the other way
+            // (a base yaw about −z) has its angles negated in this file.
+            for (name, sign) in setup.joint_names.iter().zip(setup.convention.signs) {
+                if sign < 0.0 {
+                    tell(&format!(
+                        "warning: joint '{name}' turns about the other sense in the URDF: in this setup file (standard \
+                         DH) its angles are the URDF's negated\n"
+                    ));
+                }
+            }
+            print_text(&setup.to_toml()?)
+        }
         Some(Command::Fk(args)) => commands::kinematics::fk(setup, &args),
         Some(Command::Ik(args)) => commands::kinematics::ik(setup, &args),
-        Some(Command::Urdf) => print_text(&urdf::to_urdf(&setup.arm, "chessarm", &setup.joint_names)),
+        Some(Command::Urdf) => {
+            print_text(&urdf::to_urdf(&setup.arm, "chessarm", &setup.joint_names, &setup.convention.signs))
+        }
         Some(Command::Plan(args)) => commands::plan::run(setup, &args),
         Some(Command::Board(args)) => commands::board::run(setup, &args),
     }

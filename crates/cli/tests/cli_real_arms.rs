@@ -151,3 +151,26 @@ fn check_hardware(name: &str, dir: &Path, tool: &str, tolerance: f64) {
     // Two commands (close, open) per grip; the Opera game's robot moves grip 33 times or more.
     assert!(checked >= 66, "{name}: {checked}");
 }
+
+#[test]
+fn the_urdf_export_of_a_makers_arm_keeps_the_files_joint_senses() {
+    // The SO-101's base yaw turns about −z: chessarm's URDF export writes it so (axis 0 0 -1),
+    // so the same angles put the tool at the same point in the export as in the file.
+    let dir = tempfile::tempdir().unwrap();
+    let path = urdf("so101_new_calib");
+    let base = ["--urdf", path.to_str().unwrap(), "--lock", "wrist_roll=0"];
+    let exported = common::chessarm_human(&[&base[..], &["urdf"]].concat());
+    assert!(exported.status.success());
+    let text = String::from_utf8(exported.stdout).unwrap();
+    assert!(text.contains(r#"<axis xyz="0 0 -1"/>"#), "{text}");
+    let copy = dir.path().join("so101-export.urdf");
+    std::fs::write(&copy, &text).unwrap();
+    let q = "0.3,0.2,-0.4,0.6";
+    let tip = |args: &[&str]| common::numbers(&json_of(&chessarm(&[args, &["fk", "--q", q]].concat()))["tip"]);
+    let (original, again) = (tip(&base), tip(&["--urdf", copy.to_str().unwrap()]));
+    // The export writes shortest round-trip decimals and the import fits DH by atan2: 1e-12 m.
+    for (a, b) in original.iter().zip(&again) {
+        assert!((a - b).abs() < 1e-12, "{original:?} vs {again:?}");
+    }
+    assert!(original[1] < 0.0, "a positive base angle turns clockwise seen from above: {original:?}");
+}

@@ -14,8 +14,14 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     let mut fitted = setup.clone();
     let mut tried = None;
     if args.fit {
-        let fit = fit_board(&setup.arm, &setup.pieces, setup.board.square_size, &limits, setup.board.surface_height)
-            .map_err(|e| anyhow!("{e}"))?;
+        let fit = fit_board(
+            &setup.arm,
+            &setup.pieces,
+            setup.board.square_size,
+            &limits,
+            (setup.board.surface_height, setup.board.base_clearance),
+        )
+        .map_err(|e| anyhow!("{e}"))?;
         fitted.board = fit.board;
         fitted.pieces = fit.pieces;
         tried = Some(fit.tried);
