@@ -566,7 +566,10 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
             origin: joint_origin,
             axis,
             limits: joint_limits,
-            friction: friction(&joint.node)?,
+            friction: friction(&joint.node).unwrap_or_else(|e| {
+                problems.push(e.to_string());
+                Friction::default()
+            }),
             body: bodies[k],
         });
     }

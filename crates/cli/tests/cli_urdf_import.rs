@@ -546,15 +546,22 @@ fn makers_files_are_taken_as_published_or_refused_with_every_problem_at_once() {
     assert!(close(&shifted, &[published[0] + 0.012, published[1] - 0.02, published[2]]), "{shifted:?}");
 
     // Several problems: every one in one error, after the shape.
-    let broken = edit(r#"<limit lower="-3.0" upper="3.0" effort="18" velocity="3"/>"#, "").replacen(
-        "<mass value=\"0.45\"/>",
-        "<mass value=\"-1\"/>",
-        1,
-    );
+    let broken = edit(r#"<limit lower="-3.0" upper="3.0" effort="18" velocity="3"/>"#, "")
+        .replacen("<mass value=\"0.45\"/>", "<mass value=\"-1\"/>", 1)
+        .replacen(r#"<dynamics damping="0.05" friction="0.02"/>"#, r#"<dynamics damping="-1" friction="0.02"/>"#, 1);
     let output = run("broken.urdf", &broken, &[]);
     common::assert_one_line_error(
         &output,
-        &["2 problems", "(1)", "<link name=\"forearm\">", "(2)", "<joint name=\"elbow\">", "has no <limit>"],
+        &[
+            "3 problems",
+            "(1)",
+            "<link name=\"forearm\">",
+            "<joint name=\"elbow\">",
+            "has no <limit>",
+            "(3)",
+            "<joint name=\"waist\">",
+            "damping and friction must be >= 0",
+        ],
     );
     // A xacro file is recognised (its elements, or a substitution left in a value); an expanded
     // file that keeps the namespace declaration is URDF.
