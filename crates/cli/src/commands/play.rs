@@ -174,6 +174,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     refuse_unlisted(&moves_dir, |name| numbered_file(name, &[".csv"]))?;
     remove_listed_in(&hardware_dir)?;
     refuse_unlisted(&hardware_dir, |name| numbered_file(name, &[".csv", ".json"]))?;
+    // An earlier game's stopped part-way trajectories do not belong to this one.
+    remove_listed_in(&args.out.join("hardware-incomplete"))?;
     let started = Instant::now();
     let first_number = (start.fullmoves().get(), start.turn());
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
