@@ -1,12 +1,17 @@
-//! `--urdf FILE`: the user's own arm from URDF.
+//! `--urdf FILE`: the user's own arm from URDF, as its maker publishes it.
 //!
-//! The file must describe one chain from its root link: four revolute (or continuous) joints,
-//! a base yaw followed by three parallel pitch joints, then one or more fixed joints to the tool
-//! link, whose origin is the tool tip. Fixed joints may also sit anywhere between (their
-//! links' masses join the moving link they are fixed to). Joint origins may be anywhere and
-//! turned any way: the chain is converted to standard DH by
-//! [`chessarm_core::arm::chain::model_from_chain`]. Every element chessarm cannot use is an
-//! error naming it, its line, and why.
+//! The file is a tree from its root link. The tool link is `--tool` (with `--tool-offset`),
+//! else a leaf at the end of a fixed joint named like a tool ([`TOOL_WORDS`]), else the only
+//! such leaf. The way from the root to it must hold a base yaw (about ±z) and three parallel
+//! pitch joints once `--lock` holds the others; every joint off that way is held (fixed,
+//! prismatic and continuous gripper joints at 0 or their limit nearest it, `<mimic>` followers
+//! at `multiplier·leader + offset`), and every link the arm's joints do not move is carried, with
+//! its mass and inertia, by the link it hangs on (composite rigid bodies). Joint origins may be
+//! anywhere and turned any way: the chain is converted to standard DH by
+//! [`chessarm_core::arm::chain::model_from_chain`], a root off the yaw axis becoming the
+//! model's base position, a yaw about −z a joint whose angle is the file's negated
+//! ([`ImportedArm::signs`], applied at every edge). The shape is checked first; every other
+//! problem comes in one error naming each element, its line, and the fix.
 //!
 //! What URDF leaves out: gravity is `(0, 0, −9.8)` m/s² unless the file carries chessarm's
 //! `<mujoco><option gravity="x y z"/></mujoco>` extension (which `chessarm urdf` writes);
@@ -136,7 +141,7 @@ pub struct ImportOptions {
 
 /// Names that mark a tool frame, as whole words of a link's name (`ee_gripper_link`,
 /// `end_effector_link`, `gripper_frame_link`, `tcp`).
-const TOOL_WORDS: [&[&str]; 7] =
+pub const TOOL_WORDS: [&[&str]; 7] =
     [&["tool"], &["tcp"], &["ee"], &["eef"], &["tip"], &["end", "effector"], &["gripper", "frame"]];
 
 fn well_known_tool(name: &str) -> bool {
