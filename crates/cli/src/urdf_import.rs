@@ -241,14 +241,21 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
              arm.urdf` (pip install xacro, or ROS 2: `ros2 run xacro xacro FILE.urdf.xacro > arm.urdf`)"
         )
     };
-    if text.contains("<xacro:") {
-        return Err(xacro());
-    }
-    let document =
-        Document::parse(text).map_err(|e| anyhow!("not valid XML: {}", crate::escape_controls(&e.to_string())))?;
-    // A `${…}` or `$(…)` substitution left in an attribute is xacro too (an expanded file may
-    // keep the namespace declaration: that alone is no sign).
-    if document.descendants().any(|n| n.attributes().any(|a| a.value().contains("${") || a.value().contains("$("))) {
+    let document = Document::parse(text).map_err(|e| {
+        // A xacro element whose prefix is not declared is not XML either; it is still xacro.
+        if text.contains("<xacro:") {
+            xacro()
+        } else {
+            anyhow!("not valid XML: {}", crate::escape_controls(&e.to_string()))
+        }
+    })?;
+    // A xacro element, or a `${…}` or `$(…)` substitution left in an attribute (an expanded file
+    // may keep the namespace declaration, and xacro in its comments: those alone are no sign).
+    let is_xacro = |n: &Node<'_, '_>| {
+        n.tag_name().namespace().is_some_and(|ns| ns.contains("xacro"))
+            || n.attributes().any(|a| a.value().contains("${") || a.value().contains("$("))
+    };
+    if document.descendants().any(|n| n.is_element() && is_xacro(&n)) {
         return Err(xacro());
     }
     let robot = document.root_element();
@@ -372,24 +379,20 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
             bail!("--lock {name}: given twice");
         }
     }
-    // A joint on the way to the tool that follows another (<mimic>: a parallel linkage) moves
-    // with it: not a joint of chessarm's arm, nor one that holds still.
+    // The arm's joints: the moving joints on the way to the tool that are not locked and follow
+    // no other (a <mimic> follower moves with its leader: held with it below, and refused there
+    // when its leader is one of the arm's joints, as in a parallel linkage).
+    let mut followers = std::collections::HashSet::new();
     for &j in &path {
-        if joints[j].kind != "fixed"
-            && !values.contains_key(&j)
-            && let Some((leader, ..)) = mimic(&joints[j].node)?
-        {
-            bail!(
-                "{}: follows '{leader}' (<mimic>) on the way to the tool: chessarm's arm has four independent joints \
-                 (a parallel linkage is one); hold it with --lock {}=VALUE",
-                at(&joints[j].node),
-                joints[j].name
-            );
+        if mimic(&joints[j].node)?.is_some() {
+            followers.insert(j);
         }
     }
-    // The arm's joints: the moving joints on the way to the tool that are not locked.
-    let arm: Vec<usize> =
-        path.iter().copied().filter(|j| joints[*j].kind != "fixed" && !values.contains_key(j)).collect();
+    let arm: Vec<usize> = path
+        .iter()
+        .copied()
+        .filter(|j| joints[*j].kind != "fixed" && !values.contains_key(j) && !followers.contains(j))
+        .collect();
     if let Some(&j) = arm.iter().find(|j| joints[**j].kind == "prismatic") {
         bail!(
             "{}: a prismatic joint on the way to the tool: chessarm's arm turns, it does not slide; hold it with --lock \
@@ -423,7 +426,10 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
         if joint.kind == "fixed" || arm_set.contains(&j) {
             continue;
         }
-        let range = lock_range(&joint.node, &joint.kind)?;
+        let range = lock_range(&joint.node, &joint.kind).unwrap_or_else(|e| {
+            problems.push(e.to_string());
+            None
+        });
         let value = match (values.get(&j), mimic(&joint.node)?) {
             (Some(value), _) => *value,
             (None, Some(_)) => mimic_value(j, &joints, &by_name, &values, &arm_set, 0)?,
@@ -439,12 +445,12 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
         if let Some((lower, upper)) = range
             && !(lower - 1e-12..=upper + 1e-12).contains(&value)
         {
-            bail!(
+            problems.push(format!(
                 "{}: held at {} {}, outside its <limit lower=\"{lower}\" upper=\"{upper}\">",
                 at(&joint.node),
                 chessarm_core::short_number(value),
                 if joint.kind == "prismatic" { "m" } else { "rad" }
-            );
+            ));
         }
         values.insert(j, value);
         // A gripper's joint: off the way to the tool, after the arm, not held by the user.
@@ -461,9 +467,12 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
     for index in 0..locked.len() {
         let Some(&j) = by_name.get(&locked[index].name) else { continue };
         let Some((leader, multiplier, offset)) = mimic(&joints[j].node)? else { continue };
-        if let Some([open, close]) = locked.iter().find(|l| l.name == leader).and_then(|l| l.gripper) {
-            locked[index].gripper = Some([multiplier * open + offset, multiplier * close + offset]);
-        }
+        // With its leader held still (no open and close values), it is held still too.
+        locked[index].gripper = locked
+            .iter()
+            .find(|l| l.name == leader)
+            .and_then(|l| l.gripper)
+            .map(|[open, close]| [multiplier * open + offset, multiplier * close + offset]);
     }
     if !defaults.is_empty() {
         notes.push(format!(
@@ -793,6 +802,9 @@ fn wrong_count(
         }
     }
     Ok(match fixes.as_slice() {
+        [] if extra > 2 => format!(
+            "{head}: hold the {extra} that are not the base yaw and the three pitch joints with --lock NAME=VALUE each"
+        ),
         [] => format!("{head}; no choice of joints to lock leaves that shape"),
         [one] => format!("{head}: hold the other with {one} (any value within its limits)"),
         many => format!("{head}: hold the others, e.g. {}", many.join(" or ")),

@@ -531,6 +531,19 @@ fn makers_files_are_taken_as_published_or_refused_with_every_problem_at_once() {
     common::assert_one_line_error(&five, &["5 moving joints", "--lock tool_flange=0"]);
     assert!(close(&tip(&run("roll.urdf", &roll, &["--lock", "tool_flange=0"])), &published));
 
+    // A <mimic> joint on the way to the tool moves with its leader: held with a held leader (the
+    // gripper's finger, here at 0.005 m: the flange turns 0.005·2 rad), refused when it follows
+    // one of the arm's joints (a parallel linkage).
+    let follower = gripper.replacen(
+        "  <joint name=\"tool_flange\" type=\"fixed\">",
+        "  <joint name=\"tool_flange\" type=\"revolute\"><axis xyz=\"1 0 0\"/><limit lower=\"-3\" upper=\"3\" effort=\"2\" velocity=\"3\"/><mimic joint=\"finger_l_joint\" multiplier=\"2\"/>",
+        1,
+    );
+    let held = run("follower.urdf", &follower, &[]);
+    assert!(held.status.success(), "{}", String::from_utf8_lossy(&held.stderr));
+    let linkage =
+        follower.replacen("<mimic joint=\"finger_l_joint\" multiplier=\"2\"/>", "<mimic joint=\"elbow\"/>", 1);
+    common::assert_one_line_error(&run("linkage.urdf", &linkage, &[]), &["follows the arm's joint 'elbow'"]);
     // A continuous base without <limit>: ±π, with the other joints' smallest speed and torque.
     let continuous = edit("<joint name=\"waist\" type=\"revolute\">", "<joint name=\"waist\" type=\"continuous\">")
         .replacen("<limit lower=\"-3.1\" upper=\"3.1\" effort=\"12\" velocity=\"3\"/>", "", 1);
@@ -577,6 +590,9 @@ fn makers_files_are_taken_as_published_or_refused_with_every_problem_at_once() {
         1,
     );
     common::assert_one_line_error(&run("arm.urdf.xacro", &element, &[]), &["xacro file", "expand it first"]);
+    let commented =
+        namespace.replacen("<robot name", "<!-- <xacro:include filename=\"arm.xacro\"/> -->\n<robot name", 1);
+    assert!(close(&tip(&run("commented.urdf", &commented, &[])), &published));
     let substitution =
         fixture.replacen(r#"<origin xyz="0 0 0.03" rpy="0 0 0"/>"#, r#"<origin xyz="0 0 ${h}" rpy="0 0 0"/>"#, 1);
     common::assert_one_line_error(&run("sub.urdf", &substitution, &[]), &["xacro file"]);

@@ -294,6 +294,12 @@ impl Arm {
     #[staticmethod]
     fn from_file(path: PathBuf) -> PyResult<Self> {
         let setup = Setup::load(Some(&path)).map_err(|e| ModelError::new_err(message(&e)))?;
+        if setup.urdf.is_some() {
+            return Err(ModelError::new_err(format!(
+                "{}: its [urdf] table is for the arm of a URDF: use Arm.from_urdf(…) (and the file with the CLI's --urdf)",
+                path.display()
+            )));
+        }
         Ok(Self { model: setup.arm, joint_names: setup.joint_names, signs: [1.0; 4] })
     }
 

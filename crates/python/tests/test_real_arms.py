@@ -133,3 +133,12 @@ def test_a_base_yaw_about_minus_z_keeps_the_files_sense():
 def test_a_fifth_joint_names_the_lock_that_fixes_it():
     with pytest.raises(chessarm.ModelError, match=r"--lock wrist_roll=0"):
         chessarm.Arm.from_urdf(str(FIXTURES / "so101_new_calib.urdf"))
+
+
+def test_a_board_fitted_to_a_urdf_arm_is_not_an_arm_of_its_own(tmp_path):
+    """A setup saved beside a URDF ([urdf] table, no [[links]]) is refused by Arm.from_file, as
+    the CLI refuses it without --urdf: it would be the report's arm otherwise."""
+    setup = tmp_path / "board.toml"
+    setup.write_text('[board]\nsquare_size = 0.02\n\n[urdf]\n')
+    with pytest.raises(chessarm.ModelError, match=r"\[urdf\] table is for the arm of a URDF"):
+        chessarm.Arm.from_file(str(setup))

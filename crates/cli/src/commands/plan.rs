@@ -236,7 +236,8 @@ fn plot_joint(path: &Path, plan: &Samples<'_>) -> Result<()> {
         series: (0..4)
             .map(|j| Series {
                 label: format!("θ{}", j + 1),
-                points: plan.joint.iter().map(|s| (s.t, pick(s)[j])).collect(),
+                // In the user's convention, as joint.csv (a URDF's own sense).
+                points: plan.joint.iter().map(|s| (s.t, plan.convention.signs[j] * pick(s)[j])).collect(),
                 color: j,
                 style: Style::Line,
             })
