@@ -177,6 +177,10 @@ pub fn run(cli: Cli) -> Result<()> {
             urdf.lock.insert(name, value);
         }
         if let Some(tool) = &cli.tool {
+            // The file's offset is a point of the file's tool link, not of another one.
+            if urdf.tool.as_ref() != Some(tool) {
+                urdf.tool_offset = None;
+            }
             urdf.tool = Some(tool.clone());
         }
         if let Some(offset) = cli.tool_offset {
