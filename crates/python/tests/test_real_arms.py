@@ -139,6 +139,6 @@ def test_a_board_fitted_to_a_urdf_arm_is_not_an_arm_of_its_own(tmp_path):
     """A setup saved beside a URDF ([urdf] table, no [[links]]) is refused by Arm.from_file, as
     the CLI refuses it without --urdf: it would be the report's arm otherwise."""
     setup = tmp_path / "board.toml"
-    setup.write_text('[board]\nsquare_size = 0.02\n\n[urdf]\n')
+    setup.write_text('[board]\nsquare_size = 0.05\n\n[urdf]\n')
     with pytest.raises(chessarm.ModelError, match=r"\[urdf\] table is for the arm of a URDF"):
         chessarm.Arm.from_file(str(setup))
