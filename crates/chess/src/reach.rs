@@ -30,7 +30,7 @@
 
 use crate::board::BoardGeometry;
 use crate::pieces::PieceSet;
-use crate::table::{Location, Table};
+use crate::table::{Location, Table, closest_on_segment};
 use crate::tasks::MotionLimits;
 use chessarm_core::arm::dynamics::gravity_torques;
 use chessarm_core::arm::model::{ArmModel, JointVector};
@@ -165,14 +165,6 @@ fn loaded(arm: &ArmModel<4>, pieces: &PieceSet) -> ArmModel<4> {
     arm.with_payload(Some(heaviest(pieces))).unwrap_or(*arm)
 }
 
-/// Distance (m) from `point` to the segment `a`–`b`.
-fn segment_distance(point: &Vector2<f64>, a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
-    let ab = b - a;
-    let length_squared = ab.norm_squared();
-    let t = if length_squared > 0.0 { ((point - a).dot(&ab) / length_squared).clamp(0.0, 1.0) } else { 0.0 };
-    (point - (a + ab * t)).norm()
-}
-
 /// Whether the base point lies inside the polygon of the points (as seen by the bearings: the
 /// points surround it when no half-plane through it holds them all).
 fn surrounds(base: &Vector2<f64>, points: &[Vector2<f64>]) -> bool {
@@ -221,10 +213,7 @@ pub fn check_table(
     }
     for (i, (from_name, a)) in all.iter().enumerate() {
         for (to_name, b) in &all[i + 1..] {
-            let ab = b - a;
-            let t =
-                if ab.norm_squared() > 0.0 { ((base - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0) } else { 0.0 };
-            near(format!("the way from {from_name} to {to_name}"), &(a + ab * t))?;
+            near(format!("the way from {from_name} to {to_name}"), &closest_on_segment(base, *a, *b))?;
         }
     }
     // The locations themselves first (their messages name them), then the traverses.
@@ -324,7 +313,7 @@ fn proxy_margin(radial: &Radial, base: &Vector2<f64>, points: &[Vector2<f64>]) -
     let mut near = f64::INFINITY;
     for (i, a) in points.iter().enumerate() {
         for b in &points[i + 1..] {
-            near = near.min(segment_distance(base, a, b));
+            near = near.min((base - closest_on_segment(*base, *a, *b)).norm());
         }
     }
     let (low, high) = radial.stretch(far)?;
@@ -442,22 +431,22 @@ pub fn fit_board(
             None => high = middle,
         }
     }
-    // The proxy's grid against the full check: shrink by 1 % until it passes.
-    for _ in 0..20 {
+    // The proxy's grid against the full check: shrink by 1 % until it passes (at most 20 times).
+    let mut shrinks = 0;
+    loop {
         let (margin, board, scaled) = found;
-        match check_table(arm, &board, &scaled, limits) {
+        let error = match check_table(arm, &board, &scaled, limits) {
             Ok(()) => return Ok(Fit { board, pieces: scaled, margin, tried }),
-            Err(error) => {
-                let smaller = board.square_size * 0.99;
-                found =
-                    best_at(smaller).ok_or_else(|| ReachError::NoFit { smallest: smaller, why: error.to_string() })?;
-            }
+            Err(error) => error,
+        };
+        let smaller = board.square_size * 0.99;
+        let no_fit = || ReachError::NoFit { smallest: smaller, why: error.to_string() };
+        shrinks += 1;
+        if shrinks > 20 {
+            return Err(no_fit());
         }
+        found = best_at(smaller).ok_or_else(no_fit)?;
     }
-    let (_, board, scaled) = found;
-    check_table(arm, &board, &scaled, limits)
-        .map_err(|error| ReachError::NoFit { smallest: board.square_size, why: error.to_string() })?;
-    Err(ReachError::NoFit { smallest: board.square_size, why: "the search did not settle".into() })
 }
 
 /// Per square, the radial table's margin (m) at the square's centre over all heights, or why

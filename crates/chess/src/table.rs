@@ -421,8 +421,13 @@ impl Table {
 
 /// Distance (m) from `point` to the segment `a`–`b` in the table plane.
 fn distance_to_segment(point: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
+    (point - closest_on_segment(point, a, b)).norm()
+}
+
+/// The point of the segment `a`–`b` closest to `point` (table plane, m).
+pub(crate) fn closest_on_segment(point: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> Vector2<f64> {
     let ab = b - a;
     let length_squared = ab.norm_squared();
     let t = if length_squared > 0.0 { ((point - a).dot(&ab) / length_squared).clamp(0.0, 1.0) } else { 0.0 };
-    (point - (a + ab * t)).norm()
+    a + ab * t
 }
