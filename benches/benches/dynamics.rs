@@ -47,7 +47,7 @@ fn per_call(c: &mut Criterion) {
         b.iter(|| {
             turn ^= 1;
             let state = &states[turn];
-            let torque = controller.torque(black_box(state), &reference, 1e-3);
+            let torque = controller.command(black_box(state), &reference, 1e-3);
             plant.rk4_step(state, &torque, 1e-3)
         })
     });

@@ -368,8 +368,8 @@ fn every_controller_computes_the_same_torque_with_the_terms_handed_over() {
                 handed.gripper_changed(true);
             }
             let terms = DynamicsTerms::new(&model, &state.q, &state.qd);
-            let a = own.torque(state, reference, period);
-            let b = handed.torque_with_terms(state, reference, period, &terms);
+            let a = own.command(state, reference, period);
+            let b = handed.command_with_terms(state, reference, period, &terms);
             assert_eq!(a, b, "{} at sample {k}", own.name());
             assert_eq!(own.commanded_acceleration(), handed.commanded_acceleration());
         }
@@ -388,7 +388,7 @@ fn commanded_acceleration_is_what_the_model_predicts_for_the_command() {
     let controllers: [&mut dyn Controller<4>; 3] = [&mut pd, &mut pid, &mut observer];
     for controller in controllers {
         for (state, reference) in samples() {
-            let torque = controller.torque(&state, &reference, period);
+            let torque = controller.command(&state, &reference, period);
             let u = controller.commanded_acceleration().unwrap();
             let predicted = inverse_dynamics(&model, &state.q, &state.qd, &u);
             // τ from M̂ u + N̂ against the RNEA's M u + C q̇ + g: rounding of ~10 N·m torques.
@@ -409,7 +409,7 @@ fn commanded_acceleration_is_what_the_model_predicts_for_the_command() {
         // Each call updates the estimate first (from the interval since the hold ended), then
         // commands with it.
         let mut probe = adaptive.clone();
-        let torque = probe.torque(&state, &reference, period);
+        let torque = probe.command(&state, &reference, period);
         let v = probe.commanded_acceleration().unwrap();
         let (mass, offset) = probe.payload_estimate();
         let estimated = model.with_payload(Some(point(mass, offset))).unwrap();

@@ -95,7 +95,7 @@ impl Controller<4> for Constant {
         "constant"
     }
     fn reset(&mut self) {}
-    fn torque(&mut self, _: &JointState<4>, _: &Reference<4>, _: f64) -> JointVector<4> {
+    fn command(&mut self, _: &JointState<4>, _: &Reference<4>, _: f64) -> JointVector<4> {
         self.0
     }
     fn set_payload(&mut self, _: Option<Payload>) -> Result<(), ModelError> {

@@ -291,8 +291,8 @@ impl chessarm_core::control::Controller<4> for Opaque {
     fn reset(&mut self) {
         self.0.reset();
     }
-    fn torque(&mut self, state: &JointState<4>, reference: &Reference<4>, period: f64) -> JointVector<4> {
-        self.0.torque(state, reference, period)
+    fn command(&mut self, state: &JointState<4>, reference: &Reference<4>, period: f64) -> JointVector<4> {
+        self.0.command(state, reference, period)
     }
     fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), chessarm_core::arm::model::ModelError> {
         self.0.set_payload(payload)

@@ -225,9 +225,9 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
         self.commanded = JointVector::zeros();
     }
 
-    fn torque(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N> {
+    fn command(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N> {
         let terms = DynamicsTerms::new(&self.model, &state.q, &state.qd);
-        self.torque_with_terms(state, reference, period, &terms)
+        self.command_with_terms(state, reference, period, &terms)
     }
 
     fn commanded_acceleration(&self) -> Option<JointVector<N>> {
@@ -242,7 +242,7 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
         Some(self)
     }
 
-    fn torque_with_terms(
+    fn command_with_terms(
         &mut self,
         state: &JointState<N>,
         reference: &Reference<N>,

@@ -129,9 +129,9 @@ impl<const N: usize> Controller<N> for DisturbanceObserver<N> {
         self.commanded = JointVector::zeros();
     }
 
-    fn torque(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N> {
+    fn command(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N> {
         let terms = DynamicsTerms::new(&self.model, &state.q, &state.qd);
-        self.torque_with_terms(state, reference, period, &terms)
+        self.command_with_terms(state, reference, period, &terms)
     }
 
     fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError> {
@@ -147,7 +147,7 @@ impl<const N: usize> Controller<N> for DisturbanceObserver<N> {
         Some(&self.model)
     }
 
-    fn torque_with_terms(
+    fn command_with_terms(
         &mut self,
         state: &JointState<N>,
         reference: &Reference<N>,

@@ -6,6 +6,7 @@ pub mod choice;
 pub mod computed_torque;
 pub mod disturbance_observer;
 pub mod gains;
+pub mod servo_host;
 
 use crate::arm::dynamics::DynamicsTerms;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
@@ -51,15 +52,31 @@ impl<const N: usize> Reference<N> {
     }
 }
 
-/// A joint-space feedback controller sampled every `period` seconds.
+/// What a controller sends to the joints' actuators (ros2_control's command interfaces).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandInterface {
+    /// Joint torques, N·m, for torque motors ([`crate::sim::actuator::Actuator::Torque`]).
+    Torque,
+    /// Goal angles, rad, for position servos and steppers, which close their own loops.
+    Position,
+}
+
+/// A joint-space controller sampled every `period` seconds: a feedback law sending torques,
+/// or a servo host sending goal positions ([`Controller::interface`]).
 pub trait Controller<const N: usize>: std::fmt::Debug + Send {
     /// Short name for reports, e.g. "pd".
     fn name(&self) -> &str;
     /// Clears internal state (integrators) before a new run.
     fn reset(&mut self);
-    /// Torque command, N·m, for the measured `state` and the `reference`; `period` is the
-    /// sample time (s) over which the command will be held.
-    fn torque(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N>;
+    /// The command for the measured `state` and the `reference`, in the unit of
+    /// [`Controller::interface`] (joint torques, N·m, for a torque controller; goal angles, rad,
+    /// for a servo host); `period` is the sample time (s) over which it will be held.
+    fn command(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N>;
+    /// What the command is: joint torques (the default; the torque motors apply them) or goal
+    /// positions (position servos run their own loops on them, [`crate::sim::actuator`]).
+    fn interface(&self) -> CommandInterface {
+        CommandInterface::Torque
+    }
     /// Tells the controller's model about a gripped payload (or its release).
     fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError>;
     /// The gripper has just closed (`true`) or opened (`false`). Called at every grip and
@@ -74,7 +91,7 @@ pub trait Controller<const N: usize>: std::fmt::Debug + Send {
     }
     /// The model the controller computes `M̂(q)` and `Ĉ q̇ + ĝ` with, if it uses one. When it
     /// equals the plant's model, the closed loop hands the plant's terms at the measured state
-    /// to [`Controller::torque_with_terms`] rather than have them computed twice.
+    /// to [`Controller::command_with_terms`] rather than have them computed twice.
     ///
     /// It may change only in [`Controller::set_payload`]: the closed loop compares it with the
     /// plant's at payload events only, and the batch simulator computes the terms of the model
@@ -85,20 +102,20 @@ pub trait Controller<const N: usize>: std::fmt::Debug + Send {
     /// This controller as the plain computed-torque law, if it is one: a batch of such runs
     /// computes their laws for all lanes at once ([`crate::sim::batch`]), the same operations
     /// per lane, and hands back the integral and the latest `v` when a run ends
-    /// ([`computed_torque::ComputedTorque`]'s `torque_with_terms` on one run).
+    /// ([`computed_torque::ComputedTorque`]'s `command_with_terms` on one run).
     fn as_computed_torque(&mut self) -> Option<&mut computed_torque::ComputedTorque<N>> {
         None
     }
-    /// [`Controller::torque`] with `terms`, the mass matrix and bias torques of
+    /// [`Controller::command`] with `terms`, the mass matrix and bias torques of
     /// [`Controller::dynamics_model`] at `state`, already computed. Must return exactly what
     /// `torque` would.
-    fn torque_with_terms(
+    fn command_with_terms(
         &mut self,
         state: &JointState<N>,
         reference: &Reference<N>,
         period: f64,
         _terms: &DynamicsTerms<N>,
     ) -> JointVector<N> {
-        self.torque(state, reference, period)
+        self.command(state, reference, period)
     }
 }

@@ -18,6 +18,7 @@ use crate::lanes::Real;
 use crate::plan::fine_point::{InPosition, Wait};
 use crate::plan::trajectory::JointTrajectory;
 use crate::sense::{Estimator, Feedback, JointKalman, Measurement};
+use crate::sim::actuator::{Actuators, ServoBank, ServoRecord};
 use crate::sim::plant::{Integrator, Plant};
 use nalgebra::Vector3;
 
@@ -147,6 +148,13 @@ pub struct SimConfig<const N: usize> {
     /// is given its mean over each integration step,
     /// `τ_c + (τ_k − τ_c)(T/dt)(1 − e^{−dt/T})`, held over the step.
     pub torque_lag: JointVector<N>,
+    /// What drives each joint (default: torque motors, the command applied as above). With
+    /// position servos ([`Actuators::servos`]) the controller is a host sending goal angles
+    /// every `control_period` (the bus rate); each servo's firmware and gearmotor turn them into
+    /// the torque on its joint ([`crate::sim::actuator::servo`]). The plant's model must then
+    /// carry the servos' gears ([`Actuators::plant_model`]); `torque_limits` and `torque_lag`
+    /// are the torque motors' and are not used.
+    pub actuators: Actuators<N>,
 }
 
 impl<const N: usize> SimConfig<N> {
@@ -160,6 +168,7 @@ impl<const N: usize> SimConfig<N> {
             integrator: Integrator::default(),
             tracking_from: 0.0,
             torque_lag: JointVector::zeros(),
+            actuators: Actuators::torque(),
         }
     }
 
@@ -194,6 +203,7 @@ impl<const N: usize> SimConfig<N> {
                 j + 1
             )));
         }
+        self.actuators.validate(self.dt).map_err(|e| SimError::Config(e.to_string()))?;
         Ok(steps as usize)
     }
 }
@@ -283,6 +293,8 @@ pub struct StepRecord<const N: usize> {
     /// Tool tip, actual and desired (FK of the reference), m.
     pub tip: Vector3<f64>,
     pub tip_desired: Vector3<f64>,
+    /// The servos' goals, targets, duties and backlash gaps, where servos drive the joints.
+    pub servo: Option<ServoRecord<N>>,
 }
 
 /// Receives every step of a run.
@@ -559,6 +571,8 @@ pub(crate) struct Run<'a, const N: usize, C: ?Sized, R: ?Sized> {
     lag_mean: JointVector<N>,
     has_lag: bool,
     motor_torque: JointVector<N>,
+    /// The servos, where servos drive the joints.
+    servos: Option<ServoBank<N>>,
     squared_angle_estimate_error: JointVector<N>,
     squared_rate_estimate_error: JointVector<N>,
     samples_taken: usize,
@@ -615,7 +629,38 @@ where
             )));
         }
         let steps = steps as usize;
-        let state = initial.unwrap_or_else(|| JointState::at_rest(reference.reference(0.0).q));
+        if controller.interface() != config.actuators.interface() {
+            return Err(SimError::Config(format!(
+                "the controller sends {} but the joints' actuators take {}",
+                interface_name(controller.interface()),
+                interface_name(config.actuators.interface())
+            )));
+        }
+        let servo_specs = config.actuators.servo_specs();
+        if servo_specs.is_some() {
+            let wanted = config.actuators.plant_model(plant).map_err(|e| SimError::Config(e.to_string()))?;
+            if wanted.links() != plant.links() {
+                return Err(SimError::Config(
+                    "the plant's model must carry the servos' gears (armature, friction, back-EMF): build it with Actuators::plant_model"
+                        .into(),
+                ));
+            }
+        }
+        let first = reference.reference(0.0);
+        // Servos start as they hold the host's first goal: at rest where gravity leaves them.
+        let (state, servos) = match servo_specs {
+            None => (initial.unwrap_or_else(|| JointState::at_rest(first.q)), None),
+            Some(specs) => {
+                controller.reset();
+                let goal = controller.command(&JointState::at_rest(first.q), &first, config.control_period);
+                let q = initial.map_or_else(|| ServoBank::settled(&specs, plant, &goal), |s| s.q);
+                let state = initial.unwrap_or_else(|| JointState::at_rest(q));
+                let mut bank = ServoBank::holding(specs, dt, plant, &goal, &q);
+                let limits = plant.links().map(|l| l.limits);
+                bank.send(&goal, &limits.map(|l| l.lower).into(), &limits.map(|l| l.upper).into());
+                (state, Some(bank))
+            }
+        };
         if let Some((j, value)) = state.q.iter().chain(state.qd.iter()).enumerate().find(|(_, v)| !v.is_finite()) {
             let what = if j < N { "angle" } else { "rate" };
             return Err(SimError::Config(format!("initial joint {} {what} = {value} must be finite", j % N + 1)));
@@ -655,6 +700,7 @@ where
             lag_mean,
             has_lag,
             motor_torque: JointVector::zeros(),
+            servos,
             squared_angle_estimate_error: JointVector::zeros(),
             squared_rate_estimate_error: JointVector::zeros(),
             samples_taken: 0,
@@ -816,7 +862,7 @@ where
         let command = if step.is_multiple_of(self.steps_per_sample) {
             let raw = if self.exact && self.controller_shares_terms {
                 self.estimate = state;
-                self.controller.torque_with_terms(&state, &desired, period, at_state.terms)
+                self.controller.command_with_terms(&state, &desired, period, at_state.terms)
             } else {
                 if !self.observed {
                     self.observe();
@@ -824,20 +870,43 @@ where
                 self.observed = false;
                 let seen = self.estimate;
                 match controller_terms {
-                    Some(terms) => self.controller.torque_with_terms(&seen, &desired, period, terms),
-                    None => self.controller.torque(&seen, &desired, period),
+                    Some(terms) => self.controller.command_with_terms(&seen, &desired, period, terms),
+                    None => self.controller.command(&seen, &desired, period),
                 }
             };
-            let (command, clipped) = self.clip(&raw.into())?;
-            if !self.exact {
-                self.applied_acceleration =
-                    acceleration_of(&*self.controller, &self.estimate, &command, clipped, controller_terms);
+            if let Some(servos) = &mut self.servos {
+                // Goal angles onto the bus: checked, inside the joints' limits, in counts.
+                if let Some((j, value)) = raw.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                    return Err(SimError::Diverged { time: t, joint: j + 1, quantity: "goal angle", value: *value });
+                }
+                let limits = plant.links().map(|l| l.limits);
+                self.samples_taken += 1;
+                self.command = servos.send(&raw, &limits.map(|l| l.lower).into(), &limits.map(|l| l.upper).into());
+                if !self.exact {
+                    self.applied_acceleration = acceleration_of(&*self.controller, &self.estimate, &raw, false, None);
+                }
+                self.command
+            } else {
+                let (command, clipped) = self.clip(&raw.into())?;
+                if !self.exact {
+                    self.applied_acceleration =
+                        acceleration_of(&*self.controller, &self.estimate, &command, clipped, controller_terms);
+                }
+                command
             }
-            command
         } else {
             self.command
         };
-        let torque = if self.has_lag {
+        let torque = if let Some(servos) = &mut self.servos {
+            let (torque, saturated) = servos.torque(step, &state.q, &state.qd, self.dt);
+            if saturated != 0 {
+                self.saturated_samples += 1;
+                for (j, count) in self.saturated_per_joint.iter_mut().enumerate() {
+                    *count += ((saturated >> j) & 1) as usize;
+                }
+            }
+            torque
+        } else if self.has_lag {
             // The exact response of T τ̇ + τ = τ_c over the step, held as its mean (what
             // the step integrates): τ̄ = τ_c + (τ_k − τ_c)(T/dt)(1 − e^{−dt/T}),
             // τ_{k+1} = τ_c + (τ_k − τ_c) e^{−dt/T}.
@@ -860,6 +929,7 @@ where
             torque,
             tip,
             tip_desired,
+            servo: self.servos.as_ref().map(ServoBank::record),
         });
         Ok(torque)
     }
@@ -899,7 +969,7 @@ where
     /// and the controller sees the exact state or the estimate of a Kalman filter
     /// ([`Run::kalman`]). (The batch also asks for the plain computed-torque law.)
     pub fn runs_in_lanes(&self) -> bool {
-        self.steps_per_sample == 1 && !self.has_lag && (self.exact || self.kalman().is_some())
+        self.steps_per_sample == 1 && !self.has_lag && self.servos.is_none() && (self.exact || self.kalman().is_some())
     }
 
     /// Whether the controller sees the plant's exact state.
@@ -1057,6 +1127,14 @@ where
             rms_angle_estimate_error: (self.squared_angle_estimate_error / sampled).map(f64::sqrt),
             rms_rate_estimate_error: (self.squared_rate_estimate_error / sampled).map(f64::sqrt),
         }
+    }
+}
+
+/// How a message names what a command interface carries.
+fn interface_name(interface: crate::control::CommandInterface) -> &'static str {
+    match interface {
+        crate::control::CommandInterface::Torque => "joint torques",
+        crate::control::CommandInterface::Position => "goal positions",
     }
 }
 

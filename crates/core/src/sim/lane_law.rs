@@ -240,7 +240,7 @@ impl<const L: usize> LaneLaw<L> {
     }
 
     /// Every lane's torque command before clipping (N·m), as its
-    /// [`Controller::torque_with_terms`](crate::control::Controller::torque_with_terms)
+    /// [`Controller::command_with_terms`](crate::control::Controller::command_with_terms)
     /// computes it at `state` (rad, rad/s) with the
     /// terms of `plant` (the plant's) or, for the lanes of `own`, of `own_terms` (the
     /// controllers' models'), following `reference` with samples of `period` s.

@@ -1,6 +1,7 @@
 //! Simulation: the plant, fixed-step integrators (fourth-order Runge–Kutta–Nyström by default), and the closed loop with a sampled
 //! controller, torque saturation, payload events and metrics.
 
+pub mod actuator;
 pub mod batch;
 pub mod closed_loop;
 mod lane_law;
