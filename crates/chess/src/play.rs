@@ -22,6 +22,7 @@ use chessarm_core::plan::fine_point::{InPosition, Wait};
 use chessarm_core::plan::hardware::{ExportError, GripperCommand, HardwarePoint, hardware_points};
 use chessarm_core::plan::trajectory::{PlanError, ToolMotion};
 use chessarm_core::sense::{Conditions, Feedback, SenseError};
+use chessarm_core::sim::actuator::Actuators;
 use chessarm_core::sim::{
     Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, Told, simulate_fine_points,
 };
@@ -70,6 +71,9 @@ pub struct PlaySettings {
     pub record_every: usize,
     /// Sample every robot move's planned motion for hardware at this rate, Hz (`None`: not).
     pub export_rate: Option<f64>,
+    /// What drives the joints (default: torque motors). With servos, `controller` is their
+    /// host ([`ControllerKind::ServoHost`]) and `control_period` its bus period.
+    pub actuators: Actuators<4>,
 }
 
 /// A robot move's planned motion for hardware ([`chessarm_core::plan::hardware`]).
@@ -112,6 +116,7 @@ impl PlaySettings {
             integrator: Integrator::default(),
             record_every: 10,
             export_rate: None,
+            actuators: Actuators::torque(),
         }
     }
 }
@@ -138,7 +143,7 @@ pub enum PlayError {
     #[error(transparent)]
     Sensing(#[from] SenseError),
     #[error("controller {name}: {source}")]
-    Controller { name: String, source: chessarm_core::control::gains::GainError },
+    Controller { name: String, source: chessarm_core::control::choice::BuildError },
 }
 
 /// Who moves the pieces of a move.
@@ -482,12 +487,16 @@ impl Game {
         }
         let events = gripper_events(settings, &self.table, planned);
         let marks: Vec<f64> = events.iter().map(|event| event.time).collect();
-        let mut plant = Plant::new(settings.plant.unwrap_or(self.arm));
+        let plant_model = settings.actuators.plant_model(&settings.plant.unwrap_or(self.arm)).map_err(|source| {
+            PlayError::Controller { name: settings.controller.name.clone(), source: source.into() }
+        })?;
+        let mut plant = Plant::new(plant_model);
         let mut controller = settings
             .controller
-            .build(self.arm)
+            .build_for(self.arm, &settings.actuators)
             .map_err(|source| PlayError::Controller { name: settings.controller.name.clone(), source })?;
         let config = SimConfig {
+            actuators: settings.actuators,
             dt: settings.dt,
             control_period: settings.control_period,
             integrator: settings.integrator,

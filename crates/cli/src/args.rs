@@ -207,6 +207,14 @@ escaped! {
     share => share_unescaped -> f64;
     mass => mass_unescaped -> f64;
     locks => locks_unescaped -> Locks;
+    servo_command => servo_command_unescaped -> chessarm_core::control::servo_host::ServoCommand;
+}
+
+/// `plain`, `sag` or `feedforward`.
+fn servo_command_unescaped(text: &str) -> Result<chessarm_core::control::servo_host::ServoCommand, String> {
+    use chessarm_core::control::servo_host::ServoCommand;
+    ServoCommand::from_name(text.trim())
+        .ok_or_else(|| format!("'{text}' is not a servo command; use plain, sag or feedforward"))
 }
 
 /// `JOINT=VALUE[,JOINT=VALUE…]`: joints to hold, each at a finite value (rad, or m for a

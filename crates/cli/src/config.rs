@@ -12,6 +12,7 @@ use chessarm_chess::tasks::{MotionLimits, TaskError};
 use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointLimits, Link};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
+use chessarm_core::sim::actuator::Actuators;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -70,6 +71,9 @@ pub struct LinkFile {
     /// Coulomb friction, N·m (plant only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub coulomb: Option<f64>,
+    /// What drives the joint: `torque` (the default), a built-in servo or an `[actuators.NAME]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub actuator: Option<String>,
 }
 
 /// The board in the file; fields left out keep the default board's.
@@ -302,6 +306,21 @@ pub struct SetupFile {
     /// How the arm of `--urdf` is read: joints held, the tool link and point.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub urdf: Option<UrdfFile>,
+    /// What drives the joints: one name for all, or one per joint (instead of each
+    /// `[[links]] actuator`; for an arm of `--urdf`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub actuator: Option<ActuatorNames>,
+    /// The user's own servos, `[actuators.NAME]`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub actuators: BTreeMap<String, crate::actuators::ActuatorFile>,
+}
+
+/// `actuator = "NAME"` or `actuator = ["NAME", …]` (one per joint).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum ActuatorNames {
+    One(String),
+    Each(Vec<String>),
 }
 
 /// `[urdf]`: for `--urdf`, as its flags say (the flags win).
@@ -318,6 +337,10 @@ pub struct UrdfFile {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tool_offset: Option<Vec<f64>>,
 }
+
+/// How often a host sends servo goals when `--bus-rate` does not say, Hz (LeRobot's
+/// teleoperation runs at 30–60 Hz; a Dynamixel or Feetech bus at 1 Mbit/s carries a few hundred).
+pub const DEFAULT_BUS_RATE: f64 = 100.0;
 
 /// What a setup file describes, validated.
 #[derive(Debug, Clone)]
@@ -343,6 +366,15 @@ pub struct Setup {
     /// `[urdf]`: how `--urdf` is read (with the flags applied once it is); `None` when the
     /// setup file has no such table (a file with one is for `--urdf` only, even empty).
     pub urdf: Option<UrdfFile>,
+    /// What drives each joint, and the names the setup gave them (`torque` for a torque motor).
+    pub actuators: Actuators<4>,
+    pub actuator_names: [String; 4],
+    /// The user's own servos (`[actuators.NAME]`), checked.
+    pub actuator_tables: BTreeMap<String, crate::actuators::ActuatorFile>,
+    /// With servos: the host's strategies (`--servo-command`; `simulate` compares them) and its
+    /// bus rate, Hz (`--bus-rate`).
+    pub servo_commands: Vec<chessarm_core::control::servo_host::ServoCommand>,
+    pub bus_rate: f64,
     /// The motion limits (`[motion]`, `[gripper]`, then the motion flags).
     pub motion: MotionLimits,
     /// How robot moves are timed (set by `--timing`; the file does not say).
@@ -363,6 +395,11 @@ impl Default for Setup {
             base_link: "base_link".into(),
             convention: JointConvention::default(),
             urdf: None,
+            actuators: Actuators::torque(),
+            actuator_names: std::array::from_fn(|_| crate::actuators::TORQUE.to_string()),
+            actuator_tables: BTreeMap::new(),
+            servo_commands: vec![Default::default()],
+            bus_rate: DEFAULT_BUS_RATE,
             motion: MotionLimits::default(),
             timing: TimingMode::default(),
         }
@@ -591,6 +628,20 @@ impl SetupFile {
         if let Some(uncertainty) = &self.uncertainty {
             uncertainty.to_uncertainty()?;
         }
+        crate::actuators::check_tables(&self.actuators)?;
+        let per_link: Vec<Option<&String>> = self.links.iter().map(|l| l.actuator.as_ref()).collect();
+        let (names, what): (Vec<String>, &str) = match (&self.actuator, per_link.iter().any(Option::is_some)) {
+            (Some(_), true) => bail!("actuator is given both at the top and in [[links]]: give it in one place"),
+            (Some(ActuatorNames::One(name)), false) => (vec![name.clone()], "actuator"),
+            (Some(ActuatorNames::Each(names)), false) => (names.clone(), "actuator"),
+            (None, true) => (
+                per_link.iter().map(|n| n.cloned().unwrap_or_else(|| crate::actuators::TORQUE.into())).collect(),
+                "[[links]] actuator",
+            ),
+            (None, false) => (vec![crate::actuators::TORQUE.into()], "actuator"),
+        };
+        let actuators = crate::actuators::resolve(&names, &self.actuators, what)?;
+        let actuator_names: [String; 4] = std::array::from_fn(|j| names.get(j).unwrap_or(&names[0]).clone());
         Ok(Setup {
             arm,
             board,
@@ -603,6 +654,11 @@ impl SetupFile {
             base_link: "base_link".into(),
             convention: JointConvention::default(),
             urdf: self.urdf.clone(),
+            actuators,
+            actuator_names,
+            actuator_tables: self.actuators.clone(),
+            servo_commands: vec![Default::default()],
+            bus_rate: DEFAULT_BUS_RATE,
             motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
             timing: TimingMode::default(),
         })
@@ -696,6 +752,7 @@ impl From<&Setup> for SetupFile {
                 torque_limit: Some(link.limits.torque),
                 viscous: Some(link.friction.viscous),
                 coulomb: Some(link.friction.coulomb),
+                actuator: None,
             })
             .collect();
         let piece = |d: &PieceDimensions| {
@@ -712,6 +769,14 @@ impl From<&Setup> for SetupFile {
         SetupFile {
             base: (base != Vector3::zeros()).then(|| base.iter().copied().collect()),
             urdf: None,
+            actuator: setup.actuator_names.iter().any(|n| n != crate::actuators::TORQUE).then(|| {
+                if setup.actuator_names.iter().all(|n| *n == setup.actuator_names[0]) {
+                    ActuatorNames::One(setup.actuator_names[0].clone())
+                } else {
+                    ActuatorNames::Each(setup.actuator_names.to_vec())
+                }
+            }),
+            actuators: setup.actuator_tables.clone(),
             gravity: Some(setup.arm.gravity().iter().copied().collect()),
             board: BoardFile {
                 square_size: Some(setup.board.square_size),

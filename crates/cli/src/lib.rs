@@ -1,6 +1,7 @@
 //! The `chessarm` command-line program: commands, reports (CSV, JSON, plots) and progress.
 //! This crate is the only place that touches files and the terminal.
 
+pub mod actuators;
 pub mod args;
 pub mod cli;
 pub mod commands;
@@ -203,6 +204,17 @@ pub fn run(cli: Cli) -> Result<()> {
         setup.urdf_path = Some(path.clone());
         setup.take_urdf_arm(imported);
     }
+    if let Some(names) = &cli.actuator {
+        setup.actuators = actuators::resolve(names, &setup.actuator_tables, "--actuator")?;
+        setup.actuator_names = std::array::from_fn(|j| names.get(j).unwrap_or(&names[0]).clone());
+    }
+    if setup.actuators.servo_specs().is_none() && (cli.servo_command.is_some() || cli.bus_rate.is_some()) {
+        anyhow::bail!(
+            "--servo-command and --bus-rate are for servos; the joints have torque motors (give --actuator NAME)"
+        );
+    }
+    setup.servo_commands = cli.servo_command.clone().unwrap_or_else(|| vec![Default::default()]);
+    setup.bus_rate = cli.bus_rate.unwrap_or(config::DEFAULT_BUS_RATE);
     let default_out = std::path::PathBuf::from("out");
     let out = match &cli.command {
         None => Some(&default_out),

@@ -301,5 +301,8 @@ fn feedforward_tracks_a_motion_best_on_a_real_servo() {
         rms.push(summary.rms_joint_error.norm());
     }
     let [plain, sag, feedforward] = rms[..] else { unreachable!() };
-    assert!(feedforward < 0.5 * sag && sag < plain, "RMS joint error: plain {plain}, sag {sag}, feedforward {feedforward}");
+    assert!(
+        feedforward < 0.5 * sag && sag < plain,
+        "RMS joint error: plain {plain}, sag {sag}, feedforward {feedforward}"
+    );
 }

@@ -102,11 +102,22 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let setup = &args.motion.apply(setup)?;
-    let mut spec = controller_specs(&[args.controller.into()], &args.gains, DefaultGains::Game)?.remove(0);
+    let hosts = crate::commands::simulate::servo_hosts(setup);
+    if hosts.as_ref().is_some_and(|h| h.len() > 1) {
+        anyhow::bail!("--servo-command: play sends one kind of goal; give one of plain, sag, feedforward");
+    }
+    let mut spec = match hosts {
+        Some(mut hosts) => hosts.remove(0),
+        None => controller_specs(&[args.controller.into()], &args.gains, DefaultGains::Game)?.remove(0),
+    };
     spec.knows_friction = args.conditions.knows_friction(setup);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     let settings_name = spec.name.clone();
     settings.controller = spec;
+    if setup.actuators.servo_specs().is_some() {
+        settings.actuators = setup.actuators;
+        settings.control_period = 1.0 / setup.bus_rate;
+    }
     let study = Study::new(setup, &args.conditions, settings.control_period)?;
     let trial = study.trial(args.conditions.run_seed())?;
     let ideal = study.is_ideal(setup);

@@ -100,6 +100,32 @@ pub enum DefaultGains {
     Game,
 }
 
+/// With servos, the hosts the setup's `--servo-command` asks for (their gains unused), with a
+/// note on the terminal that they replace the torque controllers; `None` with torque motors.
+pub fn servo_hosts(setup: &Setup) -> Option<Vec<ControllerSpec>> {
+    setup.actuators.servo_specs()?;
+    if !crate::json_output() {
+        eprintln!(
+            "servos ({}): the host sends goal positions at {} Hz ({}); the torque controllers are not used",
+            setup.actuator_names.join(", "),
+            setup.bus_rate,
+            setup.servo_commands.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
+        );
+    }
+    Some(
+        setup
+            .servo_commands
+            .iter()
+            .map(|command| ControllerSpec {
+                name: command.name().to_string(),
+                kind: ControllerKind::ServoHost(*command),
+                gains: chessarm_core::control::gains::Gains::uniform(1.0, 1.0, 0.0).expect("positive gains"),
+                knows_friction: false,
+            })
+            .collect(),
+    )
+}
+
 /// The controllers `names` asks for (in order, each once; `both` is pd and pid), with the
 /// `defaults` gains unless overridden.
 pub fn controller_specs(
@@ -174,13 +200,20 @@ pub fn run_controller(
     progress: Option<&ProgressBar>,
 ) -> Result<ControllerRun> {
     let trial = options.trial.as_ref();
-    let mut plant = Plant::new(trial.map_or(setup.arm, |t| t.plant));
-    let mut controller = spec.build(setup.arm).with_context(|| format!("controller {}", spec.name))?;
+    // Servos' gears are part of the plant (armature, friction, back-EMF).
+    let plant_model = setup.actuators.plant_model(&trial.map_or(setup.arm, |t| t.plant))?;
+    let mut plant = Plant::new(plant_model);
+    let mut controller =
+        spec.build_for(setup.arm, &setup.actuators).with_context(|| format!("controller {}", spec.name))?;
     let conditions = trial.map_or_else(chessarm_core::sense::Conditions::ideal, |t| t.conditions.clone());
-    let mut feedback = conditions.feedback(options.control_period)?;
+    // A servo host samples at the bus rate.
+    let control_period =
+        if setup.actuators.servo_specs().is_some() { 1.0 / setup.bus_rate } else { options.control_period };
+    let mut feedback = conditions.feedback(control_period)?;
     let config = SimConfig {
         dt: options.dt,
-        control_period: options.control_period,
+        control_period,
+        actuators: setup.actuators,
         integrator: options.integrator,
         tracking_from: options.tracking_from,
         torque_lag: conditions.torque_lag,
@@ -227,9 +260,15 @@ pub fn summary_json(run: &ControllerRun, plan: &Plan) -> Value {
             json!({ "event": kind, "t_s": event.time, "tip_error_mm": error * 1e3 })
         })
         .collect();
+    // A servo host has no gains of its own (the servos' loops are theirs): none written.
+    let host = matches!(run.spec.kind, ControllerKind::ServoHost(_));
+    let gains_json =
+        (!host).then(|| json!({ "kp": gains.kp.as_slice(), "kd": gains.kd.as_slice(), "ki": gains.ki.as_slice() }));
+    let poles = (!host).then_some(poles);
     json!({
         "controller": run.spec.name,
-        "gains": { "kp": gains.kp.as_slice(), "kd": gains.kd.as_slice(), "ki": gains.ki.as_slice() },
+        "servo_command": host.then(|| run.spec.name.clone()),
+        "gains": gains_json,
         "closed_loop_poles": poles,
         "rms_joint_error_rad": summary.rms_joint_error.as_slice(),
         "max_joint_error_rad": summary.max_joint_error.as_slice(),
@@ -732,7 +771,10 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
     }
-    let mut specs = controller_specs(&args.controller, &args.gains, DefaultGains::Report)?;
+    let mut specs = match servo_hosts(setup) {
+        Some(hosts) => hosts,
+        None => controller_specs(&args.controller, &args.gains, DefaultGains::Report)?,
+    };
     for spec in &mut specs {
         spec.knows_friction = args.conditions.knows_friction(setup);
     }

@@ -6,7 +6,9 @@ use super::adaptive::AdaptiveComputedTorque;
 use super::computed_torque::{AntiWindup, ComputedTorque};
 use super::disturbance_observer::DisturbanceObserver;
 use super::gains::{GainError, Gains};
-use crate::arm::model::ArmModel;
+use super::servo_host::{ServoCommand, ServoHost};
+use crate::arm::model::{ArmModel, ModelError};
+use crate::sim::actuator::Actuators;
 
 /// The controllers behind the [`Controller`] trait.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -21,6 +23,26 @@ pub enum ControllerKind {
     Adaptive,
     /// Computed torque with a disturbance observer ([`DisturbanceObserver`]).
     DisturbanceObserver,
+    /// The host of a servo arm, sending goal positions by this strategy ([`ServoHost`]); its
+    /// gains are not used (the servos' loops are the servos').
+    ServoHost(ServoCommand),
+}
+
+/// Why a controller cannot be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    #[error(transparent)]
+    Gain(#[from] GainError),
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    #[error(
+        "controller {name} sends joint torques but the joints have position servos: choose the host's goals with --servo-command plain|sag|feedforward"
+    )]
+    TorqueToServos { name: String },
+    #[error(
+        "the servo host ({name}) sends goal positions but the joints have torque motors: give the servos with --actuator"
+    )]
+    GoalsToTorqueMotors { name: String },
 }
 
 /// A controller to build: its report name, kind and outer-loop gains.
@@ -55,6 +77,30 @@ impl ControllerSpec {
             ),
             ControllerKind::Adaptive => Box::new(AdaptiveComputedTorque::new(model).with_gains(self.gains)?),
             ControllerKind::DisturbanceObserver => Box::new(DisturbanceObserver::new(model).with_gains(self.gains)?),
+            // Without servos' numbers: a host of ideal servos is not what anyone builds.
+            ControllerKind::ServoHost(_) => {
+                return Err(GainError::Invalid {
+                    name: format!("{} (a servo host needs the servos: ControllerSpec::build_for)", self.name),
+                    value: 0.0,
+                    reason: "not a torque controller",
+                });
+            }
         })
+    }
+
+    /// The controller for joints driven by `actuators`: [`ControllerSpec::build`] for torque
+    /// motors, the [`ServoHost`] of the spec's strategy for servos; refuses a torque controller
+    /// on servos and a host on torque motors.
+    pub fn build_for(
+        &self,
+        model: ArmModel<4>,
+        actuators: &Actuators<4>,
+    ) -> Result<Box<dyn Controller<4>>, BuildError> {
+        match (self.kind, actuators.servo_specs()) {
+            (ControllerKind::ServoHost(command), Some(specs)) => Ok(Box::new(ServoHost::new(command, model, specs)?)),
+            (ControllerKind::ServoHost(_), None) => Err(BuildError::GoalsToTorqueMotors { name: self.name.clone() }),
+            (_, Some(_)) => Err(BuildError::TorqueToServos { name: self.name.clone() }),
+            (_, None) => Ok(self.build(model)?),
+        }
     }
 }

@@ -187,7 +187,8 @@ impl ServoState {
         let engaged = if spec.backlash == 0.0 || load == 0.0 { 0 } else { load.signum() as i8 };
         let measured = spec.quantise(q);
         let error = goal - measured;
-        let duty = if error.abs() <= spec.deadband { 0.0 } else { (spec.kp * error).clamp(-spec.max_duty, spec.max_duty) };
+        let duty =
+            if error.abs() <= spec.deadband { 0.0 } else { (spec.kp * error).clamp(-spec.max_duty, spec.max_duty) };
         Self {
             goal,
             target: goal,

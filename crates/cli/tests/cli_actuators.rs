@@ -1,0 +1,128 @@
+//! Servos on the command line: `--actuator` (a built-in servo or a setup's `[actuators.NAME]`),
+//! `--servo-command` compared in `simulate`, a game on the SO-101's fitted board with its
+//! STS3215s, and the refusals a user meets.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::{assert_one_line_error, chessarm, json_of};
+use std::path::Path;
+
+const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
+const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
+
+/// An XM430 on 48 V with a 20 N·m current limit: a servo strong enough for the report's arm
+/// (the built-in ones stall under it), given as a user's table over a built-in.
+const BIG_SERVO: &str = "[actuators.big]\nbase = \"xm430\"\nsupply_voltage = 48.0\nmax_torque = 20.0\n";
+
+/// The three host strategies on the report's scenario: each runs, and the goals that carry the
+/// arm's dynamics track best (RMS tip error feedforward < sag < plain); a host has no gains.
+#[test]
+fn simulate_compares_the_hosts_goal_strategies() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = dir.path().join("big.toml");
+    std::fs::write(&setup, BIG_SERVO).unwrap();
+    let out = dir.path().join("out");
+    let json = json_of(&chessarm(&[
+        "--arm",
+        setup.to_str().unwrap(),
+        "--actuator",
+        "big",
+        "--servo-command",
+        "plain,sag,feedforward",
+        "simulate",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let runs = json["summary"]["controllers"].as_array().unwrap();
+    let names: Vec<&str> = runs.iter().map(|r| r["controller"].as_str().unwrap()).collect();
+    assert_eq!(names, ["plain", "sag", "feedforward"]);
+    let rms: Vec<f64> = runs.iter().map(|r| r["rms_tip_error_mm"].as_f64().unwrap()).collect();
+    assert!(rms[2] < rms[1] && rms[1] < rms[0], "RMS tip error mm plain, sag, feedforward: {rms:?}");
+    for run in runs {
+        assert!(run["gains"].is_null() && run["closed_loop_poles"].is_null());
+        assert_eq!(run["servo_command"], run["controller"]);
+    }
+    assert!(out.join("feedforward.csv").is_file());
+}
+
+/// The maker's case: the SO-101 as published, its fitted board, STS3215 (12 V) servos and
+/// feedforward goals at 100 Hz: the Opera game with every piece in place.
+#[test]
+fn the_so101_with_its_sts3215s_plays_the_opera_game() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = Path::new(FIXTURES).join("so101_new_calib.urdf");
+    let board = dir.path().join("board.toml");
+    let fit = chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--lock",
+        "wrist_roll=0",
+        "board",
+        "--fit",
+        "--save",
+        board.to_str().unwrap(),
+    ]);
+    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
+    let out = dir.path().join("game");
+    let game = chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--arm",
+        board.to_str().unwrap(),
+        "--actuator",
+        "sts3215-12v",
+        "--servo-command",
+        "feedforward",
+        "play",
+        OPERA,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(game.status.success(), "{}", String::from_utf8_lossy(&game.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
+    assert_eq!(report["controller"], "feedforward");
+    assert_eq!(report["misplaced"].as_array().unwrap().len(), 0);
+    let errors: Vec<f64> = report["moves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|m| m["place_errors_mm"].as_array().unwrap().iter().map(|e| e.as_f64().unwrap()))
+        .collect();
+    // Every piece within the game's 5 mm tolerance, and the servos leave some error (this is
+    // not the torque plant's 0.001 mm).
+    let worst = errors.iter().copied().fold(0.0, f64::max);
+    assert!(worst < 5.0 && worst > 0.05, "largest placement error {worst} mm");
+}
+
+#[test]
+fn bad_actuator_input_is_refused_with_its_name() {
+    assert_one_line_error(
+        &chessarm(&["--actuator", "sts9999", "simulate", "--out", "/nonexistent/x"]),
+        &["--actuator = \"sts9999\"", "sts3215", "xm430", "torque"],
+    );
+    assert_one_line_error(
+        &chessarm(&["--actuator", "torque,sts3215,sts3215,sts3215", "fk", "--q", "0,0,0,0"]),
+        &["joint 2 has a servo and joint 1 a torque motor"],
+    );
+    assert_one_line_error(
+        &chessarm(&["--actuator", "sts3215,xm430", "fk", "--q", "0,0,0,0"]),
+        &["--actuator has 2 names"],
+    );
+    assert_one_line_error(
+        &chessarm(&["--servo-command", "sag", "fk", "--q", "0,0,0,0"]),
+        &["--servo-command and --bus-rate are for servos"],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    for (text, needles) in [
+        ("[actuators.sts3215]\nbase = \"xm430\"\n", vec!["actuators.sts3215: a built-in actuator has this name"]),
+        ("[actuators.mine]\nbase = \"xm430\"\nbacklash = -0.1\n", vec!["actuators.mine.backlash = -0.1"]),
+        ("[actuators.mine]\nsupply_voltage = 12.0\n", vec!["actuators.mine.kp is missing", "base = \"NAME\""]),
+        ("[actuators.mine]\nbase = \"xm430\"\np_gain = 400\nkp = 3\n", vec!["not both"]),
+    ] {
+        let path = dir.path().join("setup.toml");
+        std::fs::write(&path, text).unwrap();
+        assert_one_line_error(&chessarm(&["--arm", path.to_str().unwrap(), "fk", "--q", "0,0,0,0"]), &needles);
+    }
+}
