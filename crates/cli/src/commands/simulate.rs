@@ -346,7 +346,27 @@ pub fn write_run(
 ) -> Result<Vec<String>> {
     let name = &run.spec.name;
     let csv = out.join(format!("{name}.csv"));
-    write_csv(&csv, &run_header(), run.records.iter().map(|r| run_row(r, convention)))?;
+    let servos = run.records.first().is_some_and(|r| r.servo.is_some());
+    let mut header = run_header();
+    if servos {
+        // The servos' goals and internal targets (rad), duties (−1…1) and backlash gaps (rad).
+        for prefix in ["goal", "target", "duty", "gap"] {
+            header.extend(numbered(prefix, 4));
+        }
+    }
+    write_csv(
+        &csv,
+        &header,
+        run.records.iter().map(|r| {
+            let mut row = run_row(r, convention);
+            if let Some(servo) = &r.servo {
+                for part in [servo.goal, servo.target, servo.duty, servo.gap] {
+                    row.extend(convention.user(part));
+                }
+            }
+            row
+        }),
+    )?;
     let upper = name.to_uppercase();
     // The plots in the user's convention too (a URDF's own sense).
     let sign = convention.signs;
@@ -368,11 +388,47 @@ pub fn write_run(
                     color: 0,
                     style: Style::Dashed,
                 },
-            ],
+            ]
+            .into_iter()
+            .chain(
+                servos
+                    .then(|| {
+                        [
+                            Series {
+                                label: format!("goal {} sent", j + 1),
+                                points: run
+                                    .records
+                                    .iter()
+                                    .filter_map(|r| Some((r.t, sign[j] * r.servo?.goal[j])))
+                                    .collect(),
+                                color: 1,
+                                style: Style::Dashed,
+                            },
+                            Series {
+                                label: format!("servo {} target", j + 1),
+                                points: run
+                                    .records
+                                    .iter()
+                                    .filter_map(|r| Some((r.t, sign[j] * r.servo?.target[j])))
+                                    .collect(),
+                                color: 3,
+                                style: Style::Line,
+                            },
+                        ]
+                    })
+                    .into_iter()
+                    .flatten(),
+            )
+            .collect(),
             ..Panel::default()
         })
         .collect();
-    plot_panels(&joints, &format!("{upper}: joint angles, actual and desired"), "time (s)", &panels)?;
+    let title = if servos {
+        format!("{upper}: joint angles — actual, planned, the goal sent and the servo's internal target")
+    } else {
+        format!("{upper}: joint angles, actual and desired")
+    };
+    plot_panels(&joints, &title, "time (s)", &panels)?;
     let torques = out.join(format!("{name}_torques.png"));
     let span = run.records.last().map_or(1.0, |r| r.t) - run.records.first().map_or(0.0, |r| r.t);
     let panels: Vec<Panel> = (0..4)
