@@ -144,11 +144,11 @@ pub fn actuator(name: &str, user: &BTreeMap<String, ActuatorFile>, what: &str) -
     if let Some(table) = user.get(name) {
         return Ok(Actuator::Servo(table.to_spec(name)?));
     }
-    match profiles::profile(name) {
-        Some(profile) => Ok(Actuator::Servo(profile.spec)),
+    match profiles::actuator(name) {
+        Some(actuator) => Ok(actuator),
         None => {
             let mut known: Vec<&str> = vec![TORQUE];
-            known.extend(profiles::names());
+            known.extend(profiles::all_names());
             known.extend(user.keys().map(String::as_str));
             bail!("{what} = \"{name}\" is not an actuator; the known ones are {}", known.join(", "))
         }
@@ -178,7 +178,7 @@ pub fn resolve(names: &[String], user: &BTreeMap<String, ActuatorFile>, what: &s
 /// The user's tables, checked: none named like a built-in actuator, each complete.
 pub fn check_tables(user: &BTreeMap<String, ActuatorFile>) -> Result<()> {
     for (name, table) in user {
-        if name == TORQUE || profiles::profile(name).is_some() {
+        if name == TORQUE || profiles::actuator(name).is_some() {
             bail!("actuators.{name}: a built-in actuator has this name; choose another (or `base = \"{name}\"`)");
         }
         table.to_spec(name)?;

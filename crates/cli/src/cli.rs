@@ -33,16 +33,16 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "X,Y,Z", value_parser = args::three, requires = "urdf")]
     pub tool_offset: Option<[f64; 3]>,
     /// What drives the joints, over the setup's: `torque` (torque motors, the default), a
-    /// built-in servo (sts3215, sts3215-12v, xl430, xm430, mg996r) or an `[actuators.NAME]` of
-    /// the setup; one name for every joint or four, base to tool.
+    /// built-in servo (sts3215, sts3215-12v, xl430, xm430, mg996r), the geared stepper nema17,
+    /// or an `[actuators.NAME]` of the setup; one name for every joint or four, base to tool.
     #[arg(long, global = true, value_name = "NAME[,NAME,NAME,NAME]", value_delimiter = ',')]
     pub actuator: Option<Vec<String>>,
-    /// With servos: how the host computes the goal positions it sends — `plain` (the planned
+    /// With servos or steppers: how the host computes the goal positions it sends — `plain` (the planned
     /// angles), `sag` (offset to hold them against gravity), `feedforward` (offset by the plan's
     /// inverse dynamics); `simulate` compares several given with commas.
     #[arg(long, global = true, value_name = "plain|sag|feedforward[,…]", value_delimiter = ',', value_parser = args::servo_command)]
     pub servo_command: Option<Vec<chessarm_core::control::servo_host::ServoCommand>>,
-    /// With servos: how often the host sends goal positions on the bus, Hz (default 100).
+    /// With servos or steppers: how often the host sends goal positions, Hz (default 100).
     #[arg(long, global = true, value_name = "HZ", value_parser = args::positive)]
     pub bus_rate: Option<f64>,
     /// Print the result as one line of JSON on standard output (for scripts) instead of a

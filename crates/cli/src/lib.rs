@@ -208,7 +208,7 @@ pub fn run(cli: Cli) -> Result<()> {
         setup.actuators = actuators::resolve(names, &setup.actuator_tables, "--actuator")?;
         setup.actuator_names = std::array::from_fn(|j| names.get(j).unwrap_or(&names[0]).clone());
     }
-    if setup.actuators.servo_specs().is_none() && (cli.servo_command.is_some() || cli.bus_rate.is_some()) {
+    if !setup.actuators.take_positions() && (cli.servo_command.is_some() || cli.bus_rate.is_some()) {
         anyhow::bail!(
             "--servo-command and --bus-rate are for servos; the joints have torque motors (give --actuator NAME)"
         );

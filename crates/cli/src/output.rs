@@ -352,7 +352,8 @@ pub fn remove_listed_in(dir: &Path) -> Result<()> {
     Ok(())
 }
 
-fn remove_file_if_there(path: &Path) -> Result<()> {
+/// Removes `path` if it is there.
+pub fn remove_file_if_there(path: &Path) -> Result<()> {
     match std::fs::remove_file(path) {
         Ok(()) => Ok(()),
         Err(error) if error.kind() == std::io::ErrorKind::NotFound => Ok(()),

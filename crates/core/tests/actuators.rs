@@ -9,7 +9,7 @@ use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::control::servo_host::{ServoCommand, ServoHost};
 use chessarm_core::control::{JointState, Reference};
-use chessarm_core::sim::actuator::{Actuators, ServoBank, ServoSpec, profiles};
+use chessarm_core::sim::actuator::{Actuator, Actuators, PositionBank, ServoSpec, StepperSpec, profiles};
 use chessarm_core::sim::{Plant, ReferenceSource, SimConfig, StepRecord, simulate};
 
 /// A reference held at `q` for `duration` seconds, or moving by `wave` (rad, per joint) as a
@@ -85,7 +85,7 @@ fn run(
     let actuators = Actuators::servos(specs);
     let plant_model = actuators.plant_model(&model).unwrap();
     let mut plant = Plant::new(plant_model);
-    let mut host = ServoHost::new(strategy, model, specs).unwrap();
+    let mut host = ServoHost::new(strategy, model, Actuators::servos(specs)).unwrap();
     let config = SimConfig { control_period: 0.01, actuators, ..SimConfig::new(&plant) };
     let mut records = Vec::new();
     let summary = simulate(&mut plant, &mut host, reference, initial, &[], &[], &config, &mut records).unwrap();
@@ -112,8 +112,8 @@ fn a_loaded_servo_settles_at_the_error_of_its_p_loop() {
     }
     // The arm's shoulder and elbow carry load: the test is not of a zero error.
     assert!((g[1] / spec.stiffness()).abs() > 0.05);
-    // And `ServoBank::settled` finds the same equilibrium without simulating.
-    let settled = ServoBank::settled(&[spec; 4], &out.plant, &goal);
+    // And `PositionBank::settled` finds the same equilibrium without simulating.
+    let settled = PositionBank::settled(&Actuators::servos([spec; 4]), &out.plant, &goal);
     assert!((settled - q).amax() < 1e-6);
 }
 
@@ -162,7 +162,7 @@ fn the_internal_target_ramps_at_the_speed_limit() {
     let actuators = Actuators::servos([spec; 4]);
     let model = actuators.plant_model(&report_arm()).unwrap();
     let mut plant = Plant::new(model);
-    let mut host = ServoHost::new(ServoCommand::Plain, report_arm(), [spec; 4]).unwrap();
+    let mut host = ServoHost::new(ServoCommand::Plain, report_arm(), Actuators::servos([spec; 4])).unwrap();
     let config = SimConfig { control_period: 0.01, actuators, ..SimConfig::new(&plant) };
     let mut records: Vec<StepRecord<4>> = Vec::new();
     simulate(&mut plant, &mut host, &Step(start, step), None, &[], &[], &config, &mut records).unwrap();
@@ -294,7 +294,7 @@ fn feedforward_tracks_a_motion_best_on_a_real_servo() {
     for strategy in ServoCommand::ALL {
         let actuators = Actuators::servos([spec; 4]);
         let mut plant = Plant::new(actuators.plant_model(&report_arm()).unwrap());
-        let mut host = ServoHost::new(strategy, report_arm(), [spec; 4]).unwrap();
+        let mut host = ServoHost::new(strategy, report_arm(), Actuators::servos([spec; 4])).unwrap();
         // 100 Hz on the bus; the RMS from 0.5 s on (the loops' start-up transient decayed).
         let config = SimConfig { control_period: 0.01, actuators, tracking_from: 0.5, ..SimConfig::new(&plant) };
         let summary = simulate(&mut plant, &mut host, &sine, None, &[], &[], &config, &mut Vec::new()).unwrap();
@@ -305,4 +305,106 @@ fn feedforward_tracks_a_motion_best_on_a_real_servo() {
         feedforward < 0.5 * sag && sag < plain,
         "RMS joint error: plain {plain}, sag {sag}, feedforward {feedforward}"
     );
+}
+
+/// A stepper as strong as the report's arm needs (the built-in NEMA 17 with about four times the
+/// holding torque), no Coulomb friction, its step generator fast.
+fn strong_stepper() -> StepperSpec {
+    StepperSpec {
+        holding_torque: 8.0,
+        coulomb_friction: 0.0,
+        viscous_friction: 0.5,
+        max_speed: 10.0,
+        max_acceleration: 2.0,
+        corner_speed: 100.0,
+        ..profiles::NEMA17.spec
+    }
+}
+
+fn stepper_run(
+    spec: StepperSpec,
+    model: ArmModel<4>,
+    reference: &dyn ReferenceSource<4>,
+    initial: Option<JointState<4>>,
+) -> (Vec<StepRecord<4>>, chessarm_core::sim::SimSummary<4>) {
+    let actuators = Actuators { joints: [Actuator::Stepper(spec); 4] };
+    let mut plant = Plant::new(actuators.plant_model(&model).unwrap());
+    let mut host = ServoHost::new(ServoCommand::Plain, model, actuators).unwrap();
+    let config = SimConfig { control_period: 0.01, actuators, ..SimConfig::new(&plant) };
+    let mut records = Vec::new();
+    let summary = simulate(&mut plant, &mut host, reference, initial, &[], &[], &config, &mut records).unwrap();
+    (records, summary)
+}
+
+/// A stepper holding a load lags its commanded angle by `asin(τ / τ_hold) / n` (its magnetic
+/// spring's static angle): started there (the closed loop's default start), the simulated arm
+/// stays put to 1e-9 rad over 3 s, and loses no step. (Its spring is lightly damped: started
+/// elsewhere it would ring for many seconds.)
+#[test]
+fn a_loaded_stepper_lags_by_its_load_angle() {
+    let spec = strong_stepper();
+    let goal = JointVector::from(POSE);
+    let held = Held { q: goal, wave: JointVector::zeros(), period: 0.0, duration: 3.0 };
+    let (records, summary) = stepper_run(spec, report_arm(), &held, None);
+    let plant = Actuators { joints: [Actuator::Stepper(spec); 4] }.plant_model(&report_arm()).unwrap();
+    let first = records.first().unwrap();
+    let commanded = first.servo.unwrap().target;
+    let g = gravity_torques(&plant, &first.state.q);
+    for j in 0..4 {
+        let expected = spec.static_lag(g[j]).unwrap();
+        let lag = commanded[j] - first.state.q[j];
+        // The start is the fixed point of the lag formula (to 1e-12 rad) ...
+        assert!((lag - expected).abs() < 1e-10, "joint {}: lag {lag} vs {expected}", j + 1);
+        // ... and the dynamics keep it there.
+        let moved = records.iter().map(|r| (r.state.q[j] - first.state.q[j]).abs()).fold(0.0, f64::max);
+        assert!(moved < 1e-9, "joint {} moved {moved} rad", j + 1);
+    }
+    assert!(spec.static_lag(g[1]).unwrap().abs() > 1e-4, "the shoulder carries load");
+    assert_eq!(summary.lost_steps, [0; 4]);
+    // The commanded angles are whole microsteps.
+    for value in commanded.iter() {
+        let steps = value / spec.resolution();
+        assert!((steps - steps.round()).abs() < 1e-6);
+    }
+}
+
+/// A load beyond the holding torque pulls the rotor from well to well: every slip is four full
+/// steps lost, counted with its sign, and the joint falls; the same stepper 25 % stronger holds.
+#[test]
+fn a_stepper_beyond_its_holding_torque_loses_steps() {
+    let goal = JointVector::from(POSE);
+    let held = Held { q: goal, wave: JointVector::zeros(), period: 0.0, duration: 1.0 };
+    let g_shoulder = gravity_torques(&report_arm(), &goal)[1].abs();
+    for (factor, holds) in [(1.25, true), (0.8, false)] {
+        let spec = StepperSpec { holding_torque: g_shoulder * factor, ..strong_stepper() };
+        let (_, summary) = stepper_run(spec, report_arm(), &held, None);
+        let lost = summary.lost_steps[1];
+        if holds {
+            assert_eq!(lost, 0, "factor {factor}");
+        } else {
+            assert!(lost.abs() >= 4 && lost % 4 == 0, "factor {factor}: lost {lost}");
+            // The joint is that many steps' worth away from its command, within a well.
+            let well = std::f64::consts::TAU / spec.electrical_per_output();
+            let drop = (summary.final_state.q[1] - goal[1]).abs();
+            assert!(drop > (lost.abs() as f64 / 4.0 - 0.5) * well, "drop {drop} rad for {lost} steps");
+        }
+    }
+}
+
+/// The pull-out torque falls above the corner speed: a load the stepper holds at rest makes it
+/// lose steps when the step generator drives it fast enough that `τ_hold ω_c / ω` is below it.
+#[test]
+fn a_stepper_driven_past_its_pull_out_torque_loses_steps() {
+    let base = JointVector::from(POSE);
+    // The shoulder swings ±0.5 rad in 4 s (0.5 rad/s on the ramps of the triangle).
+    let sweep = Held { q: base, wave: JointVector::<4>::new(0.0, 0.5, 0.0, 0.0), period: 4.0, duration: 4.0 };
+    let g_shoulder = gravity_torques(&report_arm(), &base)[1].abs();
+    let slow = StepperSpec { holding_torque: 2.0 * g_shoulder, corner_speed: 10.0, ..strong_stepper() };
+    let (_, at_low_speed) = stepper_run(slow, report_arm(), &sweep, None);
+    assert_eq!(at_low_speed.lost_steps, [0; 4]);
+    // Above a corner of 0.1 rad/s the pull-out torque at 0.5 rad/s is 2 g × 0.1 / 0.5 = 0.4 g:
+    // the shoulder must slip.
+    let fast = StepperSpec { corner_speed: 0.1, ..slow };
+    let (_, past_corner) = stepper_run(fast, report_arm(), &sweep, None);
+    assert!(past_corner.lost_steps[1] != 0, "lost {:?}", past_corner.lost_steps);
 }

@@ -114,7 +114,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     let settings_name = spec.name.clone();
     settings.controller = spec;
-    if setup.actuators.servo_specs().is_some() {
+    if setup.actuators.take_positions() {
         settings.actuators = setup.actuators;
         settings.control_period = 1.0 / setup.bus_rate;
     }
@@ -281,8 +281,14 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         if hardware_dir.is_dir() {
             let incomplete = args.out.join("hardware-incomplete");
             if incomplete.is_dir() {
+                // An earlier stopped game's: its files, then chessarm's own list and lock.
                 remove_listed_in(&incomplete)?;
-                let _ = std::fs::remove_dir(&incomplete);
+                for own in [crate::output::WRITTEN_LIST, crate::folder_lock::LOCK_FILE] {
+                    crate::output::remove_file_if_there(&incomplete.join(own))?;
+                }
+                std::fs::remove_dir(&incomplete).with_context(|| {
+                    format!("cannot replace {}: it holds files chessarm did not write", incomplete.display())
+                })?;
             }
             std::fs::rename(&hardware_dir, &incomplete)
                 .with_context(|| format!("cannot move {} aside", hardware_dir.display()))?;
@@ -518,6 +524,7 @@ fn game_json(
                 "longest_limit": r.longest_limit.as_ref().map(|(name, time)| json!({"limit": name, "time_s": time})),
                 "lspb_slowdowns": r.slowdowns,
                 "saturated_samples": r.summary.as_ref().map(|s| s.saturated_samples),
+                "lost_steps": r.summary.as_ref().map(|s| s.lost_steps),
                 "peak_torque_nm": r.summary.as_ref().map(|s| s.peak_torque.as_slice().to_vec()),
                 "max_tip_error_mm": r.max_tip_error.map(|e| e * 1e3),
                 "place_errors_mm": r.place_errors.iter().map(|e| e * 1e3).collect::<Vec<_>>(),

@@ -103,7 +103,7 @@ pub enum DefaultGains {
 /// With servos, the hosts the setup's `--servo-command` asks for (their gains unused), with a
 /// note on the terminal that they replace the torque controllers; `None` with torque motors.
 pub fn servo_hosts(setup: &Setup) -> Option<Vec<ControllerSpec>> {
-    setup.actuators.servo_specs()?;
+    setup.actuators.take_positions().then_some(())?;
     if !crate::json_output() {
         eprintln!(
             "servos ({}): the host sends goal positions at {} Hz ({}); the torque controllers are not used",
@@ -207,8 +207,7 @@ pub fn run_controller(
         spec.build_for(setup.arm, &setup.actuators).with_context(|| format!("controller {}", spec.name))?;
     let conditions = trial.map_or_else(chessarm_core::sense::Conditions::ideal, |t| t.conditions.clone());
     // A servo host samples at the bus rate.
-    let control_period =
-        if setup.actuators.servo_specs().is_some() { 1.0 / setup.bus_rate } else { options.control_period };
+    let control_period = if setup.actuators.take_positions() { 1.0 / setup.bus_rate } else { options.control_period };
     let mut feedback = conditions.feedback(control_period)?;
     let config = SimConfig {
         dt: options.dt,

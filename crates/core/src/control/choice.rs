@@ -96,11 +96,11 @@ impl ControllerSpec {
         model: ArmModel<4>,
         actuators: &Actuators<4>,
     ) -> Result<Box<dyn Controller<4>>, BuildError> {
-        match (self.kind, actuators.servo_specs()) {
-            (ControllerKind::ServoHost(command), Some(specs)) => Ok(Box::new(ServoHost::new(command, model, specs)?)),
-            (ControllerKind::ServoHost(_), None) => Err(BuildError::GoalsToTorqueMotors { name: self.name.clone() }),
-            (_, Some(_)) => Err(BuildError::TorqueToServos { name: self.name.clone() }),
-            (_, None) => Ok(self.build(model)?),
+        match (self.kind, actuators.take_positions()) {
+            (ControllerKind::ServoHost(command), true) => Ok(Box::new(ServoHost::new(command, model, *actuators)?)),
+            (ControllerKind::ServoHost(_), false) => Err(BuildError::GoalsToTorqueMotors { name: self.name.clone() }),
+            (_, true) => Err(BuildError::TorqueToServos { name: self.name.clone() }),
+            (_, false) => Ok(self.build(model)?),
         }
     }
 }

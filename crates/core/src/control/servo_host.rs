@@ -12,7 +12,7 @@
 use super::{CommandInterface, Controller, JointState, Reference};
 use crate::arm::dynamics::{COULOMB_SMOOTHING, gravity_torques, inverse_dynamics};
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
-use crate::sim::actuator::ServoSpec;
+use crate::sim::actuator::{Actuator, Actuators};
 
 /// How the host computes the goals it sends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -54,29 +54,47 @@ pub struct ServoHost<const N: usize> {
     /// The arm as the host knows it (without the servos' gears, which `servos` describe), with
     /// the payload it is told of.
     model: ArmModel<N>,
-    servos: [ServoSpec; N],
+    actuators: Actuators<N>,
 }
 
 impl<const N: usize> ServoHost<N> {
-    /// A host sending goals by `strategy` to `servos`, knowing the arm as `model` (its joints'
-    /// rotor inertia and friction are the servos': the host takes them from `servos`).
-    pub fn new(strategy: ServoCommand, model: ArmModel<N>, servos: [ServoSpec; N]) -> Result<Self, ModelError> {
+    /// A host sending goals by `strategy` to the servos and steppers of `actuators`, knowing the
+    /// arm as `model` (its joints' rotor inertia and friction are the actuators': the host takes
+    /// them from `actuators`). A joint with a torque motor is sent its planned angle.
+    pub fn new(strategy: ServoCommand, model: ArmModel<N>, actuators: Actuators<N>) -> Result<Self, ModelError> {
         let mut links = *model.links();
         for link in &mut links {
             link.rotor_inertia = 0.0;
             link.friction = Default::default();
         }
-        Ok(Self { strategy, model: model.with_links(links)?, servos })
+        Ok(Self { strategy, model: model.with_links(links)?, actuators })
     }
 
     pub fn strategy(&self) -> ServoCommand {
         self.strategy
     }
 
-    /// The goal offset (rad) that has servo `j` deliver `torque` (N·m) at the speed `qd` (rad/s).
+    /// The goal offset (rad) that has actuator `j` deliver `torque` (N·m) at the speed `qd`
+    /// (rad/s): a servo's `(u(τ, q̇) + kd q̇) / kp`; a stepper's lag `asin(τ / τ_max(q̇)) / n`
+    /// (clamped to its pull-out torque).
     fn offset(&self, j: usize, torque: f64, qd: f64) -> f64 {
-        let spec = &self.servos[j];
-        (spec.duty_for(torque, qd) + spec.kd * qd) / spec.kp
+        match &self.actuators.joints[j] {
+            Actuator::Torque => 0.0,
+            Actuator::Servo(spec) => (spec.duty_for(torque, qd) + spec.kd * qd) / spec.kp,
+            Actuator::Stepper(spec) => {
+                let ratio = (torque / spec.pull_out_torque(qd)).clamp(-1.0, 1.0);
+                ratio.asin() / spec.electrical_per_output()
+            }
+        }
+    }
+
+    /// Joint `j`'s gear: armature (kg·m²), viscous (N·m·s/rad) and Coulomb (N·m) friction.
+    fn gear(&self, j: usize) -> (f64, f64, f64) {
+        match &self.actuators.joints[j] {
+            Actuator::Torque => (0.0, 0.0, 0.0),
+            Actuator::Servo(spec) => (spec.armature, spec.viscous_friction, spec.coulomb_friction),
+            Actuator::Stepper(spec) => (spec.armature, spec.viscous_friction, spec.coulomb_friction),
+        }
     }
 
     /// The goals for `reference`, `period` (s) the bus period.
@@ -94,10 +112,9 @@ impl<const N: usize> ServoHost<N> {
                 let qd = reference.qd + reference.qdd * h;
                 let rigid = inverse_dynamics(&self.model, &q, &qd, &reference.qdd);
                 JointVector::from_fn(|j, _| {
-                    let spec = &self.servos[j];
-                    let gear = spec.armature * reference.qdd[j]
-                        + spec.viscous_friction * qd[j]
-                        + spec.coulomb_friction * (qd[j] / COULOMB_SMOOTHING).tanh();
+                    let (armature, viscous, coulomb) = self.gear(j);
+                    let gear =
+                        armature * reference.qdd[j] + viscous * qd[j] + coulomb * (qd[j] / COULOMB_SMOOTHING).tanh();
                     q[j] + self.offset(j, rigid[j] + gear, qd[j])
                 })
             }

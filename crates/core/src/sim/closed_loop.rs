@@ -18,7 +18,7 @@ use crate::lanes::Real;
 use crate::plan::fine_point::{InPosition, Wait};
 use crate::plan::trajectory::JointTrajectory;
 use crate::sense::{Estimator, Feedback, JointKalman, Measurement};
-use crate::sim::actuator::{Actuators, ServoBank, ServoRecord};
+use crate::sim::actuator::{Actuators, PositionBank, ServoRecord};
 use crate::sim::plant::{Integrator, Plant};
 use nalgebra::Vector3;
 
@@ -359,6 +359,9 @@ pub struct SimSummary<const N: usize> {
     /// angles (rad) and rates (rad/s). Zero with ideal sensors.
     pub rms_angle_estimate_error: JointVector<N>,
     pub rms_rate_estimate_error: JointVector<N>,
+    /// Full steps each joint's stepper lost (open loop, the host does not know), with their
+    /// sign (positive: fell behind a rising command); 0 without steppers.
+    pub lost_steps: [i64; N],
 }
 
 /// Runs `controller` against `plant` along `reference` from `initial` (default: at rest on
@@ -522,7 +525,11 @@ where
         if run.finished() {
             break;
         }
-        let next = plant.step(&run.state, &torque, run.dt, run.config.integrator);
+        // A stepper's pull is evaluated at every stage of the step; anything else is held.
+        let next = match run.steppers() {
+            Some(bank) => plant.step_with(&run.state, |q, qd| bank.torque_at(q, qd), run.dt, run.config.integrator),
+            None => plant.step(&run.state, &torque, run.dt, run.config.integrator),
+        };
         run.advance(next)?;
     }
     Ok((run.summary(), waits))
@@ -571,8 +578,8 @@ pub(crate) struct Run<'a, const N: usize, C: ?Sized, R: ?Sized> {
     lag_mean: JointVector<N>,
     has_lag: bool,
     motor_torque: JointVector<N>,
-    /// The servos, where servos drive the joints.
-    servos: Option<ServoBank<N>>,
+    /// The servos and steppers, where they drive the joints.
+    servos: Option<PositionBank<N>>,
     squared_angle_estimate_error: JointVector<N>,
     squared_rate_estimate_error: JointVector<N>,
     samples_taken: usize,
@@ -636,8 +643,8 @@ where
                 interface_name(config.actuators.interface())
             )));
         }
-        let servo_specs = config.actuators.servo_specs();
-        if servo_specs.is_some() {
+        let positions = config.actuators.take_positions();
+        if positions {
             let wanted = config.actuators.plant_model(plant).map_err(|e| SimError::Config(e.to_string()))?;
             if wanted.links() != plant.links() {
                 return Err(SimError::Config(
@@ -648,16 +655,23 @@ where
         }
         let first = reference.reference(0.0);
         // Servos start as they hold the host's first goal: at rest where gravity leaves them.
-        let (state, servos) = match servo_specs {
-            None => (initial.unwrap_or_else(|| JointState::at_rest(first.q)), None),
-            Some(specs) => {
+        let (state, servos) = match positions {
+            false => (initial.unwrap_or_else(|| JointState::at_rest(first.q)), None),
+            true => {
                 controller.reset();
                 let goal = controller.command(&JointState::at_rest(first.q), &first, config.control_period);
-                let q = initial.map_or_else(|| ServoBank::settled(&specs, plant, &goal), |s| s.q);
-                let state = initial.unwrap_or_else(|| JointState::at_rest(q));
-                let mut bank = ServoBank::holding(specs, dt, plant, &goal, &q);
                 let limits = plant.links().map(|l| l.limits);
-                bank.send(&goal, &limits.map(|l| l.lower).into(), &limits.map(|l| l.upper).into());
+                let (lower, upper) = (limits.map(|l| l.lower).into(), limits.map(|l| l.upper).into());
+                // The goals as the bus carries them (whole counts), then where they hold the arm.
+                let sent = PositionBank::holding(&config.actuators, dt, plant, &goal, &first.q)
+                    .expect("every joint takes positions")
+                    .send(&goal, &lower, &upper);
+                let q = initial.map_or_else(|| PositionBank::settled(&config.actuators, plant, &sent), |s| s.q);
+                let state = initial.unwrap_or_else(|| JointState::at_rest(q));
+                check_stepper_springs(&config.actuators, plant, &state.q, dt)?;
+                let mut bank = PositionBank::holding(&config.actuators, dt, plant, &sent, &q)
+                    .expect("every joint takes positions");
+                bank.send(&sent, &lower, &upper);
                 (state, Some(bank))
             }
         };
@@ -747,6 +761,12 @@ where
     /// desired state is its point at rest (a fine point's wait).
     pub fn hold(&mut self) {
         self.holding = true;
+    }
+
+    /// The position actuators, if any joint has a stepper (whose torque the plant evaluates at
+    /// every stage, [`PositionBank::torque_at`]).
+    pub fn steppers(&self) -> Option<&PositionBank<N>> {
+        self.servos.as_ref().filter(|bank| bank.has_steppers())
     }
 
     /// The index of the next payload event, due or not.
@@ -898,7 +918,8 @@ where
             self.command
         };
         let torque = if let Some(servos) = &mut self.servos {
-            let (torque, saturated) = servos.torque(step, &state.q, &state.qd, self.dt);
+            let saturated = servos.update(step, &state.q, &state.qd, self.dt);
+            let torque = servos.torque_at(&state.q, &state.qd);
             if saturated != 0 {
                 self.saturated_samples += 1;
                 for (j, count) in self.saturated_per_joint.iter_mut().enumerate() {
@@ -929,7 +950,7 @@ where
             torque,
             tip,
             tip_desired,
-            servo: self.servos.as_ref().map(ServoBank::record),
+            servo: self.servos.as_ref().map(|bank| bank.record(&state.q, &state.qd)),
         });
         Ok(torque)
     }
@@ -1064,6 +1085,9 @@ where
         let t = self.time();
         self.state = next.map_err(|source| SimError::Dynamics { time: t, source })?;
         check_state(&self.state, t + self.dt, self.config.runaway_speed)?;
+        if let Some(bank) = &mut self.servos {
+            bank.after_step(&self.state.q);
+        }
         self.step += 1;
         if self.holding {
             self.held_steps += 1;
@@ -1126,8 +1150,36 @@ where
             final_state: self.state,
             rms_angle_estimate_error: (self.squared_angle_estimate_error / sampled).map(f64::sqrt),
             rms_rate_estimate_error: (self.squared_rate_estimate_error / sampled).map(f64::sqrt),
+            lost_steps: self.servos.as_ref().map_or([0; N], PositionBank::lost_steps),
         }
     }
+}
+
+/// Refuses a time step too long for a stepper's magnetic spring: its ringing frequency on the
+/// joint's inertia at `q`, `ω = √(n τ_hold / M_jj)`, must keep `ω dt ≤ 1` (a fourth-order
+/// integrator's error per step is then below 1 % of the oscillation; at `ω dt ≈ 2` it rings up).
+fn check_stepper_springs<const N: usize>(
+    actuators: &Actuators<N>,
+    plant: &ArmModel<N>,
+    q: &JointVector<N>,
+    dt: f64,
+) -> Result<(), SimError> {
+    let mass = crate::arm::dynamics::mass_matrix(plant, q);
+    for (j, joint) in actuators.joints.iter().enumerate() {
+        if let crate::sim::actuator::Actuator::Stepper(spec) = joint {
+            let stiffness = spec.electrical_per_output() * spec.holding_torque;
+            let omega = (stiffness / mass[(j, j)]).sqrt();
+            if omega * dt > 1.0 {
+                return Err(SimError::Config(format!(
+                    "joint {}'s stepper rings at {omega:.0} rad/s ({stiffness:.0} N·m/rad on {:.3e} kg·m²): a time step of {dt} s cannot follow it; use a time step of at most {:.1e} s",
+                    j + 1,
+                    mass[(j, j)],
+                    1.0 / omega
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// How a message names what a command interface carries.

@@ -165,6 +165,20 @@ impl<const N: usize> Plant<N> {
         dt: f64,
         integrator: Integrator,
     ) -> Result<JointState<N>, DynamicsError> {
+        self.step_with(state, |_, _| *torque, dt, integrator)
+    }
+
+    /// [`Plant::step`] with the torque a function of the state, `torque(q, q̇)` (N·m), evaluated
+    /// at every stage of the integrator: for an actuator whose torque follows the joint within
+    /// the step (a stepper's magnetic spring).
+    #[inline(always)]
+    pub fn step_with(
+        &mut self,
+        state: &JointState<N>,
+        torque: impl Fn(&JointVector<N>, &JointVector<N>) -> JointVector<N>,
+        dt: f64,
+        integrator: Integrator,
+    ) -> Result<JointState<N>, DynamicsError> {
         self.evaluate(state)?;
         if let (Some(fast), Some(start)) = (self.model.yaw_pitch(), self.structured_start.as_mut()) {
             let mut failures = Failures::<1> { lanes: 0, at: [[0.0; 4]] };
@@ -176,7 +190,16 @@ impl<const N: usize> Plant<N> {
                 #[inline(always)]
                 || {
                     let here = State { q: to_array(&state.q), qd: to_array(&state.qd) };
-                    structured::step(fast, start, &here, &to_array(torque), dt, integrator, &mut failures)
+                    structured::step_with(
+                        fast,
+                        start,
+                        &here,
+                        #[inline(always)]
+                        |q: &[f64; 4], qd: &[f64; 4]| to_array(&torque(&from_array(*q), &from_array(*qd))),
+                        dt,
+                        integrator,
+                        &mut failures,
+                    )
                 },
             );
             if failures.lanes != 0 {
@@ -188,7 +211,7 @@ impl<const N: usize> Plant<N> {
         let model = &*model;
         let (q, qd) = (&state.q, &state.qd);
         let start_trig = *general_start.trig();
-        let q1dd = general_start.acceleration_with_bias(model, qd, torque, &start.terms.bias);
+        let q1dd = general_start.acceleration_with_bias(model, qd, &torque(q, qd), &start.terms.bias);
         // The dynamics at configuration `at` (rad) inside the step, filled into `scratch`.
         let move_to = |scratch: &mut ConfigurationDynamics<N>, at: &JointVector<N>| {
             scratch.set_configuration(model, at, start_trig.shifted(&(at - q)))
@@ -201,13 +224,13 @@ impl<const N: usize> Plant<N> {
                 };
                 let s2 = stage(qd, &q1dd, dt / 2.0);
                 move_to(middle, &s2.q)?;
-                let q2dd = middle.acceleration(model, &s2.qd, torque);
+                let q2dd = middle.acceleration(model, &s2.qd, &torque(&s2.q, &s2.qd));
                 let s3 = stage(&s2.qd, &q2dd, dt / 2.0);
                 move_to(middle, &s3.q)?;
-                let q3dd = middle.acceleration(model, &s3.qd, torque);
+                let q3dd = middle.acceleration(model, &s3.qd, &torque(&s3.q, &s3.qd));
                 let s4 = stage(&s3.qd, &q3dd, dt);
                 move_to(end, &s4.q)?;
-                let q4dd = end.acceleration(model, &s4.qd, torque);
+                let q4dd = end.acceleration(model, &s4.qd, &torque(&s4.q, &s4.qd));
                 JointState {
                     q: q + (qd + s2.qd * 2.0 + s3.qd * 2.0 + s4.qd) * (dt / 6.0),
                     qd: qd + (q1dd + q2dd * 2.0 + q3dd * 2.0 + q4dd) * (dt / 6.0),
@@ -215,11 +238,16 @@ impl<const N: usize> Plant<N> {
             }
             Integrator::RungeKuttaNystrom4 => {
                 // Stages 2 and 3 share the configuration q + dt/2 q̇ + dt²/8 q̈₁.
-                move_to(middle, &(q + qd * (dt / 2.0) + q1dd * (dt * dt / 8.0)))?;
-                let q2dd = middle.acceleration(model, &(qd + q1dd * (dt / 2.0)), torque);
-                let q3dd = middle.acceleration(model, &(qd + q2dd * (dt / 2.0)), torque);
-                move_to(end, &(q + qd * dt + q3dd * (dt * dt / 2.0)))?;
-                let q4dd = end.acceleration(model, &(qd + q3dd * dt), torque);
+                let middle_q = q + qd * (dt / 2.0) + q1dd * (dt * dt / 8.0);
+                move_to(middle, &middle_q)?;
+                let rate2 = qd + q1dd * (dt / 2.0);
+                let q2dd = middle.acceleration(model, &rate2, &torque(&middle_q, &rate2));
+                let rate3 = qd + q2dd * (dt / 2.0);
+                let q3dd = middle.acceleration(model, &rate3, &torque(&middle_q, &rate3));
+                let end_q = q + qd * dt + q3dd * (dt * dt / 2.0);
+                move_to(end, &end_q)?;
+                let rate4 = qd + q3dd * dt;
+                let q4dd = end.acceleration(model, &rate4, &torque(&end_q, &rate4));
                 JointState {
                     q: q + qd * dt + (q1dd + q2dd + q3dd) * (dt * dt / 6.0),
                     qd: qd + (q1dd + q2dd * 2.0 + q3dd * 2.0 + q4dd) * (dt / 6.0),
@@ -228,7 +256,7 @@ impl<const N: usize> Plant<N> {
             Integrator::Midpoint => {
                 let halfway = JointState { q: q + qd * (dt / 2.0), qd: qd + q1dd * (dt / 2.0) };
                 move_to(middle, &halfway.q)?;
-                let halfway_qdd = middle.acceleration(model, &halfway.qd, torque);
+                let halfway_qdd = middle.acceleration(model, &halfway.qd, &torque(&halfway.q, &halfway.qd));
                 JointState { q: q + halfway.qd * dt, qd: qd + halfway_qdd * dt }
             }
             Integrator::SemiImplicitEuler => {

@@ -5,11 +5,13 @@
 
 pub mod profiles;
 pub mod servo;
+pub mod stepper;
 
 use crate::arm::dynamics::gravity_torques;
 use crate::arm::model::{ArmModel, Friction, JointVector, ModelError};
 use crate::control::CommandInterface;
 pub use servo::{ServoSpec, ServoState};
+pub use stepper::{StepperSpec, StepperState};
 
 /// What drives one joint.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -19,6 +21,8 @@ pub enum Actuator {
     Torque,
     /// A position servo on goal angles.
     Servo(ServoSpec),
+    /// A geared stepper on goal angles, driven open loop by a step generator.
+    Stepper(StepperSpec),
 }
 
 /// The actuators of an arm's `N` joints: all torque motors, or all position servos (a
@@ -40,7 +44,7 @@ pub enum ActuatorError {
     #[error("joint {joint} servo {field} = {value}: {reason}")]
     InvalidField { joint: usize, field: &'static str, value: f64, reason: &'static str },
     #[error(
-        "joint {servo} has a servo and joint {torque} a torque motor: a controller sends either torques or goal positions, so all joints need the same kind"
+        "joint {servo} has a servo or stepper and joint {torque} a torque motor: a controller sends either torques or goal positions, so all joints need the same kind"
     )]
     Mixed { servo: usize, torque: usize },
     #[error("joint {joint} servo period {period} s must be a whole multiple of the time step {dt} s")]
@@ -58,43 +62,41 @@ impl<const N: usize> Actuators<N> {
         Self { joints: specs.map(Actuator::Servo) }
     }
 
-    /// The servos, if every joint has one.
-    pub fn servo_specs(&self) -> Option<[ServoSpec; N]> {
-        let mut specs = [None; N];
-        for (spec, joint) in specs.iter_mut().zip(&self.joints) {
-            if let Actuator::Servo(s) = joint {
-                *spec = Some(*s);
-            }
-        }
-        if specs.iter().all(Option::is_some) { Some(specs.map(|s| s.expect("checked"))) } else { None }
-    }
-
-    /// The command these actuators take.
+    /// The command these actuators take: goal positions if any joint has a servo or a stepper.
     pub fn interface(&self) -> CommandInterface {
-        if self.joints.iter().any(|a| matches!(a, Actuator::Servo(_))) {
+        if self.joints.iter().any(|a| !matches!(a, Actuator::Torque)) {
             CommandInterface::Position
         } else {
             CommandInterface::Torque
         }
     }
 
-    /// Checks every servo's numbers, that the joints share one kind, and (for a run with time
-    /// step `dt`, s) that each firmware period is a whole number of steps.
+    /// Whether the joints take goal positions (servos, steppers).
+    pub fn take_positions(&self) -> bool {
+        self.interface() == CommandInterface::Position
+    }
+
+    /// Checks every actuator's numbers, that no joint has a torque motor beside a position
+    /// actuator, and (for a run with time step `dt`, s) that each update period is a whole
+    /// number of steps.
     pub fn validate(&self, dt: f64) -> Result<(), ActuatorError> {
-        let servo = self.joints.iter().position(|a| matches!(a, Actuator::Servo(_)));
+        let servo = self.joints.iter().position(|a| !matches!(a, Actuator::Torque));
         let torque = self.joints.iter().position(|a| matches!(a, Actuator::Torque));
         if let (Some(servo), Some(torque)) = (servo, torque) {
             return Err(ActuatorError::Mixed { servo: servo + 1, torque: torque + 1 });
         }
         for (j, joint) in self.joints.iter().enumerate() {
-            if let Actuator::Servo(spec) = joint {
-                if let Some((field, value, reason)) = spec.invalid_field() {
-                    return Err(ActuatorError::InvalidField { joint: j + 1, field, value, reason });
-                }
-                let ratio = spec.period / dt;
-                if ratio.round() < 1.0 || (ratio - ratio.round()).abs() > 1e-9 * ratio {
-                    return Err(ActuatorError::Period { joint: j + 1, period: spec.period, dt });
-                }
+            let (invalid, period) = match joint {
+                Actuator::Torque => continue,
+                Actuator::Servo(spec) => (spec.invalid_field(), spec.period),
+                Actuator::Stepper(spec) => (spec.invalid_field(), spec.period),
+            };
+            if let Some((field, value, reason)) = invalid {
+                return Err(ActuatorError::InvalidField { joint: j + 1, field, value, reason });
+            }
+            let ratio = period / dt;
+            if ratio.round() < 1.0 || (ratio - ratio.round()).abs() > 1e-9 * ratio {
+                return Err(ActuatorError::Period { joint: j + 1, period, dt });
             }
         }
         Ok(())
@@ -103,82 +105,114 @@ impl<const N: usize> Actuators<N> {
     /// `model` with each servo's gear in its joint: the armature as the rotor inertia, the gear's
     /// viscous friction plus the back-EMF's damping `kt²/R` and the gear's Coulomb friction as
     /// the joint's friction (replacing the link's own: the servo is the joint's drive), and the
-    /// stall torque as the torque limit. A torque motor's joint is left as it is.
+    /// stall torque as the torque limit; a stepper's rotor, friction and holding torque alike.
+    /// A torque motor's joint is left as it is.
     pub fn plant_model(&self, model: &ArmModel<N>) -> Result<ArmModel<N>, ModelError> {
         if self.interface() == CommandInterface::Torque {
             return Ok(*model);
         }
         let mut links = *model.links();
         for (link, joint) in links.iter_mut().zip(&self.joints) {
-            if let Actuator::Servo(spec) = joint {
-                link.rotor_inertia = spec.armature;
-                link.friction = Friction {
-                    viscous: spec.viscous_friction + spec.back_emf_damping(),
-                    coulomb: spec.coulomb_friction,
-                };
-                link.limits.torque = spec.stall_torque();
+            match joint {
+                Actuator::Torque => {}
+                Actuator::Servo(spec) => {
+                    link.rotor_inertia = spec.armature;
+                    link.friction = Friction {
+                        viscous: spec.viscous_friction + spec.back_emf_damping(),
+                        coulomb: spec.coulomb_friction,
+                    };
+                    link.limits.torque = spec.stall_torque();
+                }
+                Actuator::Stepper(spec) => {
+                    link.rotor_inertia = spec.armature;
+                    link.friction = Friction { viscous: spec.viscous_friction, coulomb: spec.coulomb_friction };
+                    link.limits.torque = spec.holding_torque;
+                }
             }
         }
         model.with_links(links)
     }
 }
 
-/// The servos of a run: their specifications, states, and how many plant steps each firmware
-/// period spans.
+/// One position actuator of a run: its specification and state.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ServoBank<const N: usize> {
-    specs: [ServoSpec; N],
-    states: [ServoState; N],
-    steps_per_period: [usize; N],
+enum Drive {
+    Servo(ServoSpec, ServoState),
+    Stepper(StepperSpec, StepperState),
 }
 
-/// What the servos did at one plant step (for plots and the observers).
+/// The position actuators of a run (servos, steppers, one per joint): their specifications,
+/// states, and how many plant steps each one's update period spans.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PositionBank<const N: usize> {
+    drives: [Drive; N],
+    steps_per_period: [usize; N],
+    /// Per joint, the torque held over the current plant step (a servo's drive; unused for a
+    /// stepper, whose torque is evaluated at every stage).
+    held: [f64; N],
+}
+
+/// What the position actuators did at one plant step (for plots and the observers).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ServoRecord<const N: usize> {
-    /// Goal angles the host sent, rad (whole counts).
+    /// Goal angles the host sent, rad (whole counts or microsteps).
     pub goal: JointVector<N>,
-    /// The firmware's internal targets, rad.
+    /// The firmware's internal targets (a stepper's commanded angle), rad.
     pub target: JointVector<N>,
-    /// PWM duties, in [−1, 1].
+    /// PWM duties in [−1, 1] (a stepper's torque as a share of its pull-out torque).
     pub duty: JointVector<N>,
-    /// Backlash gaps `θ − q`, rad.
+    /// Backlash gaps `θ − q`, rad (0 for a stepper).
     pub gap: JointVector<N>,
 }
 
-impl<const N: usize> ServoBank<N> {
-    /// The servos of `specs` for a run with time step `dt` (s; validated by
-    /// [`Actuators::validate`]), holding `goal` (rad) at rest at `q` (rad) under the plant
-    /// `model`'s gravity.
+impl<const N: usize> PositionBank<N> {
+    /// The position actuators of `actuators` (validated by [`Actuators::validate`], every joint
+    /// a servo or a stepper) for a run with time step `dt` (s), holding `goal` (rad) at rest at
+    /// `q` (rad) under the plant `model`'s gravity. `None` if a joint has a torque motor.
     pub fn holding(
-        specs: [ServoSpec; N],
+        actuators: &Actuators<N>,
         dt: f64,
         model: &ArmModel<N>,
         goal: &JointVector<N>,
         q: &JointVector<N>,
-    ) -> Self {
+    ) -> Option<Self> {
         let load = gravity_torques(model, q);
-        let mut j = 0;
-        let states = specs.map(|spec| {
-            let state = ServoState::holding(&spec, goal[j], q[j], load[j]);
-            j += 1;
-            state
-        });
-        let steps_per_period = specs.map(|spec| ((spec.period / dt).round() as usize).max(1));
-        Self { specs, states, steps_per_period }
+        // Placeholders, each replaced below.
+        let mut drives = [Drive::Stepper(profiles::NEMA17.spec, StepperState::holding(&profiles::NEMA17.spec, 0.0)); N];
+        let mut steps_per_period = [1; N];
+        for j in 0..N {
+            let (drive, period) = match actuators.joints[j] {
+                Actuator::Torque => return None,
+                Actuator::Servo(spec) => {
+                    (Drive::Servo(spec, ServoState::holding(&spec, goal[j], q[j], load[j])), spec.period)
+                }
+                Actuator::Stepper(spec) => (Drive::Stepper(spec, StepperState::holding(&spec, goal[j])), spec.period),
+            };
+            drives[j] = drive;
+            steps_per_period[j] = ((period / dt).round() as usize).max(1);
+        }
+        Some(Self { drives, steps_per_period, held: [0.0; N] })
     }
 
-    /// Where servos sent `goal` would come to rest under `model`'s gravity, rad: the output
-    /// angles `q` with `stiffness · (goal − q) = g(q)` per joint (the load clamped to the stall
-    /// torque), by fixed-point iteration from the goal (a contraction: `g` changes by far less
-    /// than a servo's stiffness per rad). Counts and the deadband are ignored.
-    pub fn settled(specs: &[ServoSpec; N], model: &ArmModel<N>, goal: &JointVector<N>) -> JointVector<N> {
+    /// Where actuators sent `goal` would come to rest under `model`'s gravity, rad: the output
+    /// angles `q` at which each holds the load `g(q)` (a servo `stiffness · (goal − q) = g`, the
+    /// load clamped to its stall torque; a stepper `τ_hold sin(n (goal − q)) = g`, clamped to its
+    /// holding torque), by fixed-point iteration from the goal (a contraction: `g` changes by far
+    /// less than the actuators' stiffness per rad). Counts and deadbands are ignored.
+    pub fn settled(actuators: &Actuators<N>, model: &ArmModel<N>, goal: &JointVector<N>) -> JointVector<N> {
         let mut q = *goal;
         for _ in 0..50 {
             let load = gravity_torques(model, &q);
-            let next = JointVector::<N>::from_fn(|j, _| {
-                let spec = &specs[j];
-                let held = load[j].clamp(-spec.stall_torque(), spec.stall_torque());
-                goal[j] - held / spec.stiffness()
+            let next = JointVector::<N>::from_fn(|j, _| match actuators.joints[j] {
+                Actuator::Torque => goal[j],
+                Actuator::Servo(spec) => {
+                    let held = load[j].clamp(-spec.stall_torque(), spec.stall_torque());
+                    goal[j] - held / spec.stiffness()
+                }
+                Actuator::Stepper(spec) => {
+                    let held = load[j].clamp(-spec.holding_torque, spec.holding_torque);
+                    goal[j] - spec.static_lag(held).unwrap_or(0.0)
+                }
             });
             let change = (next - q).amax();
             q = next;
@@ -189,58 +223,114 @@ impl<const N: usize> ServoBank<N> {
         q
     }
 
-    pub fn specs(&self) -> &[ServoSpec; N] {
-        &self.specs
-    }
-
-    pub fn states(&self) -> &[ServoState; N] {
-        &self.states
-    }
-
     /// Takes the host's goal angles (rad): each clamped to `[lower, upper]` of its joint and
-    /// rounded to whole counts, as the bus carries them. Returns the goals taken.
+    /// rounded to whole counts (microsteps), as the bus carries them. Returns the goals taken.
     pub fn send(&mut self, goal: &JointVector<N>, lower: &JointVector<N>, upper: &JointVector<N>) -> JointVector<N> {
         for j in 0..N {
-            let spec = &self.specs[j];
+            let resolution = match &self.drives[j] {
+                Drive::Servo(spec, _) => spec.resolution(),
+                Drive::Stepper(spec, _) => spec.resolution(),
+            };
             // Rounded inside the limits: a limit between two counts takes the count inside.
             let clamped = goal[j].clamp(lower[j], upper[j]);
-            let mut counted = spec.quantise(clamped);
+            let mut counted = (clamped / resolution).round() * resolution;
             if counted > upper[j] {
-                counted -= spec.resolution();
+                counted -= resolution;
             } else if counted < lower[j] {
-                counted += spec.resolution();
+                counted += resolution;
             }
-            self.states[j].goal = counted;
+            match &mut self.drives[j] {
+                Drive::Servo(_, state) => state.goal = counted,
+                Drive::Stepper(_, state) => state.goal = counted,
+            }
         }
-        JointVector::from_fn(|j, _| self.states[j].goal)
+        JointVector::from_fn(|j, _| self.goal(j))
     }
 
-    /// The torques on the outputs over plant step `step` (of `dt` seconds) from the outputs'
-    /// angles `q` (rad) and speeds `qd` (rad/s), each firmware running at the steps that start
-    /// its periods; and the joints whose firmware ran and saturated (bit `j`).
-    pub fn torque(&mut self, step: usize, q: &JointVector<N>, qd: &JointVector<N>, dt: f64) -> (JointVector<N>, u64) {
+    fn goal(&self, j: usize) -> f64 {
+        match &self.drives[j] {
+            Drive::Servo(_, state) => state.goal,
+            Drive::Stepper(_, state) => state.goal,
+        }
+    }
+
+    /// Plant step `step` (of `dt` seconds) begins with the outputs at angles `q` (rad) and
+    /// speeds `qd` (rad/s): each servo's firmware and each step generator runs at the steps
+    /// that start its periods, and each servo's torque over the step is set. Returns the joints
+    /// whose firmware ran and saturated (bit `j`).
+    pub fn update(&mut self, step: usize, q: &JointVector<N>, qd: &JointVector<N>, dt: f64) -> u64 {
         let mut saturated = 0;
-        let mut torque = JointVector::<N>::zeros();
         for j in 0..N {
-            let (spec, state) = (&self.specs[j], &mut self.states[j]);
-            if step.is_multiple_of(self.steps_per_period[j]) {
-                state.firmware(spec, q[j]);
-                if state.saturated {
-                    saturated |= 1 << j;
+            let due = step.is_multiple_of(self.steps_per_period[j]);
+            match &mut self.drives[j] {
+                Drive::Servo(spec, state) => {
+                    if due {
+                        state.firmware(spec, q[j]);
+                        if state.saturated {
+                            saturated |= 1 << j;
+                        }
+                    }
+                    self.held[j] = state.torque(spec, qd[j], dt);
+                }
+                Drive::Stepper(spec, state) => {
+                    if due {
+                        state.generate(spec);
+                    }
                 }
             }
-            torque[j] = state.torque(spec, qd[j], dt);
         }
-        (torque, saturated)
+        saturated
     }
 
-    /// The servos' goals, targets, duties and gaps now.
-    pub fn record(&self) -> ServoRecord<N> {
+    /// The torques on the outputs at angles `q` (rad) and speeds `qd` (rad/s) inside the
+    /// current plant step, N·m: a servo's held drive, a stepper's magnetic pull.
+    #[inline(always)]
+    pub fn torque_at(&self, q: &JointVector<N>, qd: &JointVector<N>) -> JointVector<N> {
+        JointVector::from_fn(|j, _| match &self.drives[j] {
+            Drive::Servo(..) => self.held[j],
+            Drive::Stepper(spec, state) => spec.torque(state.commanded, q[j], qd[j]),
+        })
+    }
+
+    /// Whether any joint has a stepper (whose torque changes within a step).
+    pub fn has_steppers(&self) -> bool {
+        self.drives.iter().any(|d| matches!(d, Drive::Stepper(..)))
+    }
+
+    /// After a plant step, with the outputs at `q` (rad): the steppers' lost steps counted.
+    pub fn after_step(&mut self, q: &JointVector<N>) {
+        for j in 0..N {
+            if let Drive::Stepper(spec, state) = &mut self.drives[j] {
+                state.count_slips(spec, q[j]);
+            }
+        }
+    }
+
+    /// Full steps each joint's stepper lost (0 for a servo).
+    pub fn lost_steps(&self) -> [i64; N] {
+        std::array::from_fn(|j| match &self.drives[j] {
+            Drive::Servo(..) => 0,
+            Drive::Stepper(_, state) => state.lost_steps,
+        })
+    }
+
+    /// The actuators' goals, targets, duties and gaps at outputs `q`, `qd`.
+    pub fn record(&self, q: &JointVector<N>, qd: &JointVector<N>) -> ServoRecord<N> {
+        let part = |f: &dyn Fn(&Drive, usize) -> f64| JointVector::<N>::from_fn(|j, _| f(&self.drives[j], j));
         ServoRecord {
-            goal: JointVector::from_fn(|j, _| self.states[j].goal),
-            target: JointVector::from_fn(|j, _| self.states[j].target),
-            duty: JointVector::from_fn(|j, _| self.states[j].duty),
-            gap: JointVector::from_fn(|j, _| self.states[j].gap),
+            goal: part(&|_, j| self.goal(j)),
+            target: part(&|d, _| match d {
+                Drive::Servo(_, s) => s.target,
+                Drive::Stepper(_, s) => s.commanded,
+            }),
+            duty: part(&|d, j| match d {
+                Drive::Servo(_, s) => s.duty,
+                Drive::Stepper(spec, s) => spec.torque(s.commanded, q[j], qd[j]) / spec.pull_out_torque(qd[j]),
+            }),
+            gap: part(&|d, _| match d {
+                Drive::Servo(_, s) => s.gap,
+                Drive::Stepper(..) => 0.0,
+            }),
         }
     }
 }

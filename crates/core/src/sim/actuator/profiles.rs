@@ -14,7 +14,9 @@
 //! STS3215); Dynamixel X, duty per rad = P/128 × 4096/2π / 885 = P × 0.0057548 (ROBOTIS
 //! e-manual: `KPP = P/128`, error in pulses, PWM in units of 1/885).
 
+use super::Actuator;
 use super::servo::ServoSpec;
+use super::stepper::StepperSpec;
 
 /// Feetech STS: PWM duty per rad of error per unit of the P register (BAM,
 /// `bam/feetech/actuator.py`: `error_gain = 0.166`, measured with an oscilloscope).
@@ -223,4 +225,58 @@ pub fn profile(name: &str) -> Option<&'static Profile> {
 /// The built-in servos' names, for messages.
 pub fn names() -> Vec<&'static str> {
     PROFILES.iter().map(|p| p.name).collect()
+}
+
+/// A built-in stepper: its name, what it is, its parameters and their sources.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepperProfile {
+    pub name: &'static str,
+    pub description: &'static str,
+    pub spec: StepperSpec,
+    pub sources: &'static str,
+}
+
+/// A 1.8° NEMA 17 (17HS4401) behind a 5.18:1 planetary gearbox, on an A4988-class driver at 1/16
+/// microsteps and 12 V.
+pub const NEMA17: StepperProfile = StepperProfile {
+    name: "nema17",
+    description: "NEMA 17 stepper (17HS4401, 0.40 N·m) with a 5.18:1 planetary gearbox, 1/16 microsteps at 12 V",
+    spec: StepperSpec {
+        steps_per_revolution: 200.0,
+        microsteps: 16.0,
+        gear_ratio: 5.18,
+        // 0.40 N·m × 5.18 × 0.9 (the gearbox's efficiency, an estimate).
+        holding_torque: 0.40 * 5.18 * 0.9,
+        // 1600 full steps/s at the motor (8 rev/s) through 5.18:1.
+        corner_speed: 1600.0 / 200.0 * std::f64::consts::TAU / 5.18,
+        armature: 5.4e-6 * 5.18 * 5.18,
+        coulomb_friction: 0.05,
+        // The windings' back-EMF into their resistance, kt²/R at the motor (kt ≈ 0.40 N·m /
+        // (√2 · 1.7 A) = 0.166 N·m/A per phase, R 1.5 Ω) × 5.18².
+        viscous_friction: 0.166 * 0.166 / 1.5 * 5.18 * 5.18,
+        max_speed: 3.0,
+        max_acceleration: 20.0,
+        period: 1e-3,
+    },
+    sources: "200 steps/rev, 0.40 N·m holding, 1.7 A, 1.5 Ω, 2.8 mH, rotor 54 g·cm²: the 17HS4401 datasheet (MotionKing \
+              pattern); 5.18:1 planetary: the common NEMA 17 option (Phidgets' stepper primer); 1/16 microsteps: the \
+              A4988's finest; corner speed: where 12 V drives the rated 1.7 A through 2.8 mH (ω_e L I = V, ≈ 1600 full \
+              steps/s; estimate); damping: the windings' back-EMF into their resistance (kt²/R through the gear; a chopper \
+              driver's current loop takes some of it away: an estimate); gearbox efficiency 0.9, Coulomb friction \
+              0.05 N·m, step generator 3 rad/s \
+              and 20 rad/s² at the output, 1 ms updates: estimates (no published values).",
+};
+
+/// The built-in actuator called `name` (a servo or a stepper), if any.
+pub fn actuator(name: &str) -> Option<Actuator> {
+    profile(name)
+        .map(|p| Actuator::Servo(p.spec))
+        .or_else(|| (name == NEMA17.name).then_some(Actuator::Stepper(NEMA17.spec)))
+}
+
+/// The built-in actuators' names (servos, then the stepper), for messages.
+pub fn all_names() -> Vec<&'static str> {
+    let mut names = names();
+    names.push(NEMA17.name);
+    names
 }

@@ -206,7 +206,13 @@ impl ServoState {
     /// output angle `q` (rad), the new duty.
     pub fn firmware(&mut self, spec: &ServoSpec, q: f64) {
         let period = spec.period;
-        self.target_speed = next_target_speed(spec, self.goal - self.target, self.target_speed);
+        self.target_speed = next_target_speed(
+            spec.max_target_speed,
+            spec.max_target_acceleration,
+            period,
+            self.goal - self.target,
+            self.target_speed,
+        );
         let next = self.target + self.target_speed * period;
         // On the goal once the step reaches it (no rounding left over).
         self.target = if (self.goal - next) * (self.goal - self.target) <= 0.0 { self.goal } else { next };
@@ -266,16 +272,16 @@ impl ServoState {
     }
 }
 
-/// The internal target's speed over the coming period, rad/s, `distance` (rad) from the goal at
-/// `speed` (rad/s): the speed that reaches the goal this period, within the speed limit, and
-/// within the acceleration limit of `speed` and of the braking speed `√(2 a |distance|)`.
-fn next_target_speed(spec: &ServoSpec, distance: f64, speed: f64) -> f64 {
-    let period = spec.period;
+/// A target generator's speed over the coming `period` (s), rad/s, `distance` (rad) from the
+/// goal at `speed` (rad/s): the speed that reaches the goal this period, within `max_speed`
+/// (rad/s; 0: none), and within `max_acceleration` (rad/s²; 0: none) of `speed` and of the
+/// braking speed `√(2 a |distance|)`.
+pub(crate) fn next_target_speed(max_speed: f64, max_acceleration: f64, period: f64, distance: f64, speed: f64) -> f64 {
     let mut wanted = distance / period;
-    if spec.max_target_speed > 0.0 {
-        wanted = wanted.clamp(-spec.max_target_speed, spec.max_target_speed);
+    if max_speed > 0.0 {
+        wanted = wanted.clamp(-max_speed, max_speed);
     }
-    let a = spec.max_target_acceleration;
+    let a = max_acceleration;
     if a > 0.0 {
         let braking = (2.0 * a * distance.abs()).sqrt();
         wanted = wanted.clamp(-braking, braking);
