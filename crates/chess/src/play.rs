@@ -22,7 +22,7 @@ use chessarm_core::plan::fine_point::{InPosition, Wait};
 use chessarm_core::plan::hardware::{ExportError, GripperCommand, HardwarePoint, hardware_points};
 use chessarm_core::plan::trajectory::{PlanError, ToolMotion};
 use chessarm_core::sense::{Conditions, Feedback, SenseError};
-use chessarm_core::sim::actuator::Actuators;
+use chessarm_core::sim::actuator::{Actuators, PositionBank};
 use chessarm_core::sim::{
     Integrator, Observer, PayloadEvent, Plant, SimConfig, SimError, SimSummary, StepRecord, Told, simulate_fine_points,
 };
@@ -279,6 +279,9 @@ pub struct Game {
     tool: Vector3<f64>,
     /// The arm's actual state at the end of the last robot move.
     state: JointState<4>,
+    /// The servos' and steppers' state at the end of the last robot move (their targets,
+    /// backlash and step counts carry over, as on the robot); `None` before the first.
+    actuators: Option<PositionBank<4>>,
     ply: usize,
     robot_time: f64,
     misplaced: Vec<(usize, String, Misplaced)>,
@@ -316,6 +319,7 @@ impl Game {
             table,
             tool,
             state: JointState::at_rest(q),
+            actuators: None,
             ply: 0,
             robot_time: 0.0,
             misplaced,
@@ -501,6 +505,7 @@ impl Game {
             control_period: settings.control_period,
             integrator: settings.integrator,
             torque_lag: settings.conditions.torque_lag,
+            actuator_start: self.actuators,
             ..SimConfig::new(&plant)
         };
         let mut sampler = Sampler { every: settings.record_every, seen: 0, records: Vec::new() };
@@ -559,6 +564,7 @@ impl Game {
         self.robot_time += summary.duration;
         self.tool = motion.end();
         self.state = summary.final_state;
+        self.actuators = summary.actuators;
         Ok(())
     }
 }

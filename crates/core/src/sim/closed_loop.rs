@@ -155,6 +155,10 @@ pub struct SimConfig<const N: usize> {
     /// carry the servos' gears ([`Actuators::plant_model`]); `torque_limits` and `torque_lag`
     /// are the torque motors' and are not used.
     pub actuators: Actuators<N>,
+    /// The servos' and steppers' state at the start: where a previous run of the same arm left
+    /// them ([`SimSummary::actuators`]: a stepper's step count, a servo's target and backlash
+    /// carry over, as on the robot). `None`: holding the host's first goal, settled.
+    pub actuator_start: Option<PositionBank<N>>,
 }
 
 impl<const N: usize> SimConfig<N> {
@@ -169,6 +173,7 @@ impl<const N: usize> SimConfig<N> {
             tracking_from: 0.0,
             torque_lag: JointVector::zeros(),
             actuators: Actuators::torque(),
+            actuator_start: None,
         }
     }
 
@@ -362,6 +367,9 @@ pub struct SimSummary<const N: usize> {
     /// Full steps each joint's stepper lost (open loop, the host does not know), with their
     /// sign (positive: fell behind a rising command); 0 without steppers.
     pub lost_steps: [i64; N],
+    /// The servos' and steppers' state at the end, to start the next run from
+    /// ([`SimConfig::actuator_start`]); `None` with torque motors.
+    pub actuators: Option<PositionBank<N>>,
 }
 
 /// Runs `controller` against `plant` along `reference` from `initial` (default: at rest on
@@ -655,9 +663,20 @@ where
         }
         let first = reference.reference(0.0);
         // Servos start as they hold the host's first goal: at rest where gravity leaves them.
-        let (state, servos) = match positions {
-            false => (initial.unwrap_or_else(|| JointState::at_rest(first.q)), None),
-            true => {
+        let (state, servos) = match (positions, config.actuator_start) {
+            (false, _) => (initial.unwrap_or_else(|| JointState::at_rest(first.q)), None),
+            // Where the previous run left the actuators (and the arm, if it says).
+            (true, Some(bank)) => {
+                if bank.actuators() != config.actuators {
+                    return Err(SimError::Config(
+                        "the actuators' start state is of other actuators than the run's".into(),
+                    ));
+                }
+                let state = initial.unwrap_or_else(|| JointState::at_rest(first.q));
+                check_stepper_springs(&config.actuators, plant, &state.q, dt)?;
+                (state, Some(bank.restarted(dt)))
+            }
+            (true, None) => {
                 controller.reset();
                 let goal = controller.command(&JointState::at_rest(first.q), &first, config.control_period);
                 let limits = plant.links().map(|l| l.limits);
@@ -1151,6 +1170,7 @@ where
             rms_angle_estimate_error: (self.squared_angle_estimate_error / sampled).map(f64::sqrt),
             rms_rate_estimate_error: (self.squared_rate_estimate_error / sampled).map(f64::sqrt),
             lost_steps: self.servos.as_ref().map_or([0; N], PositionBank::lost_steps),
+            actuators: self.servos,
         }
     }
 }

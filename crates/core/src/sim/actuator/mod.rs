@@ -306,6 +306,32 @@ impl<const N: usize> PositionBank<N> {
         }
     }
 
+    /// The actuators this bank runs.
+    pub fn actuators(&self) -> Actuators<N> {
+        Actuators {
+            joints: self.drives.map(|d| match d {
+                Drive::Servo(spec, _) => Actuator::Servo(spec),
+                Drive::Stepper(spec, _) => Actuator::Stepper(spec),
+            }),
+        }
+    }
+
+    /// This bank for a new run with time step `dt` (s): the actuators' state as it is (goals,
+    /// targets, backlash, step counts), the lost steps counted afresh.
+    pub fn restarted(mut self, dt: f64) -> Self {
+        for j in 0..N {
+            let period = match &mut self.drives[j] {
+                Drive::Servo(spec, _) => spec.period,
+                Drive::Stepper(spec, state) => {
+                    state.lost_steps = 0;
+                    spec.period
+                }
+            };
+            self.steps_per_period[j] = ((period / dt).round() as usize).max(1);
+        }
+        self
+    }
+
     /// Full steps each joint's stepper lost (0 for a servo).
     pub fn lost_steps(&self) -> [i64; N] {
         std::array::from_fn(|j| match &self.drives[j] {
