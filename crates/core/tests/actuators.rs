@@ -330,7 +330,8 @@ fn stepper_run(
     let actuators = Actuators { joints: [Actuator::Stepper(spec); 4] };
     let mut plant = Plant::new(actuators.plant_model(&model).unwrap());
     let mut host = ServoHost::new(ServoCommand::Plain, model, actuators).unwrap();
-    let config = SimConfig { control_period: 0.01, actuators, ..SimConfig::new(&plant) };
+    // The wrist's spring rings at ≈ 1200 rad/s: half-millisecond steps follow it.
+    let config = SimConfig { dt: 5e-4, control_period: 0.01, actuators, ..SimConfig::new(&plant) };
     let mut records = Vec::new();
     let summary = simulate(&mut plant, &mut host, reference, initial, &[], &[], &config, &mut records).unwrap();
     (records, summary)
@@ -407,4 +408,17 @@ fn a_stepper_driven_past_its_pull_out_torque_loses_steps() {
     let fast = StepperSpec { corner_speed: 0.1, ..slow };
     let (_, past_corner) = stepper_run(fast, report_arm(), &sweep, None);
     assert!(past_corner.lost_steps[1] != 0, "lost {:?}", past_corner.lost_steps);
+}
+
+/// A time step the stepper's spring outruns is refused, naming the joint and the step to use.
+#[test]
+fn a_time_step_too_long_for_a_stepper_is_refused() {
+    let actuators = Actuators { joints: [Actuator::Stepper(strong_stepper()); 4] };
+    let mut plant = Plant::new(actuators.plant_model(&report_arm()).unwrap());
+    let mut host = ServoHost::new(ServoCommand::Plain, report_arm(), actuators).unwrap();
+    let config = SimConfig { control_period: 0.01, actuators, ..SimConfig::new(&plant) };
+    let held = Held { q: JointVector::from(POSE), wave: JointVector::zeros(), period: 0.0, duration: 0.1 };
+    let error =
+        simulate(&mut plant, &mut host, &held, None, &[], &[], &config, &mut Vec::new()).unwrap_err().to_string();
+    assert!(error.contains("joint 4's stepper rings at") && error.contains("use a time step of at most"), "{error}");
 }
