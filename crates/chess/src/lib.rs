@@ -9,6 +9,7 @@ pub mod outcome;
 pub mod pieces;
 pub mod play;
 pub mod reach;
+pub mod sag;
 pub mod scenario;
 pub mod table;
 pub mod tasks;

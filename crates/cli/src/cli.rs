@@ -704,6 +704,11 @@ pub struct BoardArgs {
     /// Draw the reach map (per square: the margin, or grey where not served) into this PNG.
     #[arg(long, value_name = "FILE.png")]
     pub map: Option<PathBuf>,
+    /// With servos or steppers (--actuator): draw the sag map (per square, the placement error
+    /// gravity leaves with plain goals) into this PNG. The table and the torque headroom are
+    /// printed with servos whether or not it is given.
+    #[arg(long, value_name = "FILE.png")]
+    pub sag_map: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -100,11 +100,11 @@ fn the_so101_with_its_sts3215s_plays_the_opera_game() {
 fn bad_actuator_input_is_refused_with_its_name() {
     assert_one_line_error(
         &chessarm(&["--actuator", "sts9999", "simulate", "--out", "/nonexistent/x"]),
-        &["--actuator = \"sts9999\"", "sts3215", "xm430", "torque"],
+        &["--actuator = \"sts9999\"", "sts3215", "xm430", "nema17", "torque"],
     );
     assert_one_line_error(
         &chessarm(&["--actuator", "torque,sts3215,sts3215,sts3215", "fk", "--q", "0,0,0,0"]),
-        &["joint 2 has a servo and joint 1 a torque motor"],
+        &["joint 2 has a servo or stepper and joint 1 a torque motor"],
     );
     assert_one_line_error(
         &chessarm(&["--actuator", "sts3215,xm430", "fk", "--q", "0,0,0,0"]),
@@ -125,4 +125,63 @@ fn bad_actuator_input_is_refused_with_its_name() {
         std::fs::write(&path, text).unwrap();
         assert_one_line_error(&chessarm(&["--arm", path.to_str().unwrap(), "fk", "--q", "0,0,0,0"]), &needles);
     }
+}
+
+/// The sag map of the SO-101 on its fitted board with STS3215s: every square reached; each
+/// joint's sag is its gravity torque over the servo's stiffness `kp kt V / R` (the closed form
+/// of the P loop at rest), and the headroom `1 − |g| / τ_stall`; the map is drawn.
+#[test]
+fn the_sag_map_gives_each_squares_sag_and_headroom() {
+    use chessarm_core::sim::actuator::profiles;
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = Path::new(FIXTURES).join("so101_new_calib.urdf");
+    let board = dir.path().join("board.toml");
+    let fit = chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--lock",
+        "wrist_roll=0",
+        "board",
+        "--fit",
+        "--save",
+        board.to_str().unwrap(),
+    ]);
+    assert!(fit.status.success());
+    let png = dir.path().join("sag.png");
+    let json = json_of(&chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--arm",
+        board.to_str().unwrap(),
+        "--actuator",
+        "sts3215-12v",
+        "board",
+        "--sag-map",
+        png.to_str().unwrap(),
+    ]));
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+    let spec = profiles::profile("sts3215-12v").unwrap().spec;
+    let squares = json["sag"]["squares"].as_array().unwrap();
+    assert_eq!(squares.len(), 64);
+    let mut largest: f64 = 0.0;
+    for square in squares {
+        assert_eq!(square["reached"], true, "{square}");
+        for piece in square["pieces"].as_array().unwrap() {
+            for j in 0..4 {
+                let sag = piece["sag_rad"][j].as_f64().unwrap();
+                let load = piece["load_nm"][j].as_f64().unwrap();
+                let headroom = piece["headroom"][j].as_f64().unwrap();
+                // Settled to 1e-12 rad by the fixed point; the closed form to its rounding.
+                assert!((sag - load / spec.stiffness()).abs() < 1e-9, "{}: sag {sag} vs {load} N·m", square["square"]);
+                assert!((headroom - (1.0 - load.abs() / spec.stall_torque())).abs() < 1e-12);
+            }
+            largest = largest.max(piece["error_mm"].as_f64().unwrap());
+        }
+    }
+    // The SO-101 sags by millimetres on STS3215s: the map is not of a stiff arm.
+    assert!(largest > 1.0 && largest < 50.0, "largest tip error {largest} mm");
+    assert_one_line_error(
+        &chessarm(&["board", "--sag-map", png.to_str().unwrap()]),
+        &["--sag-map is for servos or steppers"],
+    );
 }

@@ -6,6 +6,7 @@ use crate::config::Setup;
 use crate::plots::{HeatMap, plot_heat_map};
 use anyhow::{Result, anyhow};
 use chessarm_chess::reach::{check_table, fit_board, square_margins};
+use chessarm_chess::sag::{SquareHold, sag_map};
 use serde_json::json;
 
 pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
@@ -32,6 +33,19 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     if let Some(map) = &args.map {
         plot_reach_map(map, &fitted, &margins)?;
     }
+    // With servos or steppers: which squares they hold, and how well.
+    let sag = match (setup.actuators.take_positions(), &args.sag_map) {
+        (true, _) => Some(sag_map(&setup.arm, &setup.actuators, &fitted.board, &fitted.pieces)),
+        (false, Some(_)) => {
+            anyhow::bail!("--sag-map is for servos or steppers; the joints have torque motors (give --actuator NAME)")
+        }
+        (false, None) => None,
+    };
+    if let (Some(path), Some(sag)) = (&args.sag_map, &sag) {
+        plot_sag_map(path, sag)?;
+    }
+    let sag_text = sag.as_ref().map_or(String::new(), |sag| sag_table(setup, sag));
+    let sag_json = sag.as_ref().map(|sag| sag_json(setup, sag));
     let board = &fitted.board;
     let smallest = margins.iter().filter_map(|(_, m)| m.as_ref().ok()).copied().fold(f64::INFINITY, f64::min);
     let summary = format!(
@@ -48,6 +62,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         },
         args.map.as_ref().map_or(String::new(), |m| format!("; reach map {}", m.display())),
     );
+    let summary = format!("{summary}{sag_text}");
     if args.fit {
         let mut text = fitted.to_toml_beside_urdf()?;
         if setup.urdf_path.is_some() {
@@ -67,6 +82,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
             "seconds": seconds,
             "setup": text,
             "setup_file": args.save.as_ref().map(|p| p.display().to_string()),
+            "sag": sag_json,
         });
         match &args.save {
             // The setup in its file, the summary on stdout.
@@ -83,7 +99,12 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     } else {
         crate::emit(
             &summary,
-            &json!({ "served": check.is_ok(), "why_not": check.as_ref().err().map(ToString::to_string), "smallest_margin_m": smallest }),
+            &json!({
+                "served": check.is_ok(),
+                "why_not": check.as_ref().err().map(ToString::to_string),
+                "smallest_margin_m": smallest,
+                "sag": sag_json,
+            }),
         )?;
     }
     // A board that is not served is a failed check.
@@ -123,6 +144,102 @@ fn plot_reach_map(
             values: &cells,
             marked: None,
             note: failed.first().map(|why| format!("grey: not served ({} squares), e.g. {why}", failed.len())),
+        },
+    )
+}
+
+/// The sag table for people: per rank (8 at the top), the largest horizontal tool-tip error of
+/// any piece on each square (mm; `--` where the arm does not reach), the largest drop, then the
+/// least headroom.
+fn sag_table(setup: &Setup, sag: &[SquareHold]) -> String {
+    let mut text = format!(
+        "sag with plain goals ({}): largest tool-tip error across the board per square, mm (files a–h)\n",
+        setup.actuator_names.join(", ")
+    );
+    for rank in (0..8).rev() {
+        text.push_str(&format!("  {} ", rank + 1));
+        for file in 0..8 {
+            let hold = &sag[rank * 8 + file];
+            text.push_str(&hold.worst_error().map_or("    --".to_string(), |e| format!(" {:5.2}", e * 1e3)));
+        }
+        text.push('\n');
+    }
+    let drop = sag.iter().filter_map(|h| h.worst_drop().map(|d| (d, h.square))).max_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some((drop, square)) = drop {
+        text.push_str(&format!(
+            "largest drop of the tool below its planned height: {:.2} mm, on {square}\n",
+            drop * 1e3
+        ));
+    }
+    let least =
+        sag.iter().filter_map(|h| h.least_headroom().map(|(r, j)| (r, j, h.square))).min_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some((headroom, joint, square)) = least {
+        text.push_str(&format!(
+            "least torque headroom: {:.0} % of joint {joint}'s stall torque left, on {square}{}\n",
+            headroom * 100.0,
+            if headroom < 0.0 { " (it cannot hold the piece there)" } else { "" }
+        ));
+    }
+    text
+}
+
+/// The sag per square for `--json` (SI, and mm for the placement error).
+fn sag_json(setup: &Setup, sag: &[SquareHold]) -> serde_json::Value {
+    let squares: Vec<serde_json::Value> = sag
+        .iter()
+        .map(|hold| match &hold.pieces {
+            Err(why) => json!({ "square": hold.square.to_string(), "reached": false, "why_not": why }),
+            Ok(pieces) => json!({
+                "square": hold.square.to_string(),
+                "reached": true,
+                "worst_error_mm": hold.worst_error().map(|e| e * 1e3),
+                "worst_drop_mm": hold.worst_drop().map(|e| e * 1e3),
+                "least_headroom": hold.least_headroom().map(|(r, _)| r),
+                "least_headroom_joint": hold.least_headroom().map(|(_, j)| j),
+                "pieces": pieces.iter().map(|p| json!({
+                    "piece": chessarm_chess::pieces::role_name(p.role),
+                    "error_mm": p.error * 1e3,
+                    "height_error_mm": p.height_error * 1e3,
+                    "sag_rad": setup.convention.user(p.sag),
+                    "load_nm": setup.convention.user(p.load),
+                    "headroom": p.headroom,
+                })).collect::<Vec<_>>(),
+            }),
+        })
+        .collect();
+    json!({ "actuators": setup.actuator_names, "squares": squares })
+}
+
+/// Per square, the largest horizontal tool-tip error (mm) with plain goals, grey where not
+/// reached.
+fn plot_sag_map(path: &std::path::Path, sag: &[SquareHold]) -> Result<()> {
+    let mut cells = vec![vec![None; 8]; 8];
+    let mut failed = Vec::new();
+    for hold in sag {
+        let (file, rank) = (usize::from(u8::from(hold.square.file())), usize::from(u8::from(hold.square.rank())));
+        match &hold.pieces {
+            Ok(_) => cells[rank][file] = hold.worst_error().map(|e| e * 1e3),
+            Err(why) => failed.push(why.clone()),
+        }
+    }
+    let files: Vec<f64> = (1..=8).map(f64::from).collect();
+    let least = sag.iter().filter_map(SquareHold::least_headroom).min_by(|a, b| a.0.total_cmp(&b.0));
+    let title = format!(
+        "sag, plain goals: tool-tip error across the board (mm){}",
+        least.map_or(String::new(), |(r, j)| format!("; least headroom {:.0} % (joint {j})", r * 100.0))
+    );
+    plot_heat_map(
+        path,
+        &HeatMap {
+            title: &title,
+            x_label: "file (1 = a)",
+            y_label: "rank",
+            value_label: "tool-tip error (mm)",
+            x_values: &files,
+            y_values: &files,
+            values: &cells,
+            marked: None,
+            note: failed.first().map(|why| format!("grey: not reached ({} squares), e.g. {why}", failed.len())),
         },
     )
 }
