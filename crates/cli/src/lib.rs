@@ -213,6 +213,20 @@ pub fn run(cli: Cli) -> Result<()> {
             "--servo-command and --bus-rate are for servos; the joints have torque motors (give --actuator NAME)"
         );
     }
+    if setup.actuators.take_positions() {
+        let not_yet = match &cli.command {
+            Some(Command::Tune(_)) => Some("tune"),
+            Some(Command::Robustness(_)) => Some("robustness"),
+            Some(Command::Demo(_)) | None => Some("the report's study (demo)"),
+            _ => None,
+        };
+        if let Some(command) = not_yet {
+            anyhow::bail!(
+                "{command} runs torque motors only so far; servos and steppers (--actuator {}) work with simulate, play and board",
+                setup.actuator_names.join(",")
+            );
+        }
+    }
     setup.servo_commands = cli.servo_command.clone().unwrap_or_else(|| vec![Default::default()]);
     setup.bus_rate = cli.bus_rate.unwrap_or(config::DEFAULT_BUS_RATE);
     let default_out = std::path::PathBuf::from("out");

@@ -111,6 +111,10 @@ fn bad_actuator_input_is_refused_with_its_name() {
         &["--actuator has 2 names"],
     );
     assert_one_line_error(
+        &chessarm(&["--actuator", "xm430", "tune", "--kp", "1..2:2", "--kd", "1..2:2"]),
+        &["tune runs torque motors only so far", "--actuator xm430"],
+    );
+    assert_one_line_error(
         &chessarm(&["--servo-command", "sag", "fk", "--q", "0,0,0,0"]),
         &["--servo-command and --bus-rate are for servos"],
     );
