@@ -514,7 +514,9 @@ impl Game {
             &mut self.feedback,
             controller.as_mut(),
             trajectory,
-            Some(self.state),
+            // The first move of servos or steppers starts as they hold the host's first goal,
+            // settled; later ones where the last left the arm.
+            if self.actuators.is_none() && settings.actuators.take_positions() { None } else { Some(self.state) },
             &events,
             &marks,
             settings.in_position.as_ref(),

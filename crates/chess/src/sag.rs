@@ -22,7 +22,7 @@ use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::arm::task::{TOOL_DOWN, inverse_kinematics};
 use chessarm_core::nalgebra::Vector3;
-use chessarm_core::sim::actuator::{Actuator, Actuators, PositionBank};
+use chessarm_core::sim::actuator::{Actuators, PositionBank};
 use shakmaty::{Role, Square};
 
 /// One piece held over one square.
@@ -69,15 +69,6 @@ impl SquareHold {
     }
 }
 
-/// The stall (servo) or holding (stepper) torque of each joint, N·m (∞ for a torque motor).
-fn stall(actuators: &Actuators<4>) -> [f64; 4] {
-    actuators.joints.map(|a| match a {
-        Actuator::Torque => f64::INFINITY,
-        Actuator::Servo(spec) => spec.stall_torque(),
-        Actuator::Stepper(spec) => spec.holding_torque,
-    })
-}
-
 /// The sag and headroom of every square of `geometry` for every piece of `pieces` (see the
 /// module), the arm's joints driven by `actuators`.
 pub fn sag_map(
@@ -86,7 +77,7 @@ pub fn sag_map(
     geometry: &BoardGeometry,
     pieces: &PieceSet,
 ) -> Vec<SquareHold> {
-    let stall = stall(actuators);
+    let stall = actuators.torque_limits();
     Square::ALL
         .into_iter()
         .map(|square| {

@@ -17,7 +17,8 @@ pub const TORQUE: &str = "torque";
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct ActuatorFile {
-    /// The built-in servo the rest changes (see `chessarm actuators`).
+    /// The built-in servo the rest changes (sts3215, sts3215-12v, xl430, xm430, mg996r; a
+    /// stepper of one's own is not described here yet).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub base: Option<String>,
     /// The P gain register's value (the base's conversion to duty per rad).

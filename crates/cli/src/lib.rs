@@ -227,6 +227,15 @@ pub fn run(cli: Cli) -> Result<()> {
             );
         }
     }
+    if setup.actuators.take_positions() {
+        // The servos' stall torques (steppers' holding torques) are the limits the planner, the
+        // reach check and the plots use (not the file's efforts).
+        let mut links = *setup.arm.links();
+        for (link, stall) in links.iter_mut().zip(setup.actuators.torque_limits()) {
+            link.limits.torque = stall;
+        }
+        setup.arm = setup.arm.with_links(links)?;
+    }
     setup.servo_commands = cli.servo_command.clone().unwrap_or_else(|| vec![Default::default()]);
     setup.bus_rate = cli.bus_rate.unwrap_or(config::DEFAULT_BUS_RATE);
     let default_out = std::path::PathBuf::from("out");

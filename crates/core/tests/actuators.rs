@@ -191,7 +191,7 @@ fn beyond_stall_the_duty_saturates_and_the_joint_gives_way() {
         let spec = ServoSpec { max_torque: g_shoulder * factor, kp: 50.0, ..ideal() };
         let out = run([spec; 4], arm, ServoCommand::Plain, &held, Some(JointState::at_rest(goal)));
         let error = (goal[1] - out.final_state.q[1]).abs();
-        // The drive (the back-EMF's part is the plant's damping).
+        // The motor's torque at the output, the back-EMF's included: at the current limit.
         let torque = out.records.last().unwrap().torque[1];
         if holds {
             // Below stall: still, at the P loop's error (≤ g / (kp kt V / R)).
@@ -421,4 +421,31 @@ fn a_time_step_too_long_for_a_stepper_is_refused() {
     let error =
         simulate(&mut plant, &mut host, &held, None, &[], &[], &config, &mut Vec::new()).unwrap_err().to_string();
     assert!(error.contains("joint 4's stepper rings at") && error.contains("use a time step of at most"), "{error}");
+}
+
+/// Sent far away on the base yaw (no gravity, no friction), a servo's output speeds up to its
+/// no-load speed `u_max V / kt`, where the back-EMF leaves no current, and no further; and at
+/// stall the current limit, not the winding, caps its torque.
+#[test]
+fn a_servo_runs_at_its_no_load_speed_and_stalls_at_its_current_limit() {
+    let spec = ServoSpec { supply_voltage: 6.0, max_torque: 5.0, kp: 50.0, ..ideal() };
+    let no_load = spec.no_load_speed();
+    let start = JointVector::from(POSE);
+    let held = Held {
+        q: start + JointVector::<4>::new(2.5, 0.0, 0.0, 0.0),
+        wave: JointVector::zeros(),
+        period: 0.0,
+        duration: 2.0,
+    };
+    let out = run([spec; 4], report_arm(), ServoCommand::Plain, &held, Some(JointState::at_rest(start)));
+    let fastest = out.records.iter().map(|r| r.state.qd[0]).fold(0.0, f64::max);
+    // 3 rad/s at full duty; the approach is exponential, 2.5 rad leave time for 99 % of it.
+    // Up to 1e-4 over it: the drive is held over each 1 ms step while the speed changes (the
+    // mechanical time constant is 80 ms).
+    assert!(fastest <= no_load * (1.0 + 1e-4) && fastest > 0.99 * no_load, "fastest {fastest} rad/s vs {no_load}");
+    // At the start (at rest, full duty) the winding would give u V kt / R = 12 N·m; the current
+    // limit lets 5 through.
+    let first = out.records[0].torque[0];
+    assert!((first - spec.max_torque).abs() < 1e-12, "torque at rest {first}");
+    assert!(spec.max_duty * spec.torque_per_duty() > 2.0 * spec.max_torque);
 }

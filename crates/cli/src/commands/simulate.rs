@@ -657,7 +657,9 @@ pub fn run_study(
         "scenario": scenario,
         "dt_s": options.dt,
         "integrator": options.integrator.name(),
-        "control_period_s": options.control_period,
+        // A servo host's period is its bus's.
+        "control_period_s": if setup.actuators.take_positions() { 1.0 / setup.bus_rate } else { options.control_period },
+        "actuators": setup.actuator_names,
         "payload_mass_kg": options.payload_mass,
         "true_payload_mass_kg": true_pawn_mass(setup, options.trial.as_ref(), options.payload_mass),
         "controller_knows_payload": options.controller_knows_payload,

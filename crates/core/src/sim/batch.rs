@@ -113,7 +113,9 @@ pub fn simulate_lanes(
     let mut rest = runs;
     while !rest.is_empty() {
         // A batch: the next runs that can share the first one's batch, up to `width`.
-        let batchable = |run: &LaneRun<'_>| run.plant.yaw_pitch().is_some();
+        // Servos and steppers run alone (their firmware and a stepper's pull per stage are the
+        // scalar loop's).
+        let batchable = |run: &LaneRun<'_>| run.plant.yaw_pitch().is_some() && !run.config.actuators.take_positions();
         let first = &rest[0];
         let take = if width == 1 || !batchable(first) {
             1

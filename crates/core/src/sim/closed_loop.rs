@@ -293,7 +293,8 @@ pub struct StepRecord<const N: usize> {
     /// ideal sensors).
     pub estimate: JointState<N>,
     pub reference: Reference<N>,
-    /// Applied (saturated) torque, N·m.
+    /// Applied (saturated) torque, N·m: with servos, their motors' torque at the output, the
+    /// back-EMF's included.
     pub torque: JointVector<N>,
     /// Tool tip, actual and desired (FK of the reference), m.
     pub tip: Vector3<f64>,
@@ -936,16 +937,19 @@ where
         } else {
             self.command
         };
+        // What the plant is given over the step (a servo's held drive), and what the joints'
+        // motors exert now, recorded (they differ by a servo's back-EMF, which the plant adds).
+        let mut applied = None;
         let torque = if let Some(servos) = &mut self.servos {
             let saturated = servos.update(step, &state.q, &state.qd, self.dt);
-            let torque = servos.torque_at(&state.q, &state.qd);
             if saturated != 0 {
                 self.saturated_samples += 1;
                 for (j, count) in self.saturated_per_joint.iter_mut().enumerate() {
                     *count += ((saturated >> j) & 1) as usize;
                 }
             }
-            torque
+            applied = Some(servos.motor_torque(&state.q, &state.qd));
+            servos.torque_at(&state.q, &state.qd)
         } else if self.has_lag {
             // The exact response of T τ̇ + τ = τ_c over the step, held as its mean (what
             // the step integrates): τ̄ = τ_c + (τ_k − τ_c)(T/dt)(1 − e^{−dt/T}),
@@ -959,14 +963,15 @@ where
         let error = desired.q - state.q;
         let tip_desired = now.tip.unwrap_or_else(|| FrameChain::new(plant, &desired.q).tip());
         let tip_error = tip_error(&tip.into(), &tip_desired.into());
-        self.tracking.record(&torque.into(), &error.into(), tip_error, self.tracked());
+        let applied = applied.unwrap_or(torque);
+        self.tracking.record(&applied.into(), &error.into(), tip_error, self.tracked());
         self.mark(tip, tip_error);
         observer.observe(&StepRecord {
             t,
             state,
             estimate: self.estimate,
             reference: desired,
-            torque,
+            torque: applied,
             tip,
             tip_desired,
             servo: self.servos.as_ref().map(|bank| bank.record(&state.q, &state.qd)),

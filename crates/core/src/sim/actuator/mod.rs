@@ -41,13 +41,13 @@ impl<const N: usize> Default for Actuators<N> {
 /// Why a set of actuators is refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ActuatorError {
-    #[error("joint {joint} servo {field} = {value}: {reason}")]
+    #[error("joint {joint}'s actuator: {field} = {value}: {reason}")]
     InvalidField { joint: usize, field: &'static str, value: f64, reason: &'static str },
     #[error(
         "joint {servo} has a servo or stepper and joint {torque} a torque motor: a controller sends either torques or goal positions, so all joints need the same kind"
     )]
     Mixed { servo: usize, torque: usize },
-    #[error("joint {joint} servo period {period} s must be a whole multiple of the time step {dt} s")]
+    #[error("joint {joint}'s actuator: its period {period} s must be a whole multiple of the time step {dt} s (--dt)")]
     Period { joint: usize, period: f64, dt: f64 },
 }
 
@@ -74,6 +74,16 @@ impl<const N: usize> Actuators<N> {
     /// Whether the joints take goal positions (servos, steppers).
     pub fn take_positions(&self) -> bool {
         self.interface() == CommandInterface::Position
+    }
+
+    /// The largest torque each joint's actuator holds, N·m: a servo's stall torque, a stepper's
+    /// holding torque; infinite for a torque motor (its limit is the joint's).
+    pub fn torque_limits(&self) -> [f64; N] {
+        self.joints.map(|a| match a {
+            Actuator::Torque => f64::INFINITY,
+            Actuator::Servo(spec) => spec.stall_torque(),
+            Actuator::Stepper(spec) => spec.holding_torque,
+        })
     }
 
     /// Checks every actuator's numbers, that no joint has a torque motor beside a position
@@ -266,11 +276,12 @@ impl<const N: usize> PositionBank<N> {
                 Drive::Servo(spec, state) => {
                     if due {
                         state.firmware(spec, q[j]);
-                        if state.saturated {
-                            saturated |= 1 << j;
-                        }
                     }
                     self.held[j] = state.torque(spec, qd[j], dt);
+                    // Counted once a firmware period: the duty or the current at its limit.
+                    if due && (state.saturated || state.current_limited) {
+                        saturated |= 1 << j;
+                    }
                 }
                 Drive::Stepper(spec, state) => {
                     if due {
@@ -288,6 +299,23 @@ impl<const N: usize> PositionBank<N> {
     pub fn torque_at(&self, q: &JointVector<N>, qd: &JointVector<N>) -> JointVector<N> {
         JointVector::from_fn(|j, _| match &self.drives[j] {
             Drive::Servo(..) => self.held[j],
+            Drive::Stepper(spec, state) => spec.torque(state.commanded, q[j], qd[j]),
+        })
+    }
+
+    /// The motors' torques on the outputs at angles `q` (rad) and speeds `qd` (rad/s), N·m: a
+    /// servo's `(kt/R)(u V − kt q̇)` within its current limit (0 while its backlash is open), a
+    /// stepper's pull. ([`PositionBank::torque_at`] holds a servo's drive, the plant adding the
+    /// back-EMF.)
+    pub fn motor_torque(&self, q: &JointVector<N>, qd: &JointVector<N>) -> JointVector<N> {
+        JointVector::from_fn(|j, _| match &self.drives[j] {
+            Drive::Servo(spec, state) => {
+                if spec.backlash > 0.0 && state.engaged == 0 {
+                    0.0
+                } else {
+                    self.held[j] - spec.back_emf_damping() * qd[j]
+                }
+            }
             Drive::Stepper(spec, state) => spec.torque(state.commanded, q[j], qd[j]),
         })
     }

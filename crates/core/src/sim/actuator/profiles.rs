@@ -2,9 +2,9 @@
 //!
 //! The gearmotor of each is the DC model of [`super::servo`], fitted where an identification
 //! exists (Rhoban's BAM for the STS3215) and otherwise taken from the datasheet's two points,
-//! the no-load speed and the stall torque at the rated voltage: `kt = V / ω₀` (back-EMF
-//! constant, from the speed) and `R = kt V / τ_stall` (so full duty at rest gives the stall
-//! torque). That pair reproduces the datasheet's torque–speed line; the winding current it
+//! the no-load speed and the stall torque at the rated voltage: `kt = u V / ω₀` (back-EMF
+//! constant, from the speed at the largest duty `u`) and `R = kt u V / τ_stall` (so that duty at
+//! rest gives the stall torque). That pair reproduces the datasheet's torque–speed line; the winding current it
 //! implies is lower than the datasheet's stall current, the gear's losses being lumped into the
 //! two constants. Figures marked *estimate* have no published value; they are chosen from the
 //! nearest published servo and said so in [`Profile::sources`].
@@ -251,9 +251,10 @@ pub const NEMA17: StepperProfile = StepperProfile {
         corner_speed: 1600.0 / 200.0 * std::f64::consts::TAU / 5.18,
         armature: 5.4e-6 * 5.18 * 5.18,
         coulomb_friction: 0.05,
-        // The windings' back-EMF into their resistance, kt²/R at the motor (kt ≈ 0.40 N·m /
-        // (√2 · 1.7 A) = 0.166 N·m/A per phase, R 1.5 Ω) × 5.18².
-        viscous_friction: 0.166 * 0.166 / 1.5 * 5.18 * 5.18,
+        // A chopper driver holds the rated current below the corner speed, so the windings'
+        // back-EMF damps little there (kt²/R through the gear would be 0.49 N·m·s/rad, 79 % of
+        // the holding torque at 3 rad/s); the gearbox's and the driver's losses: an estimate.
+        viscous_friction: 0.05,
         max_speed: 3.0,
         max_acceleration: 20.0,
         period: 1e-3,
@@ -261,9 +262,8 @@ pub const NEMA17: StepperProfile = StepperProfile {
     sources: "200 steps/rev, 0.40 N·m holding, 1.7 A, 1.5 Ω, 2.8 mH, rotor 54 g·cm²: the 17HS4401 datasheet (MotionKing \
               pattern); 5.18:1 planetary: the common NEMA 17 option (Phidgets' stepper primer); 1/16 microsteps: the \
               A4988's finest; corner speed: where 12 V drives the rated 1.7 A through 2.8 mH (ω_e L I = V, ≈ 1600 full \
-              steps/s; estimate); damping: the windings' back-EMF into their resistance (kt²/R through the gear; a chopper \
-              driver's current loop takes some of it away: an estimate); gearbox efficiency 0.9, Coulomb friction \
-              0.05 N·m, step generator 3 rad/s \
+              steps/s; estimate); viscous damping 0.05 N·m·s/rad (the driver holds the current, so little back-EMF damping below the \
+              corner; an estimate); gearbox efficiency 0.9, Coulomb friction 0.05 N·m, step generator 3 rad/s \
               and 20 rad/s² at the output, 1 ms updates: estimates (no published values).",
 };
 

@@ -15,12 +15,14 @@
 //!    (the integral stops while the duty is clamped: no wind-up).
 //!
 //! **Gearmotor** (a DC motor driven by the duty, as Rhoban's BAM models these servos): the
-//! torque on the output is `τ = (kt/R) (u V − kt q̇)`, the drive `(kt/R) u V` clamped to
-//! ±`max_torque` (the firmware's current protection, which sets the datasheet's stall torque
-//! where the winding alone would give more), held over each plant step. The back-EMF's
-//! `−(kt²/R) q̇`, the gear's Coulomb and viscous friction and the rotor's inertia reflected
-//! through the gear (armature) are the plant's, integrated inside each step
-//! ([`super::Actuators::plant_model`]).
+//! torque on the output is `τ = (kt/R) (u V − kt q̇)`, the winding's current `(u V − kt q̇)/R`
+//! limited so that `|τ| ≤ max_torque` (the firmware's current protection, which sets the
+//! datasheet's stall torque where the winding alone would give more). Over each plant step the
+//! plant integrates the back-EMF's `−(kt²/R) q̇` (with the gear's Coulomb and viscous friction
+//! and the rotor's inertia reflected through the gear, the armature:
+//! [`super::Actuators::plant_model`]), and the servo holds the rest,
+//! `clamp((kt/R)(u V − kt q̇₀), ±max_torque) + (kt²/R) q̇₀` at the step's starting speed `q̇₀`:
+//! below the current limit exactly `(kt/R) u V`.
 //!
 //! **Backlash** of width `b` between the motor side and the output (the encoder is on the
 //! output): the gap `δ = θ − q` (motor side less output) lies in `[−b/2, b/2]`. Engaged on a
@@ -172,8 +174,10 @@ pub struct ServoState {
     pub measured: f64,
     /// PWM duty held until the next firmware period.
     pub duty: f64,
-    /// Whether the latest period's duty or drive was clamped (at `max_duty` or `max_torque`).
+    /// Whether the latest period's duty was clamped at `max_duty`, and whether the latest
+    /// step's current was at its limit (`max_torque`).
     pub saturated: bool,
+    pub current_limited: bool,
     /// Backlash gap `θ − q`, rad, and the side engaged: +1, −1, or 0 while crossing.
     pub gap: f64,
     pub engaged: i8,
@@ -197,6 +201,7 @@ impl ServoState {
             measured,
             duty,
             saturated: false,
+            current_limited: false,
             gap: f64::from(engaged) * spec.backlash / 2.0,
             engaged,
         }
@@ -232,19 +237,24 @@ impl ServoState {
             (duty, duty != raw)
         };
         self.duty = duty;
-        self.saturated = saturated || spec.torque_per_duty() * duty.abs() > spec.max_torque;
+        self.saturated = saturated;
     }
 
     /// The torque on the output over a plant step of `dt` seconds from the output speed `qd`
     /// (rad/s), N·m, and the backlash gap moved on over the step. See the module's
     /// documentation for the law.
     pub fn torque(&mut self, spec: &ServoSpec, qd: f64, dt: f64) -> f64 {
-        let drive = (spec.torque_per_duty() * self.duty).clamp(-spec.max_torque, spec.max_torque);
+        // The motor's torque at this speed, its current limited; held as the drive that, with
+        // the plant's back-EMF damping, gives it.
+        let unlimited = spec.torque_per_duty() * self.duty - spec.back_emf_damping() * qd;
+        let push = unlimited.clamp(-spec.max_torque, spec.max_torque);
+        self.current_limited = push != unlimited;
+        let drive =
+            if self.current_limited { push + spec.back_emf_damping() * qd } else { spec.torque_per_duty() * self.duty };
         if spec.backlash == 0.0 {
             return drive;
         }
         let half = spec.backlash / 2.0;
-        let push = drive - spec.back_emf_damping() * qd;
         let still_engaged = match self.engaged {
             1 => push >= 0.0,
             -1 => push <= 0.0,
