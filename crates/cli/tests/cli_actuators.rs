@@ -12,6 +12,24 @@ use std::path::Path;
 const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
 const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
 
+/// The SO-101's official URDF and a setup of the board fitted to it in `dir`.
+fn so101_fitted(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let urdf = Path::new(FIXTURES).join("so101_new_calib.urdf");
+    let board = dir.join("board.toml");
+    let fit = chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--lock",
+        "wrist_roll=0",
+        "board",
+        "--fit",
+        "--save",
+        board.to_str().unwrap(),
+    ]);
+    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
+    (urdf, board)
+}
+
 /// An XM430 on 48 V with a 20 N·m current limit: a servo strong enough for the report's arm
 /// (the built-in ones stall under it), given as a user's table over a built-in.
 const BIG_SERVO: &str = "[actuators.big]\nbase = \"xm430\"\nsupply_voltage = 48.0\nmax_torque = 20.0\n";
@@ -52,19 +70,7 @@ fn simulate_compares_the_hosts_goal_strategies() {
 #[test]
 fn the_so101_with_its_sts3215s_plays_the_opera_game() {
     let dir = tempfile::tempdir().unwrap();
-    let urdf = Path::new(FIXTURES).join("so101_new_calib.urdf");
-    let board = dir.path().join("board.toml");
-    let fit = chessarm(&[
-        "--urdf",
-        urdf.to_str().unwrap(),
-        "--lock",
-        "wrist_roll=0",
-        "board",
-        "--fit",
-        "--save",
-        board.to_str().unwrap(),
-    ]);
-    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
+    let (urdf, board) = so101_fitted(dir.path());
     let out = dir.path().join("game");
     let game = chessarm(&[
         "--urdf",
@@ -138,19 +144,7 @@ fn bad_actuator_input_is_refused_with_its_name() {
 fn the_sag_map_gives_each_squares_sag_and_headroom() {
     use chessarm_core::sim::actuator::profiles;
     let dir = tempfile::tempdir().unwrap();
-    let urdf = Path::new(FIXTURES).join("so101_new_calib.urdf");
-    let board = dir.path().join("board.toml");
-    let fit = chessarm(&[
-        "--urdf",
-        urdf.to_str().unwrap(),
-        "--lock",
-        "wrist_roll=0",
-        "board",
-        "--fit",
-        "--save",
-        board.to_str().unwrap(),
-    ]);
-    assert!(fit.status.success());
+    let (urdf, board) = so101_fitted(dir.path());
     let png = dir.path().join("sag.png");
     let json = json_of(&chessarm(&[
         "--urdf",

@@ -117,33 +117,47 @@ fn plot_reach_map(
     setup: &Setup,
     margins: &[(chessarm_chess::shakmaty::Square, std::result::Result<f64, String>)],
 ) -> Result<()> {
-    let mut cells = vec![vec![None; 8]; 8];
-    let mut failed = Vec::new();
-    for (square, margin) in margins {
-        let (file, rank) = (usize::from(u8::from(square.file())), usize::from(u8::from(square.rank())));
-        match margin {
-            Ok(m) => cells[rank][file] = Some(m * 1e3),
-            Err(why) => failed.push(why.clone()),
-        }
-    }
-    let files: Vec<f64> = (1..=8).map(f64::from).collect();
     let title = format!(
         "reach margin per square (mm): squares of {:.1} mm, yaw {:.3} rad",
         setup.board.square_size * 1e3,
         setup.board.yaw
     );
+    let values =
+        margins.iter().map(|(square, margin)| (*square, margin.as_ref().map(|m| m * 1e3).map_err(Clone::clone)));
+    plot_squares(path, &title, "radial margin (mm)", values, "not served")
+}
+
+/// A heat map of the board: each square's value, grey where it has none (`grey` says why, with
+/// the first square's reason).
+fn plot_squares(
+    path: &std::path::Path,
+    title: &str,
+    value_label: &str,
+    values: impl Iterator<Item = (chessarm_chess::shakmaty::Square, std::result::Result<f64, String>)>,
+    grey: &str,
+) -> Result<()> {
+    let mut cells = vec![vec![None; 8]; 8];
+    let mut failed = Vec::new();
+    for (square, value) in values {
+        let (file, rank) = (usize::from(u8::from(square.file())), usize::from(u8::from(square.rank())));
+        match value {
+            Ok(v) => cells[rank][file] = Some(v),
+            Err(why) => failed.push(why),
+        }
+    }
+    let files: Vec<f64> = (1..=8).map(f64::from).collect();
     plot_heat_map(
         path,
         &HeatMap {
-            title: &title,
+            title,
             x_label: "file (1 = a)",
             y_label: "rank",
-            value_label: "radial margin (mm)",
+            value_label,
             x_values: &files,
             y_values: &files,
             values: &cells,
             marked: None,
-            note: failed.first().map(|why| format!("grey: not served ({} squares), e.g. {why}", failed.len())),
+            note: failed.first().map(|why| format!("grey: {grey} ({} squares), e.g. {why}", failed.len())),
         },
     )
 }
@@ -213,33 +227,17 @@ fn sag_json(setup: &Setup, sag: &[SquareHold]) -> serde_json::Value {
 /// Per square, the largest horizontal tool-tip error (mm) with plain goals, grey where not
 /// reached.
 fn plot_sag_map(path: &std::path::Path, sag: &[SquareHold]) -> Result<()> {
-    let mut cells = vec![vec![None; 8]; 8];
-    let mut failed = Vec::new();
-    for hold in sag {
-        let (file, rank) = (usize::from(u8::from(hold.square.file())), usize::from(u8::from(hold.square.rank())));
-        match &hold.pieces {
-            Ok(_) => cells[rank][file] = hold.worst_error().map(|e| e * 1e3),
-            Err(why) => failed.push(why.clone()),
-        }
-    }
-    let files: Vec<f64> = (1..=8).map(f64::from).collect();
     let least = sag.iter().filter_map(SquareHold::least_headroom).min_by(|a, b| a.0.total_cmp(&b.0));
     let title = format!(
         "sag, plain goals: tool-tip error across the board (mm){}",
         least.map_or(String::new(), |(r, j)| format!("; least headroom {:.0} % (joint {j})", r * 100.0))
     );
-    plot_heat_map(
-        path,
-        &HeatMap {
-            title: &title,
-            x_label: "file (1 = a)",
-            y_label: "rank",
-            value_label: "tool-tip error (mm)",
-            x_values: &files,
-            y_values: &files,
-            values: &cells,
-            marked: None,
-            note: failed.first().map(|why| format!("grey: not reached ({} squares), e.g. {why}", failed.len())),
-        },
-    )
+    let values = sag.iter().map(|hold| {
+        let value = match &hold.pieces {
+            Ok(_) => Ok(hold.worst_error().unwrap_or(0.0) * 1e3),
+            Err(why) => Err(why.clone()),
+        };
+        (hold.square, value)
+    });
+    plot_squares(path, &title, "tool-tip error (mm)", values, "not reached")
 }

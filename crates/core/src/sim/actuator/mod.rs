@@ -13,6 +13,21 @@ use crate::control::CommandInterface;
 pub use servo::{ServoSpec, ServoState};
 pub use stepper::{StepperSpec, StepperState};
 
+/// The first of `positive` that is not finite and > 0, else the first of `non_negative` that is
+/// not finite and ≥ 0: its name, its value and why.
+fn out_of_range(
+    positive: &[(&'static str, f64)],
+    non_negative: &[(&'static str, f64)],
+) -> Option<(&'static str, f64, &'static str)> {
+    if let Some(&(name, value)) = positive.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+        return Some((name, value, "must be finite and > 0"));
+    }
+    non_negative
+        .iter()
+        .find(|(_, v)| !(v.is_finite() && *v >= 0.0))
+        .map(|&(name, value)| (name, value, "must be finite and >= 0"))
+}
+
 /// What drives one joint.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Actuator {

@@ -130,9 +130,6 @@ impl ServoSpec {
             ("period", self.period),
             ("kp", self.kp),
         ];
-        if let Some((name, value)) = positive.into_iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
-            return Some((name, value, "must be finite and > 0"));
-        }
         let non_negative = [
             ("armature", self.armature),
             ("coulomb_friction", self.coulomb_friction),
@@ -144,8 +141,8 @@ impl ServoSpec {
             ("max_target_speed", self.max_target_speed),
             ("max_target_acceleration", self.max_target_acceleration),
         ];
-        if let Some((name, value)) = non_negative.into_iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
-            return Some((name, value, "must be finite and >= 0"));
+        if let Some(invalid) = super::out_of_range(&positive, &non_negative) {
+            return Some(invalid);
         }
         if !(self.max_duty > 0.0 && self.max_duty <= 1.0) {
             return Some(("max_duty", self.max_duty, "must be in (0, 1]"));

@@ -95,17 +95,14 @@ impl StepperSpec {
             ("max_speed", self.max_speed),
             ("period", self.period),
         ];
-        if let Some((name, value)) = positive.into_iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
-            return Some((name, value, "must be finite and > 0"));
-        }
         let non_negative = [
             ("armature", self.armature),
             ("coulomb_friction", self.coulomb_friction),
             ("viscous_friction", self.viscous_friction),
             ("max_acceleration", self.max_acceleration),
         ];
-        if let Some((name, value)) = non_negative.into_iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
-            return Some((name, value, "must be finite and >= 0"));
+        if let Some(invalid) = super::out_of_range(&positive, &non_negative) {
+            return Some(invalid);
         }
         if self.steps_per_revolution % 4.0 != 0.0 {
             return Some(("steps_per_revolution", self.steps_per_revolution, "must be a multiple of 4"));
