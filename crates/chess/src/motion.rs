@@ -472,6 +472,7 @@ fn time_optimal_leg(
         overshoot: limits.tracking.overshoot,
         mass_error: limits.tracking.mass_error[role as usize - 1],
         budget: limits.tracking.budget,
+        stiffness: limits.tracking.stiffness,
     });
     let mut constraints: Vec<&dyn PathConstraint<4>> = vec![&speed, &acceleration, &torque, &tool];
     if let Some(tracking) = tracking.as_ref() {

@@ -74,6 +74,9 @@ pub struct PlaySettings {
     /// What drives the joints (default: torque motors). With servos, `controller` is their
     /// host ([`ControllerKind::ServoHost`]) and `control_period` its bus period.
     pub actuators: Actuators<4>,
+    /// The true servos or steppers of the plant, drawn around `actuators` (`None`: exactly
+    /// `actuators`). The host computes its goals from `actuators`.
+    pub true_actuators: Option<Actuators<4>>,
 }
 
 /// A robot move's planned motion for hardware ([`chessarm_core::plan::hardware`]).
@@ -117,6 +120,7 @@ impl PlaySettings {
             record_every: 10,
             export_rate: None,
             actuators: Actuators::torque(),
+            true_actuators: None,
         }
     }
 }
@@ -491,7 +495,8 @@ impl Game {
         }
         let events = gripper_events(settings, &self.table, planned);
         let marks: Vec<f64> = events.iter().map(|event| event.time).collect();
-        let plant_model = settings.actuators.plant_model(&settings.plant.unwrap_or(self.arm)).map_err(|source| {
+        let true_actuators = settings.true_actuators.unwrap_or(settings.actuators);
+        let plant_model = true_actuators.plant_model(&settings.plant.unwrap_or(self.arm)).map_err(|source| {
             PlayError::Controller { name: settings.controller.name.clone(), source: source.into() }
         })?;
         let mut plant = Plant::new(plant_model);
@@ -500,7 +505,7 @@ impl Game {
             .build_for(self.arm, &settings.actuators)
             .map_err(|source| PlayError::Controller { name: settings.controller.name.clone(), source })?;
         let config = SimConfig {
-            actuators: settings.actuators,
+            actuators: true_actuators,
             dt: settings.dt,
             control_period: settings.control_period,
             integrator: settings.integrator,

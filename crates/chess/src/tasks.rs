@@ -8,11 +8,12 @@
 
 use crate::pieces::{PieceSet, piece_name};
 use crate::table::{Location, Table, TableError};
-use chessarm_core::arm::model::ArmModel;
+use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use chessarm_core::plan::path::{CartesianPath, GripperAction, Segment};
 use chessarm_core::plan::profile::ProfileError;
+use chessarm_core::sim::actuator::Actuators;
 use shakmaty::san::San;
 use shakmaty::uci::UciMove;
 use shakmaty::{CastlingMode, Chess, File, Move, Piece, Position, Role, Square};
@@ -380,6 +381,8 @@ pub struct Tracking {
     /// Per piece kind (pawn to king, shakmaty's `Role::ALL` order): the largest difference
     /// between a true and the nominal mass, kg.
     pub mass_error: [f64; 6],
+    /// With position servos, their stiffnesses, N·m/rad (`kp` is then not used).
+    pub stiffness: Option<[f64; 4]>,
 }
 
 impl Tracking {
@@ -390,12 +393,35 @@ impl Tracking {
         let overshoot = (0..4)
             .map(|j| TrackingBudget::<4>::overshoot_of(gains.kd[j] / (2.0 * gains.kp[j].sqrt())))
             .fold(1.0, f64::max);
-        Self { kp, overshoot, ..self }
+        Self { kp, overshoot, stiffness: None, ..self }
+    }
+
+    /// The budget for position servos: their proportional loops' stiffnesses `K_j`, and the
+    /// overshoot of the loop `I q̈ + c q̇ + K q` each closes with its back-EMF and gear damping
+    /// `c = kt²/R + b` on the armature and the link's own inertia `I = I_a + M_jj` at the
+    /// model's zero angles (an estimate: `M_jj` changes with the pose). `None` unless every
+    /// joint has a servo (a stepper has no proportional loop to budget).
+    pub fn with_servos(self, actuators: &Actuators<4>, arm: &ArmModel<4>) -> Option<Self> {
+        use chessarm_core::plan::constraints::TrackingBudget;
+        use chessarm_core::sim::actuator::Actuator;
+        let mass = chessarm_core::arm::dynamics::mass_matrix(arm, &JointVector::<4>::zeros());
+        let mut stiffness = [0.0; 4];
+        let mut overshoot = 1.0f64;
+        for (j, joint) in actuators.joints.iter().enumerate() {
+            let Actuator::Servo(spec) = joint else { return None };
+            stiffness[j] = spec.stiffness();
+            let damping = spec.back_emf_damping() + spec.viscous_friction;
+            let inertia = spec.armature + mass[(j, j)];
+            overshoot =
+                overshoot.max(TrackingBudget::<4>::overshoot_of(damping / (2.0 * (stiffness[j] * inertia).sqrt())));
+        }
+        Some(Self { stiffness: Some(stiffness), overshoot, ..self })
     }
 
     /// Whether a piece of kind `role` has a budget to keep.
     pub fn applies_to(&self, role: shakmaty::Role) -> bool {
-        self.budget > 0.0 && self.mass_error[role as usize - 1] > 0.0 && self.kp.iter().all(|k| *k > 0.0)
+        let gains = self.stiffness.unwrap_or(self.kp);
+        self.budget > 0.0 && self.mass_error[role as usize - 1] > 0.0 && gains.iter().all(|k| *k > 0.0)
     }
 }
 

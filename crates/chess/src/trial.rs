@@ -4,12 +4,14 @@
 //! Trial `k` of a study seeded with `S` has the seed `derive_seed(S, k)`; from a trial seed
 //! `s`, the model and piece draws come from the stream `derive_seed(s, 0)` and the sensor noise
 //! from `derive_seed(s, 1)`. A trial is therefore reproducible alone from its seed, whatever
-//! the number of threads, shards or other trials.
+//! the number of threads, shards or other trials. The actuators' draws (servos and steppers)
+//! follow the pieces' on the model stream, so a study without them draws as before.
 
 use crate::pieces::PieceSet;
 use chessarm_core::arm::model::{ArmModel, ModelError};
 use chessarm_core::arm::uncertainty::{DrawnModel, ModelUncertainty, Range};
 use chessarm_core::sense::rng::{SeededRng, derive_seed};
+use chessarm_core::sim::actuator::{ActuatorSpread, Actuators, DrawnActuators};
 use shakmaty::Role;
 
 /// The spread of the pieces' masses: each kind's mass is drawn from its own range if it has
@@ -51,6 +53,8 @@ pub fn largest_mass_errors(
 pub struct Uncertainty {
     pub model: ModelUncertainty,
     pub piece_mass: PieceMassSpread,
+    /// The servos' and steppers' spread around their datasheets.
+    pub actuators: ActuatorSpread,
 }
 
 /// The draws of one trial.
@@ -64,12 +68,16 @@ pub struct DrawnTrial {
     pub pieces: PieceSet,
     /// Seed of the sensor noise.
     pub sensor_seed: u64,
+    /// The true actuators, and what was drawn (`None`: no actuator spread).
+    pub actuators: Actuators<4>,
+    pub drawn_actuators: Option<DrawnActuators<4>>,
 }
 
 impl Uncertainty {
     /// Checks every number, naming the field.
     pub fn validate(&self) -> Result<(), ModelError> {
         self.model.validate()?;
+        self.actuators.validate()?;
         let relative = self.piece_mass.relative;
         if !(relative.is_finite() && (0.0..1.0).contains(&relative)) {
             return Err(ModelError::InvalidField {
@@ -92,9 +100,16 @@ impl Uncertainty {
         Ok(())
     }
 
-    /// The trial of seed `seed` around `arm` and `pieces`.
-    pub fn draw(&self, seed: u64, arm: &ArmModel<4>, pieces: &PieceSet) -> Result<DrawnTrial, ModelError> {
+    /// The trial of seed `seed` around `arm`, `pieces` and `actuators`.
+    pub fn draw(
+        &self,
+        seed: u64,
+        arm: &ArmModel<4>,
+        pieces: &PieceSet,
+        actuators: &Actuators<4>,
+    ) -> Result<DrawnTrial, ModelError> {
         self.validate()?;
+        self.actuators.check_for(actuators)?;
         let mut rng = SeededRng::new(derive_seed(seed, 0));
         let (plant, drawn) = self.model.draw(arm, &mut rng)?;
         let mut true_pieces = *pieces;
@@ -103,6 +118,20 @@ impl Uncertainty {
             let range = self.piece_mass.range(k, nominal);
             true_pieces.dimensions_mut(*role).mass = range.draw(&mut rng);
         }
-        Ok(DrawnTrial { seed, plant, drawn, pieces: true_pieces, sensor_seed: derive_seed(seed, 1) })
+        let (true_actuators, drawn_actuators) = if self.actuators.is_none() {
+            (*actuators, None)
+        } else {
+            let (true_actuators, drawn) = self.actuators.draw(actuators, &mut rng)?;
+            (true_actuators, Some(drawn))
+        };
+        Ok(DrawnTrial {
+            seed,
+            plant,
+            drawn,
+            pieces: true_pieces,
+            sensor_seed: derive_seed(seed, 1),
+            actuators: true_actuators,
+            drawn_actuators,
+        })
     }
 }

@@ -2,9 +2,12 @@
 //! servos (`chessarm_core::sim::actuator::profiles`), a user's own `[actuators.NAME]` tables,
 //! or `torque` (a torque motor, today's plant). Units are SI as everywhere in a setup file
 //! (rad, s, V, Ω, N·m); the P gain may be given as the firmware's register (`p_gain`), converted
-//! here by the built-in servo it is `base`d on.
+//! here by the built-in servo it is `base`d on. With servos, the hosts that replace the torque
+//! controllers and the bus's period are also decided here, for every command.
 
+use crate::config::Setup;
 use anyhow::{Result, bail};
+use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::sim::actuator::{Actuator, Actuators, ServoSpec, profiles};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -185,4 +188,44 @@ pub fn check_tables(user: &BTreeMap<String, ActuatorFile>) -> Result<()> {
         table.to_spec(name)?;
     }
     Ok(())
+}
+
+/// With servos, the hosts the setup's `--servo-command` asks for (their gains unused), with a
+/// note on the terminal that they replace the torque controllers; `None` with torque motors.
+pub fn servo_hosts(setup: &Setup) -> Option<Vec<ControllerSpec>> {
+    setup.actuators.take_positions().then_some(())?;
+    if !crate::json_output() {
+        eprintln!(
+            "servos ({}): the host sends goal positions at {} Hz ({}); the torque controllers are not used",
+            setup.actuator_names.join(", "),
+            setup.bus_rate,
+            setup.servo_commands.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
+        );
+    }
+    Some(
+        setup
+            .servo_commands
+            .iter()
+            .map(|command| ControllerSpec {
+                name: command.name().to_string(),
+                kind: ControllerKind::ServoHost(*command),
+                gains: chessarm_core::control::gains::Gains::uniform(1.0, 1.0, 0.0).expect("positive gains"),
+                knows_friction: false,
+            })
+            .collect(),
+    )
+}
+
+/// The controller's period: with servos, the bus's (`1 / --bus-rate`); else `torque_period`, s.
+pub fn control_period(setup: &Setup, torque_period: f64) -> f64 {
+    if setup.actuators.take_positions() { 1.0 / setup.bus_rate } else { torque_period }
+}
+
+/// `settings` driving the setup's servos or steppers (their host at the bus's period); left
+/// as they are with torque motors.
+pub fn drive(setup: &Setup, settings: &mut chessarm_chess::play::PlaySettings) {
+    if setup.actuators.take_positions() {
+        settings.actuators = setup.actuators;
+        settings.control_period = 1.0 / setup.bus_rate;
+    }
 }

@@ -12,6 +12,7 @@ use chessarm_chess::trial::{DrawnTrial, PieceMassSpread, Uncertainty};
 use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::arm::uncertainty::{InertiaRotation, ModelUncertainty, Range};
 use chessarm_core::sense::{Conditions, EncoderSpec, EstimatorSpec, KalmanSettings, SensorProfile};
+use chessarm_core::sim::actuator::{ActuatorSpread, Actuators};
 use clap::Args;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
@@ -191,6 +192,24 @@ pub struct UncertaintyFile {
     /// Per kind (pawn, knight, bishop, rook, queen, king): a range [low, high] of true masses, kg.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub piece_mass_kg: BTreeMap<String, Vec<f64>>,
+    /// Servos: ± relative error of each one's torque constant (its back-EMF constant with it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub torque_constant: Option<f64>,
+    /// Servos: ± relative error of each one's winding resistance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub winding_resistance: Option<f64>,
+    /// Servos: ± relative error of the supply voltage (one supply for the arm).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub supply_voltage: Option<f64>,
+    /// Servos and steppers: ± relative error of each gear's friction (Coulomb and viscous).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gear_friction: Option<f64>,
+    /// Servos: range [low, high] of each one's backlash, full width, rad.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backlash: Option<Vec<f64>>,
+    /// Steppers: ± relative error of each one's holding torque.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub holding_torque: Option<f64>,
 }
 
 fn range(field: &str, given: &[f64]) -> Result<Range> {
@@ -230,8 +249,19 @@ impl UncertaintyFile {
             })?;
             per_kind[index] = Some(range(&format!("uncertainty.piece_mass_kg.{kind}"), given)?);
         }
-        let uncertainty =
-            Uncertainty { model, piece_mass: PieceMassSpread { relative: self.piece_mass.unwrap_or(0.0), per_kind } };
+        let actuators = ActuatorSpread {
+            torque_constant: self.torque_constant.unwrap_or(0.0),
+            resistance: self.winding_resistance.unwrap_or(0.0),
+            supply_voltage: self.supply_voltage.unwrap_or(0.0),
+            friction: self.gear_friction.unwrap_or(0.0),
+            backlash: self.backlash.as_deref().map(|r| range("uncertainty.backlash", r)).transpose()?,
+            holding_torque: self.holding_torque.unwrap_or(0.0),
+        };
+        let uncertainty = Uncertainty {
+            model,
+            piece_mass: PieceMassSpread { relative: self.piece_mass.unwrap_or(0.0), per_kind },
+            actuators,
+        };
         uncertainty.validate()?;
         Ok(uncertainty)
     }
@@ -317,6 +347,8 @@ pub struct Study {
     pub uncertainty_file: Option<UncertaintyFile>,
     /// Whether the controllers compensate --arm's friction.
     pub controller_knows_friction: bool,
+    /// The setup's actuators, around which a trial draws the true ones.
+    pub actuators: Actuators<4>,
 }
 
 /// One run's conditions.
@@ -326,6 +358,8 @@ pub struct Trial {
     pub conditions: Conditions<4>,
     pub plant: ArmModel<4>,
     pub pieces: PieceSet,
+    /// The true actuators (the setup's, or drawn around them).
+    pub actuators: Actuators<4>,
     /// The draws, when the study has model errors.
     pub drawn: Option<DrawnTrial>,
 }
@@ -348,7 +382,8 @@ fn read_uncertainty(path: &Path) -> Result<UncertaintyFile> {
 }
 
 impl Study {
-    /// The setup's tracking budget for a controller with `gains`: the pieces' true masses as
+    /// The setup's tracking budget for a controller with `gains` (with servos, for their
+    /// loops: [`chessarm_chess::tasks::Tracking::with_servos`]): the pieces' true masses as
     /// this study may draw them (its uncertainty's spread around the true pieces'), against the
     /// mass the controller is told (the nominal one of the kind with `feedforward`, nothing
     /// without, the true one when it `knows_payload`: no error).
@@ -359,7 +394,9 @@ impl Study {
         feedforward: bool,
         knows_payload: bool,
     ) -> chessarm_chess::tasks::Tracking {
-        let mut tracking = setup.motion.tracking.with_gains(gains);
+        let tracking = setup.motion.tracking.with_gains(gains);
+        // Servo hosts' gains are not a loop's: the servos' stiffnesses are.
+        let mut tracking = tracking.with_servos(&self.actuators, &setup.arm).unwrap_or(tracking);
         tracking.mass_error = self.mass_errors(setup, feedforward, knows_payload);
         tracking
     }
@@ -482,6 +519,12 @@ impl Study {
                 })
             })
             .transpose()?;
+        if let Some(uncertainty) = &uncertainty {
+            uncertainty.actuators.check_for(&setup.actuators).with_context(|| match &args.uncertainty {
+                Some(path) => format!("--uncertainty {}", path.display()),
+                None => "the setup file's [uncertainty] table".to_string(),
+            })?;
+        }
         Ok(Self {
             sensors,
             estimator,
@@ -492,6 +535,7 @@ impl Study {
             uncertainty,
             uncertainty_file,
             controller_knows_friction: args.knows_friction(setup),
+            actuators: setup.actuators,
         })
     }
 
@@ -536,7 +580,7 @@ impl Study {
         let drawn = self
             .uncertainty
             .as_ref()
-            .map(|u| u.draw(seed, &self.plant, &self.plant_pieces))
+            .map(|u| u.draw(seed, &self.plant, &self.plant_pieces, &self.actuators))
             .transpose()
             .context("drawing the model errors")?;
         let sensor_seed = drawn.as_ref().map_or(chessarm_core::sense::rng::derive_seed(seed, 1), |d| d.sensor_seed);
@@ -547,7 +591,8 @@ impl Study {
             seed: sensor_seed,
         };
         let (plant, pieces) = drawn.as_ref().map_or((self.plant, self.plant_pieces), |d| (d.plant, d.pieces));
-        Ok(Trial { seed, conditions, plant, pieces, drawn })
+        let actuators = drawn.as_ref().map_or(self.actuators, |d| d.actuators);
+        Ok(Trial { seed, conditions, plant, pieces, actuators, drawn })
     }
 
     /// One line for the terminal: what is not ideal, and the trial seed.
@@ -602,6 +647,14 @@ impl Study {
 }
 
 impl Trial {
+    /// `settings` playing on this trial's true arm, pieces and actuators, through its sensors.
+    pub fn apply_to(&self, settings: &mut chessarm_chess::play::PlaySettings) {
+        settings.plant = Some(self.plant);
+        settings.true_pieces = Some(self.pieces);
+        settings.conditions = self.conditions.clone();
+        settings.true_actuators = Some(self.actuators);
+    }
+
     /// What the trial drew, for reports (null without model errors).
     pub fn describe(&self) -> Value {
         let Some(drawn) = &self.drawn else { return json!({ "trial_seed": self.seed }) };
@@ -614,6 +667,14 @@ impl Trial {
             "viscous_nms_per_rad": d.viscous,
             "coulomb_nm": d.coulomb,
             "piece_mass_kg": Role::ALL.iter().map(|r| (role_name(*r), drawn.pieces.dimensions(*r).mass)).collect::<BTreeMap<_, _>>(),
+            "actuators": drawn.drawn_actuators.map(|a| json!({
+                "supply_voltage_scale": a.supply_voltage_scale,
+                "torque_constant_scale": a.torque_constant_scale,
+                "winding_resistance_scale": a.resistance_scale,
+                "gear_friction_scale": a.friction_scale,
+                "backlash_rad": a.backlash,
+                "holding_torque_scale": a.holding_torque_scale,
+            })),
         })
     }
 
@@ -641,6 +702,21 @@ impl Trial {
             }
             for role in Role::ALL {
                 columns.push((format!("{}_mass", role_name(role)), drawn.pieces.dimensions(role).mass));
+            }
+            if let Some(a) = &drawn.drawn_actuators {
+                columns.push(("supply_voltage_scale".into(), a.supply_voltage_scale));
+                let per_joint = [
+                    ("torque_constant_scale", &a.torque_constant_scale),
+                    ("winding_resistance_scale", &a.resistance_scale),
+                    ("gear_friction_scale", &a.friction_scale),
+                    ("backlash_rad", &a.backlash),
+                    ("holding_torque_scale", &a.holding_torque_scale),
+                ];
+                for (name, values) in per_joint {
+                    for (i, value) in values.iter().enumerate() {
+                        columns.push((format!("{name}_{}", i + 1), *value));
+                    }
+                }
             }
         }
         columns

@@ -216,13 +216,12 @@ pub fn run(cli: Cli) -> Result<()> {
     if setup.actuators.take_positions() {
         let not_yet = match &cli.command {
             Some(Command::Tune(_)) => Some("tune"),
-            Some(Command::Robustness(_)) => Some("robustness"),
             Some(Command::Demo(_)) | None => Some("the report's study (demo)"),
             _ => None,
         };
         if let Some(command) = not_yet {
             anyhow::bail!(
-                "{command} runs torque motors only so far; servos and steppers (--actuator {}) work with simulate, play and board",
+                "{command} runs torque motors only so far; servos and steppers (--actuator {}) work with simulate, play, robustness and board",
                 setup.actuator_names.join(",")
             );
         }

@@ -102,6 +102,89 @@ fn the_so101_with_its_sts3215s_plays_the_opera_game() {
     assert!(worst < 5.0 && worst > 0.05, "largest placement error {worst} mm");
 }
 
+/// A maker's spread (servo windings, supply, gear friction, 0–2° backlash, link and piece
+/// masses) under hobby sensors: robustness draws each trial's servos (their draws in the CSV,
+/// within the file's ranges), feedforward places every piece, and the worst trial's replay
+/// command (with the URDF's lock and the servos) gives that trial's placement error exactly.
+#[test]
+fn robustness_draws_the_servos_per_trial_and_replays_the_worst() {
+    let dir = tempfile::tempdir().unwrap();
+    let (urdf, board) = so101_fitted(dir.path());
+    let spread = dir.path().join("hobby.toml");
+    std::fs::write(
+        &spread,
+        "link_mass = 0.1\npiece_mass = 0.3\ntorque_constant = 0.1\nwinding_resistance = 0.15\n\
+         supply_voltage = 0.08\ngear_friction = 0.5\nbacklash = [0.0, 0.035]\n",
+    )
+    .unwrap();
+    let out = dir.path().join("study");
+    let (urdf, board, spread, out) =
+        (urdf.to_str().unwrap(), board.to_str().unwrap(), spread.to_str().unwrap(), out.to_str().unwrap());
+    let study = json_of(&chessarm(&[
+        "--urdf",
+        urdf,
+        "--arm",
+        board,
+        "--lock",
+        "wrist_roll=0",
+        "--actuator",
+        "sts3215-12v",
+        "--servo-command",
+        "plain,feedforward",
+        "robustness",
+        OPERA,
+        "--trials",
+        "3",
+        "--sensors",
+        "hobby",
+        "--uncertainty",
+        spread,
+        "--out",
+        out,
+    ]));
+    let controllers = study["summary"]["controllers"].as_array().unwrap();
+    assert_eq!(controllers.len(), 2);
+    let ff = &controllers[1];
+    assert_eq!(ff["controller"], "feedforward");
+    assert_eq!(ff["success_rate"], 1.0);
+    let mut rows = csv::Reader::from_path(Path::new(out).join("robustness.csv")).unwrap();
+    let header = rows.headers().unwrap().clone();
+    let column = |name: &str| header.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name}"));
+    let records: Vec<csv::StringRecord> = rows.records().map(|r| r.unwrap()).collect();
+    assert_eq!(records.len(), 6);
+    for record in &records {
+        let number = |name: &str| record[column(name)].parse::<f64>().unwrap();
+        assert!((number("supply_voltage_scale") - 1.0).abs() <= 0.08);
+        for j in 1..=4 {
+            assert!((0.0..=0.035).contains(&number(&format!("backlash_rad_{j}"))));
+            assert!((number(&format!("torque_constant_scale_{j}")) - 1.0).abs() <= 0.1);
+        }
+    }
+    // The replay of feedforward's worst trial, as the study prints it (its --out in this
+    // test's folder), places the pieces as that trial did.
+    let replay = ff["replay_worst_trial"].as_str().unwrap();
+    assert!(replay.contains("--actuator sts3215-12v") && replay.contains("--servo-command feedforward"), "{replay}");
+    assert!(replay.contains("--lock wrist_roll=0"), "{replay}");
+    let words: Vec<&str> = replay.split_whitespace().skip(1).collect();
+    let replayed = chessarm(&words);
+    assert!(replayed.status.success(), "{}", String::from_utf8_lossy(&replayed.stderr));
+    let folder = words[words.iter().position(|w| *w == "--out").unwrap() + 1];
+    let game: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(Path::new(folder).join("game.json")).unwrap()).unwrap();
+    let worst = game["moves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|m| m["place_errors_mm"].as_array().unwrap().iter().map(|e| e.as_f64().unwrap()))
+        .fold(0.0, f64::max);
+    assert_eq!(worst, ff["place_error_mm"]["max"].as_f64().unwrap());
+    // A servo's spread on torque motors is refused by its field.
+    assert_one_line_error(
+        &chessarm(&["robustness", "--trials", "1", "--uncertainty", spread, "--out", out]),
+        &["uncertainty.torque_constant", "no joint has a servo"],
+    );
+}
+
 #[test]
 fn bad_actuator_input_is_refused_with_its_name() {
     assert_one_line_error(
@@ -115,10 +198,6 @@ fn bad_actuator_input_is_refused_with_its_name() {
     assert_one_line_error(
         &chessarm(&["--actuator", "sts3215,xm430", "fk", "--q", "0,0,0,0"]),
         &["--actuator has 2 names"],
-    );
-    assert_one_line_error(
-        &chessarm(&["--actuator", "xm430", "tune", "--kp", "1..2:2", "--kd", "1..2:2"]),
-        &["tune runs torque motors only so far", "--actuator xm430"],
     );
     assert_one_line_error(
         &chessarm(&["--servo-command", "sag", "fk", "--q", "0,0,0,0"]),

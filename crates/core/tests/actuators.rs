@@ -449,3 +449,55 @@ fn a_servo_runs_at_its_no_load_speed_and_stalls_at_its_current_limit() {
     assert!((first - spec.max_torque).abs() < 1e-12, "torque at rest {first}");
     assert!(spec.max_duty * spec.torque_per_duty() > 2.0 * spec.max_torque);
 }
+
+/// A trial's actuator draw: every factor within its range, the supply's one factor on every
+/// servo, the firmware's constants untouched, the same seed the same servos, and nothing drawn
+/// (the nominal servos, the generator not advanced) without a spread.
+#[test]
+fn a_drawn_servo_lies_within_its_spread_and_keeps_its_firmware() {
+    use chessarm_core::arm::uncertainty::Range;
+    use chessarm_core::sense::rng::SeededRng;
+    use chessarm_core::sim::actuator::ActuatorSpread;
+    let nominal = Actuators::servos([profiles::profile("sts3215-12v").unwrap().spec; 4]);
+    let spread = ActuatorSpread {
+        torque_constant: 0.1,
+        resistance: 0.15,
+        supply_voltage: 0.08,
+        friction: 0.5,
+        backlash: Some(Range::new(0.0, 0.035)),
+        holding_torque: 0.0,
+    };
+    let mut rng = SeededRng::new(7);
+    let (drawn, what) = spread.draw(&nominal, &mut rng).unwrap();
+    let (again, _) = spread.draw(&nominal, &mut SeededRng::new(7)).unwrap();
+    assert_eq!(drawn, again);
+    assert!((what.supply_voltage_scale - 1.0).abs() <= 0.08);
+    for (j, (joint, base)) in drawn.joints.iter().zip(&nominal.joints).enumerate() {
+        let (Actuator::Servo(spec), Actuator::Servo(base)) = (joint, base) else { panic!("servos") };
+        assert_eq!(spec.supply_voltage, base.supply_voltage * what.supply_voltage_scale);
+        assert!((spec.torque_constant / base.torque_constant - 1.0).abs() <= 0.1);
+        assert!((spec.resistance / base.resistance - 1.0).abs() <= 0.15);
+        assert!((spec.coulomb_friction / base.coulomb_friction - 1.0).abs() <= 0.5);
+        assert_eq!(spec.coulomb_friction / base.coulomb_friction, spec.viscous_friction / base.viscous_friction);
+        assert!((0.0..=0.035).contains(&spec.backlash) && spec.backlash == what.backlash[j]);
+        assert_eq!(
+            (spec.kp, spec.max_duty, spec.counts_per_revolution),
+            (base.kp, base.max_duty, base.counts_per_revolution)
+        );
+    }
+    // Four servos, four different windings.
+    let Actuator::Servo(first) = drawn.joints[0] else { unreachable!() };
+    let Actuator::Servo(second) = drawn.joints[1] else { unreachable!() };
+    assert_ne!(first.torque_constant, second.torque_constant);
+    // No spread: the nominal servos, and the generator where it was.
+    let mut untouched = SeededRng::new(7);
+    let (same, _) = ActuatorSpread::default().draw(&nominal, &mut untouched).unwrap();
+    assert_eq!(same, nominal);
+    assert_eq!(untouched.uniform(0.0, 1.0), SeededRng::new(7).uniform(0.0, 1.0));
+    // A stepper's spread on servos, and a servo's on torque motors, are refused by name.
+    let stepper_spread = ActuatorSpread { holding_torque: 0.2, ..ActuatorSpread::default() };
+    assert!(stepper_spread.check_for(&nominal).unwrap_err().to_string().contains("uncertainty.holding_torque"));
+    assert!(
+        spread.check_for(&Actuators::<4>::torque()).unwrap_err().to_string().contains("uncertainty.torque_constant")
+    );
+}

@@ -469,7 +469,14 @@ fn the_tracking_budgets_compliance_is_the_closed_loops_steady_tip_error_per_unit
     let summary = hold(&mut plant, &mut pd, target, 10.0, None, &config).unwrap();
     let tip = |q: &JointVector<4>| FrameChain::new(&model, q).tip();
     let measured = tip(&target) - tip(&summary.final_state.q);
-    let budget = TrackingBudget { model, kp: [REPORT_PD.0; 4], overshoot: 1.0, mass_error: extra, budget: 1e-3 };
+    let budget = TrackingBudget {
+        model,
+        kp: [REPORT_PD.0; 4],
+        overshoot: 1.0,
+        mass_error: extra,
+        budget: 1e-3,
+        stiffness: None,
+    };
     let predicted = budget.compliance(&target) * (-model.gravity()) * extra;
     assert!(predicted.norm() > 1e-4, "too small to test: {predicted}");
     // First order in Δm: the neglected terms are O(e) relative, e ≈ 3 mrad here; 1 % is

@@ -102,7 +102,7 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
 
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let setup = &args.motion.apply(setup)?;
-    let hosts = crate::commands::simulate::servo_hosts(setup);
+    let hosts = crate::actuators::servo_hosts(setup);
     if hosts.as_ref().is_some_and(|h| h.len() > 1) {
         anyhow::bail!("--servo-command: play sends one kind of goal; give one of plain, sag, feedforward");
     }
@@ -114,10 +114,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     let settings_name = spec.name.clone();
     settings.controller = spec;
-    if setup.actuators.take_positions() {
-        settings.actuators = setup.actuators;
-        settings.control_period = 1.0 / setup.bus_rate;
-    }
+    crate::actuators::drive(setup, &mut settings);
     let study = Study::new(setup, &args.conditions, settings.control_period)?;
     let trial = study.trial(args.conditions.run_seed())?;
     let ideal = study.is_ideal(setup);
@@ -128,9 +125,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         crate::tell(&note);
     }
     if !ideal {
-        settings.plant = Some(trial.plant);
-        settings.true_pieces = Some(trial.pieces);
-        settings.conditions = trial.conditions.clone();
+        trial.apply_to(&mut settings);
     }
     settings.pieces = setup.pieces;
     settings.limits = setup.motion;

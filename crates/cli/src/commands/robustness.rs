@@ -110,6 +110,7 @@ fn run_trial(
     let outcome: Result<()> = (|| {
         let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
         settings.controller = spec.clone();
+        crate::actuators::drive(setup, &mut settings);
         settings.pieces = setup.pieces;
         settings.limits = setup.motion;
         settings.limits.tracking =
@@ -121,9 +122,7 @@ fn run_trial(
         settings.in_position = options.in_position;
         settings.integrator = options.integrator;
         settings.tolerance = options.tolerance;
-        settings.plant = Some(trial.plant);
-        settings.true_pieces = Some(trial.pieces);
-        settings.conditions = trial.conditions.clone();
+        trial.apply_to(&mut settings);
         let mut game = Game::new(setup.arm, setup.board, record.start.clone(), settings)?;
         for mv in &record.moves {
             let report = game.play(mv, Mover::Robot)?;
@@ -226,8 +225,9 @@ fn seconds_per_ply(rows: &[&TrialRow]) -> f64 {
 /// error (JSON null), so a median, p95 or largest error over failures is not a number.
 /// `replay` is the command that re-runs a trial without its controller, seed and folder; the
 /// worst trial's replay writes to `out/worst-CONTROLLER`, its own folder (not the default
-/// one another run may be using).
-fn statistics(rows: &[TrialRow], name: &str, replay: &str, out: &std::path::Path) -> serde_json::Value {
+/// one another run may be using); `selector` is the flag that picks the controller
+/// (`--controller`, or `--servo-command` for a servo host).
+fn statistics(rows: &[TrialRow], name: &str, replay: &str, selector: &str, out: &std::path::Path) -> serde_json::Value {
     let mine: Vec<&TrialRow> = rows.iter().filter(|r| r.controller == name).collect();
     let mut errors: Vec<f64> =
         mine.iter().map(|r| if r.place_error_mm.is_finite() { r.place_error_mm } else { f64::INFINITY }).collect();
@@ -258,7 +258,7 @@ fn statistics(rows: &[TrialRow], name: &str, replay: &str, out: &std::path::Path
         "replay_worst_trial": worst.map(|r| {
             let folder = out.join(format!("worst-{name}"));
             let folder = crate::output::shell_word(&folder.display().to_string());
-            format!("chessarm {replay} --controller {name} --trial-seed {} --out {folder}", r.trial_seed)
+            format!("chessarm {replay} {selector} {name} --trial-seed {} --out {folder}", r.trial_seed)
         }),
     })
 }
@@ -380,20 +380,19 @@ fn scenario_run<'a>(
     marks: &'a [f64],
     integrator: Integrator,
 ) -> Result<LaneRun<'a>> {
-    let controller = spec.build(setup.arm)?;
-    let feedback = trial.conditions.feedback(1e-3)?;
-    let config =
-        SimConfig { integrator, torque_lag: trial.conditions.torque_lag, ..SimConfig::new(&Plant::new(trial.plant)) };
-    Ok(LaneRun {
-        plant: trial.plant,
-        feedback,
-        controller,
-        reference: &plan.joint,
-        initial: None,
-        events,
-        marks,
-        config,
-    })
+    let controller = spec.build_for(setup.arm, &setup.actuators)?;
+    // Servos' gears are part of the true plant; their host samples at the bus rate.
+    let plant = trial.actuators.plant_model(&trial.plant)?;
+    let control_period = crate::actuators::control_period(setup, 1e-3);
+    let feedback = trial.conditions.feedback(control_period)?;
+    let config = SimConfig {
+        integrator,
+        torque_lag: trial.conditions.torque_lag,
+        actuators: trial.actuators,
+        control_period,
+        ..SimConfig::new(&Plant::new(plant))
+    };
+    Ok(LaneRun { plant, feedback, controller, reference: &plan.joint, initial: None, events, marks, config })
 }
 
 /// The rows of the scenario trials `drawn`, every controller of each, their runs side by side.
@@ -466,7 +465,10 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     crate::resources::batching()?;
     let setup = &args.motion.apply(setup)?;
     let defaults = if args.game_file.is_some() { DefaultGains::Game } else { DefaultGains::Report };
-    let mut specs = controller_specs(&args.controller, &args.gains, defaults)?;
+    let mut specs = match crate::actuators::servo_hosts(setup) {
+        Some(hosts) => hosts,
+        None => controller_specs(&args.controller, &args.gains, defaults)?,
+    };
     for spec in &mut specs {
         spec.knows_friction = args.conditions.knows_friction(setup);
     }
@@ -550,6 +552,19 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let mut arm = setup.path.as_ref().map_or(String::new(), |p| format!("--arm {} ", word(p)));
     if let Some(path) = &setup.urdf_path {
         arm.push_str(&format!("--urdf {} ", word(path)));
+        let locks: Vec<String> =
+            setup.urdf.as_ref().map(|u| &u.lock).into_iter().flatten().map(|(j, v)| format!("{j}={v}")).collect();
+        if !locks.is_empty() {
+            arm.push_str(&format!("--lock {} ", crate::output::shell_word(&locks.join(","))));
+        }
+    }
+    if setup.actuators.take_positions() {
+        let names: Vec<String> = setup.actuator_names.iter().map(|n| crate::output::shell_word(n)).collect();
+        let same = names.iter().all(|n| *n == names[0]);
+        arm.push_str(&format!("--actuator {} ", if same { names[0].clone() } else { names.join(",") }));
+        if setup.bus_rate != crate::config::DEFAULT_BUS_RATE {
+            arm.push_str(&format!("--bus-rate {} ", setup.bus_rate));
+        }
     }
     let from_setup = match (&args.conditions.uncertainty, &setup.path, &setup.uncertainty) {
         (None, Some(path), Some(_)) => format!(" --uncertainty {}", word(path)),
@@ -569,7 +584,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         ),
     };
     let stats: Vec<serde_json::Value> =
-        specs.iter().map(|spec| statistics(&rows, &spec.name, &replay, &args.out)).collect();
+        specs.iter().map(|spec| statistics(&rows, &spec.name, &replay, selector(setup), &args.out)).collect();
     let summary = json!({
         "work": match &args.game_file { Some(path) => json!({ "game_file": path.display().to_string(), "game": args.game }), None => json!({ "scenario": args.scenario }) },
         "trials": args.trials,
@@ -598,6 +613,11 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     human.push_str(&crate::files_text(&files));
     crate::emit(&human, &json!({ "summary": summary, "files": files }))?;
     Ok(())
+}
+
+/// The flag that picks a run's controller: `--servo-command` for servos' hosts.
+fn selector(setup: &Setup) -> &'static str {
+    if setup.actuators.take_positions() { "--servo-command" } else { "--controller" }
 }
 
 fn trial_options(args: &RobustnessArgs, tip_quantum: f64) -> TrialOptions {
@@ -663,7 +683,7 @@ fn frontier(
     for (&pace, paced) in paces.iter().zip(&setups) {
         let rows = pool.install(|| run_trials(paced, work, specs, study, &options, 0..args.trials, Some(&bar)))?;
         for spec in specs {
-            points.push(FrontierPoint { pace, stats: statistics(&rows, &spec.name, "", out) });
+            points.push(FrontierPoint { pace, stats: statistics(&rows, &spec.name, "", selector(setup), out) });
         }
     }
     let wall_time_s = started.elapsed().as_secs_f64();

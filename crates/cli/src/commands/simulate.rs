@@ -100,32 +100,6 @@ pub enum DefaultGains {
     Game,
 }
 
-/// With servos, the hosts the setup's `--servo-command` asks for (their gains unused), with a
-/// note on the terminal that they replace the torque controllers; `None` with torque motors.
-pub fn servo_hosts(setup: &Setup) -> Option<Vec<ControllerSpec>> {
-    setup.actuators.take_positions().then_some(())?;
-    if !crate::json_output() {
-        eprintln!(
-            "servos ({}): the host sends goal positions at {} Hz ({}); the torque controllers are not used",
-            setup.actuator_names.join(", "),
-            setup.bus_rate,
-            setup.servo_commands.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
-        );
-    }
-    Some(
-        setup
-            .servo_commands
-            .iter()
-            .map(|command| ControllerSpec {
-                name: command.name().to_string(),
-                kind: ControllerKind::ServoHost(*command),
-                gains: chessarm_core::control::gains::Gains::uniform(1.0, 1.0, 0.0).expect("positive gains"),
-                knows_friction: false,
-            })
-            .collect(),
-    )
-}
-
 /// The controllers `names` asks for (in order, each once; `both` is pd and pid), with the
 /// `defaults` gains unless overridden.
 pub fn controller_specs(
@@ -201,18 +175,19 @@ pub fn run_controller(
 ) -> Result<ControllerRun> {
     let trial = options.trial.as_ref();
     // Servos' gears are part of the plant (armature, friction, back-EMF).
-    let plant_model = setup.actuators.plant_model(&trial.map_or(setup.arm, |t| t.plant))?;
+    let actuators = trial.map_or(setup.actuators, |t| t.actuators);
+    let plant_model = actuators.plant_model(&trial.map_or(setup.arm, |t| t.plant))?;
     let mut plant = Plant::new(plant_model);
     let mut controller =
         spec.build_for(setup.arm, &setup.actuators).with_context(|| format!("controller {}", spec.name))?;
     let conditions = trial.map_or_else(chessarm_core::sense::Conditions::ideal, |t| t.conditions.clone());
     // A servo host samples at the bus rate.
-    let control_period = if setup.actuators.take_positions() { 1.0 / setup.bus_rate } else { options.control_period };
+    let control_period = crate::actuators::control_period(setup, options.control_period);
     let mut feedback = conditions.feedback(control_period)?;
     let config = SimConfig {
         dt: options.dt,
         control_period,
-        actuators: setup.actuators,
+        actuators,
         integrator: options.integrator,
         tracking_from: options.tracking_from,
         torque_lag: conditions.torque_lag,
@@ -658,7 +633,7 @@ pub fn run_study(
         "dt_s": options.dt,
         "integrator": options.integrator.name(),
         // A servo host's period is its bus's.
-        "control_period_s": if setup.actuators.take_positions() { 1.0 / setup.bus_rate } else { options.control_period },
+        "control_period_s": crate::actuators::control_period(setup, options.control_period),
         "actuators": setup.actuator_names,
         "payload_mass_kg": options.payload_mass,
         "true_payload_mass_kg": true_pawn_mass(setup, options.trial.as_ref(), options.payload_mass),
@@ -828,7 +803,7 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
     }
-    let mut specs = match servo_hosts(setup) {
+    let mut specs = match crate::actuators::servo_hosts(setup) {
         Some(hosts) => hosts,
         None => controller_specs(&args.controller, &args.gains, DefaultGains::Report)?,
     };

@@ -50,7 +50,8 @@ impl Range {
         if self.low == self.high { self.low } else { rng.uniform(self.low, self.high) }
     }
 
-    fn validate(&self, field: &str, least: f64) -> Result<(), ModelError> {
+    /// Checks that both bounds are finite and at least `least`, and in order, naming `field`.
+    pub(crate) fn validate(&self, field: &str, least: f64) -> Result<(), ModelError> {
         for value in [self.low, self.high] {
             if !(value.is_finite() && value >= least) {
                 return Err(ModelError::InvalidField {

@@ -312,6 +312,10 @@ pub struct TrackingBudget<const N: usize> {
     pub mass_error: f64,
     /// Largest tracking error the motion may add, m.
     pub budget: f64,
+    /// Position servos instead of a computed-torque loop: each one's static stiffness
+    /// `kp kt V / R`, N·m/rad ([`crate::sim::actuator::ServoSpec::stiffness`]); `kp` and the
+    /// mass matrix are then not used.
+    pub stiffness: Option<[f64; N]>,
 }
 
 impl<const N: usize> TrackingBudget<N> {
@@ -325,10 +329,17 @@ impl<const N: usize> TrackingBudget<N> {
         }
     }
 
-    /// `W = J K_p⁻¹ M⁻¹ Jᵀ` at `q` (m per N).
+    /// `W = J K_p⁻¹ M⁻¹ Jᵀ` at `q` (m per N): the tip's error per unit of a force at the tip
+    /// the computed-torque loop does not know. With servos `W = J K⁻¹ Jᵀ`, `K` their
+    /// stiffnesses: the static error of their proportional loops.
     pub fn compliance(&self, q: &JointVector<N>) -> nalgebra::Matrix3<f64> {
         let chain = crate::arm::kinematics::FrameChain::new(&self.model, q);
         let (jacobian, _) = chain.point_jacobian(&chain.tip(), N - 1);
+        if let Some(stiffness) = &self.stiffness {
+            let inverse =
+                nalgebra::SMatrix::<f64, N, N>::from_diagonal(&JointVector::<N>::from(stiffness.map(|k| 1.0 / k)));
+            return jacobian * inverse * jacobian.transpose();
+        }
         let mass = crate::arm::dynamics::mass_matrix(&self.model, q);
         let inverse = mass.try_inverse().unwrap_or_else(nalgebra::SMatrix::<f64, N, N>::zeros);
         let gains = nalgebra::SMatrix::<f64, N, N>::from_diagonal(&JointVector::<N>::from(self.kp.map(|k| 1.0 / k)));

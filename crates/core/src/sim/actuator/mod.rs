@@ -5,12 +5,14 @@
 
 pub mod profiles;
 pub mod servo;
+pub mod spread;
 pub mod stepper;
 
 use crate::arm::dynamics::gravity_torques;
 use crate::arm::model::{ArmModel, Friction, JointVector, ModelError};
 use crate::control::CommandInterface;
 pub use servo::{ServoSpec, ServoState};
+pub use spread::{ActuatorSpread, DrawnActuators};
 pub use stepper::{StepperSpec, StepperState};
 
 /// The first of `positive` that is not finite and > 0, else the first of `non_negative` that is
