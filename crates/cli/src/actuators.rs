@@ -229,3 +229,29 @@ pub fn drive(setup: &Setup, settings: &mut chessarm_chess::play::PlaySettings) {
         settings.control_period = 1.0 / setup.bus_rate;
     }
 }
+
+/// Each joint's servo's P register conversion, duty per rad per unit of the register: a
+/// built-in servo's, or the `base`'s of a user's table (`None`: a torque motor, a stepper, or
+/// a table without a base, whose P has no register to sweep).
+pub fn p_register_conversions(setup: &Setup) -> [Option<f64>; 4] {
+    std::array::from_fn(|j| {
+        let name = &setup.actuator_names[j];
+        let base = match setup.actuator_tables.get(name) {
+            Some(table) => table.base.as_deref()?,
+            None => name.as_str(),
+        };
+        profiles::profile(base).map(|p| p.duty_per_rad_per_p)
+    })
+}
+
+/// `actuators` with every servo's P loop at the register value `p` (`conversions` from
+/// [`p_register_conversions`]).
+pub fn with_p_register(actuators: &Actuators<4>, conversions: &[Option<f64>; 4], p: f64) -> Actuators<4> {
+    let mut out = *actuators;
+    for (joint, conversion) in out.joints.iter_mut().zip(conversions) {
+        if let (Actuator::Servo(spec), Some(conversion)) = (joint, conversion) {
+            spec.kp = p * conversion;
+        }
+    }
+    out
+}

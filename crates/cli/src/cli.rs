@@ -508,13 +508,18 @@ pub struct TuneArgs {
     pub controller: OneController,
     /// kp range A..B:N (N values from A to B), 1/s².
     #[arg(long, value_parser = args::range)]
-    pub kp: args::GainRange,
+    pub kp: Option<args::GainRange>,
     /// kd range A..B:N, 1/s.
     #[arg(long, value_parser = args::range)]
-    pub kd: args::GainRange,
+    pub kd: Option<args::GainRange>,
     /// ki range A..B:N, 1/s³ (PID only).
     #[arg(long, value_parser = args::range)]
     pub ki: Option<args::GainRange>,
+    /// With servos (--actuator): range A..B:N of the servos' P gain register (the value written
+    /// to the servo: Feetech P, Dynamixel Position P Gain), swept for each host strategy of
+    /// --servo-command (default: plain, sag and feedforward).
+    #[arg(long, value_parser = args::range, conflicts_with_all = ["kp", "kd", "ki"])]
+    pub p_gain: Option<args::GainRange>,
     /// Mass of the gripped piece, kg, carried from grip to release.
     #[arg(long, default_value_t = 0.0, value_parser = args::mass, allow_hyphen_values = true)]
     pub payload_mass: f64,

@@ -198,7 +198,13 @@ pub fn run(cli: Cli) -> Result<()> {
         for note in &imported.notes {
             eprintln!("{}: {note}", path.display());
         }
-        for warning in &imported.warnings {
+        // Servos' stall torques replace the file's efforts (below): a placeholder effort is then
+        // not the limit.
+        let servos = cli.actuator.as_ref().map_or(setup.actuators.take_positions(), |names| {
+            names.iter().any(|name| name != crate::actuators::TORQUE)
+        });
+        let efforts = if servos { &[][..] } else { &imported.effort_warnings[..] };
+        for warning in efforts.iter().chain(&imported.warnings) {
             eprintln!("warning: {}: {warning}", path.display());
         }
         setup.urdf_path = Some(path.clone());
@@ -215,13 +221,12 @@ pub fn run(cli: Cli) -> Result<()> {
     }
     if setup.actuators.take_positions() {
         let not_yet = match &cli.command {
-            Some(Command::Tune(_)) => Some("tune"),
             Some(Command::Demo(_)) | None => Some("the report's study (demo)"),
             _ => None,
         };
         if let Some(command) = not_yet {
             anyhow::bail!(
-                "{command} runs torque motors only so far; servos and steppers (--actuator {}) work with simulate, play, robustness and board",
+                "{command} runs torque motors only so far; servos and steppers (--actuator {}) work with simulate, play, tune, robustness and board",
                 setup.actuator_names.join(",")
             );
         }
@@ -235,7 +240,12 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         setup.arm = setup.arm.with_links(links)?;
     }
-    setup.servo_commands = cli.servo_command.clone().unwrap_or_else(|| vec![Default::default()]);
+    setup.servo_commands = match (&cli.servo_command, &cli.command) {
+        (Some(commands), _) => commands.clone(),
+        // A sweep compares every host strategy unless told which.
+        (None, Some(Command::Tune(_))) => chessarm_core::control::servo_host::ServoCommand::ALL.to_vec(),
+        (None, _) => vec![Default::default()],
+    };
     setup.bus_rate = cli.bus_rate.unwrap_or(config::DEFAULT_BUS_RATE);
     let default_out = std::path::PathBuf::from("out");
     let out = match &cli.command {

@@ -356,6 +356,8 @@ pub struct HeatMap<'a> {
     pub value_label: &'a str,
     pub x_values: &'a [f64],
     pub y_values: &'a [f64],
+    /// Names of the rows (at `y_values` 0, 1, …) instead of numbers.
+    pub y_names: Option<&'a [String]>,
     pub values: &'a [Vec<Option<f64>>],
     pub marked: Option<(usize, usize)>,
     /// A warning written under the title (e.g. the best pick on the edge of the sweep).
@@ -446,7 +448,14 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
             .y_labels(10)
             // Ticks only over the swept values, not the half cells beyond them.
             .x_label_formatter(&|v| if within(map.x_values, *v) { tick(*v) } else { String::new() })
-            .y_label_formatter(&|v| if within(map.y_values, *v) { tick(*v) } else { String::new() })
+            .y_label_formatter(&|v| match map.y_names {
+                Some(names) if (v - v.round()).abs() < 1e-6 && *v >= 0.0 => {
+                    names.get(v.round() as usize).cloned().unwrap_or_default()
+                }
+                Some(_) => String::new(),
+                None if within(map.y_values, *v) => tick(*v),
+                None => String::new(),
+            })
             .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", 16))
             .draw()

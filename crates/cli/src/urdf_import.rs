@@ -50,6 +50,9 @@ pub struct ImportedArm {
     pub notes: Vec<String>,
     /// Values that look like placeholders, for the terminal.
     pub warnings: Vec<String>,
+    /// Efforts that look like placeholders (said unless servos replace them by their stall
+    /// torques).
+    pub effort_warnings: Vec<String>,
 }
 
 /// Reads the arm of the URDF file at `path`.
@@ -645,9 +648,9 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
     }
     let model = model_from_chain(&chain).map_err(|error| anyhow!("{}", located(error)))?;
     let joint_names = chain.joints.clone().map(|joint| joint.name);
-    let mut warnings = placeholder_warnings(&model, &joint_names, &joints, &links, &by_name, &arm);
+    let (effort_warnings, mut warnings) = placeholder_warnings(&model, &joint_names, &joints, &links, &by_name, &arm);
     warnings.extend(filled);
-    Ok(ImportedArm { model, joint_names, base_link: root, signs, locked, tool_link, notes, warnings })
+    Ok(ImportedArm { model, joint_names, base_link: root, signs, locked, tool_link, notes, warnings, effort_warnings })
 }
 
 /// The tool link: `--tool`, else a leaf reached by a fixed joint with a tool's name (or the
@@ -879,7 +882,7 @@ fn geometry_fits(
 /// Values that look like a URDF's placeholders rather than the arm's physics: torque limits
 /// far above what holding the arm against gravity needs (more than [`PLACEHOLDER_TORQUE_RATIO`]
 /// times the largest gravity torque of the pitch joints over their ranges), and links whose
-/// inertia means a radius of gyration beyond the whole arm's reach.
+/// inertia means a radius of gyration beyond the whole arm's reach: (the efforts', the links').
 fn placeholder_warnings(
     model: &ArmModel<4>,
     names: &[String; 4],
@@ -887,7 +890,8 @@ fn placeholder_warnings(
     links: &BTreeMap<String, Node<'_, '_>>,
     by_name: &BTreeMap<String, usize>,
     arm: &[usize],
-) -> Vec<String> {
+) -> (Vec<String>, Vec<String>) {
+    let mut efforts = Vec::new();
     let mut warnings = Vec::new();
     let need = gravity_need(model);
     let largest = need.iter().copied().fold(0.0, f64::max);
@@ -897,7 +901,7 @@ fn placeholder_warnings(
         let reference = if k == 0 { largest } else { need[k] };
         if reference > 0.0 && torque > PLACEHOLDER_TORQUE_RATIO * reference {
             let node = by_name.get(name).map(|j| at(&joints[*j].node)).unwrap_or_default();
-            warnings.push(format!(
+            efforts.push(format!(
                 "{node}: effort=\"{}\" N·m is {:.0}× the {:.3} N·m gravity asks of it at worst: a placeholder? The \
                  planner and the controllers take it as the motor's limit (give the servo's stall torque)",
                 chessarm_core::short_number(torque),
@@ -927,7 +931,7 @@ fn placeholder_warnings(
             ));
         }
     }
-    warnings
+    (efforts, warnings)
 }
 
 /// A torque limit more than this many times the largest gravity torque is a placeholder.

@@ -185,6 +185,55 @@ fn robustness_draws_the_servos_per_trial_and_replays_the_worst() {
     );
 }
 
+/// tune with servos sweeps their P register for each host strategy on the SO-101's Opera
+/// game: a stiffer loop sags less (each strategy places better at P 32 than at P 8), the goals
+/// that carry the dynamics place better than plain ones at the same P, the best pick at the
+/// edge of the range is said, and the torque controllers' gains are refused.
+#[test]
+fn tune_sweeps_the_servos_p_register_and_host_strategies() {
+    let dir = tempfile::tempdir().unwrap();
+    let (urdf, board) = so101_fitted(dir.path());
+    let out = dir.path().join("tune");
+    let (urdf, board, out) = (urdf.to_str().unwrap(), board.to_str().unwrap(), out.to_str().unwrap());
+    let servo = ["--urdf", urdf, "--arm", board, "--actuator", "sts3215-12v"];
+    let sweep = json_of(&chessarm(
+        &[
+            &servo[..],
+            &["--servo-command", "plain,feedforward", "tune", OPERA, "--p-gain", "8..32:2", "--metric", "place-error"],
+            &["--out", out],
+        ]
+        .concat(),
+    ));
+    assert_eq!(sweep["candidates"], 4);
+    let mut reader = csv::Reader::from_path(Path::new(out).join("tune.csv")).unwrap();
+    assert_eq!(reader.headers().unwrap().iter().take(3).collect::<Vec<_>>(), ["index", "servo_command", "p_gain"]);
+    let place: Vec<(String, f64, f64)> = reader
+        .records()
+        .map(|r| {
+            let r = r.unwrap();
+            assert_eq!(&r[3], "ok");
+            (r[1].to_string(), r[2].parse().unwrap(), r[6].parse().unwrap())
+        })
+        .collect();
+    let at = |host: &str, p: f64| place.iter().find(|(h, g, _)| h == host && *g == p).unwrap().2;
+    for host in ["plain", "feedforward"] {
+        assert!(at(host, 32.0) < at(host, 8.0), "{host}: {place:?}");
+    }
+    assert!(at("feedforward", 32.0) < at("plain", 32.0), "{place:?}");
+    let best = &sweep["best"][0];
+    assert_eq!((best["servo_command"].as_str(), best["p_gain"].as_f64()), (Some("feedforward"), Some(32.0)));
+    assert!(Path::new(out).join("tune.png").is_file());
+    // (The report's arm: the SO-101's URDF notes would be more lines on stderr.)
+    assert_one_line_error(
+        &chessarm(&["--actuator", "sts3215", "tune", "--kp", "1..2:2", "--kd", "1..2:2", "--out", out]),
+        &["--kp, --kd and --ki are a torque controller's", "--p-gain"],
+    );
+    assert_one_line_error(
+        &chessarm(&["tune", "--p-gain", "8..32:2", "--out", out]),
+        &["--p-gain sweeps servos' P register", "--actuator"],
+    );
+}
+
 #[test]
 fn bad_actuator_input_is_refused_with_its_name() {
     assert_one_line_error(

@@ -155,6 +155,7 @@ fn plot_squares(
             value_label,
             x_values: &files,
             y_values: &files,
+            y_names: None,
             values: &cells,
             marked: None,
             note: failed.first().map(|why| format!("grey: {grey} ({} squares), e.g. {why}", failed.len())),

@@ -19,6 +19,7 @@ use chessarm_core::arm::model::JointVector;
 use chessarm_core::control::JointState;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
+use chessarm_core::control::servo_host::ServoCommand;
 use chessarm_core::plan::trajectory::JointTrajectory;
 use chessarm_core::sense::Conditions;
 use chessarm_core::sim::batch::{LaneCount, LaneRun, SimdLevel, simulate_lanes};
@@ -44,6 +45,14 @@ pub struct ScenarioStudy {
     pub initial: Option<JointState<4>>,
 }
 
+/// What one candidate runs: a torque controller's gains, or servos' P register under a host
+/// strategy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Setting {
+    Torque(Gains<4>),
+    Servo { command: ServoCommand, p_gain: f64 },
+}
+
 /// One candidate's gains and metrics (SI, tip errors in mm).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Candidate {
@@ -51,6 +60,9 @@ pub struct Candidate {
     pub kp: f64,
     pub kd: f64,
     pub ki: f64,
+    /// A servo candidate's host strategy and P register (`None`, NaN for torque controllers).
+    pub servo_command: Option<ServoCommand>,
+    pub p_gain: f64,
     /// "ok", or why the run failed (e.g. it diverged).
     pub status: String,
     pub max_tip_error_mm: f64,
@@ -67,6 +79,10 @@ pub struct Candidate {
 }
 
 pub const CSV_HEADER: &str = "index,kp,kd,ki,status,max_tip_error_mm,rms_tip_error_mm,place_error_mm,rms_joint_error_rad,max_joint_error_rad,peak_torque_nm,peak_torque_ratio,saturated_samples,misplaced";
+/// A servo sweep's columns: the host strategy and the P register instead of the gains;
+/// `saturated_samples` counts the servos' duty at its limit (a servo's normal state on a fast
+/// move, not a failure).
+pub const SERVO_CSV_HEADER: &str = "index,servo_command,p_gain,status,max_tip_error_mm,rms_tip_error_mm,place_error_mm,rms_joint_error_rad,max_joint_error_rad,peak_torque_nm,peak_torque_ratio,saturated_samples,misplaced";
 
 impl Candidate {
     pub fn metric(&self, metric: Metric) -> f64 {
@@ -78,12 +94,31 @@ impl Candidate {
         }
     }
 
-    /// Finished, never hit a torque limit and left no piece misplaced.
+    /// Finished, never hit a torque limit and left no piece misplaced (a servo's duty at its
+    /// limit is how it moves fast, not a torque limit hit: its stalls show as errors).
     pub fn respects_limits(&self) -> bool {
-        self.status == "ok" && self.saturated_samples == 0 && self.misplaced == 0
+        self.status == "ok" && (self.saturated_samples == 0 || self.servo_command.is_some()) && self.misplaced == 0
     }
 
     fn csv_line(&self) -> String {
+        if let Some(command) = self.servo_command {
+            return format!(
+                "{},{},{:?},{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{},{}",
+                self.index,
+                command.name(),
+                self.p_gain,
+                self.status.replace(',', ";"),
+                self.max_tip_error_mm,
+                self.rms_tip_error_mm,
+                self.place_error_mm,
+                self.rms_joint_error_rad,
+                self.max_joint_error_rad,
+                self.peak_torque_nm,
+                self.peak_torque_ratio,
+                self.saturated_samples,
+                self.misplaced
+            );
+        }
         format!(
             "{},{:?},{:?},{:?},{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{},{}",
             self.index,
@@ -104,13 +139,19 @@ impl Candidate {
     }
 }
 
-/// A candidate with its gains and no results yet.
-fn blank_candidate(index: usize, gains: &Gains<4>) -> Candidate {
+/// A candidate with its gains (or servo setting) and no results yet.
+fn blank_candidate(index: usize, setting: &Setting) -> Candidate {
+    let (gains, servo_command, p_gain) = match setting {
+        Setting::Torque(gains) => ([gains.kp[0], gains.kd[0], gains.ki[0]], None, f64::NAN),
+        Setting::Servo { command, p_gain } => ([f64::NAN; 3], Some(*command), *p_gain),
+    };
     Candidate {
         index,
-        kp: gains.kp[0],
-        kd: gains.kd[0],
-        ki: gains.ki[0],
+        kp: gains[0],
+        kd: gains[1],
+        ki: gains[2],
+        servo_command,
+        p_gain,
         status: "ok".into(),
         max_tip_error_mm: f64::NAN,
         rms_tip_error_mm: f64::NAN,
@@ -170,22 +211,26 @@ fn game_candidate(
     record: &GameRecord,
     options: &CandidateOptions,
     index: usize,
-    gains: &Gains<4>,
+    setting: &Setting,
 ) -> Candidate {
-    let mut candidate = blank_candidate(index, gains);
+    let mut candidate = blank_candidate(index, setting);
     let limits = setup.arm.torque_limits();
     let mut totals = Totals::default();
-    let mut settings = PlaySettings::new("candidate", *gains);
-    settings.controller.kind = options.kind;
+    let drive = Drive::of(setup, options, setting);
+    let mut settings = PlaySettings::new("candidate", drive.gains);
+    settings.controller.kind = drive.kind;
     settings.pieces = setup.pieces;
     settings.limits = setup.motion;
-    settings.limits.tracking = setup.motion.tracking.with_gains(gains);
+    settings.limits.tracking = drive.tracking(setup);
     settings.limits.tracking.mass_error = options.mass_error;
     settings.timing = setup.timing;
     if let Some(trial) = &options.trial {
-        settings.plant = Some(trial.plant);
-        settings.true_pieces = Some(trial.pieces);
-        settings.conditions = trial.conditions.clone();
+        trial.apply_to(&mut settings);
+    }
+    if setup.actuators.take_positions() {
+        settings.actuators = drive.actuators;
+        settings.true_actuators = Some(drive.true_actuators);
+        settings.control_period = drive.control_period;
     }
     settings.record_every = 0;
     settings.controller_knows_payload = options.controller_knows_payload;
@@ -218,24 +263,28 @@ fn scenario_run<'a>(
     setup: &Setup,
     scenario: &'a ScenarioStudy,
     options: &CandidateOptions,
-    gains: &Gains<4>,
+    setting: &Setting,
 ) -> Result<LaneRun<'a>, String> {
     let failed = |error: &dyn std::fmt::Display| format!("failed: {error}");
     let trial = options.trial.as_ref();
-    let plant = trial.map_or(setup.arm, |t| t.plant);
+    let drive = Drive::of(setup, options, setting);
+    // Servos' gears are part of the true plant.
+    let plant = drive.true_actuators.plant_model(&trial.map_or(setup.arm, |t| t.plant)).map_err(|e| failed(&e))?;
     let spec = ControllerSpec {
         name: "candidate".into(),
-        kind: options.kind,
-        gains: *gains,
+        kind: drive.kind,
+        gains: drive.gains,
         knows_friction: options.knows_friction,
     };
-    let controller = spec.build(setup.arm).map_err(|error| failed(&error))?;
+    let controller = spec.build_for(setup.arm, &drive.actuators).map_err(|error| failed(&error))?;
     let conditions = trial.map_or_else(Conditions::ideal, |t| t.conditions.clone());
-    let feedback = conditions.feedback(1e-3).map_err(|error| failed(&error))?;
+    let feedback = conditions.feedback(drive.control_period).map_err(|error| failed(&error))?;
     let config = SimConfig {
         integrator: options.integrator,
         tracking_from: options.tracking_from,
         torque_lag: conditions.torque_lag,
+        actuators: drive.true_actuators,
+        control_period: drive.control_period,
         ..SimConfig::new(&Plant::new(plant))
     };
     Ok(LaneRun {
@@ -269,7 +318,7 @@ fn scenario_candidates(
     setup: &Setup,
     scenario: &ScenarioStudy,
     options: &CandidateOptions,
-    gains: &[Gains<4>],
+    settings: &[Setting],
     indices: &[usize],
     (lanes, level): (LaneCount, SimdLevel),
 ) -> Vec<Candidate> {
@@ -277,8 +326,8 @@ fn scenario_candidates(
     let mut runs = Vec::with_capacity(indices.len());
     let mut slots = Vec::with_capacity(indices.len());
     for (slot, &index) in indices.iter().enumerate() {
-        let blank = blank_candidate(index, &gains[index]);
-        match scenario_run(setup, scenario, options, &gains[index]) {
+        let blank = blank_candidate(index, &settings[index]);
+        match scenario_run(setup, scenario, options, &settings[index]) {
             Ok(run) => {
                 runs.push(run);
                 slots.push((slot, blank));
@@ -314,6 +363,50 @@ pub struct CandidateOptions {
     /// How far the estimated tip moves when every encoder moves a count, m (the fine points'
     /// default band).
     pub tip_quantum: f64,
+    /// Each joint's servo's P register conversion ([`crate::actuators::p_register_conversions`]).
+    pub p_conversions: [Option<f64>; 4],
+}
+
+/// What drives a candidate's joints: its controller (a torque controller with its gains, or
+/// a servo host), the actuators the host knows and the true ones, and the control period.
+struct Drive {
+    kind: ControllerKind,
+    gains: Gains<4>,
+    actuators: chessarm_core::sim::actuator::Actuators<4>,
+    true_actuators: chessarm_core::sim::actuator::Actuators<4>,
+    control_period: f64,
+}
+
+impl Drive {
+    fn of(setup: &Setup, options: &CandidateOptions, setting: &Setting) -> Self {
+        let true_actuators = options.trial.as_ref().map_or(setup.actuators, |t| t.actuators);
+        match setting {
+            Setting::Torque(gains) => Self {
+                kind: options.kind,
+                gains: *gains,
+                actuators: setup.actuators,
+                true_actuators,
+                control_period: 1e-3,
+            },
+            Setting::Servo { command, p_gain } => {
+                let with_p = |a| crate::actuators::with_p_register(a, &options.p_conversions, *p_gain);
+                Self {
+                    kind: ControllerKind::ServoHost(*command),
+                    // A host has no gains; the number is not used.
+                    gains: Gains::uniform(1.0, 1.0, 0.0).unwrap_or_else(|_| unreachable!("positive gains")),
+                    actuators: with_p(&setup.actuators),
+                    true_actuators: with_p(&true_actuators),
+                    control_period: 1.0 / setup.bus_rate,
+                }
+            }
+        }
+    }
+
+    /// The tracking budget of a game's carried pieces for this drive.
+    fn tracking(&self, setup: &Setup) -> chessarm_chess::tasks::Tracking {
+        let tracking = setup.motion.tracking.with_gains(&self.gains);
+        tracking.with_servos(&self.actuators, &setup.arm).unwrap_or(tracking)
+    }
 }
 
 /// The start of the tracking metrics for `args`, s: with `--q0` unless `--tracking-from` is
@@ -326,8 +419,18 @@ pub fn tracking_from(args: &TuneArgs) -> f64 {
 /// Most candidates one sweep may describe.
 pub const MAX_CANDIDATES: usize = 10_000_000;
 
+/// The kp and kd ranges of a torque controller's sweep (clap asks for them unless --p-gain
+/// is given, which `run` sends to the servos' sweep).
+fn torque_ranges(args: &TuneArgs) -> Result<(crate::args::GainRange, crate::args::GainRange)> {
+    match (args.kp, args.kd) {
+        (Some(kp), Some(kd)) => Ok((kp, kd)),
+        _ => bail!("tune sweeps a torque controller's --kp and --kd ranges (or servos' --p-gain with --actuator)"),
+    }
+}
+
 /// The gains of every candidate, in sweep order: kp outermost, then kd, then ki.
 pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
+    let (kp_range, kd_range) = torque_ranges(args)?;
     let pid = args.controller == OneController::Pid;
     if args.ki.is_some() && !pid {
         bail!(
@@ -335,22 +438,22 @@ pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
             ControllerName::from(args.controller).name()
         );
     }
-    if args.kp.from <= 0.0 {
-        bail!("kp range starts at {}: kp must be > 0", args.kp.from);
+    if kp_range.from <= 0.0 {
+        bail!("kp range starts at {}: kp must be > 0", kp_range.from);
     }
     let ki_values = match (&args.ki, pid) {
         (Some(range), _) => range.values(),
         (None, true) => bail!("--controller pid needs a --ki range"),
         (None, false) => vec![0.0],
     };
-    let count = args.kp.count as f64 * args.kd.count as f64 * ki_values.len() as f64;
+    let count = kp_range.count as f64 * kd_range.count as f64 * ki_values.len() as f64;
     if count > MAX_CANDIDATES as f64 {
         bail!("the sweep has {count:e} candidates, more than {MAX_CANDIDATES}; split it with fewer values or --shard");
     }
     // Every candidate's gains, its row of results and its CSV line are held at once.
     let ranges =
         |flag: &str, range: &crate::args::GainRange| format!("{flag} {}..{}:{}", range.from, range.to, range.count);
-    let mut cause = format!("{} {}", ranges("--kp", &args.kp), ranges("--kd", &args.kd));
+    let mut cause = format!("{} {}", ranges("--kp", &kp_range), ranges("--kd", &kd_range));
     if let Some(ki) = &args.ki {
         cause.push_str(&format!(" {}", ranges("--ki", ki)));
     }
@@ -361,8 +464,8 @@ pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
         (std::mem::size_of::<Gains<4>>() + std::mem::size_of::<Candidate>() + 160) as f64,
     )?;
     let mut all = Vec::new();
-    for kp in args.kp.values() {
-        for kd in args.kd.values() {
+    for kp in kp_range.values() {
+        for kd in kd_range.values() {
             for &ki in &ki_values {
                 all.push(Gains::uniform(kp, kd, ki)?);
             }
@@ -410,7 +513,7 @@ pub fn sweep(
     setup: &Setup,
     study: &Study,
     options: &CandidateOptions,
-    gains: &[Gains<4>],
+    settings: &[Setting],
     range: std::ops::Range<usize>,
     threads: Option<usize>,
     progress: Option<&indicatif::ProgressBar>,
@@ -431,7 +534,7 @@ pub fn sweep(
                         if crate::cancelled() {
                             return Err(crate::interrupted());
                         }
-                        let candidates = scenario_candidates(setup, scenario, options, gains, chunk, batching);
+                        let candidates = scenario_candidates(setup, scenario, options, settings, chunk, batching);
                         if let Some(bar) = progress {
                             bar.inc(chunk.len() as u64);
                         }
@@ -449,7 +552,7 @@ pub fn sweep(
                 if crate::cancelled() {
                     return Err(crate::interrupted());
                 }
-                let candidate = game_candidate(setup, record, options, index, &gains[index]);
+                let candidate = game_candidate(setup, record, options, index, &settings[index]);
                 if let Some(bar) = progress {
                     bar.inc(1);
                 }
@@ -462,12 +565,24 @@ pub fn sweep(
 pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     crate::resources::batching()?;
     let setup = &args.motion.apply(setup)?;
-    let gains = candidate_gains(args)?;
-    let range = shard_range(gains.len(), args.shard);
+    let servos = setup.actuators.take_positions();
+    let settings: Vec<Setting> = if servos {
+        servo_settings(setup, args)?
+    } else {
+        if args.p_gain.is_some() {
+            bail!("--p-gain sweeps servos' P register; the joints have torque motors (give --actuator NAME)");
+        }
+        candidate_gains(args)?.into_iter().map(Setting::Torque).collect()
+    };
+    let range = shard_range(settings.len(), args.shard);
     let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;
     let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
     let study = study(setup, args, trial.as_ref())?;
     let kind = controller_specs(&[args.controller.into()], &GainArgs::default(), DefaultGains::Report)?.remove(0).kind;
+    if servos {
+        // The host strategies replace the torque controllers (said once on the terminal).
+        crate::actuators::servo_hosts(setup);
+    }
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
         placement: args.placement.clone(),
@@ -482,6 +597,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
             args.controller_knows_payload,
         ),
         tip_quantum: conditions.tip_quantum(setup),
+        p_conversions: crate::actuators::p_register_conversions(setup),
     };
     if args.game_file.is_some() && args.tracking_from.is_some() {
         bail!("--tracking-from goes with a scenario; a game starts every move on its trajectory");
@@ -491,7 +607,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     crate::output::remove_stale(&[args.out.join("tune.csv"), args.out.join("tune.png")])?;
     let bar = crate::progress::bar(range.len() as u64, "tuning");
     let started = Instant::now();
-    let candidates = sweep(setup, &study, &options, &gains, range.clone(), args.threads, Some(&bar))?;
+    let candidates = sweep(setup, &study, &options, &settings, range.clone(), args.threads, Some(&bar))?;
     let wall_time_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
@@ -499,7 +615,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let with_header = args.shard.is_none_or(|(k, _)| k == 1);
     write_atomic(&csv_path, |writer| {
         if with_header {
-            writeln!(writer, "{CSV_HEADER}")?;
+            writeln!(writer, "{}", if servos { SERVO_CSV_HEADER } else { CSV_HEADER })?;
         }
         for candidate in &candidates {
             writeln!(writer, "{}", candidate.csv_line())?;
@@ -507,7 +623,11 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         Ok(())
     })?;
     let heat_map_path = args.out.join("tune.png");
-    draw_heat_map(args, &candidates, &heat_map_path)?;
+    if servos {
+        draw_servo_heat_map(setup, args, &candidates, &heat_map_path)?;
+    } else {
+        draw_heat_map(args, &candidates, &heat_map_path)?;
+    }
 
     let mut best: Vec<&Candidate> = candidates.iter().filter(|c| c.respects_limits()).collect();
     best.sort_by(|a, b| a.metric(args.metric).total_cmp(&b.metric(args.metric)).then(a.index.cmp(&b.index)));
@@ -521,7 +641,12 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     }
     let mut human = String::new();
     crate::tell_or_keep(&best_table(&best, args.metric), &mut human);
-    if let Some(warning) = edge_warning(args, best.first().copied()) {
+    let warning = if servos {
+        servo_edge_warning(args, best.first().copied())
+    } else {
+        edge_warning(args, best.first().copied())
+    };
+    if let Some(warning) = warning {
         crate::tell_or_keep(&format!("warning: {warning}\n"), &mut human);
     }
     let failed = candidates.iter().filter(|c| c.status != "ok").count();
@@ -535,7 +660,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         &human,
         &json!({
             "candidates": candidates.len(),
-            "sweep_size": gains.len(),
+            "sweep_size": settings.len(),
             "shard": args.shard.map(|(k, n)| format!("{k}/{n}")),
             "failed": failed,
             "saturated": saturated,
@@ -544,7 +669,9 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
             "metric": format!("{:?}", args.metric),
             "tracking_metrics_from_s": options.tracking_from,
             "best": best.iter().map(|c| json!({
-                "index": c.index, "kp": c.kp, "kd": c.kd, "ki": c.ki, "metric": c.metric(args.metric),
+                "index": c.index, "kp": c.kp, "kd": c.kd, "ki": c.ki,
+                "servo_command": c.servo_command.map(|s| s.name()), "p_gain": c.servo_command.map(|_| c.p_gain),
+                "metric": c.metric(args.metric),
                 "max_tip_error_mm": c.max_tip_error_mm, "place_error_mm": c.place_error_mm,
                 "rms_joint_error_rad": c.rms_joint_error_rad, "peak_torque_nm": c.peak_torque_nm,
             })).collect::<Vec<_>>(),
@@ -564,6 +691,19 @@ fn metric_label(metric: Metric) -> &'static str {
 }
 
 fn best_table(best: &[&Candidate], metric: Metric) -> String {
+    if best.first().is_some_and(|c| c.servo_command.is_some()) {
+        let mut table = format!("{:>6} {:>12} {:>12} {:>30}\n", "rank", "host", "P register", metric_label(metric));
+        for (rank, c) in best.iter().enumerate() {
+            table.push_str(&format!(
+                "{:>6} {:>12} {:>12} {:>30.6}\n",
+                rank + 1,
+                c.servo_command.map_or("?", |s| s.name()),
+                tick(c.p_gain),
+                c.metric(metric)
+            ));
+        }
+        return table;
+    }
     let mut table = format!("{:>6} {:>12} {:>12} {:>12} {:>30}\n", "rank", "kp", "kd", "ki", metric_label(metric));
     for (rank, c) in best.iter().enumerate() {
         table.push_str(&format!(
@@ -584,8 +724,8 @@ fn best_table(best: &[&Candidate], metric: Metric) -> String {
 /// Heat map over kp (x) and kd (y); with a ki sweep each cell shows the best over ki. Failed
 /// candidates are grey; the best one within the torque limits is framed.
 fn draw_heat_map(args: &TuneArgs, candidates: &[Candidate], path: &std::path::Path) -> Result<()> {
-    let kp_values = args.kp.values();
-    let kd_values = args.kd.values();
+    let (kp_range, kd_range) = torque_ranges(args)?;
+    let (kp_values, kd_values) = (kp_range.values(), kd_range.values());
     let per_cell = args.ki.map_or(1, |r| r.count);
     let mut cells = vec![vec![None::<f64>; kp_values.len()]; kd_values.len()];
     let mut best: Option<(f64, (usize, usize))> = None;
@@ -615,6 +755,7 @@ fn draw_heat_map(args: &TuneArgs, candidates: &[Candidate], path: &std::path::Pa
             value_label: metric_label(args.metric),
             x_values: &kp_values,
             y_values: &kd_values,
+            y_names: None,
             values: &cells,
             marked: best.map(|(_, cell)| cell),
             note: edge_warning(
@@ -632,11 +773,12 @@ fn draw_heat_map(args: &TuneArgs, candidates: &[Candidate], path: &std::path::Pa
 /// more than one value): the optimum may lie beyond it.
 pub fn edge_warning(args: &TuneArgs, best: Option<&Candidate>) -> Option<String> {
     let best = best?;
+    let (kp_range, kd_range) = torque_ranges(args).ok()?;
     let per_cell = args.ki.map_or(1, |r| r.count);
-    let kd_count = args.kd.count;
+    let kd_count = kd_range.count;
     let cell = best.index / per_cell;
     let axes = [
-        ("kp", "--kp", cell / kd_count, args.kp.count),
+        ("kp", "--kp", cell / kd_count, kp_range.count),
         ("kd", "--kd", cell % kd_count, kd_count),
         ("ki", "--ki", best.index % per_cell, per_cell),
     ];
@@ -654,6 +796,95 @@ pub fn edge_warning(args: &TuneArgs, best: Option<&Candidate>) -> Option<String>
             tick(best.kd),
             if per_cell > 1 { format!(", ki {}", tick(best.ki)) } else { String::new() },
             edges.join(", ")
+        )
+    })
+}
+
+/// A servo sweep's candidates: every host strategy of `--servo-command` (outer) at every P
+/// register value of `--p-gain` (inner). Every joint's servo must have a P register.
+fn servo_settings(setup: &Setup, args: &TuneArgs) -> Result<Vec<Setting>> {
+    if args.kp.is_some() || args.kd.is_some() || args.ki.is_some() {
+        bail!("--kp, --kd and --ki are a torque controller's; with servos (--actuator) sweep --p-gain A..B:N");
+    }
+    let Some(range) = args.p_gain else {
+        bail!("tune with servos sweeps their P register: give --p-gain A..B:N (e.g. 8..64:8)");
+    };
+    if range.from <= 0.0 {
+        bail!("--p-gain range starts at {}: the P register must be > 0", range.from);
+    }
+    let conversions = crate::actuators::p_register_conversions(setup);
+    if let Some(j) = conversions.iter().position(Option::is_none) {
+        bail!(
+            "--p-gain: joint {}'s actuator {} has no P register to sweep (a stepper, or an [actuators] table without `base`)",
+            j + 1,
+            setup.actuator_names[j]
+        );
+    }
+    let count = range.count as f64 * setup.servo_commands.len() as f64;
+    if count > MAX_CANDIDATES as f64 {
+        bail!("the sweep has {count:e} candidates, more than {MAX_CANDIDATES}; split it with fewer values or --shard");
+    }
+    Ok(setup
+        .servo_commands
+        .iter()
+        .flat_map(|command| range.values().into_iter().map(move |p_gain| Setting::Servo { command: *command, p_gain }))
+        .collect())
+}
+
+/// A servo sweep's heat map: the P register (x) against the host strategy (y).
+fn draw_servo_heat_map(setup: &Setup, args: &TuneArgs, candidates: &[Candidate], path: &std::path::Path) -> Result<()> {
+    let Some(range) = args.p_gain else { bail!("a servo sweep has a --p-gain range") };
+    let p_values = range.values();
+    let names: Vec<String> = setup.servo_commands.iter().map(|c| c.name().to_string()).collect();
+    let rows: Vec<f64> = (0..names.len()).map(|k| k as f64).collect();
+    let mut cells = vec![vec![None::<f64>; p_values.len()]; names.len()];
+    let mut best: Option<(f64, (usize, usize))> = None;
+    for candidate in candidates {
+        let (row, column) = (candidate.index / p_values.len(), candidate.index % p_values.len());
+        let value = candidate.metric(args.metric);
+        if candidate.status == "ok" && value.is_finite() {
+            cells[row][column] = Some(value);
+            if candidate.respects_limits() && best.is_none_or(|(b, _)| value < b) {
+                best = Some((value, (row, column)));
+            }
+        }
+    }
+    let mut servos = setup.actuator_names.to_vec();
+    servos.dedup();
+    let title = format!("servo sweep ({}): {}", servos.join(", "), metric_label(args.metric));
+    plot_heat_map(
+        path,
+        &HeatMap {
+            title: &title,
+            x_label: "P gain (the servo's register)",
+            y_label: "host strategy",
+            value_label: metric_label(args.metric),
+            x_values: &p_values,
+            y_values: &rows,
+            y_names: Some(&names),
+            values: &cells,
+            marked: best.map(|(_, cell)| cell),
+            note: servo_edge_warning(
+                args,
+                candidates
+                    .iter()
+                    .filter(|c| c.respects_limits())
+                    .min_by(|a, b| a.metric(args.metric).total_cmp(&b.metric(args.metric)).then(a.index.cmp(&b.index))),
+            ),
+        },
+    )
+}
+
+/// A warning when a servo sweep's best pick has the smallest or largest P register swept.
+fn servo_edge_warning(args: &TuneArgs, best: Option<&Candidate>) -> Option<String> {
+    let (best, range) = (best?, args.p_gain?);
+    let index = best.index % range.count;
+    (range.count > 1 && (index == 0 || index + 1 == range.count)).then(|| {
+        format!(
+            "the best pick ({} at P {}) has the {} P register swept (--p-gain); widen the range",
+            best.servo_command.map_or("?", |c| c.name()),
+            tick(best.p_gain),
+            if index == 0 { "smallest" } else { "largest" }
         )
     })
 }
