@@ -90,6 +90,9 @@ pub struct HardwareExport {
     /// condition it waits for (`None`: it goes by the clock).
     pub fine_points: Vec<Vector3<f64>>,
     pub in_position: Option<InPosition>,
+    /// With servos or steppers: every goal the host sent in the simulated move, at the bus
+    /// rate, waits included (the stream that placed the pieces); empty with torque motors.
+    pub servo_goals: Vec<ServoGoal>,
 }
 
 impl PlaySettings {
@@ -261,6 +264,9 @@ struct Sampler {
     every: usize,
     seen: usize,
     records: Vec<StepRecord<4>>,
+    /// Steps per bus period when the goals sent to servos are kept (0: not kept).
+    bus_steps: usize,
+    goals: Vec<ServoGoal>,
 }
 
 impl Observer<4> for Sampler {
@@ -268,8 +274,24 @@ impl Observer<4> for Sampler {
         if self.every > 0 && self.seen.is_multiple_of(self.every) {
             self.records.push(*record);
         }
+        // The host sends a goal at every bus period's first step (the run's steps go on
+        // through fine points' waits, so they stay on the bus's clock).
+        if self.bus_steps > 0
+            && self.seen.is_multiple_of(self.bus_steps)
+            && let Some(servo) = &record.servo
+        {
+            self.goals.push(ServoGoal { t: record.t, goal: servo.goal.into() });
+        }
         self.seen += 1;
     }
+}
+
+/// A goal the host sent to the servos (or the stepper drivers): when, s from the move's start,
+/// and the four joints' goal angles, rad (the model's sense; whole counts of each servo).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoGoal {
+    pub t: f64,
+    pub goal: [f64; 4],
 }
 
 /// A game in progress: rules position, physical table and the simulated arm.
@@ -490,8 +512,14 @@ impl Game {
                 .map_err(|source| PlayError::Export { mv: name.to_string(), source })?;
             let grips = planned.iter().map(|step| step.task.to_string()).collect();
             let fine_points = commands.iter().map(|c| motion.sample(c.time).position).collect();
-            report.hardware =
-                Some(HardwareExport { points, commands, grips, fine_points, in_position: settings.in_position });
+            report.hardware = Some(HardwareExport {
+                points,
+                commands,
+                grips,
+                fine_points,
+                in_position: settings.in_position,
+                servo_goals: Vec::new(),
+            });
         }
         let events = gripper_events(settings, &self.table, planned);
         let marks: Vec<f64> = events.iter().map(|event| event.time).collect();
@@ -513,7 +541,13 @@ impl Game {
             actuator_start: self.actuators,
             ..SimConfig::new(&plant)
         };
-        let mut sampler = Sampler { every: settings.record_every, seen: 0, records: Vec::new() };
+        let bus_steps = if settings.export_rate.is_some() && true_actuators.take_positions() {
+            (settings.control_period / settings.dt).round().max(1.0) as usize
+        } else {
+            0
+        };
+        let mut sampler =
+            Sampler { every: settings.record_every, seen: 0, records: Vec::new(), bus_steps, goals: Vec::new() };
         let (summary, waits) = simulate_fine_points(
             &mut plant,
             &mut self.feedback,
@@ -566,6 +600,9 @@ impl Game {
         report.duration = summary.duration;
         report.max_tip_error = Some(summary.max_tip_error);
         report.records = sampler.records;
+        if let Some(hardware) = &mut report.hardware {
+            hardware.servo_goals = sampler.goals;
+        }
         report.summary = Some(summary.clone());
         report.waits = waits;
         self.robot_time += summary.duration;

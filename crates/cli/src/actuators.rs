@@ -255,3 +255,105 @@ pub fn with_p_register(actuators: &Actuators<4>, conversions: &[Option<f64>; 4],
     }
     out
 }
+
+/// `[servo_bus]`: how the arm's four joint servos are addressed and how their position register
+/// maps to the joint's angle: `ticks = zero_ticks + direction × q / count` (`q` in rad in the
+/// setup's sense, a count `2π / counts_per_revolution`). Defaults: IDs 1–4 (the SO-101's and
+/// the OpenManipulator-X's first four are 1–4 and 11–14: give yours), directions +1, the zero
+/// at half a turn of counts (2048 of 4096, both vendors' centre).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ServoBusFile {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ids: Option<Vec<u8>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub directions: Option<Vec<i8>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub zero_ticks: Option<Vec<f64>>,
+}
+
+/// The servos' addresses and register mapping, checked ([`ServoBusFile`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoBus {
+    pub ids: [u8; 4],
+    pub directions: [f64; 4],
+    pub zero_ticks: [f64; 4],
+    /// Counts per output revolution of each joint's servo (a stepper's microsteps).
+    pub counts_per_revolution: [f64; 4],
+}
+
+impl ServoBus {
+    /// The setup's bus: its `[servo_bus]` table over the defaults, checked.
+    pub fn of(setup: &Setup) -> Result<Self> {
+        let counts_per_revolution = setup.actuators.joints.map(|a| match a {
+            Actuator::Servo(spec) => spec.counts_per_revolution,
+            Actuator::Stepper(spec) => std::f64::consts::TAU / spec.resolution(),
+            Actuator::Torque => f64::NAN,
+        });
+        let file = setup.servo_bus.clone().unwrap_or_default();
+        let four = |field: &str, n: usize| -> Result<()> {
+            if n != 4 {
+                bail!("servo_bus.{field} has {n} values; give one per arm joint (4)");
+            }
+            Ok(())
+        };
+        let ids: [u8; 4] = match &file.ids {
+            Some(ids) => {
+                four("ids", ids.len())?;
+                std::array::from_fn(|j| ids[j])
+            }
+            None => [1, 2, 3, 4],
+        };
+        for (j, id) in ids.iter().enumerate() {
+            if *id > 252 || ids[..j].contains(id) {
+                bail!("servo_bus.ids = {ids:?}: IDs must be distinct and 0–252 (253–254 are the buses' own)");
+            }
+        }
+        let directions: [f64; 4] = match &file.directions {
+            Some(d) => {
+                four("directions", d.len())?;
+                if let Some(bad) = d.iter().find(|v| v.abs() != 1) {
+                    bail!("servo_bus.directions = {d:?}: {bad} is not 1 or -1");
+                }
+                std::array::from_fn(|j| f64::from(d[j]))
+            }
+            None => [1.0; 4],
+        };
+        let zero_ticks: [f64; 4] = match &file.zero_ticks {
+            Some(z) => {
+                four("zero_ticks", z.len())?;
+                if let Some(bad) = z.iter().find(|v| !(v.is_finite() && v.fract() == 0.0)) {
+                    bail!("servo_bus.zero_ticks = {z:?}: {bad} is not a whole number of ticks");
+                }
+                std::array::from_fn(|j| z[j])
+            }
+            None => counts_per_revolution.map(|c| (c / 2.0).round()),
+        };
+        Ok(Self { ids, directions, zero_ticks, counts_per_revolution })
+    }
+
+    /// Joint `j`'s goal `q` (rad, the setup's sense) in ticks of its servo's position register.
+    pub fn ticks(&self, j: usize, q: f64) -> f64 {
+        let count = std::f64::consts::TAU / self.counts_per_revolution[j];
+        self.zero_ticks[j] + self.directions[j] * (q / count).round()
+    }
+}
+
+/// The servo columns of a run's CSV (simulate's and play's): the goals and internal targets
+/// (rad), duties (−1…1) and backlash gaps (rad) per joint.
+pub fn servo_columns() -> impl Iterator<Item = String> {
+    ["goal", "target", "duty", "gap"].into_iter().flat_map(|prefix| crate::output::numbered(prefix, 4))
+}
+
+/// Appends a record's [`servo_columns`] values (in the setup's sense), if servos drive it.
+pub fn push_servo_values(
+    row: &mut Vec<f64>,
+    record: &chessarm_core::sim::StepRecord<4>,
+    convention: &crate::config::JointConvention,
+) {
+    if let Some(servo) = &record.servo {
+        for part in [servo.goal, servo.target, servo.duty, servo.gap] {
+            row.extend(convention.user(part));
+        }
+    }
+}

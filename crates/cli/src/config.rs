@@ -313,6 +313,9 @@ pub struct SetupFile {
     /// The user's own servos, `[actuators.NAME]`.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub actuators: BTreeMap<String, crate::actuators::ActuatorFile>,
+    /// `[servo_bus]`: the servos' IDs, directions and zero ticks (for the goals in ticks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub servo_bus: Option<crate::actuators::ServoBusFile>,
 }
 
 /// `actuator = "NAME"` or `actuator = ["NAME", …]` (one per joint).
@@ -371,6 +374,9 @@ pub struct Setup {
     pub actuator_names: [String; 4],
     /// The user's own servos (`[actuators.NAME]`), checked.
     pub actuator_tables: BTreeMap<String, crate::actuators::ActuatorFile>,
+    /// The `[servo_bus]` table as given (checked against the actuators when the goals are
+    /// written in ticks).
+    pub servo_bus: Option<crate::actuators::ServoBusFile>,
     /// With servos: the host's strategies (`--servo-command`; `simulate` compares them) and its
     /// bus rate, Hz (`--bus-rate`).
     pub servo_commands: Vec<chessarm_core::control::servo_host::ServoCommand>,
@@ -398,6 +404,7 @@ impl Default for Setup {
             actuators: Actuators::torque(),
             actuator_names: std::array::from_fn(|_| crate::actuators::TORQUE.to_string()),
             actuator_tables: BTreeMap::new(),
+            servo_bus: None,
             servo_commands: vec![Default::default()],
             bus_rate: DEFAULT_BUS_RATE,
             motion: MotionLimits::default(),
@@ -657,6 +664,7 @@ impl SetupFile {
             actuators,
             actuator_names,
             actuator_tables: self.actuators.clone(),
+            servo_bus: self.servo_bus.clone(),
             servo_commands: vec![Default::default()],
             bus_rate: DEFAULT_BUS_RATE,
             motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
@@ -777,6 +785,7 @@ impl From<&Setup> for SetupFile {
                 }
             }),
             actuators: setup.actuator_tables.clone(),
+            servo_bus: setup.servo_bus.clone(),
             gravity: Some(setup.arm.gravity().iter().copied().collect()),
             board: BoardFile {
                 square_size: Some(setup.board.square_size),

@@ -156,3 +156,82 @@ pub fn write_move(
     })?;
     Ok(vec![json_path.display().to_string(), csv_path.display().to_string()])
 }
+
+/// Writes `<dir>/<stem>-goals.csv`: every goal the host sent in the simulated move (the stream
+/// that placed its pieces, fine points' waits included), one row per bus period: `t` s from the
+/// move's start, `goal1..goal4` rad in the setup's sense, `goal1_ticks..goal4_ticks` the same
+/// goals in each servo's position register (`bus`). A goal outside the register's range is
+/// refused, naming the joint and `[servo_bus] zero_ticks`.
+pub fn write_servo_goals(
+    dir: &Path,
+    stem: &str,
+    convention: &crate::config::JointConvention,
+    bus: &crate::actuators::ServoBus,
+    goals: &[chessarm_chess::play::ServoGoal],
+) -> Result<String> {
+    let path = dir.join(format!("{stem}-goals.csv"));
+    let rows: Vec<([f64; 4], [f64; 4], f64)> = goals
+        .iter()
+        .map(|goal| {
+            let user = convention.user(goal.goal);
+            let ticks: [f64; 4] = std::array::from_fn(|j| bus.ticks(j, user[j]));
+            for (j, tick) in ticks.iter().enumerate() {
+                if *tick < 0.0 || *tick >= bus.counts_per_revolution[j] {
+                    anyhow::bail!(
+                        "joint {}'s goal {:.4} rad at t = {:.3} s of {stem} is tick {tick}, outside its servo's 0–{}: \
+                         set [servo_bus] zero_ticks (now {}) to the tick of the joint's zero",
+                        j + 1,
+                        user[j],
+                        goal.t,
+                        bus.counts_per_revolution[j] - 1.0,
+                        bus.zero_ticks[j]
+                    );
+                }
+            }
+            Ok((user, ticks, goal.t))
+        })
+        .collect::<Result<_>>()?;
+    write_atomic(&path, |out| {
+        let mut writer = csv::Writer::from_writer(out);
+        let mut header = vec!["t".to_string()];
+        header.extend(numbered("goal", 4));
+        header.extend((1..=4).map(|j| format!("goal{j}_ticks")));
+        writer.write_record(&header)?;
+        for (user, ticks, t) in &rows {
+            let mut row = vec![format!("{t:?}")];
+            row.extend(user.iter().map(|v| format!("{:?}", plain(*v))));
+            row.extend(ticks.iter().map(|v| format!("{}", *v as i64)));
+            writer.write_record(&row)?;
+        }
+        writer.flush().context("cannot write the CSV")?;
+        Ok(())
+    })?;
+    Ok(path.display().to_string())
+}
+
+/// Writes `<dir>/servo_bus.json`: what the goal files' ticks mean (each joint's name, servo,
+/// ID, direction, zero tick and counts per turn; the bus rate) for a driver of the real arm.
+pub fn write_servo_bus(dir: &Path, setup: &crate::config::Setup, bus: &crate::actuators::ServoBus) -> Result<String> {
+    let path = dir.join("servo_bus.json");
+    let joints: Vec<Value> = (0..4)
+        .map(|j| {
+            json!({
+                "joint": setup.joint_names[j],
+                "actuator": setup.actuator_names[j],
+                "id": bus.ids[j],
+                "direction": bus.directions[j],
+                "zero_ticks": bus.zero_ticks[j],
+                "counts_per_revolution": bus.counts_per_revolution[j],
+            })
+        })
+        .collect();
+    crate::output::write_json(
+        &path,
+        &json!({
+            "joints": joints,
+            "bus_rate_hz": setup.bus_rate,
+            "ticks": "zero_ticks + direction * round(goal / (2 pi / counts_per_revolution)), goal in rad",
+        }),
+    )?;
+    Ok(path.display().to_string())
+}

@@ -71,6 +71,11 @@ fn simulate_compares_the_hosts_goal_strategies() {
 fn the_so101_with_its_sts3215s_plays_the_opera_game() {
     let dir = tempfile::tempdir().unwrap();
     let (urdf, board) = so101_fitted(dir.path());
+    let mut setup = std::fs::read_to_string(&board).unwrap();
+    setup.push_str(
+        "\n[servo_bus]\nids = [11, 12, 13, 14]\ndirections = [1, -1, 1, 1]\nzero_ticks = [2048, 2000, 2048, 2100]\n",
+    );
+    std::fs::write(&board, setup).unwrap();
     let out = dir.path().join("game");
     let game = chessarm(&[
         "--urdf",
@@ -100,6 +105,40 @@ fn the_so101_with_its_sts3215s_plays_the_opera_game() {
     // not the torque plant's 0.001 mm).
     let worst = errors.iter().copied().fold(0.0, f64::max);
     assert!(worst < 5.0 && worst > 0.05, "largest placement error {worst} mm");
+    // The goals the host sent, per move, in radians and in the servos' ticks of the setup's
+    // [servo_bus]: every bus period's goal as the move's record has it (the move CSV keeps every
+    // 10th 1 ms step, the bus's 100 Hz), each tick `zero + direction × goal / count` exactly.
+    let hardware = out.join("hardware");
+    let bus: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(hardware.join("servo_bus.json")).unwrap()).unwrap();
+    assert_eq!(bus["joints"][1]["id"], 12);
+    assert_eq!(bus["joints"][1]["joint"], "shoulder_lift");
+    let count = std::f64::consts::TAU / 4096.0;
+    let (zero, direction) = ([2048.0, 2000.0, 2048.0, 2100.0], [1.0, -1.0, 1.0, 1.0]);
+    for (ply, uci) in [(1, "e2e4"), (33, "d1d8")] {
+        let read = |name: &str| -> (Vec<String>, Vec<Vec<f64>>) {
+            let mut reader = csv::Reader::from_path(name).unwrap();
+            let header = reader.headers().unwrap().iter().map(String::from).collect();
+            let rows = reader.records().map(|r| r.unwrap().iter().map(|v| v.parse().unwrap()).collect()).collect();
+            (header, rows)
+        };
+        let (header, goals) = read(hardware.join(format!("{ply:03}-{uci}-goals.csv")).to_str().unwrap());
+        assert_eq!(
+            header[..9],
+            ["t", "goal1", "goal2", "goal3", "goal4", "goal1_ticks", "goal2_ticks", "goal3_ticks", "goal4_ticks"]
+        );
+        let (header, records) = read(out.join("moves").join(format!("{ply:03}-{uci}.csv")).to_str().unwrap());
+        let goal_column = header.iter().position(|h| h == "goal1").unwrap();
+        assert_eq!(goals.len(), records.len(), "ply {ply}");
+        for (goal, record) in goals.iter().zip(&records) {
+            assert_eq!(goal[1..5], record[goal_column..goal_column + 4], "ply {ply} at {} s", goal[0]);
+            for j in 0..4 {
+                let counts = goal[1 + j] / count;
+                assert!((counts - counts.round()).abs() < 1e-6, "a goal in whole counts: {counts}");
+                assert_eq!(goal[5 + j], zero[j] + direction[j] * counts.round());
+            }
+        }
+    }
 }
 
 /// A maker's spread (servo windings, supply, gear friction, 0–2° backlash, link and piece
@@ -262,6 +301,21 @@ fn bad_actuator_input_is_refused_with_its_name() {
         let path = dir.path().join("setup.toml");
         std::fs::write(&path, text).unwrap();
         assert_one_line_error(&chessarm(&["--arm", path.to_str().unwrap(), "fk", "--q", "0,0,0,0"]), &needles);
+    }
+    // A bus that cannot address the servos is refused before the game runs.
+    for (table, needles) in [
+        ("ids = [1, 1, 2, 3]", vec!["servo_bus.ids = [1, 1, 2, 3]", "distinct"]),
+        ("directions = [1, 2, 1, 1]", vec!["servo_bus.directions", "2 is not 1 or -1"]),
+        ("zero_ticks = [2048, 2048]", vec!["servo_bus.zero_ticks has 2 values"]),
+    ] {
+        let path = dir.path().join("bus.toml");
+        std::fs::write(&path, format!("actuator = \"xm430\"\n[servo_bus]\n{table}\n")).unwrap();
+        let out = dir.path().join("game");
+        assert_one_line_error(
+            &chessarm(&["--arm", path.to_str().unwrap(), "play", "--moves", "e4", "--out", out.to_str().unwrap()]),
+            &needles,
+        );
+        assert!(!out.join("game.json").exists());
     }
 }
 

@@ -182,6 +182,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     refuse_unlisted(&hardware_dir, |name| numbered_file(name, &[".csv", ".json"]))?;
     // An earlier game's stopped part-way trajectories do not belong to this one.
     remove_listed_in(&args.out.join("hardware-incomplete"))?;
+    // The servos' bus, checked before anything runs: their goals go out in its ticks.
+    let servo_bus = setup.actuators.take_positions().then(|| crate::actuators::ServoBus::of(setup)).transpose()?;
     let started = Instant::now();
     let first_number = (start.fullmoves().get(), start.turn());
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
@@ -248,6 +250,18 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
                     &label,
                     args.export_rate,
                 )?;
+                if let Some(bus) = &servo_bus {
+                    if !hardware_dir.join("servo_bus.json").is_file() {
+                        crate::hardware::write_servo_bus(&hardware_dir, setup, bus)?;
+                    }
+                    crate::hardware::write_servo_goals(
+                        &hardware_dir,
+                        &format!("{:03}-{}", report.ply, report.uci),
+                        &setup.convention,
+                        bus,
+                        &hardware.servo_goals,
+                    )?;
+                }
             }
             bar.inc(1);
             // The recorded steps are in the move's CSV now: only the plot's and the replay's share
@@ -634,6 +648,9 @@ fn write_move_csv(dir: &Path, report: &MoveReport, convention: &crate::config::J
     let mut header = vec!["t".to_string()];
     header.extend(numbered("q", 4).chain(numbered("q_des", 4)));
     header.extend(["x", "y", "z", "x_des", "y_des", "z_des", "tip_error_mm"].map(String::from));
+    if report.records.first().is_some_and(|r| r.servo.is_some()) {
+        header.extend(crate::actuators::servo_columns());
+    }
     let path = dir.join(format!("{:03}-{}.csv", report.ply, report.uci));
     write_csv(
         &path,
@@ -643,6 +660,7 @@ fn write_move_csv(dir: &Path, report: &MoveReport, convention: &crate::config::J
             row.extend(convention.user(r.state.q).into_iter().chain(convention.user(r.reference.q)));
             row.extend(r.tip.iter().chain(r.tip_desired.iter()));
             row.push((r.tip - r.tip_desired).norm() * 1e3);
+            crate::actuators::push_servo_values(&mut row, r, convention);
             row
         }),
     )

@@ -323,21 +323,14 @@ pub fn write_run(
     let servos = run.records.first().is_some_and(|r| r.servo.is_some());
     let mut header = run_header();
     if servos {
-        // The servos' goals and internal targets (rad), duties (−1…1) and backlash gaps (rad).
-        for prefix in ["goal", "target", "duty", "gap"] {
-            header.extend(numbered(prefix, 4));
-        }
+        header.extend(crate::actuators::servo_columns());
     }
     write_csv(
         &csv,
         &header,
         run.records.iter().map(|r| {
             let mut row = run_row(r, convention);
-            if let Some(servo) = &r.servo {
-                for part in [servo.goal, servo.target, servo.duty, servo.gap] {
-                    row.extend(convention.user(part));
-                }
-            }
+            crate::actuators::push_servo_values(&mut row, r, convention);
             row
         }),
     )?;
