@@ -4,7 +4,7 @@
 //! a few minutes.
 
 use chessarm::cli::{Cli, Command};
-use chessarm::commands::tune::{CandidateOptions, candidate_gains, shard_range, study, sweep, tracking_from};
+use chessarm::commands::tune::{CandidateOptions, Setting, candidate_gains, shard_range, study, sweep, tracking_from};
 use chessarm::config::Setup;
 use clap::Parser;
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -14,7 +14,7 @@ fn sweeps(c: &mut Criterion) {
     let Some(Command::Tune(args)) = cli.command else { unreachable!("a tune command line") };
     let setup = Setup::load(None).expect("built-in setup");
     let study = study(&setup, &args, None).expect("scenario");
-    let gains = candidate_gains(&args).expect("valid ranges");
+    let gains: Vec<Setting> = candidate_gains(&args).expect("valid ranges").into_iter().map(Setting::Torque).collect();
     let range = shard_range(gains.len(), None);
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
@@ -26,6 +26,7 @@ fn sweeps(c: &mut Criterion) {
         tracking_from: tracking_from(&args),
         mass_error: [0.0; 6],
         tip_quantum: 0.0,
+        p_conversions: [None; 4],
     };
     let mut group = c.benchmark_group("tune 40x40 PD sweep, 13 s scenario at 1 kHz");
     group.sample_size(10);
