@@ -25,7 +25,7 @@ fn sweeps(c: &mut Criterion) {
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(&args),
         mass_error: [0.0; 6],
-        tip_quantum: 0.0,
+        resolution: chessarm::conditions::Resolution::default(),
         p_conversions: [None; 4],
     };
     let mut group = c.benchmark_group("tune 40x40 PD sweep, 13 s scenario at 1 kHz");

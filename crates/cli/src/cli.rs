@@ -339,11 +339,19 @@ pub struct PlacementArgs {
 impl PlacementArgs {
     /// The fine points' condition for a placement tolerance of `tolerance` m (SI: the flags'
     /// mm and mm/s converted here), or `None` with --release-by-clock.
-    pub fn in_position(&self, tolerance: f64, tip_quantum: f64) -> Option<chessarm_core::plan::fine_point::InPosition> {
+    pub fn in_position(
+        &self,
+        tolerance: f64,
+        resolution: crate::conditions::Resolution,
+    ) -> Option<chessarm_core::plan::fine_point::InPosition> {
         if self.release_by_clock {
             return None;
         }
-        let mut gate = chessarm_core::plan::fine_point::InPosition::for_sensors(tolerance, tip_quantum);
+        let mut gate = chessarm_core::plan::fine_point::InPosition::for_actuators(
+            tolerance,
+            resolution.tip_quantum,
+            resolution.holding_band,
+        );
         if let Some(band) = self.in_position_band_mm {
             gate.tip_band = band / 1e3;
             gate.speed_band = gate.tip_band / chessarm_core::plan::fine_point::BAND_CROSSING_TIME;
@@ -357,10 +365,15 @@ impl PlacementArgs {
         Some(gate)
     }
 
-    /// Sets a game's fine points and payload feed-forward; `tolerance` in m, `tip_quantum` the
-    /// sensors' (m, [`chessarm_core::plan::fine_point::tip_quantum`]).
-    pub fn apply(&self, settings: &mut chessarm_chess::play::PlaySettings, tolerance: f64, tip_quantum: f64) {
-        settings.in_position = self.in_position(tolerance, tip_quantum);
+    /// Sets a game's fine points and payload feed-forward; `tolerance` in m, `resolution` the
+    /// sensors' and actuators' ([`crate::conditions::Study::resolution`]).
+    pub fn apply(
+        &self,
+        settings: &mut chessarm_chess::play::PlaySettings,
+        tolerance: f64,
+        resolution: crate::conditions::Resolution,
+    ) {
+        settings.in_position = self.in_position(tolerance, resolution);
         settings.payload_feedforward = !self.no_payload_feedforward;
     }
 }

@@ -351,6 +351,15 @@ pub struct Study {
     pub actuators: Actuators<4>,
 }
 
+/// How finely a run can put the tool tip at a fine point, m: the tip's move when every encoder
+/// (and every servo's own encoder) moves a count, and the band within which servos or steppers
+/// hold it still off their goals (0 with torque motors).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Resolution {
+    pub tip_quantum: f64,
+    pub holding_band: f64,
+}
+
 /// One run's conditions.
 #[derive(Debug, Clone)]
 pub struct Trial {
@@ -401,9 +410,25 @@ impl Study {
         tracking
     }
 
+    /// What the fine points can ask of the sensors and actuators: [`Resolution`].
+    pub fn resolution(&self, setup: &Setup) -> Resolution {
+        Resolution { tip_quantum: self.tip_quantum(setup), holding_band: setup.actuators.holding_band(&setup.arm) }
+    }
+
     /// How far the estimated tip moves when every encoder moves a count, m (0: exact angles).
+    /// With servos or steppers the host knows the angles no finer than their own counts (it
+    /// reads the servos' position registers; it counts a stepper's microsteps).
     pub fn tip_quantum(&self, setup: &Setup) -> f64 {
-        chessarm_core::plan::fine_point::tip_quantum(&setup.arm, &self.sensors.encoders)
+        let mut encoders = self.sensors.encoders;
+        for (encoder, actuator) in encoders.iter_mut().zip(&setup.actuators.joints) {
+            let counts = match actuator {
+                chessarm_core::sim::actuator::Actuator::Torque => continue,
+                chessarm_core::sim::actuator::Actuator::Servo(spec) => spec.counts_per_revolution,
+                chessarm_core::sim::actuator::Actuator::Stepper(spec) => std::f64::consts::TAU / spec.resolution(),
+            };
+            encoder.counts_per_rev = Some(encoder.counts_per_rev.map_or(counts, |c| c.min(counts)));
+        }
+        chessarm_core::plan::fine_point::tip_quantum(&setup.arm, &encoders)
     }
 
     /// Per piece kind, the largest difference between a true mass and the one the controller

@@ -95,6 +95,13 @@ fn the_so101_with_its_sts3215s_plays_the_opera_game() {
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
     assert_eq!(report["controller"], "feedforward");
     assert_eq!(report["misplaced"].as_array().unwrap().len(), 0);
+    // The fine points wait for the servos to stop within the band they can hold (their counts,
+    // deadband and friction: wider than the 0.5 mm a torque arm's encoders give, at most the
+    // 5 mm tolerance), and none waits out its timeout.
+    let gate = &report["in_position"];
+    let band = gate["tip_band_mm"].as_f64().unwrap();
+    assert!(band > 0.5 && band <= 5.0, "{gate}");
+    assert_eq!(gate["waits"]["timed_out"], 0, "{gate}");
     let errors: Vec<f64> = report["moves"]
         .as_array()
         .unwrap()

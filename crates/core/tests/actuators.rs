@@ -501,3 +501,25 @@ fn a_drawn_servo_lies_within_its_spread_and_keeps_its_firmware() {
         spread.check_for(&Actuators::<4>::torque()).unwrap_err().to_string().contains("uncertainty.torque_constant")
     );
 }
+
+/// The fine points' band with servos: widened to the band they hold still within (capped at
+/// the tolerance), the speed band as the sensors': torque motors (band 0) keep the sensors'.
+#[test]
+fn servos_widen_the_fine_points_band_to_what_they_hold() {
+    use chessarm_core::plan::fine_point::InPosition;
+    let (tolerance, quantum) = (5e-3, 1e-4);
+    let sensors = InPosition::for_sensors(tolerance, quantum);
+    assert_eq!(InPosition::for_actuators(tolerance, quantum, 0.0), sensors);
+    let servos = Actuators::servos([profiles::profile("xm430").unwrap().spec; 4]);
+    let band = servos.holding_band(&report_arm());
+    // Each servo rests within a count, its deadband and its friction's share of its stiffness:
+    // at least a count's lever on the shoulder alone.
+    let Actuator::Servo(spec) = servos.joints[1] else { unreachable!() };
+    let reach: f64 = (1..4).map(|i| report_arm().link(i).dh.a.abs()).sum();
+    assert!(band >= spec.resolution() * reach, "{band}");
+    let gate = InPosition::for_actuators(tolerance, quantum, band);
+    assert_eq!(gate.tip_band, sensors.tip_band.max(band.min(tolerance)));
+    assert_eq!((gate.speed_band, gate.timeout), (sensors.speed_band, sensors.timeout));
+    assert_eq!(InPosition::for_actuators(tolerance, quantum, 1.0).tip_band, tolerance);
+    assert_eq!(Actuators::<4>::torque().holding_band(&report_arm()), 0.0);
+}

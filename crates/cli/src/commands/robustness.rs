@@ -518,7 +518,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     ])?;
     let bar = crate::progress::bar(range.len() as u64, "trials");
     let started = Instant::now();
-    let options = trial_options(args, study.tip_quantum(setup));
+    let options = trial_options(args, study.resolution(setup));
     let rows = pool.install(|| run_trials(setup, &work, &specs, &study, &options, range.clone(), Some(&bar)))?;
     let wall_time_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
@@ -620,14 +620,14 @@ fn selector(setup: &Setup) -> &'static str {
     if setup.actuators.take_positions() { "--servo-command" } else { "--controller" }
 }
 
-fn trial_options(args: &RobustnessArgs, tip_quantum: f64) -> TrialOptions {
+fn trial_options(args: &RobustnessArgs, resolution: crate::conditions::Resolution) -> TrialOptions {
     let tolerance = args.tolerance_mm / 1e3;
     TrialOptions {
         seed: args.conditions.seed,
         integrator: args.integrator.integrator(),
         controller_knows_payload: args.controller_knows_payload,
         payload_feedforward: !args.placement.no_payload_feedforward,
-        in_position: args.placement.in_position(tolerance, tip_quantum),
+        in_position: args.placement.in_position(tolerance, resolution),
         tolerance,
     }
 }
@@ -678,7 +678,7 @@ fn frontier(
     remove_stale(&[csv_path.clone(), plot_path.clone(), json_path.clone()])?;
     let bar = crate::progress::bar((args.trials * paces.len()) as u64, "trials");
     let started = Instant::now();
-    let options = trial_options(args, study.tip_quantum(setup));
+    let options = trial_options(args, study.resolution(setup));
     let mut points = Vec::with_capacity(paces.len() * specs.len());
     for (&pace, paced) in paces.iter().zip(&setups) {
         let rows = pool.install(|| run_trials(paced, work, specs, study, &options, 0..args.trials, Some(&bar)))?;

@@ -234,7 +234,7 @@ fn game_candidate(
     }
     settings.record_every = 0;
     settings.controller_knows_payload = options.controller_knows_payload;
-    options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE, options.tip_quantum);
+    options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE, options.resolution);
     settings.integrator = options.integrator;
     let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
         let mut place = 0.0f64;
@@ -360,9 +360,8 @@ pub struct CandidateOptions {
     /// A game's pieces' largest mass errors for the tracking budget, per kind (see
     /// [`crate::conditions::Study::tracking`]), kg.
     pub mass_error: [f64; 6],
-    /// How far the estimated tip moves when every encoder moves a count, m (the fine points'
-    /// default band).
-    pub tip_quantum: f64,
+    /// What the fine points' band can resolve: the sensors' and the servos' counts.
+    pub resolution: crate::conditions::Resolution,
     /// Each joint's servo's P register conversion ([`crate::actuators::p_register_conversions`]).
     pub p_conversions: [Option<f64>; 4],
 }
@@ -596,7 +595,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
             !args.placement.no_payload_feedforward,
             args.controller_knows_payload,
         ),
-        tip_quantum: conditions.tip_quantum(setup),
+        resolution: conditions.resolution(setup),
         p_conversions: crate::actuators::p_register_conversions(setup),
     };
     if args.game_file.is_some() && args.tracking_from.is_some() {

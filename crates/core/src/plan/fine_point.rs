@@ -82,6 +82,20 @@ impl InPosition {
         Self { tip_band, speed_band: tip_band / BAND_CROSSING_TIME, ..Self::for_tolerance(tolerance) }
     }
 
+    /// [`InPosition::for_sensors`] for actuators that hold the tip still only within
+    /// `holding_band` (m) of their goal (servos, steppers:
+    /// [`crate::sim::actuator::Actuators::holding_band`]; 0 for torque motors): the tip band
+    /// widened to that band (at most the tolerance), the speed band kept, so the wait ends when
+    /// the servos have stopped where they can — what a host polling their "moving" flag sees —
+    /// rather than always at the timeout.
+    pub fn for_actuators(tolerance: f64, tip_quantum: f64, holding_band: f64) -> Self {
+        let mut gate = Self::for_sensors(tolerance, tip_quantum);
+        if holding_band > 0.0 {
+            gate.tip_band = gate.tip_band.max(holding_band.min(tolerance));
+        }
+        gate
+    }
+
     /// Checks every field is finite and > 0, naming the first that is not.
     pub fn validated(self) -> Result<Self, InPositionError> {
         for (field, value) in [("tip_band", self.tip_band), ("speed_band", self.speed_band), ("timeout", self.timeout)]

@@ -129,6 +129,30 @@ impl<const N: usize> Actuators<N> {
         Ok(())
     }
 
+    /// How far from its goal the tool tip of `model` may come to rest, m: per joint the angle a
+    /// servo holds still off its target — its deadband, one count of its encoder, and the
+    /// error its loop's stiffness leaves against its gear's Coulomb friction,
+    /// `deadband + 2π/counts + τ_c / (kp kt V / R)` — or a stepper's microstep, times the
+    /// joint's longest lever to the tip (the sum of the DH lengths `|a| + |d|` beyond it),
+    /// summed. 0 with torque motors. A host that waits for the arm to be at a fine point can
+    /// ask no better of these actuators: the tip settles anywhere within this of its goal.
+    pub fn holding_band(&self, model: &ArmModel<N>) -> f64 {
+        (0..N)
+            .map(|j| {
+                let lever: f64 =
+                    (j..N).map(|i| model.link(i).dh.a.abs() + if i > j { model.link(i).dh.d.abs() } else { 0.0 }).sum();
+                let angle = match self.joints[j] {
+                    Actuator::Torque => 0.0,
+                    Actuator::Servo(spec) => {
+                        spec.deadband + spec.resolution() + spec.coulomb_friction / spec.stiffness()
+                    }
+                    Actuator::Stepper(spec) => spec.resolution(),
+                };
+                angle * lever
+            })
+            .sum()
+    }
+
     /// `model` with each servo's gear in its joint: the armature as the rotor inertia, the gear's
     /// viscous friction plus the back-EMF's damping `kt²/R` and the gear's Coulomb friction as
     /// the joint's friction (replacing the link's own: the servo is the joint's drive), and the
