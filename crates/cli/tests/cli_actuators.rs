@@ -280,6 +280,44 @@ fn tune_sweeps_the_servos_p_register_and_host_strategies() {
     );
 }
 
+/// An independent model of the servo: MuJoCo's position actuator with the same gain
+/// (`kp kt V / R`), damping (`kt²/R`) and force range, on the arm of chessarm's URDF, fed the
+/// goals chessarm's host sent (crates/cli/tests/mujoco/check_servo.py), against chessarm's servo
+/// reduced to that ideal law (no counts, deadband, friction, backlash or armature; 0.1 ms
+/// firmware period and steps). chessarm holds the P term over each firmware period (its encoder
+/// is read at the period's start) where MuJoCo's RK4 re-evaluates it at every stage: the P
+/// term lags by up to a period, so the torques may differ by `kp |q̇| dt` and the angles by
+/// `|q̇| dt`, at the run's largest speed. The settled start is the closed form's sag `g(q)/kp`.
+#[test]
+#[cfg_attr(not(tool_python), ignore = "needs CHESSARM_PYTHON, a Python with mujoco; see docs/testing.md")]
+fn mujoco_position_actuators_follow_the_same_goals_as_the_ideal_servo() {
+    let python = common::python_with_mujoco().expect("CHESSARM_PYTHON (or python3) with mujoco installed");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mujoco/check_servo.py");
+    let dir = tempfile::tempdir().unwrap();
+    let output = std::process::Command::new(&python)
+        .arg(&script)
+        .arg(env!("CARGO_BIN_EXE_chessarm"))
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    eprintln!("mujoco servo: {report}");
+    let number = |key: &str| report[key].as_f64().unwrap();
+    let (speed, dt, kp) = (number("largest_speed_rad_per_s"), number("dt_s"), number("kp_nm_per_rad"));
+    assert!(number("steps") > 100_000.0 && speed > 0.5, "{report}");
+    assert!(number("largest_angle_difference_rad") <= speed * dt, "{report}");
+    assert!(number("largest_torque_difference_nm") <= kp * speed * dt, "{report}");
+    // The comparison means something: the arm moved by radians and held torques of N·m.
+    assert!(number("largest_angle_rad") > 1.0 && number("largest_torque_nm") > 1.0, "{report}");
+    assert_eq!(report["saturated_steps_mujoco"], 0);
+    for (sag, closed) in
+        common::numbers(&report["start_sag_rad"]).iter().zip(common::numbers(&report["start_sag_closed_form_rad"]))
+    {
+        assert!((sag - closed).abs() <= 1e-9 * closed.abs().max(1e-6), "{report}");
+    }
+}
+
 #[test]
 fn bad_actuator_input_is_refused_with_its_name() {
     assert_one_line_error(

@@ -289,18 +289,10 @@ fn every_urdf_link_has_a_body_that_a_real_parser_reads() {
     assert_eq!(robot.joints.len(), 5);
 }
 
-/// The Python with MuJoCo that CI installs (`CHESSARM_PYTHON`), or a `python3` that has it.
-fn python_with_mujoco() -> Option<String> {
-    let candidates = std::env::var("CHESSARM_PYTHON").into_iter().chain(["python3".to_string()]);
-    candidates.into_iter().find(|python| {
-        std::process::Command::new(python).args(["-c", "import mujoco"]).output().is_ok_and(|o| o.status.success())
-    })
-}
-
 #[test]
 #[cfg_attr(not(tool_python), ignore = "needs CHESSARM_PYTHON, a Python with mujoco; see docs/testing.md")]
 fn mujoco_reads_the_urdf_with_its_bodies_and_the_same_kinematics_and_dynamics() {
-    let python = python_with_mujoco().expect("CHESSARM_PYTHON (or python3) with mujoco installed");
+    let python = common::python_with_mujoco().expect("CHESSARM_PYTHON (or python3) with mujoco installed");
     let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mujoco/check_urdf.py");
     let output = std::process::Command::new(&python).arg(&script).arg(env!("CARGO_BIN_EXE_chessarm")).output().unwrap();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));

@@ -71,3 +71,12 @@ pub fn assert_same_at_every_batching(test: &str, scalar: &str, run: impl Fn(&str
         }
     }
 }
+
+/// The Python with MuJoCo that CI installs (`CHESSARM_PYTHON`), or a `python3` that has it.
+#[allow(dead_code)]
+pub fn python_with_mujoco() -> Option<String> {
+    let candidates = std::env::var("CHESSARM_PYTHON").into_iter().chain(["python3".to_string()]);
+    candidates.into_iter().find(|python| {
+        std::process::Command::new(python).args(["-c", "import mujoco"]).output().is_ok_and(|o| o.status.success())
+    })
+}
