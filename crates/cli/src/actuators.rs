@@ -20,8 +20,8 @@ pub const TORQUE: &str = "torque";
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct ActuatorFile {
-    /// The built-in servo the rest changes (sts3215, sts3215-12v, xl430, xm430, mg996r; a
-    /// stepper of one's own is not described here yet).
+    /// The built-in actuator the rest changes (sts3215, sts3215-12v, xl430, xm430, mg996r; the
+    /// stepper nema17).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub base: Option<String>,
     /// The P gain register's value (the base's conversion to duty per rad).
@@ -66,9 +66,120 @@ pub struct ActuatorFile {
     pub max_target_speed: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_target_acceleration: Option<f64>,
+    /// A stepper's: full steps per motor turn, microsteps per full step, motor turns per output
+    /// turn, holding torque at the output (N·m), the speed above which its pull-out torque falls
+    /// (rad/s at the output), and its step generator's speed (rad/s) and acceleration (rad/s²)
+    /// limits. Any of them (or `base = "nema17"`) makes the table a stepper's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub steps_per_revolution: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub microsteps: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gear_ratio: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub holding_torque: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub corner_speed: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_speed: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_acceleration: Option<f64>,
 }
 
 impl ActuatorFile {
+    /// The servo's own fields (what a stepper's table may not have): name, whether given.
+    fn servo_fields(&self) -> [(&'static str, bool); 14] {
+        [
+            ("p_gain", self.p_gain.is_some()),
+            ("supply_voltage", self.supply_voltage.is_some()),
+            ("resistance", self.resistance.is_some()),
+            ("torque_constant", self.torque_constant.is_some()),
+            ("max_torque", self.max_torque.is_some()),
+            ("backlash", self.backlash.is_some()),
+            ("counts_per_revolution", self.counts_per_revolution.is_some()),
+            ("kp", self.kp.is_some()),
+            ("ki", self.ki.is_some()),
+            ("kd", self.kd.is_some()),
+            ("max_duty", self.max_duty.is_some()),
+            ("deadband", self.deadband.is_some()),
+            ("max_target_speed", self.max_target_speed.is_some()),
+            ("max_target_acceleration", self.max_target_acceleration.is_some()),
+        ]
+    }
+
+    /// The stepper's own fields, as (name, value).
+    fn stepper_fields(&self) -> [(&'static str, Option<f64>); 7] {
+        [
+            ("steps_per_revolution", self.steps_per_revolution),
+            ("microsteps", self.microsteps),
+            ("gear_ratio", self.gear_ratio),
+            ("holding_torque", self.holding_torque),
+            ("corner_speed", self.corner_speed),
+            ("max_speed", self.max_speed),
+            ("max_acceleration", self.max_acceleration),
+        ]
+    }
+
+    /// The actuator this table describes (a stepper's if it is based on one or has a
+    /// stepper's field, else a servo's); `name` is its table's name, for messages.
+    pub fn to_actuator(&self, name: &str) -> Result<Actuator> {
+        let stepper_base = self.base.as_deref() == Some(profiles::NEMA17.name);
+        let stepper_field = self.stepper_fields().iter().find(|(_, v)| v.is_some()).map(|(f, _)| *f);
+        if !stepper_base && stepper_field.is_none() {
+            return Ok(Actuator::Servo(self.to_spec(name)?));
+        }
+        let field = |f: &str| format!("actuators.{name}.{f}");
+        if let Some((servo_field, _)) = self.servo_fields().iter().find(|(_, given)| *given) {
+            bail!(
+                "{} is a servo's; this table is a stepper's ({}): give a stepper's fields (steps_per_revolution,                  microsteps, gear_ratio, holding_torque, corner_speed, max_speed, max_acceleration, armature,                  coulomb_friction, viscous_friction, period)",
+                field(servo_field),
+                if stepper_base {
+                    "base = \"nema17\"".to_string()
+                } else {
+                    format!("{} given", stepper_field.unwrap_or("?"))
+                }
+            );
+        }
+        if let Some(base) = &self.base
+            && !stepper_base
+        {
+            bail!(
+                "{} = \"{base}\" is a servo; a stepper's table is based on nema17 or gives every field",
+                field("base")
+            );
+        }
+        let b = stepper_base.then_some(profiles::NEMA17.spec);
+        let take = |f: &str, given: Option<f64>, from_base: Option<f64>| -> Result<f64> {
+            match (given, from_base) {
+                (Some(v), _) if !v.is_finite() => bail!("{} = {v} is not a finite number", field(f)),
+                (Some(v), _) => Ok(v),
+                (None, Some(v)) => Ok(v),
+                (None, None) => bail!("{} is missing: give it, or `base = \"nema17\"`", field(f)),
+            }
+        };
+        let spec = chessarm_core::sim::actuator::StepperSpec {
+            steps_per_revolution: take(
+                "steps_per_revolution",
+                self.steps_per_revolution,
+                b.map(|s| s.steps_per_revolution),
+            )?,
+            microsteps: take("microsteps", self.microsteps, b.map(|s| s.microsteps))?,
+            gear_ratio: take("gear_ratio", self.gear_ratio, b.map(|s| s.gear_ratio))?,
+            holding_torque: take("holding_torque", self.holding_torque, b.map(|s| s.holding_torque))?,
+            corner_speed: take("corner_speed", self.corner_speed, b.map(|s| s.corner_speed))?,
+            armature: take("armature", self.armature, b.map(|s| s.armature))?,
+            coulomb_friction: take("coulomb_friction", self.coulomb_friction, b.map(|s| s.coulomb_friction))?,
+            viscous_friction: take("viscous_friction", self.viscous_friction, b.map(|s| s.viscous_friction))?,
+            max_speed: take("max_speed", self.max_speed, b.map(|s| s.max_speed))?,
+            max_acceleration: take("max_acceleration", self.max_acceleration, b.map(|s| s.max_acceleration))?,
+            period: take("period", self.period, b.map(|s| s.period))?,
+        };
+        if let Some((f, value, reason)) = spec.invalid_field() {
+            bail!("{} = {value}: {reason}", field(f));
+        }
+        Ok(Actuator::Stepper(spec))
+    }
+
     /// The servo this table describes; `name` is its table's name, for messages.
     pub fn to_spec(&self, name: &str) -> Result<ServoSpec> {
         let field = |f: &str| format!("actuators.{name}.{f}");
@@ -146,7 +257,7 @@ pub fn actuator(name: &str, user: &BTreeMap<String, ActuatorFile>, what: &str) -
         return Ok(Actuator::Torque);
     }
     if let Some(table) = user.get(name) {
-        return Ok(Actuator::Servo(table.to_spec(name)?));
+        return table.to_actuator(name);
     }
     match profiles::actuator(name) {
         Some(actuator) => Ok(actuator),
@@ -185,7 +296,7 @@ pub fn check_tables(user: &BTreeMap<String, ActuatorFile>) -> Result<()> {
         if name == TORQUE || profiles::actuator(name).is_some() {
             bail!("actuators.{name}: a built-in actuator has this name; choose another (or `base = \"{name}\"`)");
         }
-        table.to_spec(name)?;
+        table.to_actuator(name)?;
     }
     Ok(())
 }

@@ -318,6 +318,45 @@ fn mujoco_position_actuators_follow_the_same_goals_as_the_ideal_servo() {
     }
 }
 
+/// A user's stepper as an `[actuators.NAME]` table over the built-in NEMA 17 (a 10.36:1 gear,
+/// 3.7 N·m held): the SO-101's sag map takes it, each joint's lag the load angle
+/// `asin(τ / τ_hold) / n` (`n = steps/4 × gear`) and its headroom `1 − |τ| / τ_hold`.
+#[test]
+fn a_users_stepper_table_holds_the_load_at_its_load_angle() {
+    let dir = tempfile::tempdir().unwrap();
+    let (urdf, board) = so101_fitted(dir.path());
+    let mut setup = std::fs::read_to_string(&board).unwrap();
+    setup.push_str("\n[actuators.geared]\nbase = \"nema17\"\ngear_ratio = 10.36\nholding_torque = 3.7\n");
+    std::fs::write(&board, setup).unwrap();
+    let map = json_of(&chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--arm",
+        board.to_str().unwrap(),
+        "--actuator",
+        "geared",
+        "board",
+    ]));
+    let electrical = 200.0 / 4.0 * 10.36;
+    let mut checked = 0;
+    for square in map["sag"]["squares"].as_array().unwrap() {
+        for piece in square["pieces"].as_array().unwrap() {
+            let (load, sag, headroom) = (
+                common::numbers(&piece["load_nm"]),
+                common::numbers(&piece["sag_rad"]),
+                common::numbers(&piece["headroom"]),
+            );
+            for j in 0..4 {
+                let lag = (load[j] / 3.7).asin() / electrical;
+                assert!((sag[j] - lag).abs() < 1e-9, "joint {j}: sag {} against {lag}", sag[j]);
+                assert!((headroom[j] - (1.0 - load[j].abs() / 3.7)).abs() < 1e-12);
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 4 * 6 * 32, "{checked}");
+}
+
 #[test]
 fn bad_actuator_input_is_refused_with_its_name() {
     assert_one_line_error(
@@ -342,6 +381,13 @@ fn bad_actuator_input_is_refused_with_its_name() {
         ("[actuators.mine]\nbase = \"xm430\"\nbacklash = -0.1\n", vec!["actuators.mine.backlash = -0.1"]),
         ("[actuators.mine]\nsupply_voltage = 12.0\n", vec!["actuators.mine.kp is missing", "base = \"NAME\""]),
         ("[actuators.mine]\nbase = \"xm430\"\np_gain = 400\nkp = 3\n", vec!["not both"]),
+        (
+            "[actuators.mine]\nbase = \"nema17\"\nkp = 3\n",
+            vec!["actuators.mine.kp is a servo's; this table is a stepper's (base = \"nema17\")"],
+        ),
+        ("[actuators.mine]\nbase = \"xm430\"\ngear_ratio = 3\n", vec!["actuators.mine.base = \"xm430\" is a servo"]),
+        ("[actuators.mine]\ngear_ratio = 3\n", vec!["actuators.mine.steps_per_revolution is missing", "nema17"]),
+        ("[actuators.mine]\nbase = \"nema17\"\nholding_torque = -1\n", vec!["actuators.mine.holding_torque = -1"]),
     ] {
         let path = dir.path().join("setup.toml");
         std::fs::write(&path, text).unwrap();

@@ -251,6 +251,18 @@ class Game(Result):
     def hardware(self) -> Dict[str, Any]:
         return {k: v for k, v in {**self.documents, **self.tables}.items() if k.startswith("hardware")}
 
+    @property
+    def servo_goals(self) -> Dict[str, Table]:
+        """With servos (``actuator=``): each robot move's goals as the host sent them at the bus
+        rate (``t`` s, ``goal`` rad of shape (n, 4), ``goal1_ticks``… in the servos' ticks), by
+        move (``"001-e2e4"``); ``hardware["hardware/servo_bus.json"]`` says what the ticks mean."""
+        suffix = "-goals.csv"
+        return {
+            os.path.basename(k)[: -len(suffix)]: v
+            for k, v in self.tables.items()
+            if k.startswith("hardware") and k.endswith(suffix)
+        }
+
 
 def play(
     pgn: Optional[str] = None,
