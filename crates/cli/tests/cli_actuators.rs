@@ -95,6 +95,9 @@ fn the_so101_with_its_sts3215s_plays_the_opera_game() {
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
     assert_eq!(report["controller"], "feedforward");
     assert_eq!(report["misplaced"].as_array().unwrap().len(), 0);
+    // The 3D replay of the servo arm's game, as of a torque arm's.
+    let replay = std::fs::read_to_string(out.join("replay.html")).unwrap();
+    assert_eq!(replay.matches("\"by\":\"robot\"").count(), report["moves"].as_array().unwrap().len());
     // The fine points wait for the servos to stop within the band they can hold (their counts,
     // deadband and friction: wider than the 0.5 mm a torque arm's encoders give, at most the
     // 5 mm tolerance), and none waits out its timeout.
