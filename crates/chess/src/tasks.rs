@@ -396,11 +396,26 @@ impl Tracking {
         Self { kp, overshoot, stiffness: None, ..self }
     }
 
+    /// The budget for the controller of `gains` driving `actuators`: torque motors'
+    /// ([`Self::with_gains`]), servos' ([`Self::with_servos`]), or none for steppers (open
+    /// loop: no gain to budget; the budget is off and their lost steps are counted instead).
+    pub fn for_actuators(
+        self,
+        gains: &chessarm_core::control::gains::Gains<4>,
+        actuators: &Actuators<4>,
+        arm: &ArmModel<4>,
+    ) -> Self {
+        if !actuators.take_positions() {
+            return self.with_gains(gains);
+        }
+        self.with_servos(actuators, arm).unwrap_or(Self { budget: 0.0, ..self })
+    }
+
     /// The budget for position servos: their proportional loops' stiffnesses `K_j`, and the
-    /// overshoot of the loop `I q̈ + c q̇ + K q` each closes with its back-EMF and gear damping
-    /// `c = kt²/R + b` on the armature and the link's own inertia `I = I_a + M_jj` at the
-    /// model's zero angles (an estimate: `M_jj` changes with the pose). `None` unless every
-    /// joint has a servo (a stepper has no proportional loop to budget).
+    /// overshoot of the loop `I q̈ + c q̇ + K q` each closes with its back-EMF, gear and
+    /// firmware derivative damping `c = kt²/R + b + kd kt V / R` on the armature and the link's
+    /// own inertia `I = I_a + M_jj` at the model's zero angles (an estimate: `M_jj` changes
+    /// with the pose). `None` unless every joint has a servo.
     pub fn with_servos(self, actuators: &Actuators<4>, arm: &ArmModel<4>) -> Option<Self> {
         use chessarm_core::plan::constraints::TrackingBudget;
         use chessarm_core::sim::actuator::Actuator;
@@ -410,7 +425,7 @@ impl Tracking {
         for (j, joint) in actuators.joints.iter().enumerate() {
             let Actuator::Servo(spec) = joint else { return None };
             stiffness[j] = spec.stiffness();
-            let damping = spec.back_emf_damping() + spec.viscous_friction;
+            let damping = spec.back_emf_damping() + spec.viscous_friction + spec.kd * spec.torque_per_duty();
             let inertia = spec.armature + mass[(j, j)];
             overshoot =
                 overshoot.max(TrackingBudget::<4>::overshoot_of(damping / (2.0 * (stiffness[j] * inertia).sqrt())));

@@ -131,7 +131,7 @@ impl ActuatorFile {
         let field = |f: &str| format!("actuators.{name}.{f}");
         if let Some((servo_field, _)) = self.servo_fields().iter().find(|(_, given)| *given) {
             bail!(
-                "{} is a servo's; this table is a stepper's ({}): give a stepper's fields (steps_per_revolution,                  microsteps, gear_ratio, holding_torque, corner_speed, max_speed, max_acceleration, armature,                  coulomb_friction, viscous_friction, period)",
+                "{} is a servo's; this table is a stepper's ({}): give a stepper's fields (steps_per_revolution, microsteps, gear_ratio, holding_torque, corner_speed, max_speed, max_acceleration, armature, coulomb_friction, viscous_friction, period)",
                 field(servo_field),
                 if stepper_base {
                     "base = \"nema17\"".to_string()
@@ -327,6 +327,19 @@ pub fn servo_hosts(setup: &Setup) -> Option<Vec<ControllerSpec>> {
     )
 }
 
+/// Whether a controller of `kind` cancels the inertia of the piece it is told of: every torque
+/// controller and the `feedforward` host do; the `plain` host ignores the piece and `sag` only
+/// its weight, so a carried piece's whole mass is their tracking budget's mass error.
+pub fn cancels_inertia(kind: &ControllerKind) -> bool {
+    !matches!(
+        kind,
+        ControllerKind::ServoHost(
+            chessarm_core::control::servo_host::ServoCommand::Plain
+                | chessarm_core::control::servo_host::ServoCommand::Sag
+        )
+    )
+}
+
 /// The controller's period: with servos, the bus's (`1 / --bus-rate`); else `torque_period`, s.
 pub fn control_period(setup: &Setup, torque_period: f64) -> f64 {
     if setup.actuators.take_positions() { 1.0 / setup.bus_rate } else { torque_period }
@@ -423,7 +436,7 @@ impl ServoBus {
         let directions: [f64; 4] = match &file.directions {
             Some(d) => {
                 four("directions", d.len())?;
-                if let Some(bad) = d.iter().find(|v| v.abs() != 1) {
+                if let Some(bad) = d.iter().find(|v| **v != 1 && **v != -1) {
                     bail!("servo_bus.directions = {d:?}: {bad} is not 1 or -1");
                 }
                 std::array::from_fn(|j| f64::from(d[j]))
@@ -440,7 +453,22 @@ impl ServoBus {
             }
             None => counts_per_revolution.map(|c| (c / 2.0).round()),
         };
-        Ok(Self { ids, directions, zero_ticks, counts_per_revolution })
+        let bus = Self { ids, directions, zero_ticks, counts_per_revolution };
+        // Every angle the joint may take must be a tick of its servo's register.
+        for j in 0..4 {
+            let (lower, upper) = setup.user_limits(j);
+            let ticks = [bus.ticks(j, lower), bus.ticks(j, upper)];
+            if let Some(tick) = ticks.iter().find(|t| !(**t >= 0.0 && **t < counts_per_revolution[j])) {
+                bail!(
+                    "servo_bus.zero_ticks = {}: joint {}'s limits [{lower:.4}, {upper:.4}] rad reach tick {tick}, outside its \
+                     servo's 0–{}; give the tick of the joint's zero",
+                    zero_ticks[j],
+                    j + 1,
+                    counts_per_revolution[j] - 1.0
+                );
+            }
+        }
+        Ok(bus)
     }
 
     /// Joint `j`'s goal `q` (rad, the setup's sense) in ticks of its servo's position register.

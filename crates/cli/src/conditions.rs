@@ -403,9 +403,8 @@ impl Study {
         feedforward: bool,
         knows_payload: bool,
     ) -> chessarm_chess::tasks::Tracking {
-        let tracking = setup.motion.tracking.with_gains(gains);
         // Servo hosts' gains are not a loop's: the servos' stiffnesses are.
-        let mut tracking = tracking.with_servos(&self.actuators, &setup.arm).unwrap_or(tracking);
+        let mut tracking = setup.motion.tracking.for_actuators(gains, &self.actuators, &setup.arm);
         tracking.mass_error = self.mass_errors(setup, feedforward, knows_payload);
         tracking
     }

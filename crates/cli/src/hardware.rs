@@ -198,7 +198,8 @@ pub fn write_servo_goals(
         header.extend((1..=4).map(|j| format!("goal{j}_ticks")));
         writer.write_record(&header)?;
         for (user, ticks, t) in &rows {
-            let mut row = vec![format!("{t:?}")];
+            // Times to the microsecond (a bus period is whole milliseconds or more).
+            let mut row = vec![format!("{:?}", plain((t * 1e6).round() / 1e6))];
             row.extend(user.iter().map(|v| format!("{:?}", plain(*v))));
             row.extend(ticks.iter().map(|v| format!("{}", *v as i64)));
             writer.write_record(&row)?;

@@ -401,6 +401,8 @@ fn bad_actuator_input_is_refused_with_its_name() {
         ("ids = [1, 1, 2, 3]", vec!["servo_bus.ids = [1, 1, 2, 3]", "distinct"]),
         ("directions = [1, 2, 1, 1]", vec!["servo_bus.directions", "2 is not 1 or -1"]),
         ("zero_ticks = [2048, 2048]", vec!["servo_bus.zero_ticks has 2 values"]),
+        ("zero_ticks = [0, 2048, 2048, 2048]", vec!["servo_bus.zero_ticks = 0", "joint 1's limits", "outside"]),
+        ("directions = [-128, 1, 1, 1]", vec!["servo_bus.directions", "-128 is not 1 or -1"]),
     ] {
         let path = dir.path().join("bus.toml");
         std::fs::write(&path, format!("actuator = \"xm430\"\n[servo_bus]\n{table}\n")).unwrap();

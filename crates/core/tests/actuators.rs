@@ -494,6 +494,14 @@ fn a_drawn_servo_lies_within_its_spread_and_keeps_its_firmware() {
     let (same, _) = ActuatorSpread::default().draw(&nominal, &mut untouched).unwrap();
     assert_eq!(same, nominal);
     assert_eq!(untouched.uniform(0.0, 1.0), SeededRng::new(7).uniform(0.0, 1.0));
+    // The firmware's current limit: its torque scales with the drawn torque constant.
+    for (joint, base) in drawn.joints.iter().zip(&nominal.joints) {
+        let (Actuator::Servo(spec), Actuator::Servo(base)) = (joint, base) else { unreachable!() };
+        assert!((spec.max_torque / base.max_torque - spec.torque_constant / base.torque_constant).abs() < 1e-12);
+    }
+    // A backlash a servo cannot have is refused when the spread is read.
+    let wide = ActuatorSpread { backlash: Some(Range::new(0.1, 0.6)), ..spread };
+    assert!(wide.validate().unwrap_err().to_string().contains("uncertainty.backlash"));
     // A stepper's spread on servos, and a servo's on torque motors, are refused by name.
     let stepper_spread = ActuatorSpread { holding_torque: 0.2, ..ActuatorSpread::default() };
     assert!(stepper_spread.check_for(&nominal).unwrap_err().to_string().contains("uncertainty.holding_torque"));

@@ -36,6 +36,19 @@ def test_play_returns_the_goals_sent_in_ticks(tmp_path):
     assert game.game["misplaced"] == []
 
 
+def test_plain_goals_are_the_plan_in_whole_counts_every_bus_period(tmp_path):
+    # Not the record read twice: the plan's angles (the move's q_des, every 10th 1 ms step,
+    # the 100 Hz bus's) quantised to the servo's counts are what the plain host sent.
+    setup = tmp_path / "big.toml"
+    setup.write_text(BIG)
+    game = chessarm.play(moves="e4", arm=setup, actuator="big", servo_command="plain")
+    goals = game.servo_goals["001-e2e4"]
+    planned = game.moves["moves/001-e2e4.csv"]
+    count = 2 * np.pi / 4096
+    assert len(goals.t) == len(planned.t) > 100
+    assert np.array_equal(goals.goal, np.round(planned.q_des / count) * count)
+
+
 def test_tune_sweeps_the_p_register(tmp_path):
     setup = tmp_path / "big.toml"
     setup.write_text(BIG)

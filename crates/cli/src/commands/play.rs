@@ -139,7 +139,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     settings.limits.tracking = study.tracking(
         setup,
         &settings.controller.gains,
-        settings.payload_feedforward,
+        settings.payload_feedforward && crate::actuators::cancels_inertia(&settings.controller.kind),
         settings.controller_knows_payload,
     );
     let mut source = source(args)?;

@@ -113,8 +113,12 @@ fn run_trial(
         crate::actuators::drive(setup, &mut settings);
         settings.pieces = setup.pieces;
         settings.limits = setup.motion;
-        settings.limits.tracking =
-            study.tracking(setup, &spec.gains, options.payload_feedforward, options.controller_knows_payload);
+        settings.limits.tracking = study.tracking(
+            setup,
+            &spec.gains,
+            options.payload_feedforward && crate::actuators::cancels_inertia(&spec.kind),
+            options.controller_knows_payload,
+        );
         settings.timing = setup.timing;
         settings.record_every = 0;
         settings.controller_knows_payload = options.controller_knows_payload;

@@ -234,7 +234,10 @@ fn game_candidate(
     }
     settings.record_every = 0;
     settings.controller_knows_payload = options.controller_knows_payload;
-    options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE, options.resolution);
+    // The fine points' band with this candidate's servos (their stiffness is swept).
+    let resolution =
+        crate::conditions::Resolution { holding_band: drive.actuators.holding_band(&setup.arm), ..options.resolution };
+    options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE, resolution);
     settings.integrator = options.integrator;
     let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
         let mut place = 0.0f64;
@@ -403,8 +406,7 @@ impl Drive {
 
     /// The tracking budget of a game's carried pieces for this drive.
     fn tracking(&self, setup: &Setup) -> chessarm_chess::tasks::Tracking {
-        let tracking = setup.motion.tracking.with_gains(&self.gains);
-        tracking.with_servos(&self.actuators, &setup.arm).unwrap_or(tracking)
+        setup.motion.tracking.for_actuators(&self.gains, &self.actuators, &setup.arm)
     }
 }
 

@@ -3,7 +3,7 @@
 //! (the supply's voltage), drawn per trial of a robustness study.
 //!
 //! A draw scales each servo's torque constant `kt` (the back-EMF constant with it: one
-//! constant), its winding resistance `R` and its gear friction (Coulomb and viscous, one
+//! constant; and its current limit's torque, `max_torque`, with it), its winding resistance `R` and its gear friction (Coulomb and viscous, one
 //! factor) by factors uniform in `[1 − r, 1 + r]`, draws its backlash uniformly from a range,
 //! and scales the one supply voltage `V` that feeds every servo; a stepper's holding torque
 //! (and with it its pull-out torque) and gear friction are scaled alike. The firmware's
@@ -75,6 +75,13 @@ impl ActuatorSpread {
         }
         if let Some(range) = &self.backlash {
             range.validate("uncertainty.backlash", 0.0)?;
+            if range.high >= 0.5 {
+                return Err(ModelError::InvalidField {
+                    field: "uncertainty.backlash".into(),
+                    value: format!("[{}, {}]", range.low, range.high),
+                    reason: "a servo's backlash must be below 0.5 rad",
+                });
+            }
         }
         Ok(())
     }
@@ -148,6 +155,8 @@ impl ActuatorSpread {
                     let backlash = self.backlash.map_or(spec.backlash, |range| range.draw(rng));
                     spec.supply_voltage *= drawn.supply_voltage_scale;
                     spec.torque_constant *= kt;
+                    // The firmware limits the current: the torque it lets through scales with kt.
+                    spec.max_torque *= kt;
                     spec.resistance *= r;
                     spec.coulomb_friction *= friction;
                     spec.viscous_friction *= friction;
