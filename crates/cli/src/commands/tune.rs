@@ -101,30 +101,13 @@ impl Candidate {
     }
 
     fn csv_line(&self) -> String {
-        if let Some(command) = self.servo_command {
-            return format!(
-                "{},{},{:?},{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{},{}",
-                self.index,
-                command.name(),
-                self.p_gain,
-                self.status.replace(',', ";"),
-                self.max_tip_error_mm,
-                self.rms_tip_error_mm,
-                self.place_error_mm,
-                self.rms_joint_error_rad,
-                self.max_joint_error_rad,
-                self.peak_torque_nm,
-                self.peak_torque_ratio,
-                self.saturated_samples,
-                self.misplaced
-            );
-        }
+        let setting = match self.servo_command {
+            Some(command) => format!("{},{:?}", command.name(), self.p_gain),
+            None => format!("{:?},{:?},{:?}", self.kp, self.kd, self.ki),
+        };
         format!(
-            "{},{:?},{:?},{:?},{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{},{}",
+            "{},{setting},{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{},{}",
             self.index,
-            self.kp,
-            self.kd,
-            self.ki,
             self.status.replace(',', ";"),
             self.max_tip_error_mm,
             self.rms_tip_error_mm,
