@@ -11,13 +11,13 @@
 //! where the simulation put it down.
 
 use crate::output::write_atomic;
-use crate::urdf::{JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, TOOL_RADIUS};
 use anyhow::Result;
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::pieces::{PieceSet, role_name};
 use chessarm_chess::play::Handling;
 use chessarm_chess::shakmaty::{Color, Square};
 use chessarm_chess::table::{Location, Table};
+use chessarm_core::arm::bodies::{JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, TOOL_RADIUS};
 use chessarm_core::arm::model::ArmModel;
 use chessarm_core::nalgebra::Vector3;
 use chessarm_core::sim::StepRecord;

@@ -7,13 +7,15 @@
 //! with roll `α_i` in `F_i`, which places its inertial block; a fixed joint puts the `tool`
 //! frame (DH frame 4, its origin at the tool tip) on the last link.
 //!
-//! Every link has the same `<visual>` and `<collision>` bodies: a cylinder for its joint's
+//! Every link has the same `<visual>` and `<collision>` bodies, the solids of
+//! [`chessarm_core::arm::bodies`]: a cylinder for its joint's
 //! motor housing about the joint axis, and a cylinder (a sphere where the DH offset is zero)
 //! from the joint to the next one, along `(a_i, 0, d_i)` in `F_i`. The tool link keeps its
 //! frame in tools that fuse bodies joined by fixed joints: a `<mujoco>` extension tells
 //! MuJoCo's importer not to (`fusestatic="false"`) and gives it the model's gravity, and the
 //! tool carries a small sphere and a trace of mass.
 
+use chessarm_core::arm::bodies::{JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, TOOL_RADIUS};
 use chessarm_core::arm::kinematics::dh_transform;
 use chessarm_core::arm::model::{ArmModel, DhParameters, JointLimits};
 use chessarm_core::nalgebra::{Rotation3, Vector3};
@@ -36,13 +38,6 @@ fn dh_fixed_part(dh: &DhParameters) -> (Vector3<f64>, Rotation3<f64>) {
     let fixed = dh_transform(&DhParameters { theta_offset: 0.0, ..*dh }, 0.0);
     (fixed.translation.vector, fixed.rotation)
 }
-
-/// Radius of the drawn links and of the joints' motor housings, and the housings' length, m.
-pub const LINK_RADIUS: f64 = 0.015;
-pub const JOINT_RADIUS: f64 = 0.022;
-pub const JOINT_LENGTH: f64 = 0.05;
-/// Radius of the tool's marker sphere, m.
-pub const TOOL_RADIUS: f64 = 0.008;
 
 /// The same `<visual>` and `<collision>` for `geometry` placed at `at`.
 fn body(text: &mut String, at: &str, geometry: &str) {

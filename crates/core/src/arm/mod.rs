@@ -1,5 +1,6 @@
 //! The arm: model, kinematics, inverse kinematics and dynamics.
 
+pub mod bodies;
 pub mod chain;
 pub mod dynamics;
 pub mod kinematics;
