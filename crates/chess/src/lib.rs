@@ -2,6 +2,7 @@
 //! (through shakmaty and pgn-reader), chess moves to pick-and-place tasks, and opponents.
 
 pub mod board;
+pub mod clearance;
 pub mod motion;
 pub mod notation;
 pub mod opponent;
