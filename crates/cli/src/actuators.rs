@@ -454,11 +454,12 @@ impl ServoBus {
             None => counts_per_revolution.map(|c| (c / 2.0).round()),
         };
         let bus = Self { ids, directions, zero_ticks, counts_per_revolution };
-        // Every angle the joint may take must be a tick of its servo's register.
+        // Every angle the joint may take must be a tick of its servo's register (a joint that
+        // turns a whole turn, ±π, may end on the register's wrap: each goal sent is checked too).
         for j in 0..4 {
             let (lower, upper) = setup.user_limits(j);
             let ticks = [bus.ticks(j, lower), bus.ticks(j, upper)];
-            if let Some(tick) = ticks.iter().find(|t| !(**t >= 0.0 && **t < counts_per_revolution[j])) {
+            if let Some(tick) = ticks.iter().find(|t| !(**t >= 0.0 && **t <= counts_per_revolution[j])) {
                 bail!(
                     "servo_bus.zero_ticks = {}: joint {}'s limits [{lower:.4}, {upper:.4}] rad reach tick {tick}, outside its \
                      servo's 0–{}; give the tick of the joint's zero",
