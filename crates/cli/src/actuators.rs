@@ -409,11 +409,7 @@ pub struct ServoBus {
 impl ServoBus {
     /// The setup's bus: its `[servo_bus]` table over the defaults, checked.
     pub fn of(setup: &Setup) -> Result<Self> {
-        let counts_per_revolution = setup.actuators.joints.map(|a| match a {
-            Actuator::Servo(spec) => spec.counts_per_revolution,
-            Actuator::Stepper(spec) => std::f64::consts::TAU / spec.resolution(),
-            Actuator::Torque => f64::NAN,
-        });
+        let counts_per_revolution = setup.actuators.joints.map(|a| a.counts_per_revolution().unwrap_or(f64::NAN));
         let file = setup.servo_bus.clone().unwrap_or_default();
         let four = |field: &str, n: usize| -> Result<()> {
             if n != 4 {

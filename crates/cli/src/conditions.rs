@@ -420,12 +420,9 @@ impl Study {
     pub fn tip_quantum(&self, setup: &Setup) -> f64 {
         let mut encoders = self.sensors.encoders;
         for (encoder, actuator) in encoders.iter_mut().zip(&setup.actuators.joints) {
-            let counts = match actuator {
-                chessarm_core::sim::actuator::Actuator::Torque => continue,
-                chessarm_core::sim::actuator::Actuator::Servo(spec) => spec.counts_per_revolution,
-                chessarm_core::sim::actuator::Actuator::Stepper(spec) => std::f64::consts::TAU / spec.resolution(),
-            };
-            encoder.counts_per_rev = Some(encoder.counts_per_rev.map_or(counts, |c| c.min(counts)));
+            if let Some(counts) = actuator.counts_per_revolution() {
+                encoder.counts_per_rev = Some(encoder.counts_per_rev.map_or(counts, |c| c.min(counts)));
+            }
         }
         chessarm_core::plan::fine_point::tip_quantum(&setup.arm, &encoders)
     }

@@ -9,7 +9,7 @@
 //!
 //! Every link has the same `<visual>` and `<collision>` bodies, the solids of
 //! [`chessarm_core::arm::bodies`]: a cylinder for its joint's
-//! motor housing about the joint axis, and a cylinder (a sphere where the DH offset is zero)
+//! motor housing about the joint axis, and a cylinder (none where the DH offset is zero)
 //! from the joint to the next one, along `(a_i, 0, d_i)` in `F_i`. The tool link keeps its
 //! frame in tools that fuse bodies joined by fixed joints: a `<mujoco>` extension tells
 //! MuJoCo's importer not to (`fusestatic="false"`) and gives it the model's gravity, and the

@@ -98,6 +98,15 @@ pub fn compose_frames<const N: usize>(
     }
 }
 
+/// Each joint's longest lever to the tool tip, m: the sum of the DH lengths `|a|` from the joint
+/// on and `|d|` beyond it, the farthest the tip can be from the joint's axis at any angles. A
+/// joint turned by `δ` rad moves the tip by at most `δ` times its lever.
+pub fn longest_levers<const N: usize>(model: &ArmModel<N>) -> [f64; N] {
+    std::array::from_fn(|j| {
+        (j..N).map(|i| model.link(i).dh.a.abs() + if i > j { model.link(i).dh.d.abs() } else { 0.0 }).sum()
+    })
+}
+
 /// World poses of all DH frames for one joint configuration `q` (rad).
 #[derive(Debug, Clone, Copy)]
 pub struct FrameChain<const N: usize> {

@@ -142,14 +142,9 @@ pub struct Wait {
 }
 
 /// How far the tool tip can move while every encoder of `encoders` moves by one count, m: per
-/// joint a count (`2π / counts_per_rev`, 0 for an exact angle) times its longest lever, the
-/// sum of the DH lengths `|a| + |d|` from the joint to the tip.
+/// joint a count (`2π / counts_per_rev`, 0 for an exact angle) times its longest lever
+/// ([`crate::arm::kinematics::longest_levers`]).
 pub fn tip_quantum<const N: usize>(model: &ArmModel<N>, encoders: &[crate::sense::sensors::EncoderSpec; N]) -> f64 {
-    (0..N)
-        .map(|j| {
-            let lever: f64 =
-                (j..N).map(|i| model.link(i).dh.a.abs() + if i > j { model.link(i).dh.d.abs() } else { 0.0 }).sum();
-            encoders[j].counts_per_rev.map_or(0.0, |counts| std::f64::consts::TAU / counts * lever)
-        })
-        .sum()
+    let levers = crate::arm::kinematics::longest_levers(model);
+    (0..N).map(|j| encoders[j].counts_per_rev.map_or(0.0, |counts| std::f64::consts::TAU / counts * levers[j])).sum()
 }

@@ -42,6 +42,18 @@ pub enum Actuator {
     Stepper(StepperSpec),
 }
 
+impl Actuator {
+    /// The counts per output revolution the host can command and read: a servo's encoder
+    /// counts, a stepper's microsteps; `None` for a torque motor.
+    pub fn counts_per_revolution(&self) -> Option<f64> {
+        match self {
+            Actuator::Torque => None,
+            Actuator::Servo(spec) => Some(spec.counts_per_revolution),
+            Actuator::Stepper(spec) => Some(std::f64::consts::TAU / spec.resolution()),
+        }
+    }
+}
+
 /// The actuators of an arm's `N` joints: all torque motors, or all position servos (a
 /// controller sends one kind of command).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -133,14 +145,12 @@ impl<const N: usize> Actuators<N> {
     /// servo holds still off its target — its deadband, one count of its encoder, and the
     /// error its loop's stiffness leaves against its gear's Coulomb friction,
     /// `deadband + 2π/counts + τ_c / (kp kt V / R)` — or a stepper's microstep, times the
-    /// joint's longest lever to the tip (the sum of the DH lengths `|a| + |d|` beyond it),
-    /// summed. 0 with torque motors. A host that waits for the arm to be at a fine point can
+    /// joint's longest lever to the tip ([`crate::arm::kinematics::longest_levers`]), summed. 0 with torque motors. A host that waits for the arm to be at a fine point can
     /// ask no better of these actuators: the tip settles anywhere within this of its goal.
     pub fn holding_band(&self, model: &ArmModel<N>) -> f64 {
+        let levers = crate::arm::kinematics::longest_levers(model);
         (0..N)
             .map(|j| {
-                let lever: f64 =
-                    (j..N).map(|i| model.link(i).dh.a.abs() + if i > j { model.link(i).dh.d.abs() } else { 0.0 }).sum();
                 let angle = match self.joints[j] {
                     Actuator::Torque => 0.0,
                     Actuator::Servo(spec) => {
@@ -148,7 +158,7 @@ impl<const N: usize> Actuators<N> {
                     }
                     Actuator::Stepper(spec) => spec.resolution(),
                 };
-                angle * lever
+                angle * levers[j]
             })
             .sum()
     }
