@@ -1,26 +1,39 @@
 //! The arm's solids (`chessarm_core::arm::bodies`) where the kinematics put the joints.
 
-use chessarm_core::arm::bodies::{JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, Part, Solid, TOOL_RADIUS, solids_into};
+use chessarm_core::arm::bodies::{
+    Gripper, Hand, Held, JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, Part, Solid, most_solids, solids_into,
+};
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::arm::preset::report_arm;
+use chessarm_core::nalgebra::Vector3;
 
-/// At any angles the links run joint to joint and end at the tool tip, each housing is centred
-/// on its joint's axis point and lies along the axis, the tool's sphere is on the tip, and a
+/// At any angles the links run joint to joint and the last ends at the palm on the tool's
+/// approach axis, each housing is centred on its joint's axis point and lies along the axis,
+/// the fingers' inner faces are half the gap either side of the tip along the last joint's
+/// axis and reach past the tip, the held piece hangs from the tip by its grip height, and a
 /// buffer kept between calls is refilled, not grown.
 #[test]
 fn the_solids_follow_the_kinematic_chain() {
     let arm = report_arm();
+    let gripper = Gripper::default();
+    let held = Held { radius: 0.0145, height: 0.05, grip_height: 0.04 };
+    let hand = Hand { gripper, gap: 0.041, held: Some(held) };
     let mut solids = Vec::new();
     for q in [[0.0, 0.5, -1.0, 0.3], [1.2, 1.4, -2.1, -0.4], [-2.0, 0.2, 0.4, 1.1]] {
         let q = JointVector::from(q);
-        solids_into(&arm, &q, &mut solids);
+        solids_into(&arm, &q, &hand, &mut solids);
         let capacity = solids.capacity();
-        solids_into(&arm, &q, &mut solids);
+        solids_into(&arm, &q, &hand, &mut solids);
         assert_eq!(solids.capacity(), capacity);
-        assert!(solids.len() <= 2 * 4 + 2);
+        assert!(solids.len() <= most_solids(4));
         let chain = FrameChain::new(&arm, &q);
+        let tip = chain.tip();
+        let approach = (tip - chain.joint_axis(3).1).normalize();
+        let closing = chain.joint_axis(3).0;
+        let palm = tip - gripper.palm_depth() * approach;
         let mut from = chain.joint_axis(0).1;
+        let mut fingers = 0;
         for solid in &solids {
             match (solid.part, solid.solid) {
                 (Part::Housing(j), Solid::Cylinder { a, b, radius }) => {
@@ -30,24 +43,60 @@ fn the_solids_follow_the_kinematic_chain() {
                     assert_eq!(radius, JOINT_RADIUS);
                 }
                 (Part::Link(i), Solid::Cylinder { a, b, radius }) => {
-                    // Each link starts at its joint's point and ends at the next frame's origin.
+                    // Each link starts at its joint's point and ends at the next frame's origin
+                    // (the last at the palm)…
                     assert!((a - chain.joint_axis(i - 1).1).norm() < 1e-12);
-                    assert!((b - chain.body_pose(i - 1).translation.vector).norm() < 1e-12);
+                    let end = if i == 4 { palm } else { chain.body_pose(i - 1).translation.vector };
+                    assert!((b - end).norm() < 1e-12);
                     // …where the previous one ended (the links form one chain from the base).
                     assert!((a - from).norm() < 1e-12);
                     from = b;
                     assert_eq!(radius, LINK_RADIUS);
                 }
-                (Part::Tool, Solid::Sphere { centre, radius }) => {
-                    assert!((centre - chain.tip()).norm() < 1e-12);
-                    assert_eq!(radius, TOOL_RADIUS);
+                (Part::Finger(k), Solid::Cuboid { centre, axes, half }) => {
+                    fingers += 1;
+                    let side = if k == 1 { -1.0 } else { 1.0 };
+                    // The inner face: half the gap from the tool's axis along the closing axis.
+                    let inner = centre - side * half.x * axes.column(0);
+                    let r = inner - tip;
+                    assert!((r.dot(&closing) - side * 0.5 * hand.gap).abs() < 1e-12, "{k}: {r}");
+                    // The end of the finger: `finger_reach` past the tip, its root at the palm.
+                    let along = (centre - tip).dot(&approach);
+                    assert!((along + half.y - gripper.finger_reach).abs() < 1e-12);
+                    assert!((along - half.y + gripper.palm_depth()).abs() < 1e-12);
+                    assert!((axes.transpose() * axes - chessarm_core::nalgebra::Matrix3::identity()).norm() < 1e-12);
+                    assert!((axes.determinant() - 1.0).abs() < 1e-12);
                 }
-                (Part::Pedestal, Solid::Cylinder { b, .. }) => assert_eq!(b.norm(), 0.0),
+                (Part::Held, Solid::Cylinder { a, b, radius }) => {
+                    assert!((a - (tip + held.grip_height * approach)).norm() < 1e-12);
+                    assert!(((a - b).norm() - held.height).abs() < 1e-12);
+                    assert_eq!(radius, held.radius);
+                }
+                (Part::Pedestal, Solid::Cylinder { b, .. }) => assert_eq!(b, arm.base()),
                 other => panic!("unexpected solid {other:?}"),
             }
         }
-        // The chain of links reaches the tool tip.
-        assert!((from - chain.tip()).norm() < 1e-12);
+        // The chain of links reaches the palm.
+        assert!((from - palm).norm() < 1e-12);
+        assert_eq!(fingers, 2);
         assert_eq!(solids.iter().filter(|s| matches!(s.part, Part::Housing(_))).count(), 4);
     }
+}
+
+/// The lowest point of each kind of solid, against points on its surface: a tilted cylinder's
+/// rim, a sphere's bottom, a box's lowest corner.
+#[test]
+fn the_lowest_points_are_the_closed_forms() {
+    let a = Vector3::new(0.0, 0.0, 0.3);
+    let b = Vector3::new(0.3, 0.0, 0.7);
+    // The axis rises 4 in 5 (u_z = 0.8): the rim's lowest point is r √(1 − 0.64) = 0.6 r below
+    // the lower end's centre.
+    let cylinder = Solid::Cylinder { a, b, radius: 0.05 };
+    assert!((cylinder.lowest() - (0.3 - 0.05 * 0.6)).abs() < 1e-12);
+    let sphere = Solid::Sphere { centre: a, radius: 0.05 };
+    assert!((sphere.lowest() - 0.25).abs() < 1e-12);
+    // A cube of half size 0.1 turned 45° about x: its lowest edge is 0.1 √2 below its centre.
+    let turn = chessarm_core::nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_4);
+    let cube = Solid::Cuboid { centre: a, axes: *turn.matrix(), half: Vector3::repeat(0.1) };
+    assert!((cube.lowest() - (0.3 - 0.1 * 2f64.sqrt())).abs() < 1e-12);
 }

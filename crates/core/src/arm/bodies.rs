@@ -1,23 +1,104 @@
 //! The arm's solids: what it is made of in space, for drawing it (the URDF export, the replay)
-//! and for keeping it clear of the pieces and the board.
+//! and for keeping it clear of the pieces, the table and itself.
 //!
 //! Every joint has a motor housing, a cylinder of [`JOINT_RADIUS`] and [`JOINT_LENGTH`] about
 //! its axis centred on the axis' point `p_j` of its DH frame; every link a cylinder of
 //! [`LINK_RADIUS`] from its joint's point to the next frame's origin (none where they
-//! coincide); a pedestal of twice the joint radius stands under the base, and the tool tip
-//! carries a sphere of [`TOOL_RADIUS`]. All positions are in the base frame, m.
+//! coincide), the last one ending at the gripper's palm; a pedestal of twice the joint radius
+//! stands under the base. The gripper ([`Gripper`]) has two fingers, boxes that hang from the
+//! palm along the tool's approach axis `x_N` (the last frame's x: from the last joint's axis to
+//! the tip, straight down when the tool points down) past the tool tip, and close along the
+//! last joint's axis `z_{N−1}` (the wrist's pitch axis): their inner faces are `gap / 2` either
+//! side of the tip. A carried piece is an upright cylinder hanging from the tip by its grip
+//! height. All positions are in the base frame, m.
 
 use crate::arm::kinematics::FrameChain;
 use crate::arm::model::{ArmModel, JointVector};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 /// Radius of the links' cylinders, m.
 pub const LINK_RADIUS: f64 = 0.015;
 /// Radius and length of the joints' motor housings, m.
 pub const JOINT_RADIUS: f64 = 0.022;
 pub const JOINT_LENGTH: f64 = 0.05;
-/// Radius of the tool's sphere, m.
+/// Radius of the tool's marker sphere in drawings (the URDF export, the replay), m. It is not
+/// a solid: the gripper's fingers are.
 pub const TOOL_RADIUS: f64 = 0.008;
+
+/// A parallel gripper's fingers, m.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gripper {
+    /// From the palm to the fingers' ends along the approach axis.
+    pub finger_length: f64,
+    /// How far the fingers' ends reach past the tool tip (the grip point, where the pads'
+    /// middle holds a piece).
+    pub finger_reach: f64,
+    /// A finger's thickness along the closing direction.
+    pub finger_thickness: f64,
+    /// A finger's width across the closing direction.
+    pub finger_width: f64,
+    /// The gap between each finger and a piece when the gripper is open around it, per side.
+    pub opening: f64,
+}
+
+impl Default for Gripper {
+    /// Printed or sheet fingers of a hobby parallel gripper: 45 mm long, reaching 5 mm past
+    /// the grip point, 6 mm thick, 14 mm wide, opened 6 mm beyond the piece on each side.
+    fn default() -> Self {
+        Self { finger_length: 0.045, finger_reach: 0.005, finger_thickness: 0.006, finger_width: 0.014, opening: 0.006 }
+    }
+}
+
+impl Gripper {
+    /// Checks every size is finite and > 0 (the opening ≥ 0) and the fingers reach past the
+    /// tip: the first field that is not, with what is required.
+    pub fn validated(self) -> Result<Self, (&'static str, f64, &'static str)> {
+        for (field, value) in [
+            ("finger_length", self.finger_length),
+            ("finger_thickness", self.finger_thickness),
+            ("finger_width", self.finger_width),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err((field, value, "must be finite and > 0"));
+            }
+        }
+        for (field, value) in [("finger_reach", self.finger_reach), ("opening", self.opening)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err((field, value, "must be finite and >= 0"));
+            }
+        }
+        if self.finger_reach >= self.finger_length {
+            return Err(("finger_reach", self.finger_reach, "must be shorter than finger_length"));
+        }
+        Ok(self)
+    }
+
+    /// The gap between the fingers when open around a piece of base `diameter`, m.
+    pub fn open_gap(&self, diameter: f64) -> f64 {
+        diameter + 2.0 * self.opening
+    }
+
+    /// How far the palm is behind the tool tip along the approach axis, m.
+    pub fn palm_depth(&self) -> f64 {
+        self.finger_length - self.finger_reach
+    }
+}
+
+/// A piece held by the gripper: an upright cylinder whose base is `grip_height` below the tip.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Held {
+    pub radius: f64,
+    pub height: f64,
+    pub grip_height: f64,
+}
+
+/// What the hand does: the gap between the fingers' inner faces (m) and the piece it holds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hand {
+    pub gripper: Gripper,
+    pub gap: f64,
+    pub held: Option<Held>,
+}
 
 /// A convex solid in the base frame, m.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,15 +107,62 @@ pub enum Solid {
     Cylinder { a: Vector3<f64>, b: Vector3<f64>, radius: f64 },
     /// A sphere of `radius` about `centre`.
     Sphere { centre: Vector3<f64>, radius: f64 },
+    /// A box about `centre` with half sizes `half` along the columns of `axes` (a rotation).
+    Cuboid { centre: Vector3<f64>, axes: Matrix3<f64>, half: Vector3<f64> },
 }
 
-/// The part of the arm a solid belongs to (joints and links 1-based, as the report counts them).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+impl Solid {
+    /// The lowest height any point of the solid reaches, m: `min(a_z, b_z) − r √(1 − u_z²)`
+    /// for a cylinder of axis `u`, `c_z − r` for a sphere, `c_z − Σ_k |R_zk| h_k` for a box.
+    pub fn lowest(&self) -> f64 {
+        match self {
+            Solid::Cylinder { a, b, radius } => {
+                let length = (b - a).norm();
+                let uz = if length > 0.0 { (b.z - a.z) / length } else { 1.0 };
+                a.z.min(b.z) - radius * (1.0 - uz * uz).max(0.0).sqrt()
+            }
+            Solid::Sphere { centre, radius } => centre.z - radius,
+            Solid::Cuboid { centre, axes, half } => {
+                centre.z - (0..3).map(|k| axes[(2, k)].abs() * half[k]).sum::<f64>()
+            }
+        }
+    }
+
+    /// The farthest any point of the solid is from the point `p`, m (a bound for a cylinder:
+    /// its ends' distances plus its radius).
+    pub fn farthest_from(&self, p: &Vector3<f64>) -> f64 {
+        match self {
+            Solid::Cylinder { a, b, radius } => (a - p).norm().max((b - p).norm()) + radius,
+            Solid::Sphere { centre, radius } => (centre - p).norm() + radius,
+            Solid::Cuboid { centre, half, .. } => (centre - p).norm() + half.norm(),
+        }
+    }
+}
+
+/// The part of the arm a solid belongs to (joints and links 1-based, as the report counts them;
+/// fingers 1 and 2 on the negative and positive side of the closing axis).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Part {
     Pedestal,
     Housing(usize),
     Link(usize),
-    Tool,
+    Finger(usize),
+    /// The piece the gripper holds.
+    Held,
+}
+
+impl Part {
+    /// The rigid body the part moves with: 0 the base, `i` link `i` (the fingers and a held
+    /// piece the last link's, `n` the arm's joint count). A housing moves with the link before
+    /// its joint (it is round about the joint's axis, so either side would do).
+    pub fn body(&self, n: usize) -> usize {
+        match *self {
+            Part::Pedestal => 0,
+            Part::Housing(j) => j - 1,
+            Part::Link(i) => i,
+            Part::Finger(_) | Part::Held => n,
+        }
+    }
 }
 
 impl std::fmt::Display for Part {
@@ -43,7 +171,8 @@ impl std::fmt::Display for Part {
             Part::Pedestal => write!(f, "pedestal"),
             Part::Housing(j) => write!(f, "joint {j}'s housing"),
             Part::Link(i) => write!(f, "link {i}"),
-            Part::Tool => write!(f, "tool"),
+            Part::Finger(k) => write!(f, "finger {k}"),
+            Part::Held => write!(f, "held piece"),
         }
     }
 }
@@ -55,16 +184,27 @@ pub struct ArmSolid {
     pub solid: Solid,
 }
 
-/// The arm's solids at the joint angles `q` (rad) into `out` (cleared first; at most `2N + 2`,
-/// so a buffer kept between calls allocates once): the pedestal, then per joint its housing and
-/// its link, then the tool.
-pub fn solids_into<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, out: &mut Vec<ArmSolid>) {
+/// Most solids [`solids_into`] makes for an arm of `n` joints: the pedestal, a housing and a
+/// link per joint, two fingers and a held piece.
+pub const fn most_solids(n: usize) -> usize {
+    2 * n + 4
+}
+
+/// The arm's solids at the joint angles `q` (rad) with the hand `hand` into `out` (cleared
+/// first; at most [`most_solids`], so a buffer kept between calls allocates once): the
+/// pedestal, then per joint its housing and its link, then the fingers and the held piece.
+pub fn solids_into<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, hand: &Hand, out: &mut Vec<ArmSolid>) {
     out.clear();
     let chain = FrameChain::new(model, q);
+    let base = model.base();
     out.push(ArmSolid {
         part: Part::Pedestal,
-        solid: Solid::Cylinder { a: -JOINT_LENGTH * Vector3::z(), b: Vector3::zeros(), radius: 2.0 * JOINT_RADIUS },
+        solid: Solid::Cylinder { a: base - JOINT_LENGTH * Vector3::z(), b: base, radius: 2.0 * JOINT_RADIUS },
     });
+    let tip = chain.tip();
+    let tool = chain.body_pose(N - 1).rotation;
+    let approach: Vector3<f64> = tool * Vector3::x();
+    let palm = tip - hand.gripper.palm_depth() * approach;
     for j in 0..N {
         let (axis, point) = chain.joint_axis(j);
         let half = 0.5 * JOINT_LENGTH * axis;
@@ -72,7 +212,7 @@ pub fn solids_into<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, out:
             part: Part::Housing(j + 1),
             solid: Solid::Cylinder { a: point - half, b: point + half, radius: JOINT_RADIUS },
         });
-        let next = chain.body_pose(j).translation.vector;
+        let next = if j == N - 1 { palm } else { chain.body_pose(j).translation.vector };
         if (next - point).norm() > 1e-9 {
             out.push(ArmSolid {
                 part: Part::Link(j + 1),
@@ -80,5 +220,21 @@ pub fn solids_into<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, out:
             });
         }
     }
-    out.push(ArmSolid { part: Part::Tool, solid: Solid::Sphere { centre: chain.tip(), radius: TOOL_RADIUS } });
+    let closing = chain.joint_axis(N - 1).0;
+    let across = closing.cross(&approach);
+    let axes = Matrix3::from_columns(&[closing, approach, across]);
+    let g = &hand.gripper;
+    let half = Vector3::new(0.5 * g.finger_thickness, 0.5 * g.finger_length, 0.5 * g.finger_width);
+    let along = g.finger_reach - 0.5 * g.finger_length;
+    for (k, side) in [(1, -1.0), (2, 1.0)] {
+        let centre = tip + along * approach + side * (0.5 * hand.gap + half.x) * closing;
+        out.push(ArmSolid { part: Part::Finger(k), solid: Solid::Cuboid { centre, axes, half } });
+    }
+    if let Some(held) = hand.held {
+        let bottom = tip + held.grip_height * approach;
+        out.push(ArmSolid {
+            part: Part::Held,
+            solid: Solid::Cylinder { a: bottom, b: bottom - held.height * approach, radius: held.radius },
+        });
+    }
 }
