@@ -7,12 +7,15 @@
 //! exactly to their squares.
 
 use crate::board::BoardGeometry;
+use crate::clearance::moves::{Carry, ClearanceCheck, MoveClearance, check_move};
+use crate::clearance::{Rules, Scratch, reach_bound};
 use crate::motion::{PhaseTimes, PlannedMove, TimingMode, plan_move};
 use crate::outcome::{GameOutcome, outcome, position_key};
 use crate::pieces::PieceSet;
 use crate::table::{Location, Misplaced, Table, TableError};
 use crate::tasks::{MotionLimits, MoveKind, PlannedTask, TaskError, classify, move_tasks};
-use chessarm_core::arm::model::ArmModel;
+use chessarm_core::arm::bodies::{Hand, Held};
+use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
 use chessarm_core::control::JointState;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
@@ -77,6 +80,10 @@ pub struct PlaySettings {
     /// The true servos or steppers of the plant, drawn around `actuators` (`None`: exactly
     /// `actuators`). The host computes its goals from `actuators`.
     pub true_actuators: Option<Actuators<4>>,
+    /// How every robot move is kept clear of the pieces, the table and the arm itself
+    /// ([`crate::clearance`]): its plan is checked and changed (or refused) before it runs,
+    /// and the simulated motion is checked after. `None`: no check (for measuring its cost).
+    pub clearance: Option<ClearanceCheck>,
 }
 
 /// A robot move's planned motion for hardware ([`chessarm_core::plan::hardware`]).
@@ -124,6 +131,7 @@ impl PlaySettings {
             export_rate: None,
             actuators: Actuators::torque(),
             true_actuators: None,
+            clearance: Some(ClearanceCheck::default()),
         }
     }
 }
@@ -147,6 +155,18 @@ pub enum PlayError {
     Reach(crate::reach::ReachError),
     #[error("tolerance {0} m must be finite and > 0")]
     Tolerance(f64),
+    #[error("gripper.{field} = {value}: {reason}")]
+    Gripper { field: &'static str, value: f64, reason: &'static str },
+    #[error("the clearance margin {0} m must be finite and >= 0")]
+    ClearanceMargin(f64),
+    /// No change of the plan keeps the move clear.
+    #[error(
+        "move {mv}: {part} would come {} mm from {obstacle} {time:.2} s into the move (at least {} mm needed){tried}; \
+         nothing was run",
+        chessarm_core::short_number(distance * 1e3),
+        chessarm_core::short_number(margin * 1e3)
+    )]
+    Contact { mv: String, part: String, obstacle: String, distance: f64, time: f64, margin: f64, tried: String },
     #[error(transparent)]
     Sensing(#[from] SenseError),
     #[error("controller {name}: {source}")]
@@ -202,6 +222,15 @@ pub struct MoveReport {
     /// Per gripper command, in order: its wait at the fine point (robot moves with
     /// [`PlaySettings::in_position`]).
     pub waits: Vec<Wait>,
+    /// Robot moves with [`PlaySettings::clearance`]: the closest approach of the plan that
+    /// ran, and of the simulated motion ([`Executed`]).
+    pub clearance: Option<MoveClearance>,
+    pub executed_clearance: Option<Executed>,
+    /// What the planner changed to keep the move clear, for people ("clearance margin raised
+    /// to 5 cm: link 4 came 1.2 mm from the white king from e1").
+    pub adjustments: Vec<String>,
+    /// The fingers' gap beside a piece when open, m (the gripper's, or less if narrowed).
+    pub opening: Option<f64>,
 }
 
 impl MoveReport {
@@ -267,6 +296,11 @@ struct Sampler {
     /// Steps per bus period when the goals sent to servos are kept (0: not kept).
     bus_steps: usize,
     goals: Vec<ServoGoal>,
+    /// Steps between the joint angles kept for the clearance check (0: not kept).
+    path_steps: usize,
+    path: Vec<(f64, JointVector<4>)>,
+    /// Each joint's largest distance from its reference, rad (with the path kept).
+    deviation: [f64; 4],
 }
 
 impl Observer<4> for Sampler {
@@ -281,6 +315,14 @@ impl Observer<4> for Sampler {
             && let Some(servo) = &record.servo
         {
             self.goals.push(ServoGoal { t: record.t, goal: servo.goal.into() });
+        }
+        if self.path_steps > 0 {
+            if self.seen.is_multiple_of(self.path_steps) {
+                self.path.push((record.t, record.state.q));
+            }
+            for j in 0..4 {
+                self.deviation[j] = self.deviation[j].max((record.state.q[j] - record.reference.q[j]).abs());
+            }
         }
         self.seen += 1;
     }
@@ -315,6 +357,10 @@ pub struct Game {
     history: Vec<u64>,
     /// The sensors and estimator, carried from move to move.
     feedback: Feedback<4>,
+    /// With [`PlaySettings::clearance`]: which parts are checked against what, and the
+    /// sweeps' buffers.
+    rules: Option<Rules>,
+    scratch: Scratch,
 }
 
 impl Game {
@@ -338,6 +384,21 @@ impl Game {
             table.verify(start.board(), settings.tolerance).into_iter().map(|m| (0, "start".to_string(), m)).collect();
         let history = vec![position_key(&start)];
         let feedback = settings.conditions.feedback(settings.control_period)?;
+        let rules = match &settings.clearance {
+            Some(check) => {
+                let gripper = check.gripper.validated().map_err(|(field, value, reason)| PlayError::Gripper {
+                    field,
+                    value,
+                    reason,
+                })?;
+                if !(check.margin.is_finite() && check.margin >= 0.0) {
+                    return Err(PlayError::ClearanceMargin(check.margin));
+                }
+                let hand = Hand { gripper, gap: gripper.open_gap(settings.pieces.widest()), held: None };
+                Some(Rules::for_arm(&arm, &hand, &q, board.surface_height))
+            }
+            None => None,
+        };
         Ok(Self {
             arm,
             settings,
@@ -351,6 +412,8 @@ impl Game {
             misplaced,
             history,
             feedback,
+            rules,
+            scratch: Scratch::default(),
         })
     }
 
@@ -436,6 +499,10 @@ impl Game {
             slowdowns: 0,
             handled: Vec::new(),
             waits: Vec::new(),
+            clearance: None,
+            executed_clearance: None,
+            adjustments: Vec::new(),
+            opening: None,
         };
         match mover {
             Mover::Opponent => {
@@ -487,20 +554,88 @@ impl Game {
         self.table.relocate(from, to, at).map_err(|source| PlayError::Table { mv: name.to_string(), source })
     }
 
+    /// Plans a robot move that keeps clear of the pieces, the table and the arm itself: the
+    /// plan is checked ([`check_move`]); where it comes nearer than the margin, a finger beside
+    /// a piece is first opened less (halved down to 1 mm a side), then the clearance margin of
+    /// the traverses is raised (by 2 cm, up to three times), and a move still too near is
+    /// refused. Returns the plan, its clearance, what was changed and the hand's gripper.
+    fn plan_clear(
+        &mut self,
+        mv: &Move,
+        name: &str,
+    ) -> Result<(PlannedMove, Option<MoveClearance>, Vec<String>, Option<ClearanceCheck>), PlayError> {
+        let settings = &self.settings;
+        let mut limits = settings.limits;
+        let mut check = settings.clearance.clone();
+        let mut adjustments = Vec::new();
+        let mut raised = 0;
+        loop {
+            let plan = plan_move(
+                self.tool,
+                &self.position,
+                mv,
+                &self.table,
+                &settings.pieces,
+                &limits,
+                &self.arm,
+                settings.timing,
+                settings.control_period,
+            )?;
+            let (Some(clear), Some(rules)) = (&check, &self.rules) else { return Ok((plan, None, adjustments, None)) };
+            let samples: Vec<(f64, JointVector<4>)> = plan.trajectory.samples().iter().map(|s| (s.t, s.q)).collect();
+            let carries = planned_carries(&self.table, &plan.tasks);
+            let found =
+                check_move(&self.arm, clear, rules, &self.table, &settings.pieces, &samples, &carries, &mut self.scratch);
+            // The fingers must not touch the piece they open around (its gap is the gripper's
+            // opening, which may be narrower than the margin); everything else keeps the margin.
+            let Some(near) = found.clone().filter(|c| c.distance < clear.margin || c.is_contact()) else {
+                return Ok((plan, found, adjustments, check));
+            };
+            let mm = |m: f64| chessarm_core::short_number(m * 1e3);
+            let why = format!("{} came {} mm from {}", near.part, mm(near.distance), near.obstacle_name);
+            let finger = matches!(near.part, chessarm_core::arm::bodies::Part::Finger(_));
+            if finger && near.piece.is_some() && clear.gripper.opening > MIN_OPENING {
+                let mut narrower = clear.clone();
+                narrower.gripper.opening = (0.5 * clear.gripper.opening).max(MIN_OPENING);
+                adjustments.push(format!(
+                    "fingers opened {} mm beside the piece instead of {}: {why}",
+                    mm(narrower.gripper.opening),
+                    mm(clear.gripper.opening)
+                ));
+                check = Some(narrower);
+            } else if raised < RAISES {
+                raised += 1;
+                limits.clearance_margin += RAISE;
+                adjustments.push(format!(
+                    "traverses raised: clearance margin {} cm: {why}",
+                    chessarm_core::short_number(limits.clearance_margin * 1e2)
+                ));
+            } else {
+                let tried = if adjustments.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (after {})", adjustments.iter().map(|a| a.split(':').next().unwrap_or(a)).collect::<Vec<_>>().join(", "))
+                };
+                return Err(PlayError::Contact {
+                    mv: name.to_string(),
+                    part: near.part.to_string(),
+                    obstacle: near.obstacle_name.clone(),
+                    distance: near.distance,
+                    time: near.time,
+                    margin: clear.margin,
+                    tried,
+                });
+            }
+        }
+    }
+
     /// Plans, simulates and applies one robot move.
     fn execute(&mut self, mv: &Move, name: &str, report: &mut MoveReport) -> Result<(), PlayError> {
+        let (plan, planned_clearance, adjustments, check) = self.plan_clear(mv, name)?;
+        report.clearance = planned_clearance;
+        report.adjustments = adjustments;
+        report.opening = check.as_ref().map(|c| c.gripper.opening);
         let settings = &self.settings;
-        let plan = plan_move(
-            self.tool,
-            &self.position,
-            mv,
-            &self.table,
-            &settings.pieces,
-            &settings.limits,
-            &self.arm,
-            settings.timing,
-            settings.control_period,
-        )?;
         let PlannedMove { motion, trajectory, tasks: planned, phases, .. } = &plan;
         report.planned_duration = motion.duration();
         report.phases = *phases;
@@ -546,8 +681,18 @@ impl Game {
         } else {
             0
         };
-        let mut sampler =
-            Sampler { every: settings.record_every, seen: 0, records: Vec::new(), bus_steps, goals: Vec::new() };
+        // The simulated joint angles for the clearance check, every millisecond or step.
+        let path_steps = if check.is_some() { (1e-3 / settings.dt).round().max(1.0) as usize } else { 0 };
+        let mut sampler = Sampler {
+            every: settings.record_every,
+            seen: 0,
+            records: Vec::new(),
+            bus_steps,
+            goals: Vec::new(),
+            path_steps,
+            path: Vec::new(),
+            deviation: [0.0; 4],
+        };
         let (summary, waits) = simulate_fine_points(
             &mut plant,
             &mut self.feedback,
@@ -568,6 +713,8 @@ impl Game {
         let event_time = |k: usize, planned: f64| {
             waits.iter().find(|w: &&Wait| w.event == k).map_or(planned, |w| w.reached + w.duration)
         };
+        let table_before = check.as_ref().map(|_| self.table.clone());
+        let mut carries = Vec::with_capacity(planned.len());
         for (index, step) in planned.iter().enumerate() {
             let standing = self
                 .table
@@ -582,12 +729,15 @@ impl Game {
             );
             let target = self.table.nominal_position(step.task.to);
             if let Some(piece) = self.table.index_at(step.task.from) {
+                let (grip, release) =
+                    (event_time(2 * index, step.plan.grip_time), event_time(2 * index + 1, step.plan.release_time));
+                carries.push(Carry { piece, grip, release, placed });
                 report.handled.push(Handling {
                     piece,
                     from: step.task.from,
                     to: step.task.to,
-                    grip_time: self.robot_time + event_time(2 * index, step.plan.grip_time),
-                    release_time: self.robot_time + event_time(2 * index + 1, step.plan.release_time),
+                    grip_time: self.robot_time + grip,
+                    release_time: self.robot_time + release,
                     standing,
                     placed,
                     grip_tip: Some(summary.tip_at_marks[2 * index]),
@@ -596,6 +746,39 @@ impl Game {
             self.relocate(name, step.task.from, step.task.to, placed)?;
             report.tasks.push(step.task.to_string());
             report.place_errors.push((placed - target).norm());
+        }
+        if let (Some(clear), Some(rules), Some(before), Some(planned)) =
+            (&check, &self.rules, &table_before, &report.clearance)
+        {
+            // Every point of the simulated arm is within Σ_j |q_j − q_ref,j| ρ_j of where the
+            // plan had it at the same reference instant, and the pieces put down in this
+            // move within their placement error of the plan's places.
+            let pieces = &self.settings.pieces;
+            let largest = Held { radius: 0.5 * pieces.widest(), height: pieces.tallest(), grip_height: pieces.highest_grip() };
+            let hand = Hand { held: Some(largest), gap: clear.gripper.open_gap(pieces.widest()), gripper: clear.gripper };
+            let reach = reach_bound(&self.arm, &hand);
+            let strayed: f64 = (0..4).map(|j| sampler.deviation[j] * reach[j]).sum();
+            let moved = report.place_errors.iter().fold(0.0, |a: f64, b| a.max(*b));
+            let at_least = (planned.distance.min(planned.gripped.unwrap_or(f64::INFINITY)) - strayed - moved).max(0.0);
+            // The margin is the plan's; the simulated motion is measured where the bound
+            // cannot rule out a contact.
+            report.executed_clearance = Some(if at_least > 0.0 {
+                Executed::AtLeast(at_least)
+            } else {
+                match check_move(
+                    &self.arm,
+                    clear,
+                    rules,
+                    before,
+                    &self.settings.pieces,
+                    &sampler.path,
+                    &carries,
+                    &mut self.scratch,
+                ) {
+                    Some(measured) => Executed::Measured(measured),
+                    None => Executed::AtLeast(at_least),
+                }
+            });
         }
         report.duration = summary.duration;
         report.max_tip_error = Some(summary.max_tip_error);
@@ -611,6 +794,53 @@ impl Game {
         self.actuators = summary.actuators;
         Ok(())
     }
+}
+
+/// The simulated motion's closest approach: at least the plan's less how far the simulated arm
+/// strayed from it (and the pieces it put down from their planned places), or, where that
+/// bound cannot rule out a contact, measured over the simulated motion itself.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Executed {
+    AtLeast(f64),
+    Measured(MoveClearance),
+}
+
+impl Executed {
+    /// The clearance, m (a lower bound for [`Executed::AtLeast`]).
+    pub fn distance(&self) -> f64 {
+        match self {
+            Executed::AtLeast(d) => *d,
+            Executed::Measured(m) => m.distance.min(m.gripped.unwrap_or(f64::INFINITY)),
+        }
+    }
+
+    /// Whether the simulated arm touched (or may have, within the sweep's resolution) a
+    /// piece, the table or itself.
+    pub fn is_contact(&self) -> bool {
+        matches!(self, Executed::Measured(m) if m.is_contact())
+    }
+}
+
+/// Narrowest gap a side the planner opens the fingers to beside a piece, m.
+const MIN_OPENING: f64 = 0.001;
+/// How much and how many times the planner raises the traverses' clearance margin, m.
+const RAISE: f64 = 0.02;
+const RAISES: usize = 3;
+
+/// The pick-and-places of a plan as [`Carry`]s: each piece's table index and its place's
+/// nominal centre, at the planned grip and release times.
+fn planned_carries(table: &Table, planned: &[PlannedTask]) -> Vec<Carry> {
+    let mut scratch = table.clone();
+    let mut carries = Vec::with_capacity(planned.len());
+    for step in planned {
+        let placed = scratch.nominal_position(step.task.to);
+        if let Some(piece) = scratch.index_at(step.task.from) {
+            carries.push(Carry { piece, grip: step.plan.grip_time, release: step.plan.release_time, placed });
+        }
+        // A plan's tasks were made on this table: each relocation succeeds.
+        let _ = scratch.relocate(step.task.from, step.task.to, placed);
+    }
+    carries
 }
 
 /// The payload events of a move's planned tasks, a grip and a release per task: the plant

@@ -71,13 +71,47 @@ impl Convex {
     }
 }
 
-/// A solid as parry sees it, with its axis-aligned bounding box (m).
+/// A solid as parry sees it, with its axis-aligned bounding box and a capsule that holds it
+/// (a segment and a radius), m.
 #[derive(Debug, Clone, Copy)]
 pub struct Placed {
     pose: Pose,
     shape: Convex,
     low: Vector3<f64>,
     high: Vector3<f64>,
+    capsule: (Vector3<f64>, Vector3<f64>, f64),
+}
+
+/// The shortest distance between the segments `p1 q1` and `p2 q2`, m: the closest points'
+/// parameters clamped to the segments in turn (Ericson, Real-Time Collision Detection 5.1.9).
+pub fn segment_distance(p1: &Vector3<f64>, q1: &Vector3<f64>, p2: &Vector3<f64>, q2: &Vector3<f64>) -> f64 {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.norm_squared(), d2.norm_squared(), d2.dot(&r));
+    let tiny = 1e-18;
+    let (s, t) = if a <= tiny && e <= tiny {
+        (0.0, 0.0)
+    } else if a <= tiny {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(&r);
+        if e <= tiny {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(&d2);
+            let denominator = a * e - b * b;
+            let mut s = if denominator > tiny { ((b * f - c * e) / denominator).clamp(0.0, 1.0) } else { 0.0 };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    ((p1 + d1 * s) - (p2 + d2 * t)).norm()
 }
 
 fn vector(v: &Vector3<f64>) -> Vector {
@@ -108,6 +142,7 @@ impl Placed {
                     shape: Convex::Cylinder(Cylinder::new(0.5 * length, *radius)),
                     low,
                     high,
+                    capsule: (*a, *b, *radius),
                 }
             }
             Solid::Sphere { centre, radius } => Self {
@@ -115,16 +150,22 @@ impl Placed {
                 shape: Convex::Ball(Ball::new(*radius)),
                 low: centre.add_scalar(-radius),
                 high: centre.add_scalar(*radius),
+                capsule: (*centre, *centre, *radius),
             },
             Solid::Cuboid { centre, axes, half } => {
                 let columns = [0, 1, 2].map(|k| vector(&axes.column(k).into_owned()));
                 let rotation = Rotation::from_mat3(&Matrix::from_cols(columns[0], columns[1], columns[2]));
                 let extent = axes.abs() * half;
+                // The capsule along the box's longest axis, as thick as the other two's diagonal.
+                let long = if half.x >= half.y && half.x >= half.z { 0 } else if half.y >= half.z { 1 } else { 2 };
+                let along = axes.column(long) * half[long];
+                let across = (half.norm_squared() - half[long] * half[long]).sqrt();
                 Self {
                     pose: Pose::from_parts(vector(centre), rotation),
                     shape: Convex::Cuboid(Cuboid::new(vector(half))),
                     low: centre - extent,
                     high: centre + extent,
+                    capsule: (centre - along, centre + along, across),
                 }
             }
         }
@@ -136,11 +177,24 @@ impl Placed {
         Self::of(&Solid::Cylinder { a: piece.base, b: top, radius: piece.radius })
     }
 
+    /// Its bounding box, m (lowest and highest corner).
+    pub fn bounds(&self) -> (Vector3<f64>, Vector3<f64>) {
+        (self.low, self.high)
+    }
+
     /// The distance between the two boxes, m: a lower bound of the solids'.
     fn box_gap(&self, other: &Placed) -> f64 {
         let gap = (self.low - other.high).sup(&(other.low - self.high)).sup(&Vector3::zeros());
         gap.norm()
     }
+
+    /// The distance between the capsules that hold the two solids, m: a lower bound of the
+    /// solids' distance (exact for spheres, and for cylinders side by side).
+    fn capsule_gap(&self, other: &Placed) -> f64 {
+        let ((p1, q1, r1), (p2, q2, r2)) = (&self.capsule, &other.capsule);
+        (segment_distance(p1, q1, p2, q2) - r1 - r2).max(0.0)
+    }
+
 
     /// The distance to `other`, m (0 when they touch or overlap). Cylinders, balls and boxes
     /// are convex: parry's dispatcher supports every pair of them, so an error is a bug.
@@ -173,9 +227,11 @@ pub struct Rules {
 }
 
 impl Rules {
-    /// The rules for `model` with `hand`: the table at `table` m, the pedestal and a held
-    /// piece off it, and the pairs of non-neighbouring parts that already touch at `rest`
-    /// (as a setup assistant marks pairs "always in collision").
+    /// The rules for `model` with `hand`: the table at `table` m; a held piece off it (its base
+    /// stands on the table at the grip and the release), and so are the parts that touch the
+    /// table at `rest` (the pedestal and the base's housing stand on it), as are the pairs of
+    /// non-neighbouring parts that already touch at `rest` off each other (as a setup
+    /// assistant marks pairs "always in collision").
     pub fn for_arm<const N: usize>(model: &ArmModel<N>, hand: &Hand, rest: &JointVector<N>, table: f64) -> Self {
         let mut solids = Vec::new();
         solids_into(model, rest, hand, &mut solids);
@@ -188,7 +244,9 @@ impl Rules {
                 }
             }
         }
-        Self { table: Some(table), off_table: vec![Part::Pedestal, Part::Held], touching, self_check: true }
+        let mut off_table = vec![Part::Held];
+        off_table.extend(solids.iter().filter(|s| s.solid.lowest() <= table).map(|s| s.part));
+        Self { table: Some(table), off_table, touching, self_check: true }
     }
 
     fn pair_checked(&self, a: Part, b: Part, n: usize) -> bool {
@@ -201,18 +259,21 @@ fn apart(a: Part, b: Part, n: usize) -> bool {
     a.body(n).abs_diff(b.body(n)) >= 2
 }
 
-/// The closest approaches at one instant: to still obstacles (pieces, table) and between the
-/// arm's own solids (`None` without any).
+/// The closest approaches at one instant (`None` without any): to still obstacles (pieces,
+/// table), between the arm's own solids, and of the fingers to the pieces they are open
+/// around (the one about to be gripped, the one just released: the gap the gripper's opening
+/// leaves them, kept apart so that it does not hide the nearest other obstacle).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Nearest {
     pub still: Option<Closest>,
-    pub own: Option<Closest>,
+    pub itself: Option<Closest>,
+    pub gripped: Option<Closest>,
 }
 
 impl Nearest {
-    /// The nearer of the two.
+    /// The nearer of the still obstacles and the arm itself.
     pub fn overall(&self) -> Option<Closest> {
-        match (self.still, self.own) {
+        match (self.still, self.itself) {
             (Some(a), Some(b)) => Some(if b.distance < a.distance { b } else { a }),
             (a, b) => a.or(b),
         }
@@ -226,14 +287,19 @@ fn better(best: &mut Option<Closest>, candidate: Closest) {
 }
 
 /// The closest approaches of `solids` (placed into `placed`, a buffer kept by the caller) to
-/// `pieces` (already placed), the table and each other under `rules`. Exact distances are
-/// computed only for pairs whose bounding boxes are nearer than the best so far.
+/// `pieces` (already placed), the table and each other under `rules`; the fingers' distances
+/// to the pieces of index `gripped` go to [`Nearest::gripped`]. Of the pairs of a solid and a
+/// piece, only the `candidates` (solid index, piece index) are checked, or all. Exact distances are computed
+/// only for pairs whose bounding boxes are nearer than the best so far.
 pub fn nearest<const N: usize>(
     solids: &[ArmSolid],
     pieces: &[Placed],
+    gripped: &[usize],
+    candidates: Option<&[(usize, usize)]>,
     rules: &Rules,
-    placed: &mut Vec<Placed>,
+    buffers: &mut NearestBuffers,
 ) -> Nearest {
+    let NearestBuffers { placed, gaps } = buffers;
     placed.clear();
     placed.extend(solids.iter().map(|s| Placed::of(&s.solid)));
     let mut still: Option<Closest> = None;
@@ -245,36 +311,75 @@ pub fn nearest<const N: usize>(
             );
         }
     }
-    for (solid, shape) in solids.iter().zip(placed.iter()) {
-        for (index, piece) in pieces.iter().enumerate() {
-            if still.is_some_and(|b| shape.box_gap(piece) >= b.distance) {
-                continue;
-            }
-            better(
-                &mut still,
-                Closest { distance: shape.distance(piece), part: solid.part, obstacle: Obstacle::Piece(index) },
-            );
-        }
+    // Every pair's lower bound first (its boxes' and its capsules' gaps); then the exact
+    // distance of the pair with the smallest bound of each kind, and of the others only where
+    // their bound is below the best.
+    gaps.clear();
+    let mut piece_pair = |i: usize, k: usize| {
+        let kind = if matches!(solids[i].part, Part::Finger(_)) && gripped.contains(&k) { GRIPPED } else { STILL };
+        gaps.push((placed[i].box_gap(&pieces[k]), kind, i, k));
+    };
+    match candidates {
+        Some(pairs) => pairs.iter().for_each(|&(i, k)| piece_pair(i, k)),
+        None => (0..solids.len()).for_each(|i| (0..pieces.len()).for_each(|k| piece_pair(i, k))),
     }
-    let mut own: Option<Closest> = None;
     for i in 0..solids.len() {
         for k in i + 1..solids.len() {
-            if !rules.pair_checked(solids[i].part, solids[k].part, N)
-                || own.is_some_and(|b| placed[i].box_gap(&placed[k]) >= b.distance)
-            {
-                continue;
+            if rules.pair_checked(solids[i].part, solids[k].part, N) {
+                gaps.push((placed[i].box_gap(&placed[k]), ITSELF, i, k));
             }
-            better(
-                &mut own,
-                Closest {
-                    distance: placed[i].distance(&placed[k]),
-                    part: solids[i].part,
-                    obstacle: Obstacle::Arm(solids[k].part),
-                },
-            );
         }
     }
-    Nearest { still, own }
+    let mut found: [Option<Closest>; 3] = [still, None, None];
+    let exact = |&(_, kind, i, k): &(f64, u8, usize, usize)| {
+        if kind == ITSELF {
+            Closest { distance: placed[i].distance(&placed[k]), part: solids[i].part, obstacle: Obstacle::Arm(solids[k].part) }
+        } else {
+            Closest { distance: placed[i].distance(&pieces[k]), part: solids[i].part, obstacle: Obstacle::Piece(k) }
+        }
+    };
+    let other = |&(_, kind, _, k): &(f64, u8, usize, usize)| if kind == ITSELF { &placed[k] } else { &pieces[k] };
+    for kind in [STILL, GRIPPED, ITSELF] {
+        let least = gaps.iter().filter(|g| g.1 == kind).min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some(pair) = least
+            && found[kind as usize].is_none_or(|b| pair.0 < b.distance)
+        {
+            better(&mut found[kind as usize], exact(pair));
+        }
+        for pair in gaps.iter().filter(|g| g.1 == kind) {
+            // The boxes' gap, then the capsules', then GJK: each only if the last did not rule
+            // the pair out. The arm's own pairs are measured exactly only where they may be
+            // nearer than the still obstacles (the nearest reported): elsewhere their lower
+            // bound stands in, which only shortens the sweep's steps.
+            let best = found[kind as usize];
+            let still = if kind == ITSELF { found[STILL as usize] } else { None };
+            let bound = |b: f64| pair.0 < b && placed[pair.2].capsule_gap(other(pair)) < b;
+            if best.is_none_or(|b| bound(b.distance)) {
+                if still.is_some_and(|s| !bound(s.distance)) {
+                    let distance = placed[pair.2].capsule_gap(other(pair)).max(pair.0);
+                    better(
+                        &mut found[kind as usize],
+                        Closest { distance, part: solids[pair.2].part, obstacle: Obstacle::Arm(solids[pair.3].part) },
+                    );
+                } else {
+                    better(&mut found[kind as usize], exact(pair));
+                }
+            }
+        }
+    }
+    Nearest { still: found[STILL as usize], itself: found[ITSELF as usize], gripped: found[GRIPPED as usize] }
+}
+
+const STILL: u8 = 0;
+const GRIPPED: u8 = 1;
+const ITSELF: u8 = 2;
+
+/// Buffers of [`nearest`], kept between calls: the arm's solids as parry sees them and every
+/// pair's bounding-box gap.
+#[derive(Debug, Default)]
+pub struct NearestBuffers {
+    placed: Vec<Placed>,
+    gaps: Vec<(f64, u8, usize, usize)>,
 }
 
 /// Per joint `j`, the farthest any point of the arm's solids can be from joint `j`'s axis at
@@ -302,23 +407,35 @@ pub fn reach_bound<const N: usize>(model: &ArmModel<N>, hand: &Hand) -> [f64; N]
     std::array::from_fn(|j| (j..N).map(|i| (origins[i + 1] - origins[i]).norm()).sum::<f64>() + extent)
 }
 
-/// What a sweep found: the closest approach and when (s), the number of checks, and the
-/// resolution (m): a contact shorter than the smallest step shows as at most this distance.
+/// What a sweep found: the closest approach and when (s), the fingers' closest approach to
+/// the pieces they are open around, the number of checks, and the resolution (m): a contact
+/// shorter than the smallest step shows as at most this distance.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Swept {
     pub closest: Option<(f64, Closest)>,
+    pub gripped: Option<(f64, Closest)>,
     pub checks: usize,
     pub resolution: f64,
 }
 
 /// A motion to sweep: joint angles `q(t)` (rad) for `t ∈ [start, end]` (s), a bound of each
-/// joint's `|q̇|` over it (rad/s), and the hand, constant over it.
+/// joint's `|q̇|` over it (rad/s), the hand, constant over it, and the indices of the pieces
+/// the fingers are open around.
 pub struct Stretch<'a, const N: usize> {
     pub q: &'a dyn Fn(f64) -> JointVector<N>,
     pub start: f64,
     pub end: f64,
     pub rate_bound: [f64; N],
     pub hand: Hand,
+    pub gripped: &'a [usize],
+    /// Every piece left out of the list swept is at least this far from the arm over the
+    /// whole motion, m (infinite when none is left out).
+    pub beyond: f64,
+    /// Whether the instant `end` is left to the motion that follows (checked there).
+    pub open_end: bool,
+    /// The pairs of a solid (its index in [`solids_into`]'s list) and a piece to check
+    /// (`None`: all); the others stay at least `beyond` apart over the motion.
+    pub candidates: Option<&'a [(usize, usize)]>,
 }
 
 impl<const N: usize> std::fmt::Debug for Stretch<'_, N> {
@@ -336,7 +453,32 @@ impl<const N: usize> std::fmt::Debug for Stretch<'_, N> {
 #[derive(Debug, Default)]
 pub struct Scratch {
     solids: Vec<ArmSolid>,
-    placed: Vec<Placed>,
+    buffers: NearestBuffers,
+    /// The pairs of a solid and a piece that may come near over a stretch of motion.
+    pub pairs: Vec<(usize, usize)>,
+}
+
+/// The pairs (solid index, piece index) whose boxes come within `reach` m of each other,
+/// the arm's solids taken at `q` with `hand`, into `out`.
+pub fn near_pairs<const N: usize>(
+    model: &ArmModel<N>,
+    q: &JointVector<N>,
+    hand: &Hand,
+    pieces: &[Placed],
+    reach: f64,
+    scratch: &mut Scratch,
+    out: &mut Vec<(usize, usize)>,
+) {
+    out.clear();
+    solids_into(model, q, hand, &mut scratch.solids);
+    for (i, solid) in scratch.solids.iter().enumerate() {
+        let shape = Placed::of(&solid.solid);
+        for (k, piece) in pieces.iter().enumerate() {
+            if shape.box_gap(piece) < reach {
+                out.push((i, k));
+            }
+        }
+    }
 }
 
 /// The closest approach over a motion, checked by conservative advancement (see the module's
@@ -361,18 +503,29 @@ pub fn sweep<const N: usize>(
     loop {
         solids_into(model, &(stretch.q)(t), &stretch.hand, &mut scratch.solids);
         swept.checks += 1;
-        let now = nearest::<N>(&scratch.solids, pieces, rules, &mut scratch.placed);
-        let Some(overall) = now.overall() else { return swept };
-        if swept.closest.is_none_or(|(_, b)| overall.distance < b.distance) {
+        let now = nearest::<N>(&scratch.solids, pieces, stretch.gripped, stretch.candidates, rules, &mut scratch.buffers);
+        if let Some(overall) = now.overall()
+            && swept.closest.is_none_or(|(_, b)| overall.distance < b.distance)
+        {
             swept.closest = Some((t, overall));
         }
-        if t >= end {
+        if let Some(gripped) = now.gripped
+            && swept.gripped.is_none_or(|(_, b)| gripped.distance < b.distance)
+        {
+            swept.gripped = Some((t, gripped));
+        }
+        if t >= end || (now.overall().is_none() && now.gripped.is_none()) {
             return swept;
         }
-        let still = now.still.map_or(f64::INFINITY, |c| c.distance);
-        let own = now.own.map_or(f64::INFINITY, |c| 0.5 * c.distance);
-        let step = if speed > 0.0 { still.min(own) / speed } else { end - t };
-        t = (t + step.max(min_step)).min(end);
+        let distance = |c: Option<Closest>| c.map_or(f64::INFINITY, |c| c.distance);
+        let nearest =
+            distance(now.still).min(distance(now.gripped)).min(0.5 * distance(now.itself)).min(stretch.beyond);
+        let step = if speed > 0.0 { nearest / speed } else { end - t };
+        let next = t + step.max(min_step);
+        if next >= end && stretch.open_end {
+            return swept;
+        }
+        t = next.min(end);
     }
 }
 
@@ -461,17 +614,17 @@ mod tests {
         let piece = StandingPiece { base: Vector3::new(centre.x, centre.y, 0.0), radius: 0.002, height: low + 0.001 };
         let pieces = [Placed::piece(&piece)];
         let rules = Rules::default();
-        let mut placed = Vec::new();
+        let mut placed = NearestBuffers::default();
         let (start, end) = (0.45, 0.6);
         let grid = (0..=3)
             .map(|k| {
                 solids_into(&arm, &q(start + 0.05 * k as f64), &hand, &mut solids);
-                nearest::<4>(&solids, &pieces, &rules, &mut placed).overall().map_or(f64::INFINITY, |c| c.distance)
+                nearest::<4>(&solids, &pieces, &[], None, &rules, &mut placed).overall().map_or(f64::INFINITY, |c| c.distance)
             })
             .fold(f64::INFINITY, f64::min);
         assert!(grid > 1e-3, "the grid must miss it: {grid}");
         let reach = reach_bound(&arm, &hand);
-        let stretch = Stretch { q: &q, start, end, rate_bound: [1.0, 0.0, 0.0, 0.0], hand };
+        let stretch = Stretch { q: &q, start, end, rate_bound: [1.0, 0.0, 0.0, 0.0], hand, gripped: &[], beyond: f64::INFINITY, open_end: false, candidates: None };
         let min_step = 1e-4;
         let swept = sweep(&arm, &stretch, &reach, &pieces, &rules, min_step, &mut Scratch::default());
         let (when, closest) = swept.closest.unwrap();
