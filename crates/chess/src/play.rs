@@ -731,7 +731,7 @@ impl Game {
             if let Some(piece) = self.table.index_at(step.task.from) {
                 let (grip, release) =
                     (event_time(2 * index, step.plan.grip_time), event_time(2 * index + 1, step.plan.release_time));
-                carries.push(Carry { piece, grip, release, placed });
+                carries.push(Carry { piece, to: step.task.to, grip, release, placed });
                 report.handled.push(Handling {
                     piece,
                     from: step.task.from,
@@ -835,7 +835,13 @@ fn planned_carries(table: &Table, planned: &[PlannedTask]) -> Vec<Carry> {
     for step in planned {
         let placed = scratch.nominal_position(step.task.to);
         if let Some(piece) = scratch.index_at(step.task.from) {
-            carries.push(Carry { piece, grip: step.plan.grip_time, release: step.plan.release_time, placed });
+            carries.push(Carry {
+                piece,
+                to: step.task.to,
+                grip: step.plan.grip_time,
+                release: step.plan.release_time,
+                placed,
+            });
         }
         // A plan's tasks were made on this table: each relocation succeeds.
         let _ = scratch.relocate(step.task.from, step.task.to, placed);

@@ -7,6 +7,7 @@ use crate::conditions::{SensorFile, UncertaintyFile};
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::motion::TimingMode;
+use chessarm_chess::clearance::moves::ClearanceCheck;
 use chessarm_chess::pieces::{PieceDimensions, PieceSet};
 use chessarm_chess::tasks::{MotionLimits, TaskError};
 use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointLimits, Link};
@@ -182,6 +183,10 @@ pub struct MotionFile {
     /// Clearance over the tallest piece passed over, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub clearance_margin: Option<f64>,
+    /// The smallest distance a planned move keeps between the arm, its fingers and a carried
+    /// piece and every standing piece, the table and the arm itself, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub arm_clearance: Option<f64>,
     /// LSPB traverses: speed (m/s) and acceleration (m/s²).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub traverse_speed: Option<f64>,
@@ -213,6 +218,43 @@ pub struct GripperFile {
     pub grip_dwell: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub release_dwell: Option<f64>,
+    /// The fingers, m: length from the palm, how far they reach past the grip point, their
+    /// thickness along the closing direction and width across it, and the gap each side
+    /// between a finger and a piece when open around it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub finger_length: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub finger_reach: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub finger_thickness: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub finger_width: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub finger_opening: Option<f64>,
+}
+
+impl GripperFile {
+    /// The file's fingers and `[motion] arm_clearance` over `default`, checked.
+    pub fn to_clearance(&self, motion: &MotionFile, default: &ClearanceCheck) -> Result<ClearanceCheck> {
+        let g = |name: &str, given: Option<f64>, default: f64| number_or(&format!("gripper.{name}"), given, default);
+        let d = &default.gripper;
+        let gripper = chessarm_core::arm::bodies::Gripper {
+            finger_length: g("finger_length", self.finger_length, d.finger_length)?,
+            finger_reach: g("finger_reach", self.finger_reach, d.finger_reach)?,
+            finger_thickness: g("finger_thickness", self.finger_thickness, d.finger_thickness)?,
+            finger_width: g("finger_width", self.finger_width, d.finger_width)?,
+            opening: g("finger_opening", self.finger_opening, d.opening)?,
+        };
+        let gripper = gripper.validated().map_err(|(field, value, reason)| {
+            let field = if field == "opening" { "finger_opening" } else { field };
+            anyhow!("gripper.{field} = {}: {reason}", chessarm_core::short_number(value))
+        })?;
+        let margin = number_or("motion.arm_clearance", motion.arm_clearance, default.margin)?;
+        if !(margin >= 0.0) {
+            bail!("motion.arm_clearance = {}: must be finite and >= 0", chessarm_core::short_number(margin));
+        }
+        Ok(ClearanceCheck { gripper, margin })
+    }
 }
 
 impl MotionFile {
@@ -385,6 +427,9 @@ pub struct Setup {
     pub motion: MotionLimits,
     /// How robot moves are timed (set by `--timing`; the file does not say).
     pub timing: TimingMode,
+    /// The gripper's fingers and the clearance every planned move keeps (`[gripper]`,
+    /// `[motion] arm_clearance`).
+    pub clearance: ClearanceCheck,
 }
 
 impl Default for Setup {
@@ -409,6 +454,7 @@ impl Default for Setup {
             bus_rate: DEFAULT_BUS_RATE,
             motion: MotionLimits::default(),
             timing: TimingMode::default(),
+            clearance: ClearanceCheck::default(),
         }
     }
 }
@@ -669,6 +715,7 @@ impl SetupFile {
             bus_rate: DEFAULT_BUS_RATE,
             motion: self.motion.to_limits(&self.gripper, &defaults.motion)?,
             timing: TimingMode::default(),
+            clearance: self.gripper.to_clearance(&self.motion, &defaults.clearance)?,
         })
     }
 }
@@ -814,6 +861,7 @@ impl From<&Setup> for SetupFile {
                 jerk: Some(m.jerk),
                 tracking_budget: Some(m.tracking.budget),
                 clearance_margin: Some(m.clearance_margin),
+                arm_clearance: Some(setup.clearance.margin),
                 traverse_speed: Some(m.traverse_speed),
                 traverse_acceleration: Some(m.traverse_acceleration),
                 vertical_speed: Some(m.vertical_speed),
@@ -825,6 +873,11 @@ impl From<&Setup> for SetupFile {
                 grip_strength: Some(m.grip_strength),
                 grip_dwell: Some(m.grip_dwell),
                 release_dwell: Some(m.release_dwell),
+                finger_length: Some(setup.clearance.gripper.finger_length),
+                finger_reach: Some(setup.clearance.gripper.finger_reach),
+                finger_thickness: Some(setup.clearance.gripper.finger_thickness),
+                finger_width: Some(setup.clearance.gripper.finger_width),
+                finger_opening: Some(setup.clearance.gripper.opening),
             },
         }
     }

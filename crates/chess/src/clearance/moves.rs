@@ -13,7 +13,7 @@
 
 use super::{Closest, Obstacle, Placed, Rules, Scratch, StandingPiece, Stretch, near_pairs, reach_bound, sweep};
 use crate::pieces::{PieceSet, piece_name};
-use crate::table::Table;
+use crate::table::{Location, Table};
 use chessarm_core::arm::bodies::{Gripper, Hand, Held, Part};
 use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::nalgebra::{Vector2, Vector3};
@@ -43,11 +43,13 @@ const NEAR: f64 = 0.05;
 /// and a tracking error of the same order would otherwise touch).
 pub const DEFAULT_MARGIN: f64 = 0.002;
 
-/// One pick-and-place of the move as executed: the table index of the piece, when the gripper
+/// One pick-and-place of the move as executed: the table index of the piece, where it goes, when the gripper
 /// closed and opened (s from the move's start) and where the piece was put (x, y, m).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Carry {
     pub piece: usize,
+    /// Where it goes.
+    pub to: Location,
     pub grip: f64,
     pub release: f64,
     pub placed: Vector2<f64>,
@@ -106,6 +108,9 @@ pub fn check_move(
 ) -> Option<MoveClearance> {
     let (&(first, _), &(last, _)) = (samples.first()?, samples.last()?);
     let mut positions: Vec<Vector2<f64>> = table.pieces().iter().map(|p| p.position).collect();
+    let mut locations: Vec<Location> = table.pieces().iter().map(|p| p.location).collect();
+    // Where the nearest piece stood at the nearest instant.
+    let mut nearest_location = None;
     let gripper = check.gripper;
     let open = |k: usize| gripper.open_gap(held(pieces, table, carries[k].piece).1);
     let mut best: Option<(f64, Closest, Option<usize>)> = None;
@@ -188,6 +193,7 @@ pub fn check_move(
                         Obstacle::Piece(i) => Some(standing[i].0),
                         _ => None,
                     };
+                    nearest_location = piece.map(|i| locations[i]);
                     best = Some((t, c, piece));
                 }
                 if let Some((_, g)) = swept.gripped {
@@ -197,13 +203,14 @@ pub fn check_move(
         }
         if let Some(carry) = carries.get(k) {
             positions[carry.piece] = carry.placed;
+            locations[carry.piece] = carry.to;
         }
     }
     let (time, closest, piece) = best?;
     let obstacle_name = match (closest.obstacle, piece) {
         (Obstacle::Piece(_), Some(i)) => {
             let p = &table.pieces()[i];
-            format!("the {} from {}", piece_name(p.piece), p.location)
+            format!("the {} on {}", piece_name(p.piece), nearest_location.unwrap_or(p.location))
         }
         (Obstacle::Table, _) => "the table".to_string(),
         (Obstacle::Arm(part), _) => part.to_string(),

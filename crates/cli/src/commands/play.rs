@@ -128,6 +128,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         trial.apply_to(&mut settings);
     }
     settings.pieces = setup.pieces;
+    settings.clearance = Some(setup.clearance.clone());
     settings.limits = setup.motion;
     settings.timing = setup.timing;
     settings.export_rate = Some(args.export_rate);
@@ -197,8 +198,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     };
     let bar = crate::progress::bar(total as u64, "playing");
     let header = format!(
-        "{:>4} {:>8} {:>6} {:<18} {:>8} {:>8} {:>12} {:>22}",
-        "ply", "san", "by", "kind", "time s", "wait s", "max tip mm", "placement mm"
+        "{:>4} {:>8} {:>6} {:<18} {:>8} {:>8} {:>12} {:>22} {:>9}  {}",
+        "ply", "san", "by", "kind", "time s", "wait s", "max tip mm", "placement mm", "clear mm", "closest pair"
     );
     let mut reports = Vec::new();
     // The tip error of every recorded step (robot time s, mm), for the game's plot.
@@ -350,6 +351,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     };
     write_replay(&replay_path, &replay)?;
     let mut human = String::new();
+    if let Some(line) = clearance_text(&reports) {
+        crate::tell_or_keep(&line, &mut human);
+    }
     crate::tell_or_keep(
         &format!(
             "result {} ({}); {} plies, robot time {:.1} s ({}), wall time {:.2} s; physical board {} the rules' board; {} misplaced\n",
@@ -398,8 +402,12 @@ fn move_line(report: &MoveReport) -> String {
     let place = report.place_errors.iter().map(|e| format!("{:.3}", e * 1e3)).collect::<Vec<_>>().join(" ");
     let waits = report.wait_totals();
     let wait = if report.mover == Mover::Robot { format!("{:.2}", waits.total) } else { "-".to_string() };
+    let (clear, pair) = match &report.clearance {
+        Some(c) => (format!("{:.1}", c.distance * 1e3), format!("{} – {}", c.part, c.obstacle_name)),
+        None => ("-".to_string(), String::new()),
+    };
     let mut line = format!(
-        "{:>4} {:>8} {:>6} {:<18} {:>8.2} {:>8} {:>12} {:>22}",
+        "{:>4} {:>8} {:>6} {:<18} {:>8.2} {:>8} {:>12} {:>22} {:>9}  {}",
         report.ply,
         report.san,
         by,
@@ -407,8 +415,16 @@ fn move_line(report: &MoveReport) -> String {
         report.duration,
         wait,
         tip,
-        place
+        place,
+        clear,
+        pair
     );
+    for adjustment in &report.adjustments {
+        line.push_str(&format!("\n     CLEARANCE: {adjustment}"));
+    }
+    if report.executed_clearance.as_ref().is_some_and(|e| e.is_contact()) {
+        line.push_str("\n     CONTACT: the simulated arm touched (see game.json's clearance)");
+    }
     if waits.timed_out > 0 {
         line.push_str(&format!(
             "\n     NOT IN POSITION: {} gripper command(s) went ahead after the timeout",
@@ -472,6 +488,104 @@ fn waits_text(fine_points: bool, totals: &chessarm_chess::play::WaitTotals) -> S
         "{} in-position waits, {:.2} s, longest {:.2} s, {} timed out",
         totals.count, totals.total, totals.longest, totals.timed_out
     )
+}
+
+/// A move's closest approach as JSON (mm, s from the move's start): the plan's nearest pair
+/// (the arm's part and the obstacle), the fingers' smallest gap to the piece they open around,
+/// and the simulated motion's clearance, a lower bound or measured.
+fn clearance_json(
+    planned: &chessarm_chess::clearance::moves::MoveClearance,
+    executed: Option<&chessarm_chess::play::Executed>,
+) -> Value {
+    use chessarm_chess::play::Executed;
+    let (kind, piece) = match planned.obstacle {
+        chessarm_chess::clearance::Obstacle::Piece(_) => ("piece", planned.piece),
+        chessarm_chess::clearance::Obstacle::Table => ("table", None),
+        chessarm_chess::clearance::Obstacle::Arm(_) => ("arm", None),
+    };
+    json!({
+        "smallest_mm": planned.distance * 1e3,
+        "time_s": planned.time,
+        "part": planned.part.to_string(),
+        "obstacle": planned.obstacle_name,
+        "obstacle_kind": kind,
+        "piece_index": piece,
+        "fingers_to_gripped_piece_mm": planned.gripped.map(|g| g * 1e3),
+        "checks": planned.checks,
+        "resolution_mm": planned.resolution * 1e3,
+        "executed": executed.map(|e| match e {
+            Executed::AtLeast(d) => json!({"at_least_mm": d * 1e3, "contact": false}),
+            Executed::Measured(m) => json!({
+                "smallest_mm": m.distance * 1e3,
+                "time_s": m.time,
+                "part": m.part.to_string(),
+                "obstacle": m.obstacle_name,
+                "fingers_to_gripped_piece_mm": m.gripped.map(|g| g * 1e3),
+                "resolution_mm": m.resolution * 1e3,
+                "contact": m.is_contact(),
+            }),
+        }),
+    })
+}
+
+/// The robot moves' smallest clearances (m) by move kind, in the order of their first move.
+fn clearances_by_kind(reports: &[MoveReport]) -> Vec<(&'static str, Vec<f64>)> {
+    let mut kinds: Vec<(&'static str, Vec<f64>)> = Vec::new();
+    for r in reports {
+        if let Some(c) = &r.clearance {
+            match kinds.iter_mut().find(|(k, _)| *k == r.kind.name()) {
+                Some((_, all)) => all.push(c.distance),
+                None => kinds.push((r.kind.name(), vec![c.distance])),
+            }
+        }
+    }
+    for (_, all) in &mut kinds {
+        all.sort_by(f64::total_cmp);
+    }
+    kinds
+}
+
+/// The game's clearances as JSON (mm): the smallest and where, the simulated contacts, and per
+/// move kind the smallest, median and largest of its moves' smallest clearances.
+fn clearance_summary(reports: &[MoveReport]) -> Option<Value> {
+    let nearest = reports.iter().filter_map(|r| r.clearance.as_ref().map(|c| (r, c))).min_by(|a, b| a.1.distance.total_cmp(&b.1.distance))?;
+    let contacts = reports.iter().filter(|r| r.executed_clearance.as_ref().is_some_and(|e| e.is_contact())).count();
+    let by_kind: serde_json::Map<String, Value> = clearances_by_kind(reports)
+        .into_iter()
+        .map(|(kind, all)| {
+            (kind.to_string(), json!({
+                "moves": all.len(),
+                "smallest_mm": all[0] * 1e3,
+                "median_mm": all[all.len() / 2] * 1e3,
+                "largest_mm": all[all.len() - 1] * 1e3,
+            }))
+        })
+        .collect();
+    Some(json!({
+        "smallest_mm": nearest.1.distance * 1e3,
+        "ply": nearest.0.ply,
+        "san": nearest.0.san,
+        "part": nearest.1.part.to_string(),
+        "obstacle": nearest.1.obstacle_name,
+        "contacts": contacts,
+        "adjusted_moves": reports.iter().filter(|r| !r.adjustments.is_empty()).count(),
+        "by_kind": by_kind,
+    }))
+}
+
+/// The game's clearances for people: the smallest and where, the contacts, the moves changed.
+fn clearance_text(reports: &[MoveReport]) -> Option<String> {
+    let summary = clearance_summary(reports)?;
+    Some(format!(
+        "smallest clearance {:.1} mm (ply {} {}: {} – {}); {} contact(s) in the simulated motion; {} move(s) changed to keep clear\n",
+        summary["smallest_mm"].as_f64().unwrap_or(f64::NAN),
+        summary["ply"],
+        summary["san"].as_str().unwrap_or(""),
+        summary["part"].as_str().unwrap_or(""),
+        summary["obstacle"].as_str().unwrap_or(""),
+        summary["contacts"],
+        summary["adjusted_moves"],
+    ))
 }
 
 /// A wait total as JSON (s).
@@ -538,6 +652,9 @@ fn game_json(
                 "max_tip_error_mm": r.max_tip_error.map(|e| e * 1e3),
                 "place_errors_mm": r.place_errors.iter().map(|e| e * 1e3).collect::<Vec<_>>(),
                 "in_position_waits": (r.mover == Mover::Robot).then(|| waits_json(&r.waits)),
+                "clearance": r.clearance.as_ref().map(|c| clearance_json(c, r.executed_clearance.as_ref())),
+                "clearance_adjustments": r.adjustments,
+                "finger_opening_mm": r.opening.map(|o| o * 1e3),
             })
         })
         .collect();
@@ -559,6 +676,7 @@ fn game_json(
         "final_fen_rules": game.fen_rules(),
         "final_fen_physical": game.fen_physical(),
         "misplaced": misplaced,
+        "clearance": clearance_summary(reports),
         // Every piece on the table at the end, in the order of the start's table (the replay's
         // piece ids): where it is meant to stand and where it stands (m).
         "final_table": game.table().pieces().iter().map(|p| json!({

@@ -55,14 +55,19 @@ pub struct TrialRow {
     pub robot_time_s: f64,
     /// Robot moves simulated (1 for the scenario).
     pub plies: usize,
+    /// Moves whose simulated motion touched a piece, the table or the arm itself, and the
+    /// smallest clearance of the simulated motion, mm (at least: see `Executed`).
+    pub contacts: usize,
+    pub clearance_mm: f64,
     /// The trial's drawn parameters.
     pub drawn: Vec<(String, f64)>,
 }
 
 impl TrialRow {
     /// Every piece within the tolerance, and the run finished.
+    /// Every piece placed and nothing touched.
     pub fn success(&self) -> bool {
-        self.status == "ok" && self.misplaced == 0
+        self.status == "ok" && self.misplaced == 0 && self.contacts == 0
     }
 }
 
@@ -79,6 +84,11 @@ struct Totals {
     places: Vec<f64>,
     robot_time: f64,
     moves: usize,
+    /// Moves whose simulated motion touched a piece, the table or the arm itself.
+    contacts: usize,
+    /// The smallest clearance of the simulated motion over the trial, m (a lower bound where
+    /// the move's was bounded, not measured).
+    clearance: Option<f64>,
 }
 
 impl Totals {
@@ -112,6 +122,7 @@ fn run_trial(
         settings.controller = spec.clone();
         crate::actuators::drive(setup, &mut settings);
         settings.pieces = setup.pieces;
+        settings.clearance = Some(setup.clearance.clone());
         settings.limits = setup.motion;
         settings.limits.tracking = study.tracking(
             setup,
@@ -134,6 +145,10 @@ fn run_trial(
                 totals.add(summary, &limits);
             }
             totals.places.extend(&report.place_errors);
+            if let Some(executed) = &report.executed_clearance {
+                totals.contacts += usize::from(executed.is_contact());
+                totals.clearance = Some(totals.clearance.map_or(executed.distance(), |c| c.min(executed.distance())));
+            }
         }
         Ok(())
     })();
@@ -169,16 +184,18 @@ fn row(
         rms_rate_estimate_error: (totals.squared_rate / totals.samples.max(1.0)).sqrt(),
         robot_time_s: if ok { totals.robot_time } else { f64::NAN },
         plies: totals.moves,
+        contacts: totals.contacts,
+        clearance_mm: totals.clearance.map_or(f64::NAN, |c| c * 1e3),
         drawn: trial.columns(),
         status,
     }
 }
 
-const HEADER: &str = "trial,trial_seed,controller,status,success,place_error_mm,pieces,misplaced,max_tip_error_mm,rms_tip_error_mm,peak_torque_nm,peak_torque_ratio,saturated_samples,rms_rate_estimate_error_rad_per_s,robot_time_s,plies";
+const HEADER: &str = "trial,trial_seed,controller,status,success,place_error_mm,pieces,misplaced,max_tip_error_mm,rms_tip_error_mm,peak_torque_nm,peak_torque_ratio,saturated_samples,rms_rate_estimate_error_rad_per_s,robot_time_s,plies,contacts,clearance_mm";
 
 fn csv_line(row: &TrialRow) -> String {
     let mut line = format!(
-        "{},{},{},{},{},{:?},{},{},{:?},{:?},{:?},{:?},{},{:?},{:?},{}",
+        "{},{},{},{},{},{:?},{},{},{:?},{:?},{:?},{:?},{},{:?},{:?},{},{},{:?}",
         row.trial,
         row.trial_seed,
         row.controller,
@@ -194,7 +211,9 @@ fn csv_line(row: &TrialRow) -> String {
         row.saturated_samples,
         row.rms_rate_estimate_error,
         row.robot_time_s,
-        row.plies
+        row.plies,
+        row.contacts,
+        row.clearance_mm
     );
     for (_, value) in &row.drawn {
         line.push_str(&format!(",{value:?}"));
@@ -252,6 +271,9 @@ fn statistics(rows: &[TrialRow], name: &str, replay: &str, selector: &str, out: 
             "p95": quantile(&errors, 0.95),
             "max": errors.last().copied().unwrap_or(f64::NAN),
         },
+        "trials_with_contacts": mine.iter().filter(|r| r.contacts > 0).count(),
+        "contacts": mine.iter().map(|r| r.contacts).sum::<usize>(),
+        "smallest_clearance_mm": mine.iter().map(|r| r.clearance_mm).filter(|c| c.is_finite()).fold(f64::INFINITY, f64::min),
         "peak_torque_nm": mine.iter().map(|r| r.peak_torque_nm).fold(0.0f64, f64::max),
         "peak_torque_ratio": mine.iter().map(|r| r.peak_torque_ratio).fold(0.0f64, f64::max),
         "trials_with_saturation": mine.iter().filter(|r| r.saturated_samples > 0).count(),
@@ -370,6 +392,8 @@ fn failed_draw(drawn: &Drawn, error: &anyhow::Error) -> TrialRow {
         rms_rate_estimate_error: f64::NAN,
         robot_time_s: f64::NAN,
         plies: 0,
+        contacts: 0,
+        clearance_mm: f64::NAN,
         drawn: Vec::new(),
     }
 }

@@ -203,6 +203,7 @@ fn game_candidate(
     let mut settings = PlaySettings::new("candidate", drive.gains);
     settings.controller.kind = drive.kind;
     settings.pieces = setup.pieces;
+    settings.clearance = Some(setup.clearance.clone());
     settings.limits = setup.motion;
     settings.limits.tracking = drive.tracking(setup);
     settings.limits.tracking.mass_error = options.mass_error;
