@@ -161,9 +161,9 @@ pub enum PlayError {
     ClearanceMargin(f64),
     /// No change of the plan keeps the move clear.
     #[error(
-        "move {mv}: {part} would come {} mm from {obstacle} {time:.2} s into the move (at least {} mm needed){tried}; \
+        "move {mv}: {part} would come {:.1} mm from {obstacle} {time:.2} s into the move (at least {} mm needed){tried}; \
          nothing was run",
-        chessarm_core::short_number(distance * 1e3),
+        distance * 1e3,
         chessarm_core::short_number(margin * 1e3)
     )]
     Contact { mv: String, part: String, obstacle: String, distance: f64, time: f64, margin: f64, tried: String },
@@ -569,8 +569,13 @@ impl Game {
         let mut check = settings.clearance.clone();
         let mut adjustments = Vec::new();
         let mut raised = 0;
+        // The last plan's nearest approach and its margin, when it was too near.
+        let mut last: Option<(MoveClearance, f64)> = None;
+        // Whether opening the fingers less may still help, and the distance before it was tried.
+        let mut narrowing = true;
+        let mut narrowed: Option<f64> = None;
         loop {
-            let plan = plan_move(
+            let planned = plan_move(
                 self.tool,
                 &self.position,
                 mv,
@@ -580,21 +585,42 @@ impl Game {
                 &self.arm,
                 settings.timing,
                 settings.control_period,
-            )?;
-            let (Some(clear), Some(rules)) = (&check, &self.rules) else { return Ok((plan, None, adjustments, None)) };
+            );
+            let plan = match (planned, &last) {
+                (Ok(plan), _) => plan,
+                // Raised beyond what the arm can do: the contact it was raised for stands.
+                (Err(error), Some((near, margin))) => {
+                    let why = format!("raising the traverses further fails: {}", first_line(&error.to_string()));
+                    return Err(contact(name, near, *margin, &adjustments, Some(why)));
+                }
+                (Err(error), None) => return Err(error.into()),
+            };
+            let (Some(clear), Some(rules)) = (check.clone(), &self.rules) else {
+                return Ok((plan, None, adjustments, None));
+            };
             let samples: Vec<(f64, JointVector<4>)> = plan.trajectory.samples().iter().map(|s| (s.t, s.q)).collect();
             let carries = planned_carries(&self.table, &plan.tasks);
             let found =
-                check_move(&self.arm, clear, rules, &self.table, &settings.pieces, &samples, &carries, &mut self.scratch);
+                check_move(&self.arm, &clear, rules, &self.table, &settings.pieces, &samples, &carries, &mut self.scratch);
             // The fingers must not touch the piece they open around (its gap is the gripper's
             // opening, which may be narrower than the margin); everything else keeps the margin.
             let Some(near) = found.clone().filter(|c| c.distance < clear.margin || c.is_contact()) else {
                 return Ok((plan, found, adjustments, check));
             };
+            last = Some((near.clone(), clear.margin));
             let mm = |m: f64| chessarm_core::short_number(m * 1e3);
-            let why = format!("{} came {} mm from {}", near.part, mm(near.distance), near.obstacle_name);
+            let why = format!("{} came {:.1} mm from {}", near.part, near.distance * 1e3, near.obstacle_name);
             let finger = matches!(near.part, chessarm_core::arm::bodies::Part::Finger(_));
-            if finger && near.piece.is_some() && clear.gripper.opening > MIN_OPENING {
+            // Opening the fingers less that did not take them farther from the piece: the
+            // gripper's opening back, and the traverses raised instead.
+            if narrowed.is_some_and(|before| near.distance <= before) {
+                narrowing = false;
+                check = settings.clearance.clone();
+                adjustments.retain(|a| !a.starts_with("fingers opened"));
+            }
+            let clear = check.clone().unwrap_or(clear);
+            if narrowing && finger && near.piece.is_some() && clear.gripper.opening > MIN_OPENING {
+                narrowed = Some(near.distance);
                 let mut narrower = clear.clone();
                 narrower.gripper.opening = (0.5 * clear.gripper.opening).max(MIN_OPENING);
                 adjustments.push(format!(
@@ -604,6 +630,7 @@ impl Game {
                 ));
                 check = Some(narrower);
             } else if raised < RAISES {
+                narrowed = None;
                 raised += 1;
                 limits.clearance_margin += RAISE;
                 adjustments.push(format!(
@@ -611,20 +638,7 @@ impl Game {
                     chessarm_core::short_number(limits.clearance_margin * 1e2)
                 ));
             } else {
-                let tried = if adjustments.is_empty() {
-                    String::new()
-                } else {
-                    format!(" (after {})", adjustments.iter().map(|a| a.split(':').next().unwrap_or(a)).collect::<Vec<_>>().join(", "))
-                };
-                return Err(PlayError::Contact {
-                    mv: name.to_string(),
-                    part: near.part.to_string(),
-                    obstacle: near.obstacle_name.clone(),
-                    distance: near.distance,
-                    time: near.time,
-                    margin: clear.margin,
-                    tried,
-                });
+                return Err(contact(name, &near, clear.margin, &adjustments, None));
             }
         }
     }
@@ -819,6 +833,26 @@ impl Executed {
     pub fn is_contact(&self) -> bool {
         matches!(self, Executed::Measured(m) if m.is_contact())
     }
+}
+
+/// The refusal of a move that comes too near, with what was tried.
+fn contact(name: &str, near: &MoveClearance, margin: f64, adjustments: &[String], also: Option<String>) -> PlayError {
+    let mut tried: Vec<String> = adjustments.iter().map(|a| a.split(':').next().unwrap_or(a).to_string()).collect();
+    tried.extend(also);
+    PlayError::Contact {
+        mv: name.to_string(),
+        part: near.part.to_string(),
+        obstacle: near.obstacle_name.clone(),
+        distance: near.distance,
+        time: near.time,
+        margin,
+        tried: if tried.is_empty() { String::new() } else { format!(" (after {})", tried.join(", ")) },
+    }
+}
+
+/// The first line of a message.
+fn first_line(text: &str) -> &str {
+    text.lines().next().unwrap_or(text)
 }
 
 /// Narrowest gap a side the planner opens the fingers to beside a piece, m.

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{assert_one_line_error, chessarm, json_of};
+use common::{NEEDLE_FINGERS, assert_one_line_error, chessarm, json_of};
 use std::path::Path;
 
 const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
@@ -21,6 +21,8 @@ fn so101_fitted(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
         urdf.to_str().unwrap(),
         "--lock",
         "wrist_roll=0",
+        "--arm",
+        NEEDLE_FINGERS,
         "board",
         "--fit",
         "--save",

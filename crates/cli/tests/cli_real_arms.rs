@@ -68,8 +68,15 @@ fn each_makers_arm_fits_a_board_and_plays_the_opera_game_with_every_piece_in_pla
     for (name, flags, tool, tolerance) in ARMS {
         let path = urdf(name);
         let base: Vec<&str> = [&["--urdf", path.to_str().unwrap()][..], flags].concat();
-        // 1. The largest board the arm serves, as a setup file.
-        let fit = json_of(&chessarm(&[&base[..], &["board", "--fit"]].concat()));
+        // 1. With the default fingers (a common printed gripper's) no board the arm serves
+        // has squares large enough for them: the fit says what they need.
+        let too_thick = chessarm(&[&base[..], &["board", "--fit"]].concat());
+        assert!(!too_thick.status.success(), "{name}");
+        let said = String::from_utf8_lossy(&too_thick.stderr);
+        assert!(said.contains("need 44.7 mm to open around a piece") && said.contains("slimmer fingers"), "{name}: {said}");
+        // The largest board the arm serves with needle fingers, as a setup file.
+        let fit = json_of(&chessarm(&[&base[..], &["--arm", common::NEEDLE_FINGERS, "board", "--fit"]].concat()));
+        assert!(fit["fingers_need_square_size_m"].as_f64().unwrap() <= fit["square_size_m"].as_f64().unwrap());
         assert_eq!(fit["served"], true, "{name}: {fit}");
         let square = fit["square_size_m"].as_f64().unwrap();
         // Smaller than the default 6 cm squares (every file refuses the default board), and a
@@ -97,6 +104,13 @@ fn each_makers_arm_fits_a_board_and_plays_the_opera_game_with_every_piece_in_pla
             assert_eq!(game["result"], "1-0", "{name} {sensors}: {game}");
             assert_eq!(game["misplaced"], 0, "{name} {sensors}: {game}");
             assert_eq!(game["final_fen_physical"], game["final_fen_rules"], "{name} {sensors}");
+            // Nothing touched: the plan keeps the fingers' margin, the simulated motion touches
+            // nothing (measured in full wherever its deviation from the plan could).
+            let record: Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
+            let clearance = &record["clearance"];
+            assert_eq!(clearance["contacts"], 0, "{name} {sensors}: {clearance}");
+            assert!(clearance["smallest_mm"].as_f64().unwrap() >= 1.0, "{name} {sensors}: {clearance}");
+            eprintln!("{name} {sensors}: smallest clearance {:.2} mm ({} – {})", clearance["smallest_mm"].as_f64().unwrap(), clearance["part"], clearance["obstacle"]);
             if sensors == "ideal" {
                 check_hardware(name, &out.join("hardware"), tool, tolerance);
             }

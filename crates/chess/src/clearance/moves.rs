@@ -233,6 +233,46 @@ pub fn check_move(
     })
 }
 
+/// The smallest square size (m) on which the fingers, open around any piece, keep `margin`
+/// from the widest piece on each of the eight neighbouring squares, whatever the angle of the
+/// closing direction to the board's files: the pieces are `pieces` on squares of `square` m,
+/// scaled with the squares (as `board --fit` scales them), the fingers as `gripper` has them.
+/// Each finger is the rectangle `[g/2, g/2 + t] × [−w/2, w/2]` in the closing frame at the grip
+/// height (`g` the open gap, `t` the thickness, `w` the width), each neighbour a circle of the
+/// widest base; the closing angle is tried every degree. `None` when even 0.2 m squares are
+/// too small.
+pub fn square_for_fingers(pieces: &PieceSet, square: f64, gripper: &Gripper, margin: f64) -> Option<f64> {
+    let clear = |s: f64| {
+        let k = s / square;
+        let neighbour = 0.5 * pieces.widest() * k;
+        pieces.all().iter().all(|(_, d)| {
+            let inner = 0.5 * gripper.open_gap(d.base_diameter * k);
+            let outer = inner + gripper.finger_thickness;
+            let half_width = 0.5 * gripper.finger_width;
+            (0..=90).all(|degrees| {
+                let (sin, cos) = (degrees as f64).to_radians().sin_cos();
+                (-1..=1).flat_map(|i| (-1..=1).map(move |j| (i, j))).filter(|&(i, j)| (i, j) != (0, 0)).all(|(i, j)| {
+                    let (x, y) = (s * (i as f64 * cos + j as f64 * sin), s * (j as f64 * cos - i as f64 * sin));
+                    // Either finger: mirror the neighbour onto the positive side.
+                    let x = x.abs();
+                    let dx = x - x.clamp(inner, outer);
+                    let dy = y - y.clamp(-half_width, half_width);
+                    (dx * dx + dy * dy).sqrt() - neighbour >= margin
+                })
+            })
+        })
+    };
+    let (mut low, mut high) = (1e-3, 0.2);
+    if !clear(high) {
+        return None;
+    }
+    while high - low > 1e-5 {
+        let middle = 0.5 * (low + high);
+        if clear(middle) { high = middle } else { low = middle }
+    }
+    Some(high)
+}
+
 /// The piecewise-linear interpolant of `samples` at `t` (held before the first and after the
 /// last).
 pub fn interpolate<const N: usize>(samples: &[(f64, JointVector<N>)], t: f64) -> JointVector<N> {

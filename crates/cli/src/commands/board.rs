@@ -23,6 +23,22 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
             (setup.board.surface_height, setup.board.base_clearance),
         )
         .map_err(|e| anyhow!("{e}"))?;
+        // The fingers open around a piece beside its neighbours: squares below what they need
+        // would have the planner refuse moves.
+        let needed = fingers_need(setup, setup.board.square_size)?;
+        if fit.board.square_size < needed {
+            anyhow::bail!(
+                "the arm serves squares of at most {:.1} mm, and the fingers ([gripper]: {:.1} mm thick, {:.1} mm wide, \
+                 opened {:.1} mm beside a piece) need {:.1} mm to open around a piece beside its neighbours with {:.1} mm \
+                 to spare ([motion] arm_clearance): slimmer fingers, a smaller opening or a longer arm",
+                fit.board.square_size * 1e3,
+                setup.clearance.gripper.finger_thickness * 1e3,
+                setup.clearance.gripper.finger_width * 1e3,
+                setup.clearance.gripper.opening * 1e3,
+                needed * 1e3,
+                setup.clearance.margin * 1e3
+            );
+        }
         fitted.board = fit.board;
         fitted.pieces = fit.pieces;
         tried = Some(fit.tried);
@@ -62,7 +78,14 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         },
         args.map.as_ref().map_or(String::new(), |m| format!("; reach map {}", m.display())),
     );
-    let summary = format!("{summary}{sag_text}");
+    let needed = fingers_need(setup, setup.board.square_size)?;
+    let fingers_text = format!(
+        "fingers: squares of at least {:.1} mm keep them {:.1} mm from the neighbours of the piece they open around{}\n",
+        needed * 1e3,
+        setup.clearance.margin * 1e3,
+        if board.square_size < needed { " — these squares are SMALLER: the planner will refuse moves" } else { "" }
+    );
+    let summary = format!("{summary}{fingers_text}{sag_text}");
     if args.fit {
         let mut text = fitted.to_toml_beside_urdf()?;
         if setup.urdf_path.is_some() {
@@ -83,6 +106,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
             "setup": text,
             "setup_file": args.save.as_ref().map(|p| p.display().to_string()),
             "sag": sag_json,
+            "fingers_need_square_size_m": needed,
         });
         match &args.save {
             // The setup in its file, the summary on stdout.
@@ -104,6 +128,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
                 "why_not": check.as_ref().err().map(ToString::to_string),
                 "smallest_margin_m": smallest,
                 "sag": sag_json,
+                "fingers_need_square_size_m": needed,
             }),
         )?;
     }
@@ -241,4 +266,11 @@ fn plot_sag_map(path: &std::path::Path, sag: &[SquareHold]) -> Result<()> {
         (hold.square, value)
     });
     plot_squares(path, &title, "tool-tip error (mm)", values, "not reached")
+}
+
+/// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they
+/// open around, the setup's pieces (on squares of `square` m) scaled with the squares.
+fn fingers_need(setup: &Setup, square: f64) -> Result<f64> {
+    chessarm_chess::clearance::moves::square_for_fingers(&setup.pieces, square, &setup.clearance.gripper, setup.clearance.margin)
+        .ok_or_else(|| anyhow!("the fingers ([gripper]) do not clear a piece's neighbours even on squares of 20 cm"))
 }

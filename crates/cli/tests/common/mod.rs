@@ -80,3 +80,7 @@ pub fn python_with_mujoco() -> Option<String> {
         std::process::Command::new(python).args(["-c", "import mujoco"]).output().is_ok_and(|o| o.status.success())
     })
 }
+
+/// Needle fingers for the small boards the real arms serve (see the file).
+#[allow(dead_code)]
+pub const NEEDLE_FINGERS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/needle_fingers.toml");
