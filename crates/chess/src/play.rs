@@ -559,11 +559,7 @@ impl Game {
     /// a piece is first opened less (halved down to 1 mm a side), then the clearance margin of
     /// the traverses is raised (by 2 cm, up to three times), and a move still too near is
     /// refused. Returns the plan, its clearance, what was changed and the hand's gripper.
-    fn plan_clear(
-        &mut self,
-        mv: &Move,
-        name: &str,
-    ) -> Result<(PlannedMove, Option<MoveClearance>, Vec<String>, Option<ClearanceCheck>), PlayError> {
+    fn plan_clear(&mut self, mv: &Move, name: &str) -> Result<ClearPlan, PlayError> {
         let settings = &self.settings;
         let mut limits = settings.limits;
         let mut check = settings.clearance.clone();
@@ -596,16 +592,24 @@ impl Game {
                 (Err(error), None) => return Err(error.into()),
             };
             let (Some(clear), Some(rules)) = (check.clone(), &self.rules) else {
-                return Ok((plan, None, adjustments, None));
+                return Ok(ClearPlan { plan, clearance: None, adjustments, check: None });
             };
             let samples: Vec<(f64, JointVector<4>)> = plan.trajectory.samples().iter().map(|s| (s.t, s.q)).collect();
             let carries = planned_carries(&self.table, &plan.tasks);
-            let found =
-                check_move(&self.arm, &clear, rules, &self.table, &settings.pieces, &samples, &carries, &mut self.scratch);
+            let found = check_move(
+                &self.arm,
+                &clear,
+                rules,
+                &self.table,
+                &settings.pieces,
+                &samples,
+                &carries,
+                &mut self.scratch,
+            );
             // The fingers must not touch the piece they open around (its gap is the gripper's
             // opening, which may be narrower than the margin); everything else keeps the margin.
             let Some(near) = found.clone().filter(|c| c.distance < clear.margin || c.is_contact()) else {
-                return Ok((plan, found, adjustments, check));
+                return Ok(ClearPlan { plan, clearance: found, adjustments, check });
             };
             last = Some((near.clone(), clear.margin));
             let mm = |m: f64| chessarm_core::short_number(m * 1e3);
@@ -617,6 +621,7 @@ impl Game {
                 narrowing = false;
                 check = settings.clearance.clone();
                 adjustments.retain(|a| !a.starts_with("fingers opened"));
+                adjustments.push(format!("fingers opened less (down to {} mm): no nearer to clear", MIN_OPENING * 1e3));
             }
             let clear = check.clone().unwrap_or(clear);
             if narrowing && finger && near.piece.is_some() && clear.gripper.opening > MIN_OPENING {
@@ -645,7 +650,7 @@ impl Game {
 
     /// Plans, simulates and applies one robot move.
     fn execute(&mut self, mv: &Move, name: &str, report: &mut MoveReport) -> Result<(), PlayError> {
-        let (plan, planned_clearance, adjustments, check) = self.plan_clear(mv, name)?;
+        let ClearPlan { plan, clearance: planned_clearance, adjustments, check } = self.plan_clear(mv, name)?;
         report.clearance = planned_clearance;
         report.adjustments = adjustments;
         report.opening = check.as_ref().map(|c| c.gripper.opening);
@@ -768,8 +773,10 @@ impl Game {
             // plan had it at the same reference instant, and the pieces put down in this
             // move within their placement error of the plan's places.
             let pieces = &self.settings.pieces;
-            let largest = Held { radius: 0.5 * pieces.widest(), height: pieces.tallest(), grip_height: pieces.highest_grip() };
-            let hand = Hand { held: Some(largest), gap: clear.gripper.open_gap(pieces.widest()), gripper: clear.gripper };
+            let largest =
+                Held { radius: 0.5 * pieces.widest(), height: pieces.tallest(), grip_height: pieces.highest_grip() };
+            let hand =
+                Hand { held: Some(largest), gap: clear.gripper.open_gap(pieces.widest()), gripper: clear.gripper };
             let reach = reach_bound(&self.arm, &hand);
             let strayed: f64 = (0..4).map(|j| sampler.deviation[j] * reach[j]).sum();
             let moved = report.place_errors.iter().fold(0.0, |a: f64, b| a.max(*b));
@@ -833,6 +840,15 @@ impl Executed {
     pub fn is_contact(&self) -> bool {
         matches!(self, Executed::Measured(m) if m.is_contact())
     }
+}
+
+/// A plan that keeps clear: the plan, its closest approach, what was changed for it and the
+/// check it passed (its gripper's opening).
+struct ClearPlan {
+    plan: PlannedMove,
+    clearance: Option<MoveClearance>,
+    adjustments: Vec<String>,
+    check: Option<ClearanceCheck>,
 }
 
 /// The refusal of a move that comes too near, with what was tried.

@@ -6,8 +6,8 @@
 use crate::conditions::{SensorFile, UncertaintyFile};
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::board::BoardGeometry;
-use chessarm_chess::motion::TimingMode;
 use chessarm_chess::clearance::moves::ClearanceCheck;
+use chessarm_chess::motion::TimingMode;
 use chessarm_chess::pieces::{PieceDimensions, PieceSet};
 use chessarm_chess::tasks::{MotionLimits, TaskError};
 use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, Inertial, JointLimits, Link};
@@ -250,7 +250,7 @@ impl GripperFile {
             anyhow!("gripper.{field} = {}: {reason}", chessarm_core::short_number(value))
         })?;
         let margin = number_or("motion.arm_clearance", motion.arm_clearance, default.margin)?;
-        if !(margin >= 0.0) {
+        if margin.is_nan() || margin < 0.0 {
             bail!("motion.arm_clearance = {}: must be finite and >= 0", chessarm_core::short_number(margin));
         }
         Ok(ClearanceCheck { gripper, margin })

@@ -197,12 +197,30 @@ fn robustness_draws_the_servos_per_trial_and_replays_the_worst() {
     assert_eq!(controllers.len(), 2);
     let ff = &controllers[1];
     assert_eq!(ff["controller"], "feedforward");
-    assert_eq!(ff["success_rate"], 1.0);
     let mut rows = csv::Reader::from_path(Path::new(out).join("robustness.csv")).unwrap();
     let header = rows.headers().unwrap().clone();
     let column = |name: &str| header.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name}"));
     let records: Vec<csv::StringRecord> = rows.records().map(|r| r.unwrap()).collect();
     assert_eq!(records.len(), 6);
+    // Feedforward places every piece in every trial. The needle fingers, opened 1.5 mm beside a
+    // piece (all the 15 mm squares leave them), are touched by the servos' tracking error:
+    // plain goals, which leave the arm sagging by millimetres, touch on many moves, feedforward
+    // on few; a trial with a contact is no success.
+    let contacts = |host: &str| -> Vec<usize> {
+        records
+            .iter()
+            .filter(|r| &r[column("controller")] == host)
+            .map(|r| r[column("contacts")].parse().unwrap())
+            .collect()
+    };
+    for record in records.iter().filter(|r| &r[column("controller")] == "feedforward") {
+        assert_eq!(&record[column("misplaced")], "0");
+    }
+    let (plain, feedforward) = (contacts("plain"), contacts("feedforward"));
+    assert!(feedforward.iter().sum::<usize>() < plain.iter().sum::<usize>(), "{plain:?} vs {feedforward:?}");
+    let clean = feedforward.iter().filter(|c| **c == 0).count() as f64 / feedforward.len() as f64;
+    assert_eq!(ff["success_rate"].as_f64().unwrap(), clean);
+    assert_eq!(ff["contacts"].as_u64().unwrap() as usize, feedforward.iter().sum::<usize>());
     for record in &records {
         let number = |name: &str| record[column(name)].parse::<f64>().unwrap();
         assert!((number("supply_voltage_scale") - 1.0).abs() <= 0.08);
@@ -258,12 +276,21 @@ fn tune_sweeps_the_servos_p_register_and_host_strategies() {
     assert_eq!(sweep["candidates"], 4);
     let mut reader = csv::Reader::from_path(Path::new(out).join("tune.csv")).unwrap();
     assert_eq!(reader.headers().unwrap().iter().take(3).collect::<Vec<_>>(), ["index", "servo_command", "p_gain"]);
+    // At P 8 a strategy may stop part-way: the pieces it put down millimetres off leave a later
+    // move no room for the needle fingers, and the planner refuses that move (placed worse
+    // than at P 32 either way).
     let place: Vec<(String, f64, f64)> = reader
         .records()
         .map(|r| {
             let r = r.unwrap();
-            assert_eq!(&r[3], "ok");
-            (r[1].to_string(), r[2].parse().unwrap(), r[6].parse().unwrap())
+            let p: f64 = r[2].parse().unwrap();
+            let error = if &r[3] == "ok" {
+                r[6].parse().unwrap()
+            } else {
+                assert!(p == 8.0 && r[3].contains("would come") && r[3].contains("nothing was run"), "{r:?}");
+                f64::INFINITY
+            };
+            (r[1].to_string(), p, error)
         })
         .collect();
     let at = |host: &str, p: f64| place.iter().find(|(h, g, _)| h == host && *g == p).unwrap().2;

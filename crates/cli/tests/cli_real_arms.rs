@@ -73,7 +73,10 @@ fn each_makers_arm_fits_a_board_and_plays_the_opera_game_with_every_piece_in_pla
         let too_thick = chessarm(&[&base[..], &["board", "--fit"]].concat());
         assert!(!too_thick.status.success(), "{name}");
         let said = String::from_utf8_lossy(&too_thick.stderr);
-        assert!(said.contains("need 44.7 mm to open around a piece") && said.contains("slimmer fingers"), "{name}: {said}");
+        assert!(
+            said.contains("need 44.7 mm to open around a piece") && said.contains("slimmer fingers"),
+            "{name}: {said}"
+        );
         // The largest board the arm serves with needle fingers, as a setup file.
         let fit = json_of(&chessarm(&[&base[..], &["--arm", common::NEEDLE_FINGERS, "board", "--fit"]].concat()));
         assert!(fit["fingers_need_square_size_m"].as_f64().unwrap() <= fit["square_size_m"].as_f64().unwrap());
@@ -110,7 +113,12 @@ fn each_makers_arm_fits_a_board_and_plays_the_opera_game_with_every_piece_in_pla
             let clearance = &record["clearance"];
             assert_eq!(clearance["contacts"], 0, "{name} {sensors}: {clearance}");
             assert!(clearance["smallest_mm"].as_f64().unwrap() >= 1.0, "{name} {sensors}: {clearance}");
-            eprintln!("{name} {sensors}: smallest clearance {:.2} mm ({} – {})", clearance["smallest_mm"].as_f64().unwrap(), clearance["part"], clearance["obstacle"]);
+            eprintln!(
+                "{name} {sensors}: smallest clearance {:.2} mm ({} – {})",
+                clearance["smallest_mm"].as_f64().unwrap(),
+                clearance["part"],
+                clearance["obstacle"]
+            );
             if sensors == "ideal" {
                 check_hardware(name, &out.join("hardware"), tool, tolerance);
             }

@@ -157,7 +157,13 @@ impl Placed {
                 let rotation = Rotation::from_mat3(&Matrix::from_cols(columns[0], columns[1], columns[2]));
                 let extent = axes.abs() * half;
                 // The capsule along the box's longest axis, as thick as the other two's diagonal.
-                let long = if half.x >= half.y && half.x >= half.z { 0 } else if half.y >= half.z { 1 } else { 2 };
+                let long = if half.x >= half.y && half.x >= half.z {
+                    0
+                } else if half.y >= half.z {
+                    1
+                } else {
+                    2
+                };
                 let along = axes.column(long) * half[long];
                 let across = (half.norm_squared() - half[long] * half[long]).sqrt();
                 Self {
@@ -194,7 +200,6 @@ impl Placed {
         let ((p1, q1, r1), (p2, q2, r2)) = (&self.capsule, &other.capsule);
         (segment_distance(p1, q1, p2, q2) - r1 - r2).max(0.0)
     }
-
 
     /// The distance to `other`, m (0 when they touch or overlap). Cylinders, balls and boxes
     /// are convex: parry's dispatcher supports every pair of them, so an error is a bug.
@@ -307,7 +312,11 @@ pub fn nearest<const N: usize>(
         for solid in solids.iter().filter(|s| !rules.off_table.contains(&s.part)) {
             better(
                 &mut still,
-                Closest { distance: (solid.solid.lowest() - table).max(0.0), part: solid.part, obstacle: Obstacle::Table },
+                Closest {
+                    distance: (solid.solid.lowest() - table).max(0.0),
+                    part: solid.part,
+                    obstacle: Obstacle::Table,
+                },
             );
         }
     }
@@ -333,7 +342,11 @@ pub fn nearest<const N: usize>(
     let mut found: [Option<Closest>; 3] = [still, None, None];
     let exact = |&(_, kind, i, k): &(f64, u8, usize, usize)| {
         if kind == ITSELF {
-            Closest { distance: placed[i].distance(&placed[k]), part: solids[i].part, obstacle: Obstacle::Arm(solids[k].part) }
+            Closest {
+                distance: placed[i].distance(&placed[k]),
+                part: solids[i].part,
+                obstacle: Obstacle::Arm(solids[k].part),
+            }
         } else {
             Closest { distance: placed[i].distance(&pieces[k]), part: solids[i].part, obstacle: Obstacle::Piece(k) }
         }
@@ -390,7 +403,8 @@ pub struct NearestBuffers {
 pub fn reach_bound<const N: usize>(model: &ArmModel<N>, hand: &Hand) -> [f64; N] {
     let zero = JointVector::<N>::zeros();
     let chain = FrameChain::new(model, &zero);
-    let origins: Vec<Vector3<f64>> = (0..=N).map(|i| if i == 0 { model.base() } else { chain.body_pose(i - 1).translation.vector }).collect();
+    let origins: Vec<Vector3<f64>> =
+        (0..=N).map(|i| if i == 0 { model.base() } else { chain.body_pose(i - 1).translation.vector }).collect();
     let mut solids = Vec::new();
     solids_into(model, &zero, hand, &mut solids);
     let tip = chain.tip();
@@ -503,7 +517,8 @@ pub fn sweep<const N: usize>(
     loop {
         solids_into(model, &(stretch.q)(t), &stretch.hand, &mut scratch.solids);
         swept.checks += 1;
-        let now = nearest::<N>(&scratch.solids, pieces, stretch.gripped, stretch.candidates, rules, &mut scratch.buffers);
+        let now =
+            nearest::<N>(&scratch.solids, pieces, stretch.gripped, stretch.candidates, rules, &mut scratch.buffers);
         if let Some(overall) = now.overall()
             && swept.closest.is_none_or(|(_, b)| overall.distance < b.distance)
         {
@@ -556,6 +571,30 @@ mod tests {
         assert_eq!(solid_to_piece(&inside, &piece), 0.0);
     }
 
+    /// Segment distances in known configurations: crossing skew segments (their offset),
+    /// parallel ones side by side, end to end along a line, and a point beside a segment; and
+    /// the capsule bound never exceeds GJK's distance of the cylinders it holds.
+    #[test]
+    fn segment_distances_are_the_closed_forms() {
+        let v = Vector3::new;
+        let zero = Vector3::zeros();
+        assert!(
+            (segment_distance(&v(-1.0, 0.0, 0.0), &v(1.0, 0.0, 0.0), &v(0.0, -1.0, 0.3), &v(0.0, 1.0, 0.3)) - 0.3)
+                .abs()
+                < 1e-15
+        );
+        assert!((segment_distance(&zero, &v(1.0, 0.0, 0.0), &v(0.2, 0.5, 0.0), &v(0.7, 0.5, 0.0)) - 0.5).abs() < 1e-15);
+        assert!((segment_distance(&zero, &v(1.0, 0.0, 0.0), &v(1.5, 0.0, 0.0), &v(2.0, 0.0, 0.0)) - 0.5).abs() < 1e-15);
+        let point = v(0.5, 0.4, 0.3);
+        assert!((segment_distance(&zero, &v(1.0, 0.0, 0.0), &point, &point) - 0.5).abs() < 1e-15);
+        let link = Placed::of(&Solid::Cylinder { a: v(-0.1, 0.0, 0.1), b: v(0.1, 0.02, 0.06), radius: 0.015 });
+        for x in [-0.08, -0.02, 0.0, 0.03, 0.09] {
+            let piece = Placed::piece(&pawn_at(x, 0.03));
+            assert!(link.capsule_gap(&piece) <= link.distance(&piece) + 1e-12);
+            assert!(link.box_gap(&piece) <= link.distance(&piece) + 1e-12);
+        }
+    }
+
     /// A horizontal cylinder crossing above a piece: its underside's height above the top.
     #[test]
     fn a_link_over_a_piece_clears_it_by_its_underside() {
@@ -570,7 +609,8 @@ mod tests {
     fn box_to_box_is_the_closed_form() {
         use chessarm_core::nalgebra::{Matrix3, Rotation3};
         let half = Vector3::repeat(0.01);
-        let cube = |x: f64, axes: Matrix3<f64>| Placed::of(&Solid::Cuboid { centre: Vector3::new(x, 0.0, 0.0), axes, half });
+        let cube =
+            |x: f64, axes: Matrix3<f64>| Placed::of(&Solid::Cuboid { centre: Vector3::new(x, 0.0, 0.0), axes, half });
         let upright = cube(0.0, Matrix3::identity());
         assert!((upright.distance(&cube(0.05, Matrix3::identity())) - 0.03).abs() < 1e-9);
         let turned = *Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_4).matrix();
@@ -586,13 +626,17 @@ mod tests {
     fn the_table_distance_is_parrys_half_space_distance() {
         use parry3d_f64::shape::HalfSpace;
         let table = 0.02;
-        let link =
-            Solid::Cylinder { a: Vector3::new(0.1, 0.0, 0.09), b: Vector3::new(0.2, 0.05, 0.15), radius: 0.015 };
+        let link = Solid::Cylinder { a: Vector3::new(0.1, 0.0, 0.09), b: Vector3::new(0.2, 0.05, 0.15), radius: 0.015 };
         let plane = HalfSpace::new(Vector::Z);
         let placed = Placed::of(&link);
-        let parry = query::distance(&placed.pose, placed.shape.shape(), &Pose::from_translation(Vector::new(0.0, 0.0, table)), &plane)
-            .unwrap()
-            .distance;
+        let parry = query::distance(
+            &placed.pose,
+            placed.shape.shape(),
+            &Pose::from_translation(Vector::new(0.0, 0.0, table)),
+            &plane,
+        )
+        .unwrap()
+        .distance;
         assert!((link.lowest() - table - parry).abs() < 1e-9, "{} vs {parry}", link.lowest() - table);
     }
 
@@ -619,12 +663,24 @@ mod tests {
         let grid = (0..=3)
             .map(|k| {
                 solids_into(&arm, &q(start + 0.05 * k as f64), &hand, &mut solids);
-                nearest::<4>(&solids, &pieces, &[], None, &rules, &mut placed).overall().map_or(f64::INFINITY, |c| c.distance)
+                nearest::<4>(&solids, &pieces, &[], None, &rules, &mut placed)
+                    .overall()
+                    .map_or(f64::INFINITY, |c| c.distance)
             })
             .fold(f64::INFINITY, f64::min);
         assert!(grid > 1e-3, "the grid must miss it: {grid}");
         let reach = reach_bound(&arm, &hand);
-        let stretch = Stretch { q: &q, start, end, rate_bound: [1.0, 0.0, 0.0, 0.0], hand, gripped: &[], beyond: f64::INFINITY, open_end: false, candidates: None };
+        let stretch = Stretch {
+            q: &q,
+            start,
+            end,
+            rate_bound: [1.0, 0.0, 0.0, 0.0],
+            hand,
+            gripped: &[],
+            beyond: f64::INFINITY,
+            open_end: false,
+            candidates: None,
+        };
         let min_step = 1e-4;
         let swept = sweep(&arm, &stretch, &reach, &pieces, &rules, min_step, &mut Scratch::default());
         let (when, closest) = swept.closest.unwrap();
@@ -641,7 +697,10 @@ mod tests {
     #[test]
     fn the_reach_bound_holds_at_any_angles() {
         let arm = report_arm();
-        let hand = Hand { held: Some(chessarm_core::arm::bodies::Held { radius: 0.02, height: 0.095, grip_height: 0.076 }), ..open_hand() };
+        let hand = Hand {
+            held: Some(chessarm_core::arm::bodies::Held { radius: 0.02, height: 0.095, grip_height: 0.076 }),
+            ..open_hand()
+        };
         let reach = reach_bound(&arm, &hand);
         let mut solids = Vec::new();
         let mut rng = chessarm_core::sense::rng::SeededRng::new(7);
@@ -650,12 +709,12 @@ mod tests {
             let q = JointVector::<4>::from_fn(|_, _| rng.uniform(-pi, pi));
             solids_into(&arm, &q, &hand, &mut solids);
             let chain = FrameChain::new(&arm, &q);
-            for j in 0..4 {
+            for (j, bound) in reach.iter().enumerate() {
                 let point = chain.joint_axis(j).1;
                 // The solids joint j turns: those of the links after it.
                 for s in solids.iter().filter(|s| s.part.body(4) > j) {
                     let far = s.solid.farthest_from(&point);
-                    assert!(far <= reach[j] + 1e-12, "joint {} part {} {far} > {}", j + 1, s.part, reach[j]);
+                    assert!(far <= *bound + 1e-12, "joint {} part {} {far} > {}", j + 1, s.part, *bound);
                 }
             }
         }

@@ -96,6 +96,7 @@ fn held(pieces: &PieceSet, table: &Table, index: usize) -> (Held, f64) {
 /// `carries` in order, under `rules` (which parts are checked against what). `pieces` gives
 /// each kind's size. Returns the closest approach over the
 /// whole move (`None` when there is nothing to come close to).
+#[allow(clippy::too_many_arguments)]
 pub fn check_move(
     arm: &ArmModel<4>,
     check: &ClearanceCheck,
@@ -122,22 +123,40 @@ pub fn check_move(
     let mut start = first;
     for k in 0..=carries.len() {
         // (start, end, hand, the piece carried, the pieces the fingers are open around)
-        let mut stretches: Vec<(f64, f64, Hand, Option<usize>, Vec<usize>)> = Vec::with_capacity(2);
+        let mut stretches: Vec<Phase> = Vec::with_capacity(2);
         let released: Vec<usize> = k.checked_sub(1).map(|p| carries[p].piece).into_iter().collect();
         if let Some(carry) = carries.get(k) {
             let gap = if k > 0 { open(k).max(open(k - 1)) } else { open(k) };
             let mut around = released.clone();
             around.push(carry.piece);
-            stretches.push((start, carry.grip, Hand { gripper, gap, held: None }, None, around));
+            stretches.push(Phase {
+                from: start,
+                to: carry.grip,
+                hand: Hand { gripper, gap, held: None },
+                carried: None,
+                around,
+            });
             let (held, diameter) = held(pieces, table, carry.piece);
             let hand = Hand { gripper, gap: diameter, held: Some(held) };
-            stretches.push((carry.grip, carry.release, hand, Some(carry.piece), Vec::new()));
+            stretches.push(Phase {
+                from: carry.grip,
+                to: carry.release,
+                hand,
+                carried: Some(carry.piece),
+                around: Vec::new(),
+            });
             start = carry.release;
         } else {
             let gap = if k > 0 { open(k - 1) } else { gripper.open_gap(0.0) };
-            stretches.push((start, last, Hand { gripper, gap, held: None }, None, released));
+            stretches.push(Phase {
+                from: start,
+                to: last,
+                hand: Hand { gripper, gap, held: None },
+                carried: None,
+                around: released,
+            });
         }
-        for (from, to, hand, carried, around) in stretches {
+        for Phase { from, to, hand, carried, around } in stretches {
             let (from, to) = (from.clamp(first, last), to.clamp(first, last));
             let standing: Vec<(usize, Placed)> = table
                 .pieces()
@@ -148,7 +167,14 @@ pub fn check_move(
                     let d = pieces.dimensions(p.piece.role);
                     let base = table.geometry().surface_height;
                     let at = positions[i];
-                    (i, Placed::piece(&StandingPiece { base: Vector3::new(at.x, at.y, base), radius: 0.5 * d.base_diameter, height: d.height }))
+                    (
+                        i,
+                        Placed::piece(&StandingPiece {
+                            base: Vector3::new(at.x, at.y, base),
+                            radius: 0.5 * d.base_diameter,
+                            height: d.height,
+                        }),
+                    )
                 })
                 .collect();
             let placed: Vec<Placed> = standing.iter().map(|(_, p)| *p).collect();
@@ -273,6 +299,16 @@ pub fn square_for_fingers(pieces: &PieceSet, square: f64, gripper: &Gripper, mar
     Some(high)
 }
 
+/// A stretch of a move over which the hand and the table stay as they are: its times (s), the
+/// hand, the table index of the piece carried, and those of the pieces the fingers open around.
+struct Phase {
+    from: f64,
+    to: f64,
+    hand: Hand,
+    carried: Option<usize>,
+    around: Vec<usize>,
+}
+
 /// The piecewise-linear interpolant of `samples` at `t` (held before the first and after the
 /// last).
 pub fn interpolate<const N: usize>(samples: &[(f64, JointVector<N>)], t: f64) -> JointVector<N> {
@@ -315,8 +351,11 @@ mod tests {
     /// The interpolant passes through the samples and its rate bound is the steepest chord.
     #[test]
     fn the_interpolant_and_its_rate_bound() {
-        let samples: Vec<(f64, JointVector<2>)> =
-            vec![(0.0, JointVector::<2>::new(0.0, 1.0)), (0.1, JointVector::<2>::new(0.2, 1.0)), (0.2, JointVector::<2>::new(0.2, 0.7))];
+        let samples: Vec<(f64, JointVector<2>)> = vec![
+            (0.0, JointVector::<2>::new(0.0, 1.0)),
+            (0.1, JointVector::<2>::new(0.2, 1.0)),
+            (0.2, JointVector::<2>::new(0.2, 0.7)),
+        ];
         assert_eq!(interpolate(&samples, 0.1), samples[1].1);
         assert!((interpolate(&samples, 0.05)[0] - 0.1).abs() < 1e-12);
         assert_eq!(interpolate(&samples, 5.0), samples[2].1);

@@ -271,6 +271,11 @@ fn plot_sag_map(path: &std::path::Path, sag: &[SquareHold]) -> Result<()> {
 /// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they
 /// open around, the setup's pieces (on squares of `square` m) scaled with the squares.
 fn fingers_need(setup: &Setup, square: f64) -> Result<f64> {
-    chessarm_chess::clearance::moves::square_for_fingers(&setup.pieces, square, &setup.clearance.gripper, setup.clearance.margin)
-        .ok_or_else(|| anyhow!("the fingers ([gripper]) do not clear a piece's neighbours even on squares of 20 cm"))
+    chessarm_chess::clearance::moves::square_for_fingers(
+        &setup.pieces,
+        square,
+        &setup.clearance.gripper,
+        setup.clearance.margin,
+    )
+    .ok_or_else(|| anyhow!("the fingers ([gripper]) do not clear a piece's neighbours even on squares of 20 cm"))
 }

@@ -548,17 +548,23 @@ fn clearances_by_kind(reports: &[MoveReport]) -> Vec<(&'static str, Vec<f64>)> {
 /// The game's clearances as JSON (mm): the smallest and where, the simulated contacts, and per
 /// move kind the smallest, median and largest of its moves' smallest clearances.
 fn clearance_summary(reports: &[MoveReport]) -> Option<Value> {
-    let nearest = reports.iter().filter_map(|r| r.clearance.as_ref().map(|c| (r, c))).min_by(|a, b| a.1.distance.total_cmp(&b.1.distance))?;
+    let nearest = reports
+        .iter()
+        .filter_map(|r| r.clearance.as_ref().map(|c| (r, c)))
+        .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance))?;
     let contacts = reports.iter().filter(|r| r.executed_clearance.as_ref().is_some_and(|e| e.is_contact())).count();
     let by_kind: serde_json::Map<String, Value> = clearances_by_kind(reports)
         .into_iter()
         .map(|(kind, all)| {
-            (kind.to_string(), json!({
-                "moves": all.len(),
-                "smallest_mm": all[0] * 1e3,
-                "median_mm": all[all.len() / 2] * 1e3,
-                "largest_mm": all[all.len() - 1] * 1e3,
-            }))
+            (
+                kind.to_string(),
+                json!({
+                    "moves": all.len(),
+                    "smallest_mm": all[0] * 1e3,
+                    "median_mm": all[all.len() / 2] * 1e3,
+                    "largest_mm": all[all.len() - 1] * 1e3,
+                }),
+            )
         })
         .collect();
     Some(json!({

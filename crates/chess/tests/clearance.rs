@@ -1,0 +1,123 @@
+//! Constructed cases the clearance check must catch, and the games that place every piece with
+//! room to spare (no contact reported on them).
+
+use chessarm_chess::board::BoardGeometry;
+use chessarm_chess::clearance::moves::square_for_fingers;
+use chessarm_chess::notation::{parse_fen, parse_pgn};
+use chessarm_chess::play::{Game, MoveReport, Mover, PlayError, PlaySettings};
+use chessarm_chess::shakmaty::uci::UciMove;
+use chessarm_core::arm::bodies::Part;
+use chessarm_core::arm::preset::report_arm;
+use chessarm_core::control::gains::{Gains, REPORT_PD};
+use chessarm_core::nalgebra::Vector2;
+
+const START: &str = "rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1";
+
+fn settings() -> PlaySettings {
+    let mut settings = PlaySettings::new("pd", Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("the report's gains"));
+    settings.record_every = 0;
+    settings
+}
+
+/// The report's board with squares of `size` m, rank 1 where it is.
+fn board(size: f64) -> BoardGeometry {
+    BoardGeometry { square_size: size, center: Vector2::new(0.0, 0.12 + 4.0 * size), ..BoardGeometry::default() }
+}
+
+fn play(board: BoardGeometry, fen: &str, uci: &str) -> Result<MoveReport, PlayError> {
+    let position = parse_fen(fen).expect("a FEN");
+    let mv = uci.parse::<UciMove>().expect("a UCI move").to_move(&position).expect("a legal move");
+    Game::new(report_arm(), board, position, settings()).expect("a served board").play(&mv, Mover::Robot)
+}
+
+/// A finger opening into the neighbour's square: on 42 mm squares the default fingers (6 mm
+/// thick, opened 6 mm beside a 29 mm pawn) reach 26.5 mm from the pawn's axis, 1 mm short of
+/// the neighbouring pawns' bases; the planner opens them less (3 mm) and says so, and the move
+/// keeps the 2 mm margin. On 44 mm squares nothing needs changing.
+#[test]
+fn a_finger_opening_into_the_neighbours_square_is_narrowed() {
+    let roomy = play(board(0.044), START, "e2e4").unwrap();
+    assert!(roomy.adjustments.is_empty(), "{:?}", roomy.adjustments);
+    let tight = play(board(0.042), START, "e2e4").unwrap();
+    assert_eq!(tight.adjustments.len(), 1, "{:?}", tight.adjustments);
+    assert!(
+        tight.adjustments[0].starts_with("fingers opened 3 mm beside the piece instead of 6"),
+        "{:?}",
+        tight.adjustments
+    );
+    assert!(tight.adjustments[0].contains("the white pawn on"), "{:?}", tight.adjustments);
+    assert_eq!(tight.opening, Some(0.003));
+    let clearance = tight.clearance.as_ref().unwrap();
+    assert!(clearance.distance >= 0.002, "{clearance:?}");
+    // The fingers keep (nearly) the narrowed opening from the pawn they grip.
+    assert!((clearance.gripped.unwrap() - 0.003).abs() < 1e-6, "{clearance:?}");
+    assert!(!tight.executed_clearance.unwrap().is_contact());
+    assert!(tight.new_misplaced.is_empty());
+}
+
+/// Squares too small for any opening: the move is refused before anything runs, naming the
+/// move, the finger and the pawn beside it.
+#[test]
+fn a_move_that_cannot_keep_clear_is_refused_naming_the_part_and_the_piece() {
+    let error = play(board(0.036), START, "e2e4").unwrap_err();
+    let PlayError::Contact { mv, part, obstacle, distance, .. } = &error else { panic!("{error}") };
+    assert_eq!(mv, "1. e4 (e2e4)");
+    assert!(part.starts_with("finger"), "{error}");
+    assert!(obstacle == "the white pawn on d2" || obstacle == "the white pawn on f2", "{error}");
+    assert!(*distance < 0.002);
+    let message = error.to_string();
+    assert!(message.contains("nothing was run") && message.contains("fingers opened less"), "{message}");
+    assert!(message.contains("traverses raised"), "{message}");
+}
+
+/// The wrist beside a tall piece: on 34 mm squares the last link (15 mm radius) comes down to
+/// e2 beside the king on e1 (40 mm base): refused, naming link 4 and the king.
+#[test]
+fn the_wrist_beside_the_king_is_refused() {
+    let error = play(board(0.034), START, "e2e4").unwrap_err();
+    let PlayError::Contact { part, obstacle, .. } = &error else { panic!("{error}") };
+    assert_eq!(part, &Part::Link(4).to_string(), "{error}");
+    assert_eq!(obstacle, "the white king on e1", "{error}");
+}
+
+/// The square the fingers need, against the planner: the default set and fingers need
+/// 44.7 mm (the neighbour is the widest piece, a king, in the worst closing direction), and
+/// the closed form is monotonic in the opening.
+#[test]
+fn the_square_the_fingers_need() {
+    let pieces = chessarm_chess::pieces::PieceSet::default();
+    let gripper = chessarm_core::arm::bodies::Gripper::default();
+    let needed = square_for_fingers(&pieces, 0.06, &gripper, 0.002).unwrap();
+    assert!((needed - 0.0447).abs() < 1e-4, "{needed}");
+    // Along a file, a king gripped beside a king needs its radius, the opening, the finger's
+    // thickness, the neighbour's radius and the margin (the kings scaled with the squares,
+    // 40 mm on 60 mm): s (1 − 40/60) ≥ 6 + 6 + 2 mm, 42 mm; turned neighbours need more.
+    assert!(needed * (1.0 - 0.040 / 0.06) >= 0.014 - 1e-6, "{needed}");
+    let narrower = chessarm_core::arm::bodies::Gripper { opening: 0.001, ..gripper };
+    assert!(square_for_fingers(&pieces, 0.06, &narrower, 0.002).unwrap() < needed);
+}
+
+/// The games that place every piece today keep clear: every robot move of the Opera game and
+/// Kasparov–Topalov 1999 has its clearance on the record, none touches (simulated), and the
+/// plan keeps the margin everywhere.
+#[test]
+fn the_master_games_touch_nothing() {
+    for file in ["opera_game.pgn", "kasparov_topalov_1999.pgn"] {
+        let text = std::fs::read_to_string(format!("{}/tests/fixtures/{file}", env!("CARGO_MANIFEST_DIR"))).unwrap();
+        let record = parse_pgn(&text).unwrap().remove(0);
+        let mut game = Game::new(report_arm(), BoardGeometry::default(), record.start.clone(), settings()).unwrap();
+        let mut smallest = f64::INFINITY;
+        for mv in &record.moves {
+            let report = game.play(mv, Mover::Robot).unwrap();
+            let planned =
+                report.clearance.as_ref().unwrap_or_else(|| panic!("{file} ply {}: no clearance", report.ply));
+            assert!(planned.distance >= 0.002, "{file} ply {}: {planned:?}", report.ply);
+            let executed = report.executed_clearance.as_ref().unwrap();
+            assert!(!executed.is_contact(), "{file} ply {}: {executed:?}", report.ply);
+            smallest = smallest.min(planned.distance);
+        }
+        assert!(game.misplaced().is_empty(), "{file}");
+        // Measured 3.0 mm (Opera) and 2.4 mm (Kasparov–Topalov): a finger beside a queen or king.
+        assert!(smallest < 0.01, "{file}: {smallest}");
+    }
+}
