@@ -14,7 +14,8 @@ use chessarm_core::nalgebra::Vector2;
 const START: &str = "rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1";
 
 fn settings() -> PlaySettings {
-    let mut settings = PlaySettings::new("pd", Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("the report's gains"));
+    let mut settings =
+        PlaySettings::new("pd", Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("the report's gains"));
     settings.record_every = 0;
     settings
 }

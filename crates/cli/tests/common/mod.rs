@@ -75,9 +75,18 @@ pub fn assert_same_at_every_batching(test: &str, scalar: &str, run: impl Fn(&str
 /// The Python with MuJoCo that CI installs (`CHESSARM_PYTHON`), or a `python3` that has it.
 #[allow(dead_code)]
 pub fn python_with_mujoco() -> Option<String> {
+    python_with("mujoco")
+}
+
+/// The Python CI installs (`CHESSARM_PYTHON`), or a `python3`, that can import `module`.
+#[allow(dead_code)]
+pub fn python_with(module: &str) -> Option<String> {
     let candidates = std::env::var("CHESSARM_PYTHON").into_iter().chain(["python3".to_string()]);
     candidates.into_iter().find(|python| {
-        std::process::Command::new(python).args(["-c", "import mujoco"]).output().is_ok_and(|o| o.status.success())
+        std::process::Command::new(python)
+            .args(["-c", &format!("import {module}")])
+            .output()
+            .is_ok_and(|o| o.status.success())
     })
 }
 
