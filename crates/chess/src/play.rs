@@ -780,7 +780,16 @@ impl Game {
             let reach = reach_bound(&self.arm, &hand);
             let strayed: f64 = (0..4).map(|j| sampler.deviation[j] * reach[j]).sum();
             let moved = report.place_errors.iter().fold(0.0, |a: f64, b| a.max(*b));
-            let at_least = (planned.distance.min(planned.gripped.unwrap_or(f64::INFINITY)) - strayed - moved).max(0.0);
+            // The simulated grip holds a piece off the tip's axis by where the tip closed on it.
+            let held_off = report
+                .handled
+                .iter()
+                .filter_map(|h| h.grip_tip.map(|tip| (tip.xy() - h.standing).norm()))
+                .fold(0.0, f64::max);
+            // Two of the arm's own solids may each stray: twice.
+            let at_least =
+                (planned.distance.min(planned.gripped.unwrap_or(f64::INFINITY)) - 2.0 * strayed - moved - held_off)
+                    .max(0.0);
             // The margin is the plan's; the simulated motion is measured where the bound
             // cannot rule out a contact.
             report.executed_clearance = Some(if at_least > 0.0 {

@@ -198,7 +198,14 @@ fn a_sweep_over_a_game_counts_misplaced_pieces() {
     // it puts pieces down off their squares; kp = 900,
     // kd = 40 (ωn = 30 rad/s, ζ = 0.67) places every piece.
     let row = |kp: &str, kd: &str| rows.iter().find(|r| r[1] == kp && r[2] == kd).unwrap();
-    assert!(row("25.0", "4.0")[13].parse::<usize>().unwrap() > 0, "{csv}");
+    // The soft loop either counts its misplaced pieces or stops where the pieces it put down
+    // off their squares leave a later move no room to keep clear (the planner refuses it).
+    let soft = row("25.0", "4.0");
+    assert!(
+        soft[13].parse::<usize>().unwrap() > 0
+            || (soft[4].contains("would come") && soft[4].contains("nothing was run")),
+        "{csv}"
+    );
     assert_eq!(row("900.0", "40.0")[13], "0", "{csv}");
     // The best pick is among the candidates that misplaced nothing.
     assert_eq!(result["best"][0]["kp"].as_f64(), Some(900.0));

@@ -33,6 +33,11 @@ impl Default for ClearanceCheck {
     }
 }
 
+/// The distance at or below which a clearance counts as a contact, m: a contact shorter than
+/// the sweep's smallest step shows as at most this (0.5 mm, a quarter of the default margin; it
+/// does not depend on the margin, so a small opening of the fingers is not a contact).
+pub const RESOLUTION: f64 = 0.0005;
+
 /// Longest stretch of motion swept with one rate bound, s.
 const WINDOW: f64 = 0.025;
 
@@ -190,7 +195,9 @@ pub fn check_move(
                 let end = if w + 1 == windows { to } else { from + (to - from) * (w + 1) as f64 / windows as f64 };
                 let rate_bound = rate_bound(samples, start, end);
                 let speed: f64 = rate_bound.iter().zip(&reach).map(|(w, r)| w * r).sum();
-                let min_step = if speed > 0.0 { 0.25 * check.margin / speed } else { end - start };
+                // Steps short enough that a contact between two checks shows as at most
+                // `RESOLUTION` (the arm's own pairs close at up to twice the speed).
+                let min_step = if speed > 0.0 { 0.5 * RESOLUTION / speed } else { end - start };
                 // Only the pairs of a solid and a piece whose boxes come within `NEAR` of each
                 // other over the window are checked (no point moves more than
                 // `v̄ (end − start)`); the others stay at least `NEAR` apart throughout.
@@ -211,7 +218,7 @@ pub fn check_move(
                 let swept = sweep(arm, &stretch, &reach, &placed, rules, min_step, scratch);
                 scratch.pairs = pairs;
                 checks += swept.checks;
-                resolution = resolution.max(swept.resolution);
+                resolution = resolution.max(2.0 * swept.resolution);
                 if let Some((t, c)) = swept.closest
                     && best.is_none_or(|b| c.distance < b.1.distance)
                 {

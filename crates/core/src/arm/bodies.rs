@@ -152,15 +152,17 @@ pub enum Part {
 }
 
 impl Part {
-    /// The rigid body the part moves with: 0 the base, `i` link `i` (the fingers and a held
-    /// piece the last link's, `n` the arm's joint count). A housing moves with the link before
+    /// The rigid body the part moves with: 0 the base, `i` link `i`, and `n + 1` (`n` the
+    /// arm's joint count) for the fingers and a held piece: they ride on the last link, but
+    /// counting them one body further keeps them checked against the link and housing before
+    /// it (a carried piece swinging into the forearm). A housing moves with the link before
     /// its joint (it is round about the joint's axis, so either side would do).
     pub fn body(&self, n: usize) -> usize {
         match *self {
             Part::Pedestal => 0,
             Part::Housing(j) => j - 1,
             Part::Link(i) => i,
-            Part::Finger(_) | Part::Held => n,
+            Part::Finger(_) | Part::Held => n + 1,
         }
     }
 }
