@@ -120,6 +120,9 @@ fn example_folder() -> tempfile::TempDir {
         let entry = entry.unwrap();
         std::fs::copy(entry.path(), dir.path().join(real_arms).join(entry.file_name())).unwrap();
     }
+    // The needle fingers the real arms' examples give.
+    let needle = Path::new("crates/cli/tests/fixtures/needle_fingers.toml");
+    std::fs::copy(root.join(needle), dir.path().join(needle)).unwrap();
     // The repository's examples/ folder, which the README's examples name.
     let examples = root.join("examples");
     std::fs::create_dir(dir.path().join("examples")).unwrap();
