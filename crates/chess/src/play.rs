@@ -386,14 +386,11 @@ impl Game {
         let feedback = settings.conditions.feedback(settings.control_period)?;
         let rules = match &settings.clearance {
             Some(check) => {
-                let gripper = check.gripper.validated().map_err(|(field, value, reason)| PlayError::Gripper {
-                    field,
-                    value,
-                    reason,
+                let check = check.clone().validated().map_err(|(field, value, reason)| match field {
+                    "arm_clearance" => PlayError::ClearanceMargin(value),
+                    _ => PlayError::Gripper { field, value, reason },
                 })?;
-                if !(check.margin.is_finite() && check.margin >= 0.0) {
-                    return Err(PlayError::ClearanceMargin(check.margin));
-                }
+                let gripper = check.gripper;
                 let hand = Hand { gripper, gap: gripper.open_gap(settings.pieces.widest()), held: None };
                 Some(Rules::for_arm(&arm, &hand, &q, board.surface_height))
             }
@@ -624,14 +621,14 @@ impl Game {
                 adjustments.push(format!("fingers opened less (down to {} mm): no nearer to clear", MIN_OPENING * 1e3));
             }
             let clear = check.clone().unwrap_or(clear);
-            if narrowing && finger && near.piece.is_some() && clear.gripper.opening > MIN_OPENING {
+            if narrowing && finger && near.piece.is_some() && clear.gripper.finger_opening > MIN_OPENING {
                 narrowed = Some(near.distance);
                 let mut narrower = clear.clone();
-                narrower.gripper.opening = (0.5 * clear.gripper.opening).max(MIN_OPENING);
+                narrower.gripper.finger_opening = (0.5 * clear.gripper.finger_opening).max(MIN_OPENING);
                 adjustments.push(format!(
                     "fingers opened {} mm beside the piece instead of {}: {why}",
-                    mm(narrower.gripper.opening),
-                    mm(clear.gripper.opening)
+                    mm(narrower.gripper.finger_opening),
+                    mm(clear.gripper.finger_opening)
                 ));
                 check = Some(narrower);
             } else if raised < RAISES {
@@ -653,7 +650,7 @@ impl Game {
         let ClearPlan { plan, clearance: planned_clearance, adjustments, check } = self.plan_clear(mv, name)?;
         report.clearance = planned_clearance;
         report.adjustments = adjustments;
-        report.opening = check.as_ref().map(|c| c.gripper.opening);
+        report.opening = check.as_ref().map(|c| c.gripper.finger_opening);
         let settings = &self.settings;
         let PlannedMove { motion, trajectory, tasks: planned, phases, .. } = &plan;
         report.planned_duration = motion.duration();
@@ -709,7 +706,8 @@ impl Game {
             bus_steps,
             goals: Vec::new(),
             path_steps,
-            path: Vec::new(),
+            // One pose per millisecond of the planned motion (fine points' waits add a few).
+            path: Vec::with_capacity(if path_steps > 0 { trajectory.samples().len() + 1 } else { 0 }),
             deviation: [0.0; 4],
         };
         let (summary, waits) = simulate_fine_points(

@@ -94,7 +94,7 @@ fn the_square_the_fingers_need() {
     // thickness, the neighbour's radius and the margin (the kings scaled with the squares,
     // 40 mm on 60 mm): s (1 − 40/60) ≥ 6 + 6 + 2 mm, 42 mm; turned neighbours need more.
     assert!(needed * (1.0 - 0.040 / 0.06) >= 0.014 - 1e-6, "{needed}");
-    let narrower = chessarm_core::arm::bodies::Gripper { opening: 0.001, ..gripper };
+    let narrower = chessarm_core::arm::bodies::Gripper { finger_opening: 0.001, ..gripper };
     assert!(square_for_fingers(&pieces, 0.06, &narrower, 0.002).unwrap() < needed);
 }
 

@@ -243,17 +243,13 @@ impl GripperFile {
             finger_reach: g("finger_reach", self.finger_reach, d.finger_reach)?,
             finger_thickness: g("finger_thickness", self.finger_thickness, d.finger_thickness)?,
             finger_width: g("finger_width", self.finger_width, d.finger_width)?,
-            opening: g("finger_opening", self.finger_opening, d.opening)?,
+            finger_opening: g("finger_opening", self.finger_opening, d.finger_opening)?,
         };
-        let gripper = gripper.validated().map_err(|(field, value, reason)| {
-            let field = if field == "opening" { "finger_opening" } else { field };
-            anyhow!("gripper.{field} = {}: {reason}", chessarm_core::short_number(value))
-        })?;
         let margin = number_or("motion.arm_clearance", motion.arm_clearance, default.margin)?;
-        if margin.is_nan() || margin < 0.0 {
-            bail!("motion.arm_clearance = {}: must be finite and >= 0", chessarm_core::short_number(margin));
-        }
-        Ok(ClearanceCheck { gripper, margin })
+        ClearanceCheck { gripper, margin }.validated().map_err(|(field, value, reason)| {
+            let table = if field == "arm_clearance" { "motion" } else { "gripper" };
+            anyhow!("{table}.{field} = {}: {reason}", chessarm_core::short_number(value))
+        })
     }
 }
 
@@ -877,7 +873,7 @@ impl From<&Setup> for SetupFile {
                 finger_reach: Some(setup.clearance.gripper.finger_reach),
                 finger_thickness: Some(setup.clearance.gripper.finger_thickness),
                 finger_width: Some(setup.clearance.gripper.finger_width),
-                finger_opening: Some(setup.clearance.gripper.opening),
+                finger_opening: Some(setup.clearance.gripper.finger_opening),
             },
         }
     }

@@ -147,6 +147,9 @@ fn bad_motion_settings_are_one_line_errors_naming_the_field_and_value() {
         ("[gripper]\ngrip_dwell = -1.0\n", &["gripper.grip_dwell", "-1", ">= 0"][..]),
         ("[motion]\njoint_acceleration = [1.0, 2.0]\n", &["motion.joint_acceleration", "2 numbers"][..]),
         ("[motion]\ntool_sped = 1.0\n", &["tool_sped"][..]),
+        ("[gripper]\nfinger_thickness = -0.002\n", &["gripper.finger_thickness", "-0.002", "> 0"][..]),
+        ("[gripper]\nfinger_reach = 0.05\n", &["gripper.finger_reach", "0.05", "shorter than finger_length"][..]),
+        ("[motion]\narm_clearance = -0.001\n", &["motion.arm_clearance", "-0.001", ">= 0"][..]),
     ] {
         let setup = dir.path().join("bad.toml");
         std::fs::write(&setup, text).unwrap();

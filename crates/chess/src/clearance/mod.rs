@@ -211,11 +211,6 @@ impl Placed {
     }
 }
 
-/// The distance between one solid of the arm and a standing piece, m (0 when they touch).
-pub fn solid_to_piece(solid: &Solid, piece: &StandingPiece) -> f64 {
-    Placed::of(solid).distance(&Placed::piece(piece))
-}
-
 /// Which of the arm's parts are checked against which obstacles.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Rules {
@@ -552,6 +547,11 @@ mod tests {
 
     fn pawn_at(x: f64, y: f64) -> StandingPiece {
         StandingPiece { base: Vector3::new(x, y, 0.0), radius: 0.012, height: 0.04 }
+    }
+
+    /// The distance between one solid of the arm and a standing piece, m (0 when they touch).
+    fn solid_to_piece(solid: &Solid, piece: &StandingPiece) -> f64 {
+        Placed::of(solid).distance(&Placed::piece(piece))
     }
 
     fn open_hand() -> Hand {

@@ -27,6 +27,18 @@ pub struct ClearanceCheck {
     pub margin: f64,
 }
 
+impl ClearanceCheck {
+    /// Checks the gripper ([`Gripper::validated`]) and that the margin (`arm_clearance`) is
+    /// finite and ≥ 0: the first field that is not, its value and what is required.
+    pub fn validated(self) -> Result<Self, (&'static str, f64, &'static str)> {
+        let gripper = self.gripper.validated()?;
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            return Err(("arm_clearance", self.margin, "must be finite and >= 0"));
+        }
+        Ok(Self { gripper, ..self })
+    }
+}
+
 impl Default for ClearanceCheck {
     fn default() -> Self {
         Self { gripper: Gripper::default(), margin: DEFAULT_MARGIN }
@@ -121,7 +133,6 @@ pub fn check_move(
     let open = |k: usize| gripper.open_gap(held(pieces, table, carries[k].piece).1);
     let mut best: Option<(f64, Closest, Option<usize>)> = None;
     let mut gripped_best: Option<f64> = None;
-    let mut resolution = 0.0f64;
     let mut checks = 0;
     // Stretches: before each grip (open), grip to release (closed on the piece), and after the
     // last release (open).
@@ -218,7 +229,6 @@ pub fn check_move(
                 let swept = sweep(arm, &stretch, &reach, &placed, rules, min_step, scratch);
                 scratch.pairs = pairs;
                 checks += swept.checks;
-                resolution = resolution.max(2.0 * swept.resolution);
                 if let Some((t, c)) = swept.closest
                     && best.is_none_or(|b| c.distance < b.1.distance)
                 {
@@ -262,7 +272,8 @@ pub fn check_move(
         piece,
         gripped: gripped_best,
         checks,
-        resolution,
+        // The steps above keep every contact's trace at or below it.
+        resolution: RESOLUTION,
     })
 }
 

@@ -34,7 +34,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
                 fit.board.square_size * 1e3,
                 setup.clearance.gripper.finger_thickness * 1e3,
                 setup.clearance.gripper.finger_width * 1e3,
-                setup.clearance.gripper.opening * 1e3,
+                setup.clearance.gripper.finger_opening * 1e3,
                 needed * 1e3,
                 setup.clearance.margin * 1e3
             );

@@ -38,14 +38,20 @@ pub struct Gripper {
     /// A finger's width across the closing direction.
     pub finger_width: f64,
     /// The gap between each finger and a piece when the gripper is open around it, per side.
-    pub opening: f64,
+    pub finger_opening: f64,
 }
 
 impl Default for Gripper {
     /// Printed or sheet fingers of a hobby parallel gripper: 45 mm long, reaching 5 mm past
     /// the grip point, 6 mm thick, 14 mm wide, opened 6 mm beyond the piece on each side.
     fn default() -> Self {
-        Self { finger_length: 0.045, finger_reach: 0.005, finger_thickness: 0.006, finger_width: 0.014, opening: 0.006 }
+        Self {
+            finger_length: 0.045,
+            finger_reach: 0.005,
+            finger_thickness: 0.006,
+            finger_width: 0.014,
+            finger_opening: 0.006,
+        }
     }
 }
 
@@ -62,7 +68,7 @@ impl Gripper {
                 return Err((field, value, "must be finite and > 0"));
             }
         }
-        for (field, value) in [("finger_reach", self.finger_reach), ("opening", self.opening)] {
+        for (field, value) in [("finger_reach", self.finger_reach), ("finger_opening", self.finger_opening)] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err((field, value, "must be finite and >= 0"));
             }
@@ -75,7 +81,7 @@ impl Gripper {
 
     /// The gap between the fingers when open around a piece of base `diameter`, m.
     pub fn open_gap(&self, diameter: f64) -> f64 {
-        diameter + 2.0 * self.opening
+        diameter + 2.0 * self.finger_opening
     }
 
     /// How far the palm is behind the tool tip along the approach axis, m.
