@@ -9,7 +9,13 @@ use std::hint::black_box;
 /// The report's arm as URDF with `extra` fixed links chained after its tool link.
 fn with_fixed_links(extra: usize) -> String {
     let setup = Setup::default();
-    let text = chessarm::urdf::to_urdf(&setup.arm, "chessarm", &setup.joint_names, &[1.0; 4]);
+    let text = chessarm::urdf::to_urdf(
+        &setup.arm,
+        "chessarm",
+        &setup.joint_names,
+        &[1.0; 4],
+        setup.clearance.gripper.palm_depth(),
+    );
     let mut chain = String::new();
     let mut parent = "tool".to_string();
     for i in 0..extra {

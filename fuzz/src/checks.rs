@@ -170,7 +170,9 @@ pub fn check_urdf(data: &[u8]) {
     let input = text(data);
     match chessarm::urdf_import::from_urdf(&input, &chessarm::urdf_import::ImportOptions::default()) {
         Ok(imported) => {
-            let printed = chessarm::urdf::to_urdf(&imported.model, "chessarm", &imported.joint_names, &imported.signs);
+            let palm = chessarm_core::arm::bodies::Gripper::default().palm_depth();
+            let printed =
+                chessarm::urdf::to_urdf(&imported.model, "chessarm", &imported.joint_names, &imported.signs, palm);
             let again = chessarm::urdf_import::from_urdf(&printed, &chessarm::urdf_import::ImportOptions::default())
                 .unwrap_or_else(|e| panic!("the export of {input:?} does not import: {e:#}\n{printed}"));
             assert_eq!(again.joint_names, imported.joint_names, "joint names of the export of {input:?}");

@@ -392,7 +392,7 @@ impl Game {
                 })?;
                 let gripper = check.gripper;
                 let hand = Hand { gripper, gap: gripper.open_gap(settings.pieces.widest()), held: None };
-                Some(Rules::for_arm(&arm, &hand, &q, board.surface_height))
+                Some(Rules::for_arm(&arm, &hand, &check.bodies, &q, board.surface_height))
             }
             None => None,
         };
@@ -775,7 +775,7 @@ impl Game {
                 Held { radius: 0.5 * pieces.widest(), height: pieces.tallest(), grip_height: pieces.highest_grip() };
             let hand =
                 Hand { held: Some(largest), gap: clear.gripper.open_gap(pieces.widest()), gripper: clear.gripper };
-            let reach = reach_bound(&self.arm, &hand);
+            let reach = reach_bound(&self.arm, &hand, &clear.bodies);
             let strayed: f64 = (0..4).map(|j| sampler.deviation[j] * reach[j]).sum();
             let moved = report.place_errors.iter().fold(0.0, |a: f64, b| a.max(*b));
             // The simulated grip holds a piece off the tip's axis by where the tip closed on it.

@@ -246,10 +246,12 @@ impl GripperFile {
             finger_opening: g("finger_opening", self.finger_opening, d.finger_opening)?,
         };
         let margin = number_or("motion.arm_clearance", motion.arm_clearance, default.margin)?;
-        ClearanceCheck { gripper, margin }.validated().map_err(|(field, value, reason)| {
-            let table = if field == "arm_clearance" { "motion" } else { "gripper" };
-            anyhow!("{table}.{field} = {}: {reason}", chessarm_core::short_number(value))
-        })
+        ClearanceCheck { gripper, margin, bodies: default.bodies.clone() }.validated().map_err(
+            |(field, value, reason)| {
+                let table = if field == "arm_clearance" { "motion" } else { "gripper" };
+                anyhow!("{table}.{field} = {}: {reason}", chessarm_core::short_number(value))
+            },
+        )
     }
 }
 
@@ -492,6 +494,7 @@ impl Setup {
         self.joint_names = imported.joint_names;
         self.base_link = imported.base_link;
         self.convention = JointConvention { signs: imported.signs, locked: imported.locked };
+        self.clearance.bodies = imported.bodies;
     }
 }
 

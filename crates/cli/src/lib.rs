@@ -10,6 +10,7 @@ pub mod config;
 pub mod folder_lock;
 pub mod hardware;
 pub mod input;
+pub mod meshes;
 pub mod output;
 pub mod plots;
 pub mod progress;
@@ -308,9 +309,13 @@ fn dispatch(setup: &Setup, command: Option<Command>) -> Result<()> {
         }
         Some(Command::Fk(args)) => commands::kinematics::fk(setup, &args),
         Some(Command::Ik(args)) => commands::kinematics::ik(setup, &args),
-        Some(Command::Urdf) => {
-            print_text(&urdf::to_urdf(&setup.arm, "chessarm", &setup.joint_names, &setup.convention.signs))
-        }
+        Some(Command::Urdf) => print_text(&urdf::to_urdf(
+            &setup.arm,
+            "chessarm",
+            &setup.joint_names,
+            &setup.convention.signs,
+            setup.clearance.gripper.palm_depth(),
+        )),
         Some(Command::Plan(args)) => commands::plan::run(setup, &args),
         Some(Command::Board(args)) => commands::board::run(setup, &args),
     }

@@ -20,6 +20,7 @@
 //! `chessarm urdf`'s tool marker does not add its trace of mass).
 
 use anyhow::{Context, Result, anyhow, bail};
+use chessarm_core::arm::bodies::{Bodies, BodyShape, Shape};
 use chessarm_core::arm::chain::{ChainError, ChainJoint, SerialChain, isometry_from_xyz_rpy, model_from_chain};
 use chessarm_core::arm::kinematics::Pose;
 use chessarm_core::arm::model::{ArmModel, Friction, Inertial, JointLimits, REPORT_GRAVITY};
@@ -53,6 +54,10 @@ pub struct ImportedArm {
     /// Efforts that look like placeholders (said unless servos replace them by their stall
     /// torques).
     pub effort_warnings: Vec<String>,
+    /// What the clearance check takes the arm's links to be: the file's `<collision>` shapes,
+    /// or chessarm's own solids where the file gives none or a mesh is missing (said in
+    /// `notes` or `warnings`).
+    pub bodies: Bodies,
 }
 
 /// Reads the arm of the URDF file at `path`.
@@ -63,7 +68,8 @@ pub struct ImportedArm {
 /// message names the file, the element and its line.
 pub fn load(path: &Path, options: &ImportOptions) -> Result<ImportedArm> {
     let text = crate::input::read_text("URDF file", path, crate::input::MAX_URDF_BYTES)?;
-    from_urdf(&text, options).with_context(|| format!("URDF file {}", path.display()))
+    let folder = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
+    from_urdf_in(&text, options, folder).with_context(|| format!("URDF file {}", path.display()))
 }
 
 /// Where a node is, for messages: `line L: <joint name="x">`.
@@ -230,12 +236,23 @@ struct JointElement<'a, 'input> {
 /// pose in that link's frame.
 type Carried = (usize, Pose);
 
-/// The arm described by URDF `text`, as [`ImportOptions`] say.
+/// The arm described by URDF `text`, as [`ImportOptions`] say, its meshes looked for
+/// relative to the working folder.
+///
+/// # Errors
+///
+/// As [`from_urdf_in`].
+pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
+    from_urdf_in(text, options, None)
+}
+
+/// The arm described by URDF `text`, as [`ImportOptions`] say, for a file in `folder` (where
+/// its relative mesh names start).
 ///
 /// # Errors
 ///
 /// As [`load`], without the file name.
-pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
+pub fn from_urdf_in(text: &str, options: &ImportOptions, folder: Option<&Path>) -> Result<ImportedArm> {
     // A xacro element, or a `${…}` / `$(…)` substitution left in an attribute (an expanded
     // file may keep the namespace declaration: that alone is no sign).
     let xacro = || {
@@ -650,7 +667,22 @@ pub fn from_urdf(text: &str, options: &ImportOptions) -> Result<ImportedArm> {
     let joint_names = chain.joints.clone().map(|joint| joint.name);
     let (effort_warnings, mut warnings) = placeholder_warnings(&model, &joint_names, &joints, &links, &by_name, &arm);
     warnings.extend(filled);
-    Ok(ImportedArm { model, joint_names, base_link: root, signs, locked, tool_link, notes, warnings, effort_warnings })
+    let links_of =
+        Tree { order: &order, carried: &carried, links: &links, parent_joint: &parent_joint, joints: &joints };
+    let in_dh = chessarm_core::arm::chain::chain_frames_in_dh(&chain, &model);
+    let bodies = collision_bodies(&links_of, &arm, &locked, &in_dh, folder, &mut notes, &mut warnings)?;
+    Ok(ImportedArm {
+        model,
+        joint_names,
+        base_link: root,
+        signs,
+        locked,
+        tool_link,
+        notes,
+        warnings,
+        effort_warnings,
+        bodies,
+    })
 }
 
 /// The tool link: `--tool`, else a leaf reached by a fixed joint with a tool's name (or the
@@ -1032,4 +1064,180 @@ fn gravity(robot: &Node<'_, '_>) -> Result<Vector3<f64>> {
         }
         _ => Ok(Vector3::new(0.0, 0.0, -REPORT_GRAVITY)),
     }
+}
+
+/// The file's tree, as [`from_urdf_in`] reads it.
+struct Tree<'t, 'a, 'input> {
+    /// Links from the root, parents first.
+    order: &'t [String],
+    carried: &'t BTreeMap<String, Carried>,
+    links: &'t BTreeMap<String, Node<'a, 'input>>,
+    parent_joint: &'t BTreeMap<String, usize>,
+    joints: &'t [JointElement<'a, 'input>],
+}
+
+/// A convex hull's vertices, m.
+type Points = std::sync::Arc<[Vector3<f64>]>;
+
+/// A positive, finite attribute of a `<geometry>` shape.
+fn size(node: &Node<'_, '_>, name: &str) -> Result<f64> {
+    let value = required(node, name, "m")?;
+    if value <= 0.0 {
+        bail!("{}: {name}=\"{value}\" must be > 0", at(node));
+    }
+    Ok(value)
+}
+
+/// The arm's collision bodies from the links' `<collision>` elements (boxes, cylinders,
+/// spheres; STL meshes as their convex hulls), each placed on the body that carries its link
+/// (`in_dh`: each arm link's joint frame in its DH frame). Links behind a gripper's joint
+/// (its fingers) are left to chessarm's `[gripper]`, whose opening follows the commands. A
+/// file without `<collision>`, or with a mesh that is not found, gets chessarm's own solids,
+/// said in `warnings` (with what was missing and where it was looked for) or `notes`.
+fn collision_bodies(
+    tree: &Tree<'_, '_, '_>,
+    arm: &[usize],
+    locked: &[LockedJoint],
+    in_dh: &[Pose; 4],
+    folder: Option<&Path>,
+    notes: &mut Vec<String>,
+    warnings: &mut Vec<String>,
+) -> Result<Bodies> {
+    let gripper_joints: std::collections::HashSet<usize> = tree
+        .joints
+        .iter()
+        .enumerate()
+        .filter(|(_, j)| locked.iter().any(|l| l.name == j.name && l.gripper.is_some()))
+        .map(|(k, _)| k)
+        .collect();
+    let package_path = crate::meshes::package_path();
+    let mut shapes = Vec::new();
+    let mut fingers = Vec::new();
+    let mut missing: Vec<(String, Vec<std::path::PathBuf>)> = Vec::new();
+    // Each mesh file's hull at each scale, read once (an arm repeats its servo's mesh).
+    let mut hulls: BTreeMap<(std::path::PathBuf, [u64; 3]), Points> = BTreeMap::new();
+    let mut meshes = 0;
+    for link in tree.order {
+        let node = tree.links[link.as_str()];
+        let elements: Vec<Node<'_, '_>> = node.children().filter(|n| n.has_tag_name("collision")).collect();
+        if elements.is_empty() {
+            continue;
+        }
+        // Behind a gripper's joint (before reaching an arm joint): a finger.
+        let mut up = link;
+        let mut finger = false;
+        while let Some(&j) = tree.parent_joint.get(up) {
+            if gripper_joints.contains(&j) {
+                finger = true;
+                break;
+            }
+            if arm.contains(&j) {
+                break;
+            }
+            up = &tree.joints[j].parent;
+        }
+        if finger {
+            fingers.push(format!("'{link}'"));
+            continue;
+        }
+        let (carrier, pose) = tree.carried[link];
+        let frame = if carrier == 0 { pose } else { in_dh[carrier - 1] * pose };
+        for element in elements {
+            let placed = frame * origin(&element)?;
+            let geometry = child(&element, "geometry")
+                .and_then(|g| g.children().find(Node::is_element))
+                .ok_or_else(|| anyhow!("{}: <collision> needs a <geometry> with a shape", at(&node)))?;
+            let shape = (|| -> Result<Option<Shape>> {
+                Ok(Some(match geometry.tag_name().name() {
+                    "box" => {
+                        let [x, y, z] = triple(&geometry, "size", [f64::NAN; 3])?;
+                        if !(x > 0.0 && y > 0.0 && z > 0.0) {
+                            bail!("{}: <box> needs size=\"x y z\", each > 0 (m)", at(&node));
+                        }
+                        Shape::Cuboid { half: Vector3::new(x, y, z) * 0.5 }
+                    }
+                    "cylinder" => {
+                        Shape::Cylinder { radius: size(&geometry, "radius")?, length: size(&geometry, "length")? }
+                    }
+                    "sphere" => Shape::Sphere { radius: size(&geometry, "radius")? },
+                    "mesh" => {
+                        let filename = geometry
+                            .attribute("filename")
+                            .ok_or_else(|| anyhow!("{}: <mesh> needs filename=\"…\"", at(&node)))?;
+                        let scale = triple(&geometry, "scale", [1.0; 3])?;
+                        let looked = crate::meshes::candidates(filename, folder, &package_path);
+                        let Some(path) = looked.iter().find(|p| p.is_file()) else {
+                            missing.push((filename.to_string(), looked));
+                            return Ok(None);
+                        };
+                        let key = (path.clone(), scale.map(f64::to_bits));
+                        let points = match hulls.get(&key) {
+                            Some(points) => std::sync::Arc::clone(points),
+                            None => {
+                                let vertices = crate::meshes::read_stl(path, scale)
+                                    .with_context(|| format!("{}: <mesh filename=\"{filename}\">", at(&node)))?;
+                                let hull = chessarm_chess::clearance::hull_of(&vertices).map_err(|why| {
+                                    anyhow!("{}: <mesh filename=\"{filename}\"> ({}): {why}", at(&node), path.display())
+                                })?;
+                                let points: std::sync::Arc<[Vector3<f64>]> = hull.into();
+                                hulls.insert(key, std::sync::Arc::clone(&points));
+                                points
+                            }
+                        };
+                        meshes += 1;
+                        Shape::Hull { points }
+                    }
+                    other => bail!(
+                        "{}: <collision> with a <{other}>: chessarm takes <box>, <cylinder>, <sphere> and <mesh>",
+                        at(&node)
+                    ),
+                }))
+            })()
+            .map_err(|e| anyhow!("link '{link}': {e:#}"))?;
+            if let Some(shape) = shape {
+                shapes.push(BodyShape { body: carrier, pose: placed, shape });
+            }
+        }
+    }
+    let stand_in = "chessarm's own solids from the kinematic chain (a pedestal, a housing per joint, a cylinder per \
+                    link) stand in for the links in the clearance check";
+    if !missing.is_empty() {
+        let mut names: Vec<String> = Vec::new();
+        for (name, _) in &missing {
+            if !names.contains(name) {
+                names.push(name.clone());
+            }
+        }
+        let shown: Vec<String> = names.iter().take(4).map(|n| format!("'{n}'")).collect();
+        let more = if names.len() > 4 { format!(" and {} more", names.len() - 4) } else { String::new() };
+        let (first, looked) = &missing[0];
+        let places: Vec<String> = looked.iter().take(4).map(|p| p.display().to_string()).collect();
+        warnings.push(format!(
+            "{} collision mesh file{} not found: {}{more} ('{first}' was looked for at {}); {stand_in} (put the \
+             meshes where the file names them, or their package's folder on ROS_PACKAGE_PATH)",
+            names.len(),
+            if names.len() == 1 { "" } else { "s" },
+            shown.join(", "),
+            places.join(", ")
+        ));
+        return Ok(Bodies::Drawn);
+    }
+    if shapes.is_empty() {
+        notes.push(format!("the file gives no <collision> shapes: {stand_in}"));
+        return Ok(Bodies::Drawn);
+    }
+    let mut said = format!(
+        "clearance checked against the file's {} <collision> shape{} ({meshes} mesh{} as convex hulls)",
+        shapes.len(),
+        if shapes.len() == 1 { "" } else { "s" },
+        if meshes == 1 { "" } else { "es" }
+    );
+    if !fingers.is_empty() {
+        said.push_str(&format!(
+            "; the fingers are chessarm's [gripper], whose opening follows the commands (links {} left out)",
+            fingers.join(", ")
+        ));
+    }
+    notes.push(said);
+    Ok(Bodies::Described(shapes.into()))
 }

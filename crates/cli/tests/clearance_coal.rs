@@ -8,7 +8,7 @@ use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::clearance::{Placed, StandingPiece};
 use chessarm_chess::notation::parse_pgn;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
-use chessarm_core::arm::bodies::{Gripper, Hand, Solid, solids_into};
+use chessarm_core::arm::bodies::{Bodies, Gripper, Hand, Solid, solids_into};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 use chessarm_core::nalgebra::Vector3;
@@ -32,7 +32,7 @@ fn point(v: &Vector3<f64>) -> Value {
 fn solid_json(solid: &Solid) -> Value {
     match solid {
         Solid::Cylinder { a, b, radius } => json!({"kind": "cylinder", "a": point(a), "b": point(b), "radius": radius}),
-        Solid::Sphere { .. } => unreachable!("the arm has no spheres"),
+        Solid::Sphere { .. } | Solid::Hull { .. } => unreachable!("the report's arm has no spheres or hulls"),
         Solid::Cuboid { centre, axes, half } => {
             let columns: Vec<Value> = (0..3).map(|k| point(&axes.column(k).into_owned())).collect();
             json!({"kind": "box", "centre": point(centre), "axes": columns, "half": point(half)})
@@ -85,7 +85,7 @@ fn distances_equal_coals_on_a_real_games_poses() {
                 height: tip.z.max(0.01),
             });
             let placed: Vec<Placed> = standing.iter().map(Placed::piece).collect();
-            solids_into(&arm, &step.state.q, &hand, &mut solids);
+            solids_into(&arm, &step.state.q, &hand, &Bodies::Drawn, &mut solids);
             let mut distances = Vec::new();
             for (i, solid) in solids.iter().enumerate() {
                 let shape = Placed::of(&solid.solid);

@@ -258,15 +258,22 @@ fn every_urdf_link_has_a_body_that_a_real_parser_reads() {
     let names: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["base_link", "link1", "link2", "link3", "link4", "tool"]);
     let model = report_arm();
+    let palm = chessarm_core::arm::bodies::Gripper::default().palm_depth();
     for link in &robot.links {
+        // The tool's sphere is a marker to see, not a solid.
+        if link.name == "tool" {
+            assert!(link.visual.len() == 1 && link.collision.is_empty(), "tool");
+            continue;
+        }
         assert!(!link.visual.is_empty() && link.visual.len() == link.collision.len(), "{}", link.name);
         for (visual, collision) in link.visual.iter().zip(&link.collision) {
             assert_eq!(format!("{:?}", visual.geometry), format!("{:?}", collision.geometry), "{}", link.name);
         }
-        // Link i's long cylinder runs from its joint to the next: √(aᵢ² + dᵢ²) long.
+        // Link i's long cylinder runs from its joint to the next: √(aᵢ² + dᵢ²) long; the
+        // last one to the gripper's palm, `palm_depth` short of the tip along x₄.
         if let Some(i) = link.name.strip_prefix("link").and_then(|n| n.parse::<usize>().ok()) {
             let dh = model.link(i - 1).dh;
-            let expected = dh.a.hypot(dh.d);
+            let expected = if i == 4 { (dh.a - palm).hypot(dh.d) } else { dh.a.hypot(dh.d) };
             let lengths: Vec<f64> = link
                 .visual
                 .iter()
@@ -299,11 +306,15 @@ fn mujoco_reads_the_urdf_with_its_bodies_and_the_same_kinematics_and_dynamics() 
     let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     eprintln!("mujoco: {report}");
     // MuJoCo keeps the tool as a body of its own (not fused into link4) and every body has
-    // its visual and collision geometry.
+    // its visual and collision geometry (the tool only its marker to see).
     let bodies: Vec<&str> = report["bodies"].as_array().unwrap().iter().map(|b| b.as_str().unwrap()).collect();
     assert_eq!(bodies, ["world", "base_link", "link1", "link2", "link3", "link4", "tool"]);
     for body in &bodies[1..] {
-        assert!(report["geoms_per_body"][body].as_i64().unwrap() >= 2, "{body} has no geometry in MuJoCo: {report}");
+        let least = if *body == "tool" { 1 } else { 2 };
+        assert!(
+            report["geoms_per_body"][body].as_i64().unwrap() >= least,
+            "{body} has no geometry in MuJoCo: {report}"
+        );
     }
     assert_eq!(report["njnt"], 4);
     assert_eq!(common::numbers(&report["gravity"]), [0.0, 0.0, -9.8]);

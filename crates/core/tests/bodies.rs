@@ -1,7 +1,7 @@
 //! The arm's solids (`chessarm_core::arm::bodies`) where the kinematics put the joints.
 
 use chessarm_core::arm::bodies::{
-    Gripper, Hand, Held, JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, Part, Solid, most_solids, solids_into,
+    Bodies, Gripper, Hand, Held, JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, Part, Solid, solids_into,
 };
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::JointVector;
@@ -22,11 +22,11 @@ fn the_solids_follow_the_kinematic_chain() {
     let mut solids = Vec::new();
     for q in [[0.0, 0.5, -1.0, 0.3], [1.2, 1.4, -2.1, -0.4], [-2.0, 0.2, 0.4, 1.1]] {
         let q = JointVector::from(q);
-        solids_into(&arm, &q, &hand, &mut solids);
+        solids_into(&arm, &q, &hand, &Bodies::Drawn, &mut solids);
         let capacity = solids.capacity();
-        solids_into(&arm, &q, &hand, &mut solids);
+        solids_into(&arm, &q, &hand, &Bodies::Drawn, &mut solids);
         assert_eq!(solids.capacity(), capacity);
-        assert!(solids.len() <= most_solids(4));
+        assert!(solids.len() <= Bodies::Drawn.most_solids(4));
         let chain = FrameChain::new(&arm, &q);
         let tip = chain.tip();
         let approach = (tip - chain.joint_axis(3).1).normalize();
@@ -35,7 +35,7 @@ fn the_solids_follow_the_kinematic_chain() {
         let mut from = chain.joint_axis(0).1;
         let mut fingers = 0;
         for solid in &solids {
-            match (solid.part, solid.solid) {
+            match (solid.part, solid.solid.clone()) {
                 (Part::Housing(j), Solid::Cylinder { a, b, radius }) => {
                     let (axis, point) = chain.joint_axis(j - 1);
                     assert!(((a + b) / 2.0 - point).norm() < 1e-12);

@@ -344,7 +344,13 @@ impl Arm {
 
     /// The arm as URDF text (as `chessarm urdf`).
     fn to_urdf(&self) -> String {
-        chessarm::urdf::to_urdf(&self.model, "chessarm", &self.joint_names, &self.signs)
+        chessarm::urdf::to_urdf(
+            &self.model,
+            "chessarm",
+            &self.joint_names,
+            &self.signs,
+            chessarm_core::arm::bodies::Gripper::default().palm_depth(),
+        )
     }
 
     /// Pose of the tool frame (origin at the tool tip): a 4×4 homogeneous transform, m.

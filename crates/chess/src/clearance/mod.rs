@@ -16,13 +16,14 @@
 
 pub mod moves;
 
-use chessarm_core::arm::bodies::{ArmSolid, Hand, Part, Solid, solids_into};
+use chessarm_core::arm::bodies::{ArmSolid, Bodies, Hand, Part, Solid, solids_into};
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::{ArmModel, JointVector};
-use chessarm_core::nalgebra::Vector3;
+use chessarm_core::nalgebra::{Point3, Vector3};
 use parry3d_f64::math::{Matrix, Pose, Rotation, Vector};
 use parry3d_f64::query;
-use parry3d_f64::shape::{Ball, Cuboid, Cylinder, Shape};
+use parry3d_f64::shape::{Ball, Cuboid, Cylinder, Shape, SupportMap};
+use std::sync::Arc;
 
 /// A standing piece as a solid: an upright cylinder whose base is centred on `base` (on the
 /// board's surface), m.
@@ -53,33 +54,83 @@ pub struct Closest {
     pub obstacle: Obstacle,
 }
 
-/// One of parry's convex shapes, without a box on the heap.
-#[derive(Debug, Clone, Copy)]
+/// One of parry's convex shapes, without a box on the heap, or a convex hull's points.
+#[derive(Debug, Clone)]
 enum Convex {
     Cylinder(Cylinder),
     Ball(Ball),
     Cuboid(Cuboid),
+    Hull(HullPoints),
+}
+
+/// A convex hull as its points, for GJK: the support point in a direction is the point
+/// farthest along it (a scan; a mesh's hull has tens to a few hundred vertices).
+#[derive(Debug, Clone)]
+struct HullPoints(Arc<[Vector3<f64>]>);
+
+impl SupportMap for HullPoints {
+    fn local_support_point(&self, dir: Vector) -> Vector {
+        let mut best = (f64::NEG_INFINITY, Vector::ZERO);
+        for p in self.0.iter() {
+            let dot = p.x * dir.x + p.y * dir.y + p.z * dir.z;
+            if dot > best.0 {
+                best = (dot, Vector::new(p.x, p.y, p.z));
+            }
+        }
+        best.1
+    }
 }
 
 impl Convex {
-    fn shape(&self) -> &dyn Shape {
+    /// The shape for parry's dispatcher (`None` for a hull, which it does not know).
+    fn shape(&self) -> Option<&dyn Shape> {
+        match self {
+            Convex::Cylinder(s) => Some(s),
+            Convex::Ball(s) => Some(s),
+            Convex::Cuboid(s) => Some(s),
+            Convex::Hull(_) => None,
+        }
+    }
+
+    fn support(&self) -> &dyn SupportMap {
         match self {
             Convex::Cylinder(s) => s,
             Convex::Ball(s) => s,
             Convex::Cuboid(s) => s,
+            Convex::Hull(s) => s,
         }
     }
 }
 
 /// A solid as parry sees it, with its axis-aligned bounding box and a capsule that holds it
 /// (a segment and a radius), m.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Placed {
     pose: Pose,
     shape: Convex,
     low: Vector3<f64>,
     high: Vector3<f64>,
     capsule: (Vector3<f64>, Vector3<f64>, f64),
+}
+
+/// The vertices of the convex hull of `points` (m), for a [`Solid::Hull`]: a mesh's thousands
+/// of vertices become the hull's tens to hundreds, which GJK scans. `Err` with the reason when
+/// the points span no volume (fewer than four, or all in a plane).
+pub fn hull_of(points: &[Vector3<f64>]) -> Result<Vec<Vector3<f64>>, String> {
+    let input: Vec<Vector> = points.iter().map(vector).collect();
+    let (vertices, faces) =
+        parry3d_f64::transformation::try_convex_hull(&input).map_err(|e| format!("no convex hull: {e:?}"))?;
+    // The volume by the divergence theorem, `Σ v₀ · (v₁ × v₂) / 6` over the faces, against
+    // the cube of the extent: a flat hull (a plane's points, both faces) has none.
+    let volume: f64 =
+        faces.iter().map(|f| f.map(|i| vertices[i as usize])).map(|[a, b, c]| a.dot(b.cross(c)) / 6.0).sum();
+    let (low, high) = vertices.iter().fold((vertices[0], vertices[0]), |(l, h), v| (l.min(*v), h.max(*v)));
+    if faces.len() < 4 || volume.abs() <= 1e-9 * (high - low).max_element().powi(3) {
+        return Err("its points span no volume (they lie in a plane or on a line)".into());
+    }
+    let mut used = vec![false; vertices.len()];
+    faces.iter().flatten().for_each(|&i| used[i as usize] = true);
+    Ok(vertices.iter().zip(used).filter(|(_, u)| *u).map(|(v, _)| Vector3::new(v.x, v.y, v.z)).collect())
 }
 
 /// The shortest distance between the segments `p1 q1` and `p2 q2`, m: the closest points'
@@ -174,6 +225,27 @@ impl Placed {
                     capsule: (centre - along, centre + along, across),
                 }
             }
+            Solid::Hull { pose, points } => {
+                let rotation = pose.rotation.matrix();
+                let columns = [0, 1, 2].map(|k| vector(&rotation.column(k).into_owned()));
+                let rotation = Rotation::from_mat3(&Matrix::from_cols(columns[0], columns[1], columns[2]));
+                let world = |p: &Vector3<f64>| (pose * Point3::from(*p)).coords;
+                let (mut low, mut high) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+                for p in points.iter() {
+                    let w = world(p);
+                    (low, high) = (low.inf(&w), high.sup(&w));
+                }
+                // A sphere about the box's centre that holds every point.
+                let centre = 0.5 * (low + high);
+                let radius = points.iter().map(|p| (world(p) - centre).norm()).fold(0.0, f64::max);
+                Self {
+                    pose: Pose::from_parts(vector(&pose.translation.vector), rotation),
+                    shape: Convex::Hull(HullPoints(Arc::clone(points))),
+                    low,
+                    high,
+                    capsule: (centre, centre, radius),
+                }
+            }
         }
     }
 
@@ -202,11 +274,19 @@ impl Placed {
     }
 
     /// The distance to `other`, m (0 when they touch or overlap). Cylinders, balls and boxes
-    /// are convex: parry's dispatcher supports every pair of them, so an error is a bug.
+    /// are convex: parry's dispatcher supports every pair of them, so an error is a bug; a
+    /// pair with a hull goes to parry's GJK on the two support maps directly.
     pub fn distance(&self, other: &Placed) -> f64 {
-        match query::distance(&self.pose, self.shape.shape(), &other.pose, other.shape.shape()) {
-            Ok(d) => d.distance,
-            Err(error) => unreachable!("parry has no distance between convex primitives: {error:?}"),
+        match (self.shape.shape(), other.shape.shape()) {
+            (Some(a), Some(b)) => match query::distance(&self.pose, a, &other.pose, b) {
+                Ok(d) => d.distance,
+                Err(error) => unreachable!("parry has no distance between convex primitives: {error:?}"),
+            },
+            _ => query::details::distance_support_map_support_map(
+                &self.pose.inv_mul(&other.pose),
+                self.shape.support(),
+                other.shape.support(),
+            ),
         }
     }
 }
@@ -232,9 +312,15 @@ impl Rules {
     /// table at `rest` (the pedestal and the base's housing stand on it), as are the pairs of
     /// non-neighbouring parts that already touch at `rest` off each other (as a setup
     /// assistant marks pairs "always in collision").
-    pub fn for_arm<const N: usize>(model: &ArmModel<N>, hand: &Hand, rest: &JointVector<N>, table: f64) -> Self {
+    pub fn for_arm<const N: usize>(
+        model: &ArmModel<N>,
+        hand: &Hand,
+        bodies: &Bodies,
+        rest: &JointVector<N>,
+        table: f64,
+    ) -> Self {
         let mut solids = Vec::new();
-        solids_into(model, rest, hand, &mut solids);
+        solids_into(model, rest, hand, bodies, &mut solids);
         let placed: Vec<Placed> = solids.iter().map(|s| Placed::of(&s.solid)).collect();
         let mut touching = Vec::new();
         for i in 0..solids.len() {
@@ -394,21 +480,25 @@ pub struct NearestBuffers {
 /// any angles, m: the lengths of the chain from `p_j` to the tip (the distances between
 /// consecutive frame origins, the same at every pose) plus the farthest any solid reaches
 /// beyond the frame origin it hangs from (measured at the zero pose: the fingers' and a held
-/// piece's reach from the tip, a housing's half-diagonal, a link's radius).
-pub fn reach_bound<const N: usize>(model: &ArmModel<N>, hand: &Hand) -> [f64; N] {
+/// piece's reach from the tip, a housing's half-diagonal, a drawn link's radius, a described
+/// shape's farthest point from its body's frame origin).
+pub fn reach_bound<const N: usize>(model: &ArmModel<N>, hand: &Hand, bodies: &Bodies) -> [f64; N] {
     let zero = JointVector::<N>::zeros();
     let chain = FrameChain::new(model, &zero);
     let origins: Vec<Vector3<f64>> =
         (0..=N).map(|i| if i == 0 { model.base() } else { chain.body_pose(i - 1).translation.vector }).collect();
     let mut solids = Vec::new();
-    solids_into(model, &zero, hand, &mut solids);
+    solids_into(model, &zero, hand, bodies, &mut solids);
     let tip = chain.tip();
     let extent = solids
         .iter()
         .map(|s| match s.part {
             Part::Finger(_) | Part::Held => s.solid.farthest_from(&tip),
             Part::Housing(j) => s.solid.farthest_from(&chain.joint_axis(j - 1).1),
-            Part::Link(_) => chessarm_core::arm::bodies::LINK_RADIUS,
+            Part::Link(k) => match bodies {
+                Bodies::Drawn => chessarm_core::arm::bodies::LINK_RADIUS,
+                Bodies::Described(_) => s.solid.farthest_from(&origins[k]),
+            },
             // The pedestal does not move.
             Part::Pedestal => 0.0,
         })
@@ -436,6 +526,8 @@ pub struct Stretch<'a, const N: usize> {
     pub end: f64,
     pub rate_bound: [f64; N],
     pub hand: Hand,
+    /// What the arm's pedestal, housings and links are made of.
+    pub bodies: &'a Bodies,
     pub gripped: &'a [usize],
     /// Every piece left out of the list swept is at least this far from the arm over the
     /// whole motion, m (infinite when none is left out).
@@ -469,17 +561,19 @@ pub struct Scratch {
 
 /// The pairs (solid index, piece index) whose boxes come within `reach` m of each other,
 /// the arm's solids taken at `q` with `hand`, into `out`.
+#[allow(clippy::too_many_arguments)]
 pub fn near_pairs<const N: usize>(
     model: &ArmModel<N>,
     q: &JointVector<N>,
     hand: &Hand,
+    bodies: &Bodies,
     pieces: &[Placed],
     reach: f64,
     scratch: &mut Scratch,
     out: &mut Vec<(usize, usize)>,
 ) {
     out.clear();
-    solids_into(model, q, hand, &mut scratch.solids);
+    solids_into(model, q, hand, bodies, &mut scratch.solids);
     for (i, solid) in scratch.solids.iter().enumerate() {
         let shape = Placed::of(&solid.solid);
         for (k, piece) in pieces.iter().enumerate() {
@@ -510,7 +604,7 @@ pub fn sweep<const N: usize>(
     let mut swept = Swept { resolution: speed * min_step, ..Swept::default() };
     let mut t = start;
     loop {
-        solids_into(model, &(stretch.q)(t), &stretch.hand, &mut scratch.solids);
+        solids_into(model, &(stretch.q)(t), &stretch.hand, stretch.bodies, &mut scratch.solids);
         swept.checks += 1;
         let now =
             nearest::<N>(&scratch.solids, pieces, stretch.gripped, stretch.candidates, rules, &mut scratch.buffers);
@@ -631,7 +725,7 @@ mod tests {
         let placed = Placed::of(&link);
         let parry = query::distance(
             &placed.pose,
-            placed.shape.shape(),
+            placed.shape.shape().expect("a cylinder is parry's"),
             &Pose::from_translation(Vector::new(0.0, 0.0, table)),
             &plane,
         )
@@ -651,9 +745,9 @@ mod tests {
         let hand = open_hand();
         let q = |t: f64| JointVector::<4>::new(-0.5 + t, 0.6, -1.2, -0.9);
         let mut solids = Vec::new();
-        solids_into(&arm, &q(0.525), &hand, &mut solids);
-        let finger = solids.iter().find(|s| s.part == Part::Finger(2)).unwrap().solid;
-        let Solid::Cuboid { centre, .. } = finger else { panic!() };
+        solids_into(&arm, &q(0.525), &hand, &Bodies::Drawn, &mut solids);
+        let finger = solids.iter().find(|s| s.part == Part::Finger(2)).unwrap().solid.clone();
+        let Solid::Cuboid { centre, .. } = &finger else { panic!() };
         let low = finger.lowest();
         let piece = StandingPiece { base: Vector3::new(centre.x, centre.y, 0.0), radius: 0.002, height: low + 0.001 };
         let pieces = [Placed::piece(&piece)];
@@ -662,20 +756,21 @@ mod tests {
         let (start, end) = (0.45, 0.6);
         let grid = (0..=3)
             .map(|k| {
-                solids_into(&arm, &q(start + 0.05 * k as f64), &hand, &mut solids);
+                solids_into(&arm, &q(start + 0.05 * k as f64), &hand, &Bodies::Drawn, &mut solids);
                 nearest::<4>(&solids, &pieces, &[], None, &rules, &mut placed)
                     .overall()
                     .map_or(f64::INFINITY, |c| c.distance)
             })
             .fold(f64::INFINITY, f64::min);
         assert!(grid > 1e-3, "the grid must miss it: {grid}");
-        let reach = reach_bound(&arm, &hand);
+        let reach = reach_bound(&arm, &hand, &Bodies::Drawn);
         let stretch = Stretch {
             q: &q,
             start,
             end,
             rate_bound: [1.0, 0.0, 0.0, 0.0],
             hand,
+            bodies: &Bodies::Drawn,
             gripped: &[],
             beyond: f64::INFINITY,
             open_end: false,
@@ -693,28 +788,91 @@ mod tests {
         assert!(swept.checks < 2000, "{}", swept.checks);
     }
 
+    /// A box as the hull of its corners (plus points inside, which the hull drops) is the box:
+    /// GJK on its points gives parry's box distance to pieces about it, 1e-9 m (GJK's own
+    /// tolerance on polytopes; the box pair is exact), and the same lowest point; points in a
+    /// plane have no hull.
+    #[test]
+    fn a_hull_of_a_box_s_corners_is_the_box() {
+        use chessarm_core::arm::bodies::{Shape, place};
+        use chessarm_core::arm::kinematics::Pose;
+        use chessarm_core::nalgebra::{Rotation3, Translation3};
+        let half = Vector3::new(0.04, 0.015, 0.01);
+        let mut points: Vec<Vector3<f64>> = (0..8)
+            .map(|i| {
+                Vector3::new(half.x, half.y, half.z).component_mul(&Vector3::new(
+                    if i & 1 == 0 { -1.0 } else { 1.0 },
+                    if i & 2 == 0 { -1.0 } else { 1.0 },
+                    if i & 4 == 0 { -1.0 } else { 1.0 },
+                ))
+            })
+            .collect();
+        points.extend([Vector3::zeros(), Vector3::new(0.01, 0.0, 0.002)]);
+        let hull = hull_of(&points).unwrap();
+        assert_eq!(hull.len(), 8);
+        let hull = Shape::Hull { points: hull.into() };
+        let cuboid = Shape::Cuboid { half };
+        let mut rng = chessarm_core::sense::rng::SeededRng::new(3);
+        for _ in 0..200 {
+            let turn =
+                Rotation3::from_euler_angles(rng.uniform(-3.0, 3.0), rng.uniform(-1.5, 1.5), rng.uniform(-3.0, 3.0));
+            let pose = Pose::from_parts(Translation3::new(0.0, 0.0, 0.08), turn);
+            let piece = Placed::piece(&pawn_at(rng.uniform(-0.07, 0.07), rng.uniform(-0.07, 0.07)));
+            let (a, b) = (place(&hull, &pose), place(&cuboid, &pose));
+            let (d_hull, d_box) = (Placed::of(&a).distance(&piece), Placed::of(&b).distance(&piece));
+            assert!((d_hull - d_box).abs() < 1e-9, "{d_hull} vs {d_box}");
+            assert!((a.lowest() - b.lowest()).abs() < 1e-12);
+            // The bounds stay below the distance.
+            assert!(Placed::of(&a).box_gap(&piece) <= d_hull + 1e-12);
+            assert!(Placed::of(&a).capsule_gap(&piece) <= d_hull + 1e-12);
+        }
+        let flat: Vec<Vector3<f64>> = (0..6).map(|i| Vector3::new(i as f64, (i * i) as f64, 0.0)).collect();
+        assert!(hull_of(&flat).is_err());
+    }
+
     /// The reach bound holds at sampled poses: no solid is farther from joint j's axis.
     #[test]
     fn the_reach_bound_holds_at_any_angles() {
+        use chessarm_core::arm::bodies::{BodyShape, Shape};
+        use chessarm_core::arm::kinematics::Pose;
+        use chessarm_core::nalgebra::{Rotation3, Translation3};
         let arm = report_arm();
         let hand = Hand {
             held: Some(chessarm_core::arm::bodies::Held { radius: 0.02, height: 0.095, grip_height: 0.076 }),
             ..open_hand()
         };
-        let reach = reach_bound(&arm, &hand);
-        let mut solids = Vec::new();
-        let mut rng = chessarm_core::sense::rng::SeededRng::new(7);
-        let pi = std::f64::consts::PI;
-        for _ in 0..500 {
-            let q = JointVector::<4>::from_fn(|_, _| rng.uniform(-pi, pi));
-            solids_into(&arm, &q, &hand, &mut solids);
-            let chain = FrameChain::new(&arm, &q);
-            for (j, bound) in reach.iter().enumerate() {
-                let point = chain.joint_axis(j).1;
-                // The solids joint j turns: those of the links after it.
-                for s in solids.iter().filter(|s| s.part.body(4) > j) {
-                    let far = s.solid.farthest_from(&point);
-                    assert!(far <= *bound + 1e-12, "joint {} part {} {far} > {}", j + 1, s.part, *bound);
+        // Described bodies: a box and a hull on every link, off its frame's origin and turned.
+        let corners: Arc<[Vector3<f64>]> = (0..8)
+            .map(|i| Vector3::new((i & 1) as f64 * 0.05, ((i >> 1) & 1) as f64 * 0.02, ((i >> 2) & 1) as f64 * 0.03))
+            .collect();
+        let shapes: Vec<BodyShape> = (0..=4)
+            .flat_map(|body| {
+                let pose = Pose::from_parts(
+                    Translation3::new(0.03, -0.02 * body as f64, 0.01),
+                    Rotation3::from_euler_angles(0.3, 0.1 * body as f64, -0.5),
+                );
+                [
+                    BodyShape { body, pose, shape: Shape::Cuboid { half: Vector3::new(0.02, 0.01, 0.04) } },
+                    BodyShape { body, pose: pose.inverse(), shape: Shape::Hull { points: Arc::clone(&corners) } },
+                ]
+            })
+            .collect();
+        for bodies in [Bodies::Drawn, Bodies::Described(shapes.into())] {
+            let reach = reach_bound(&arm, &hand, &bodies);
+            let mut solids = Vec::new();
+            let mut rng = chessarm_core::sense::rng::SeededRng::new(7);
+            let pi = std::f64::consts::PI;
+            for _ in 0..500 {
+                let q = JointVector::<4>::from_fn(|_, _| rng.uniform(-pi, pi));
+                solids_into(&arm, &q, &hand, &bodies, &mut solids);
+                let chain = FrameChain::new(&arm, &q);
+                for (j, bound) in reach.iter().enumerate() {
+                    let point = chain.joint_axis(j).1;
+                    // The solids joint j turns: those of the links after it.
+                    for s in solids.iter().filter(|s| s.part.body(4) > j) {
+                        let far = s.solid.farthest_from(&point);
+                        assert!(far <= *bound + 1e-12, "joint {} part {} {far} > {}", j + 1, s.part, *bound);
+                    }
                 }
             }
         }

@@ -14,7 +14,7 @@
 use super::{Closest, Obstacle, Placed, Rules, Scratch, StandingPiece, Stretch, near_pairs, reach_bound, sweep};
 use crate::pieces::{PieceSet, piece_name};
 use crate::table::{Location, Table};
-use chessarm_core::arm::bodies::{Gripper, Hand, Held, Part};
+use chessarm_core::arm::bodies::{Bodies, Gripper, Hand, Held, Part};
 use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::nalgebra::{Vector2, Vector3};
 
@@ -25,6 +25,8 @@ pub struct ClearanceCheck {
     /// The smallest clearance a planned move must keep from every piece, the table and the
     /// arm itself, m: a plan that comes nearer is changed, or refused.
     pub margin: f64,
+    /// What the arm's pedestal, housings and links are made of (the fingers are `gripper`).
+    pub bodies: Bodies,
 }
 
 impl ClearanceCheck {
@@ -41,7 +43,7 @@ impl ClearanceCheck {
 
 impl Default for ClearanceCheck {
     fn default() -> Self {
-        Self { gripper: Gripper::default(), margin: DEFAULT_MARGIN }
+        Self { gripper: Gripper::default(), margin: DEFAULT_MARGIN, bodies: Bodies::Drawn }
     }
 }
 
@@ -193,11 +195,11 @@ pub fn check_move(
                     )
                 })
                 .collect();
-            let placed: Vec<Placed> = standing.iter().map(|(_, p)| *p).collect();
+            let placed: Vec<Placed> = standing.iter().map(|(_, p)| p.clone()).collect();
             let around: Vec<usize> =
                 standing.iter().enumerate().filter(|(_, (i, _))| around.contains(i)).map(|(k, _)| k).collect();
             let q = |t: f64| interpolate(samples, t);
-            let reach = reach_bound(arm, &hand);
+            let reach = reach_bound(arm, &hand, &check.bodies);
             // Windows with their own rate bounds: the arm is slow where it is near the pieces
             // (at the grips and releases), so the steps there are long.
             let windows = ((to - from) / WINDOW).ceil().max(1.0) as usize;
@@ -213,7 +215,16 @@ pub fn check_move(
                 // other over the window are checked (no point moves more than
                 // `v̄ (end − start)`); the others stay at least `NEAR` apart throughout.
                 let mut pairs = std::mem::take(&mut scratch.pairs);
-                near_pairs(arm, &q(start), &hand, &placed, speed * (end - start) + NEAR, scratch, &mut pairs);
+                near_pairs(
+                    arm,
+                    &q(start),
+                    &hand,
+                    &check.bodies,
+                    &placed,
+                    speed * (end - start) + NEAR,
+                    scratch,
+                    &mut pairs,
+                );
                 let open_end = w + 1 < windows;
                 let stretch = Stretch {
                     q: &q,
@@ -221,6 +232,7 @@ pub fn check_move(
                     end,
                     rate_bound,
                     hand,
+                    bodies: &check.bodies,
                     gripped: &around,
                     beyond: NEAR,
                     open_end,

@@ -11,10 +11,16 @@
 //! last joint's axis `z_{N−1}` (the wrist's pitch axis): their inner faces are `gap / 2` either
 //! side of the tip. A carried piece is an upright cylinder hanging from the tip by its grip
 //! height. All positions are in the base frame, m.
+//!
+//! An arm described by its maker ([`Bodies::Described`], e.g. a URDF's `<collision>` shapes)
+//! has those shapes in place of the pedestal, housings and link cylinders, each fixed to a
+//! body (0 the base, `k` link `k`, placed in DH frame `k`); the fingers and a held piece are
+//! chessarm's in either case, since their opening follows the gripper's command.
 
-use crate::arm::kinematics::FrameChain;
+use crate::arm::kinematics::{FrameChain, Pose};
 use crate::arm::model::{ArmModel, JointVector};
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
+use std::sync::Arc;
 
 /// Radius of the links' cylinders, m.
 pub const LINK_RADIUS: f64 = 0.015;
@@ -106,8 +112,59 @@ pub struct Hand {
     pub held: Option<Held>,
 }
 
+/// A convex shape in a frame of its own, m (a URDF `<geometry>`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    /// A box of half sizes `half` along the frame's axes, centred on its origin.
+    Cuboid {
+        half: Vector3<f64>,
+    },
+    /// A cylinder about the frame's z, centred on its origin.
+    Cylinder {
+        radius: f64,
+        length: f64,
+    },
+    Sphere {
+        radius: f64,
+    },
+    /// The convex hull of `points` (a mesh's vertices, or only the hull's).
+    Hull {
+        points: Arc<[Vector3<f64>]>,
+    },
+}
+
+/// A shape fixed to one of the arm's bodies: 0 the base (`pose` in the base frame), `k` link
+/// `k` (`pose` in DH frame `k`, the frame body `k` carries).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodyShape {
+    pub body: usize,
+    pub pose: Pose,
+    pub shape: Shape,
+}
+
+/// What the arm's pedestal, housings and links are made of.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Bodies {
+    /// chessarm's own solids from the kinematic chain (see the module's documentation).
+    #[default]
+    Drawn,
+    /// Shapes given per body, e.g. a URDF's `<collision>` elements.
+    Described(Arc<[BodyShape]>),
+}
+
+impl Bodies {
+    /// Most solids [`solids_into`] makes with these bodies for an arm of `n` joints (two
+    /// fingers and a held piece included).
+    pub fn most_solids(&self, n: usize) -> usize {
+        match self {
+            Bodies::Drawn => 2 * n + 4,
+            Bodies::Described(shapes) => shapes.len() + 3,
+        }
+    }
+}
+
 /// A convex solid in the base frame, m.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Solid {
     /// A cylinder of `radius` whose end faces are centred on `a` and `b`.
     Cylinder { a: Vector3<f64>, b: Vector3<f64>, radius: f64 },
@@ -115,6 +172,8 @@ pub enum Solid {
     Sphere { centre: Vector3<f64>, radius: f64 },
     /// A box about `centre` with half sizes `half` along the columns of `axes` (a rotation).
     Cuboid { centre: Vector3<f64>, axes: Matrix3<f64>, half: Vector3<f64> },
+    /// The convex hull of `points` (in the solid's frame) placed at `pose`.
+    Hull { pose: Pose, points: Arc<[Vector3<f64>]> },
 }
 
 impl Solid {
@@ -131,6 +190,9 @@ impl Solid {
             Solid::Cuboid { centre, axes, half } => {
                 centre.z - (0..3).map(|k| axes[(2, k)].abs() * half[k]).sum::<f64>()
             }
+            Solid::Hull { pose, points } => {
+                points.iter().map(|p| (pose * Point3::from(*p)).z).fold(f64::INFINITY, f64::min)
+            }
         }
     }
 
@@ -141,6 +203,9 @@ impl Solid {
             Solid::Cylinder { a, b, radius } => (a - p).norm().max((b - p).norm()) + radius,
             Solid::Sphere { centre, radius } => (centre - p).norm() + radius,
             Solid::Cuboid { centre, half, .. } => (centre - p).norm() + half.norm(),
+            Solid::Hull { pose, points } => {
+                points.iter().map(|v| ((pose * Point3::from(*v)).coords - p).norm()).fold(0.0, f64::max)
+            }
         }
     }
 }
@@ -186,46 +251,55 @@ impl std::fmt::Display for Part {
 }
 
 /// One solid of the arm and the part it belongs to.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ArmSolid {
     pub part: Part,
     pub solid: Solid,
 }
 
-/// Most solids [`solids_into`] makes for an arm of `n` joints: the pedestal, a housing and a
-/// link per joint, two fingers and a held piece.
-pub const fn most_solids(n: usize) -> usize {
-    2 * n + 4
+/// `shape` placed at `pose` (base frame) as a solid.
+pub fn place(shape: &Shape, pose: &Pose) -> Solid {
+    match shape {
+        Shape::Cuboid { half } => {
+            Solid::Cuboid { centre: pose.translation.vector, axes: *pose.rotation.matrix(), half: *half }
+        }
+        Shape::Cylinder { radius, length } => {
+            let half = pose.rotation * Vector3::new(0.0, 0.0, 0.5 * length);
+            let centre = pose.translation.vector;
+            Solid::Cylinder { a: centre - half, b: centre + half, radius: *radius }
+        }
+        Shape::Sphere { radius } => Solid::Sphere { centre: pose.translation.vector, radius: *radius },
+        Shape::Hull { points } => Solid::Hull { pose: *pose, points: Arc::clone(points) },
+    }
 }
 
-/// The arm's solids at the joint angles `q` (rad) with the hand `hand` into `out` (cleared
-/// first; at most [`most_solids`], so a buffer kept between calls allocates once): the
-/// pedestal, then per joint its housing and its link, then the fingers and the held piece.
-pub fn solids_into<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, hand: &Hand, out: &mut Vec<ArmSolid>) {
+/// The arm's solids at the joint angles `q` (rad) with the hand `hand` and `bodies` into `out`
+/// (cleared first; at most [`Bodies::most_solids`], so a buffer kept between calls allocates
+/// once): drawn, the pedestal, then per joint its housing and its link; described, each shape
+/// on its body (the base's as [`Part::Pedestal`], link `k`'s as [`Part::Link`]`(k)`); then
+/// the fingers and the held piece.
+pub fn solids_into<const N: usize>(
+    model: &ArmModel<N>,
+    q: &JointVector<N>,
+    hand: &Hand,
+    bodies: &Bodies,
+    out: &mut Vec<ArmSolid>,
+) {
     out.clear();
     let chain = FrameChain::new(model, q);
-    let base = model.base();
-    out.push(ArmSolid {
-        part: Part::Pedestal,
-        solid: Solid::Cylinder { a: base - JOINT_LENGTH * Vector3::z(), b: base, radius: 2.0 * JOINT_RADIUS },
-    });
     let tip = chain.tip();
     let tool = chain.body_pose(N - 1).rotation;
     let approach: Vector3<f64> = tool * Vector3::x();
-    let palm = tip - hand.gripper.palm_depth() * approach;
-    for j in 0..N {
-        let (axis, point) = chain.joint_axis(j);
-        let half = 0.5 * JOINT_LENGTH * axis;
-        out.push(ArmSolid {
-            part: Part::Housing(j + 1),
-            solid: Solid::Cylinder { a: point - half, b: point + half, radius: JOINT_RADIUS },
-        });
-        let next = if j == N - 1 { palm } else { chain.body_pose(j).translation.vector };
-        if (next - point).norm() > 1e-9 {
-            out.push(ArmSolid {
-                part: Part::Link(j + 1),
-                solid: Solid::Cylinder { a: point, b: next, radius: LINK_RADIUS },
-            });
+    match bodies {
+        Bodies::Drawn => drawn_into(model, &chain, hand, out),
+        Bodies::Described(shapes) => {
+            for shape in shapes.iter() {
+                let (part, frame) = match shape.body {
+                    0 => (Part::Pedestal, Pose::identity()),
+                    k => (Part::Link(k), *chain.body_pose(k.min(N) - 1)),
+                };
+                out.push(ArmSolid { part, solid: place(&shape.shape, &(frame * shape.pose)) });
+            }
         }
     }
     let closing = chain.joint_axis(N - 1).0;
@@ -244,5 +318,32 @@ pub fn solids_into<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, hand
             part: Part::Held,
             solid: Solid::Cylinder { a: bottom, b: bottom - held.height * approach, radius: held.radius },
         });
+    }
+}
+
+/// chessarm's own pedestal, housings and links (the module's documentation).
+fn drawn_into<const N: usize>(model: &ArmModel<N>, chain: &FrameChain<N>, hand: &Hand, out: &mut Vec<ArmSolid>) {
+    let base = model.base();
+    out.push(ArmSolid {
+        part: Part::Pedestal,
+        solid: Solid::Cylinder { a: base - JOINT_LENGTH * Vector3::z(), b: base, radius: 2.0 * JOINT_RADIUS },
+    });
+    let tip = chain.tip();
+    let approach: Vector3<f64> = chain.body_pose(N - 1).rotation * Vector3::x();
+    let palm = tip - hand.gripper.palm_depth() * approach;
+    for j in 0..N {
+        let (axis, point) = chain.joint_axis(j);
+        let half = 0.5 * JOINT_LENGTH * axis;
+        out.push(ArmSolid {
+            part: Part::Housing(j + 1),
+            solid: Solid::Cylinder { a: point - half, b: point + half, radius: JOINT_RADIUS },
+        });
+        let next = if j == N - 1 { palm } else { chain.body_pose(j).translation.vector };
+        if (next - point).norm() > 1e-9 {
+            out.push(ArmSolid {
+                part: Part::Link(j + 1),
+                solid: Solid::Cylinder { a: point, b: next, radius: LINK_RADIUS },
+            });
+        }
     }
 }

@@ -212,12 +212,7 @@ pub fn model_from_chain(chain: &SerialChain) -> Result<ArmModel<4>, ChainError> 
         origins[k] = origins[k - 1] + axis * dh[k - 1].d + x[k] * length;
     }
 
-    // DH frames at q = 0 (from the parameters themselves, so they are the model's).
-    let mut dh_frames = [Pose::identity(); 4];
-    for k in 0..4 {
-        let previous = if k == 0 { Pose::identity() } else { dh_frames[k - 1] };
-        dh_frames[k] = previous * dh_transform(&dh[k], 0.0);
-    }
+    let in_dh = chain_in_dh(&frames, &dh, &base);
     let mut links = [Link {
         dh: dh[0],
         inertial: Inertial::zero(),
@@ -230,7 +225,7 @@ pub fn model_from_chain(chain: &SerialChain) -> Result<ArmModel<4>, ChainError> 
         link.dh = dh[k];
         link.limits = joint.limits;
         link.friction = joint.friction;
-        link.inertial = joint.body.transformed(&(dh_frames[k].inverse() * Translation3::from(-base) * frames[k]));
+        link.inertial = joint.body.transformed(&in_dh[k]);
     }
     ArmModel::new(links, chain.gravity).and_then(|model| model.with_base(base)).map_err(|source| {
         let joint = match &source {
@@ -241,6 +236,30 @@ pub fn model_from_chain(chain: &SerialChain) -> Result<ArmModel<4>, ChainError> 
         };
         ChainError::Model { joint: joint.to_string(), source }
     })
+}
+
+/// Per link `k`, its chain frame `W_k` in its DH frame `F_k` (both at q = 0, fixed to link
+/// `k`): `X_k = F_k⁻¹ · T(−b) · W_k`, `F_k = A_1(0) ⋯ A_k(0)` from the DH parameters `dh`
+/// themselves (so they are the model's), `b` the base. A body given in the chain's frame is
+/// `X_k ·` it in the model's.
+fn chain_in_dh(frames: &[Pose; 4], dh: &[DhParameters; 4], base: &Vector3<f64>) -> [Pose; 4] {
+    let mut dh_frames = [Pose::identity(); 4];
+    for k in 0..4 {
+        let previous = if k == 0 { Pose::identity() } else { dh_frames[k - 1] };
+        dh_frames[k] = previous * dh_transform(&dh[k], 0.0);
+    }
+    std::array::from_fn(|k| dh_frames[k].inverse() * Translation3::from(-base) * frames[k])
+}
+
+/// Per link `k` of `model` (made from `chain` by [`model_from_chain`]), the pose of the
+/// chain's joint frame `W_k` in the model's DH frame `k`: what turns a link's collision shape,
+/// given in its joint frame, into the model's frame ([`chain_in_dh`]).
+pub fn chain_frames_in_dh(chain: &SerialChain, model: &ArmModel<4>) -> [Pose; 4] {
+    let mut frames = [Pose::identity(); 4];
+    for (k, joint) in chain.joints.iter().enumerate() {
+        frames[k] = if k == 0 { joint.origin } else { frames[k - 1] * joint.origin };
+    }
+    chain_in_dh(&frames, &std::array::from_fn(|k| model.link(k).dh), &model.base())
 }
 
 /// An isometry from URDF's `xyz` and `rpy` (fixed-axis roll about x, then pitch about y, then
