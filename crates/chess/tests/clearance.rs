@@ -109,10 +109,40 @@ fn the_master_games_touch_nothing() {
         let mut game = Game::new(report_arm(), BoardGeometry::default(), record.start.clone(), settings()).unwrap();
         let mut smallest = f64::INFINITY;
         for mv in &record.moves {
+            let before = game.table().clone();
             let report = game.play(mv, Mover::Robot).unwrap();
             let planned =
                 report.clearance.as_ref().unwrap_or_else(|| panic!("{file} ply {}: no clearance", report.ply));
             assert!(planned.distance >= 0.002, "{file} ply {}: {planned:?}", report.ply);
+            // The closest pair's points, for showing it: as far apart as the distance (GJK's
+            // own tolerance on these solids: 1e-6 m is far above it and far below a mm), the
+            // obstacle's on the piece's cylinder or on the table.
+            let [on_arm, on_obstacle] = planned.points.unwrap_or_else(|| panic!("{file} ply {}", report.ply));
+            assert!(
+                ((on_arm - on_obstacle).norm() - planned.distance).abs() < 1e-6,
+                "{file} ply {}: {planned:?}",
+                report.ply
+            );
+            let surface = BoardGeometry::default().surface_height;
+            match planned.piece {
+                Some(i) => {
+                    // On the piece where it stood before the move or stands after it.
+                    let on = |table: &chessarm_chess::table::Table| {
+                        let p = &table.pieces()[i];
+                        let d = *settings().pieces.dimensions(p.piece.role);
+                        let across = (on_obstacle.xy() - p.position).norm();
+                        let up = on_obstacle.z - surface;
+                        across <= 0.5 * d.base_diameter + 1e-9 && (-1e-9..=d.height + 1e-9).contains(&up)
+                    };
+                    assert!(on(&before) || on(game.table()), "{file} ply {}: {planned:?}", report.ply);
+                }
+                // The table: the point below the arm's lowest, on the surface.
+                None if planned.obstacle == chessarm_chess::clearance::Obstacle::Table => {
+                    assert!(on_obstacle.z == surface && on_arm.z >= surface, "{file} ply {}: {planned:?}", report.ply)
+                }
+                // The arm itself: both points are the arm's (checked by the distance above).
+                None => {}
+            }
             let executed = report.executed_clearance.as_ref().unwrap();
             assert!(!executed.is_contact(), "{file} ply {}: {executed:?}", report.ply);
             smallest = smallest.min(planned.distance);

@@ -92,6 +92,23 @@ pub struct ReplayMove {
     pub by: &'static str,
     pub start: f64,
     pub end: f64,
+    /// The move's closest approach of the arm to an obstacle, shown at its instant.
+    pub closest: Option<ReplayClosest>,
+}
+
+/// A move's closest approach, for showing: when (s, the run's time), how near (m), the arm's
+/// part and the obstacle as people name them, the point on each (m), whether it is a contact,
+/// and whether it is the simulated motion's (else the plan's, which the simulated arm follows
+/// within its tracking error).
+#[derive(Debug, Clone)]
+pub struct ReplayClosest {
+    pub t: f64,
+    pub distance: f64,
+    pub part: String,
+    pub obstacle: String,
+    pub points: [Vector3<f64>; 2],
+    pub contact: bool,
+    pub simulated: bool,
 }
 
 /// One simulated run (a controller, a game).
@@ -263,7 +280,20 @@ fn run_json(run: &ReplayRun, table: &Table, tolerance: f64) -> RunJson {
     let moves: Vec<Value> = run
         .moves
         .iter()
-        .map(|m| json!({"ply": m.ply, "number": m.number, "san": m.san, "uci": m.uci, "by": m.by, "start": micro(m.start), "end": micro(m.end)}))
+        .map(|m| {
+            let closest = m.closest.as_ref().map(|c| {
+                json!({
+                    "t": micro(c.t),
+                    "distance_mm": (c.distance * 1e6).round() / 1e3,
+                    "part": c.part,
+                    "obstacle": c.obstacle,
+                    "points": c.points.map(|p| [micro(p.x), micro(p.y), micro(p.z)]),
+                    "contact": c.contact,
+                    "simulated": c.simulated,
+                })
+            });
+            json!({"ply": m.ply, "number": m.number, "san": m.san, "uci": m.uci, "by": m.by, "start": micro(m.start), "end": micro(m.end), "closest": closest})
+        })
         .collect();
     RunJson {
         name: run.name.clone(),
@@ -494,6 +524,7 @@ mod tests {
             by: "robot",
             start: 0.0,
             end: 0.2,
+            closest: None,
         }];
         let replay = Replay {
             title: "a <title> & more".into(),

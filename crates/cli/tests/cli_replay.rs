@@ -234,6 +234,41 @@ fn the_readme_game_replays_in_a_browser_where_the_simulation_put_everything() {
     assert_handlings_and_steps(&report);
     assert_picture_shows_the_scene(&screenshot, &report);
     assert!(report["samples"].as_array().unwrap().iter().any(|s| s["phase"] == "carrying"));
+    assert_closest_pairs(&report, &game);
+}
+
+/// Every robot move's closest pair is game.json's (part, obstacle, distance to the µm the
+/// replay rounds to), shown at its instant as a line between its two points (as long as the
+/// distance: the points are rounded to 1 µm, so 5 µm) with the readout naming both, and gone
+/// a second later.
+fn assert_closest_pairs(report: &Value, game: &Value) {
+    let shown = report["closest"].as_array().unwrap();
+    let plies = game["moves"].as_array().unwrap();
+    assert_eq!(shown.len(), plies.len());
+    let mut seen = 0;
+    for (entry, played) in shown.iter().zip(plies) {
+        let Some(clearance) = played["clearance"].as_object() else {
+            assert!(entry.is_null(), "{entry}");
+            continue;
+        };
+        seen += 1;
+        let c = &entry["closest"];
+        let simulated = &clearance["executed"]["smallest_mm"];
+        let expected = if simulated.is_number() { simulated } else { &clearance["smallest_mm"] };
+        assert!((c["distance_mm"].as_f64().unwrap() - expected.as_f64().unwrap()).abs() < 1e-3, "{c} vs {played}");
+        assert_eq!(c["simulated"].as_bool().unwrap(), simulated.is_number());
+        assert_eq!(c["part"], clearance["part"]);
+        let line = common::numbers(&entry["at"]["line"]);
+        let length = ((line[0] - line[3]).powi(2) + (line[1] - line[4]).powi(2) + (line[2] - line[5]).powi(2)).sqrt();
+        assert!((length * 1e3 - c["distance_mm"].as_f64().unwrap()).abs() < 5e-3, "{entry}");
+        assert_eq!(entry["at"]["visible"], true, "{entry}");
+        assert_eq!(entry["after"]["visible"], false, "{entry}");
+        let text = entry["at"]["text"].as_str().unwrap();
+        for needle in [c["part"].as_str().unwrap(), c["obstacle"].as_str().unwrap(), " mm at "] {
+            assert!(text.contains(needle), "{needle}: {text}");
+        }
+    }
+    assert!(seen >= 3, "{shown:?}");
 }
 
 fn assert_final_table(report: &Value, game: &Value) {

@@ -249,6 +249,30 @@ impl Placed {
         }
     }
 
+    /// The closest points of this solid and `other` (base frame, m): on this one, then on
+    /// `other` (by parry's GJK on their support maps); where they overlap, both are the middle
+    /// of their boxes' overlap. For showing where the nearest pair is, not for measuring it.
+    pub fn closest_points(&self, other: &Placed) -> [Vector3<f64>; 2] {
+        let pos12 = self.pose.inv_mul(&other.pose);
+        let (a, b) = (self.shape.support(), other.shape.support());
+        match query::details::closest_points_support_map_support_map(&pos12, a, b, f64::MAX) {
+            query::ClosestPoints::WithinMargin(p, q) => {
+                [self.pose.transform_point(p), other.pose.transform_point(q)].map(|v| Vector3::new(v.x, v.y, v.z))
+            }
+            _ => {
+                let middle = 0.5 * (self.low.sup(&other.low) + self.high.inf(&other.high));
+                [middle, middle]
+            }
+        }
+    }
+
+    /// Its lowest point (base frame, m): the support point along −z.
+    pub fn lowest_point(&self) -> Vector3<f64> {
+        let down = self.pose.rotation.inverse() * Vector::NEG_Z;
+        let v = self.pose.transform_point(self.shape.support().local_support_point(down));
+        Vector3::new(v.x, v.y, v.z)
+    }
+
     /// A piece standing upright.
     pub fn piece(piece: &StandingPiece) -> Self {
         let top = piece.base + Vector3::new(0.0, 0.0, piece.height);
@@ -467,6 +491,47 @@ pub fn nearest<const N: usize>(
 const STILL: u8 = 0;
 const GRIPPED: u8 = 1;
 const ITSELF: u8 = 2;
+
+/// Where `closest` (found with the arm at `q` with `hand` and `bodies`) is: its point on the
+/// arm and on the obstacle (base frame, m), the obstacle being `piece` (placed) when a piece,
+/// the table at `rules.table`, or the arm's own part. The nearest of the part's solids is
+/// taken (a described link may have several).
+#[allow(clippy::too_many_arguments)]
+pub fn witness_points<const N: usize>(
+    model: &ArmModel<N>,
+    q: &JointVector<N>,
+    hand: &Hand,
+    bodies: &Bodies,
+    closest: &Closest,
+    piece: Option<&Placed>,
+    rules: &Rules,
+) -> Option<[Vector3<f64>; 2]> {
+    let mut solids = Vec::new();
+    solids_into(model, q, hand, bodies, &mut solids);
+    let placed: Vec<(Part, Placed)> = solids.iter().map(|s| (s.part, Placed::of(&s.solid))).collect();
+    let ours = || placed.iter().filter(|(part, _)| *part == closest.part).map(|(_, p)| p);
+    let nearest = |pairs: Vec<(&Placed, &Placed)>| {
+        pairs
+            .into_iter()
+            .min_by(|x, y| x.0.distance(x.1).total_cmp(&y.0.distance(y.1)))
+            .map(|(a, b)| a.closest_points(b))
+    };
+    match closest.obstacle {
+        Obstacle::Piece(_) => {
+            let piece = piece?;
+            nearest(ours().map(|a| (a, piece)).collect())
+        }
+        Obstacle::Table => {
+            let table = rules.table?;
+            let low = ours().map(Placed::lowest_point).min_by(|a, b| a.z.total_cmp(&b.z))?;
+            Some([low, Vector3::new(low.x, low.y, table)])
+        }
+        Obstacle::Arm(other) => {
+            let theirs: Vec<&Placed> = placed.iter().filter(|(part, _)| *part == other).map(|(_, p)| p).collect();
+            nearest(ours().flat_map(|a| theirs.iter().map(move |b| (a, *b))).collect())
+        }
+    }
+}
 
 /// Buffers of [`nearest`], kept between calls: the arm's solids as parry sees them and every
 /// pair's bounding-box gap.

@@ -95,6 +95,9 @@ pub struct MoveClearance {
     /// smallest step could hide (m): a clearance at or below it counts as a contact.
     pub checks: usize,
     pub resolution: f64,
+    /// Where the closest pair is at `time`: the point on the arm's part and the point on the
+    /// obstacle, base frame, m (for showing it; `None` if it could not be placed).
+    pub points: Option<[Vector3<f64>; 2]>,
 }
 
 impl MoveClearance {
@@ -134,6 +137,8 @@ pub fn check_move(
     let gripper = check.gripper;
     let open = |k: usize| gripper.open_gap(held(pieces, table, carries[k].piece).1);
     let mut best: Option<(f64, Closest, Option<usize>)> = None;
+    // What places the best pair: the hand then and the obstacle, if a piece.
+    let mut best_scene: Option<(Hand, Option<Placed>)> = None;
     let mut gripped_best: Option<f64> = None;
     let mut checks = 0;
     // Stretches: before each grip (open), grip to release (closed on the piece), and after the
@@ -249,6 +254,11 @@ pub fn check_move(
                         _ => None,
                     };
                     nearest_location = piece.map(|i| locations[i]);
+                    let obstacle = match c.obstacle {
+                        Obstacle::Piece(i) => Some(placed[i].clone()),
+                        _ => None,
+                    };
+                    best_scene = Some((hand, obstacle));
                     best = Some((t, c, piece));
                 }
                 if let Some((_, g)) = swept.gripped {
@@ -262,6 +272,17 @@ pub fn check_move(
         }
     }
     let (time, closest, piece) = best?;
+    let points = best_scene.and_then(|(hand, obstacle)| {
+        super::witness_points(
+            arm,
+            &interpolate(samples, time),
+            &hand,
+            &check.bodies,
+            &closest,
+            obstacle.as_ref(),
+            rules,
+        )
+    });
     let obstacle_name = match (closest.obstacle, piece) {
         (Obstacle::Piece(_), Some(i)) => {
             let p = &table.pieces()[i];
@@ -286,6 +307,7 @@ pub fn check_move(
         checks,
         // The steps above keep every contact's trace at or below it.
         resolution: RESOLUTION,
+        points,
     })
 }
 

@@ -492,6 +492,26 @@ fn waits_text(fine_points: bool, totals: &chessarm_chess::play::WaitTotals) -> S
 
 /// A move's closest approach as JSON (mm, s from the move's start): the plan's nearest pair
 /// (the arm's part and the obstacle), the fingers' smallest gap to the piece they open around,
+/// The move's closest pair for the replay: the simulated motion's where it was measured, else
+/// the plan's, at the run's time.
+fn replay_closest(report: &chessarm_chess::play::MoveReport) -> Option<crate::replay::ReplayClosest> {
+    use chessarm_chess::play::Executed;
+    let (clearance, simulated) = match (&report.executed_clearance, &report.clearance) {
+        (Some(Executed::Measured(m)), _) => (m, true),
+        (_, Some(planned)) => (planned, false),
+        _ => return None,
+    };
+    Some(crate::replay::ReplayClosest {
+        t: report.start_time + clearance.time,
+        distance: clearance.distance,
+        part: clearance.part.to_string(),
+        obstacle: clearance.obstacle_name.clone(),
+        points: clearance.points?,
+        contact: clearance.is_contact(),
+        simulated,
+    })
+}
+
 /// and the simulated motion's clearance, a lower bound or measured.
 fn clearance_json(
     planned: &chessarm_chess::clearance::moves::MoveClearance,
@@ -741,6 +761,7 @@ impl ReplayBuilder {
             by: if report.mover == Mover::Robot { "robot" } else { "hand" },
             start: report.start_time,
             end: report.start_time + report.duration,
+            closest: replay_closest(report),
         });
         if self.turn == Color::Black {
             self.number += 1;

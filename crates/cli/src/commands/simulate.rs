@@ -698,6 +698,7 @@ fn write_study_replay(
                 by: "robot",
                 start: 0.0,
                 end: run.summary.duration,
+                closest: None,
             }];
             ReplayRun { name: run.spec.name.clone(), frames, handled, moves, waits: Vec::new() }
         })

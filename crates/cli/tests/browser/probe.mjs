@@ -52,8 +52,17 @@ try {
     for (let i = 0; i < api.moves().length + 1; i++) down.push(api.stepMove(1));
     const up = [];
     for (let i = 0; i < api.moves().length + 1; i++) up.push(api.stepMove(-1));
+    // Each move's closest pair at its instant, and 1 s later (the marker gone).
+    const closest = api.moves().map((m) => {
+      const c = api.closestOf(m.ply);
+      if (!c) return null;
+      api.seek(c.t);
+      const at = api.closest();
+      api.seek(c.t + 1);
+      return { ply: m.ply, closest: c, at, after: api.closest() };
+    });
     api.seek(api.duration());
-    return { runs: api.runs(), webgl: api.webgl, three: api.three, duration: api.duration(), samples,
+    return { closest, runs: api.runs(), webgl: api.webgl, three: api.three, duration: api.duration(), samples,
       pieces: api.pieces(), moves: api.moves(), handled, forwards, backwards, down, up };
   }, { run, times });
   // The screenshot: the player's view at the given instant, rendered, with the points to look at.
