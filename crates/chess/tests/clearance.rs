@@ -152,3 +152,129 @@ fn the_master_games_touch_nothing() {
         assert!(smallest < 0.01, "{file}: {smallest}");
     }
 }
+
+/// A motion `q(t)` of `arm` over `[0, 1]` s swept against `pieces` (and the table at `table`,
+/// parts at rest on it off the check) with an open hand; the closest approach and when.
+fn swept(
+    arm: &chessarm_core::arm::model::ArmModel<4>,
+    q: &dyn Fn(f64) -> chessarm_core::arm::model::JointVector<4>,
+    rate_bound: [f64; 4],
+    pieces: &[chessarm_chess::clearance::StandingPiece],
+    table: f64,
+) -> (f64, chessarm_chess::clearance::Closest) {
+    use chessarm_chess::clearance::{Placed, Rules, Scratch, Stretch, reach_bound, sweep};
+    use chessarm_core::arm::bodies::{Bodies, Gripper, Hand};
+    let hand = Hand { gripper: Gripper::default(), gap: 0.04, held: None };
+    let rules = Rules::for_arm(arm, &hand, &Bodies::Drawn, &q(0.0), table);
+    let placed: Vec<Placed> = pieces.iter().map(Placed::piece).collect();
+    let stretch = Stretch {
+        q,
+        start: 0.0,
+        end: 1.0,
+        rate_bound,
+        hand,
+        bodies: &Bodies::Drawn,
+        gripped: &[],
+        beyond: f64::INFINITY,
+        open_end: false,
+        candidates: None,
+    };
+    let reach = reach_bound(arm, &hand, &Bodies::Drawn);
+    let found = sweep(arm, &stretch, &reach, &placed, &rules, 1e-4, &mut Scratch::default());
+    found.closest.expect("something near")
+}
+
+/// The solid of `part` at `q` (the first, for a drawn arm the only one).
+fn solid_of(
+    arm: &chessarm_core::arm::model::ArmModel<4>,
+    q: &chessarm_core::arm::model::JointVector<4>,
+    part: Part,
+) -> chessarm_core::arm::bodies::Solid {
+    use chessarm_core::arm::bodies::{Bodies, Gripper, Hand, solids_into};
+    let mut solids = Vec::new();
+    let hand = Hand { gripper: Gripper::default(), gap: 0.04, held: None };
+    solids_into(arm, q, &hand, &Bodies::Drawn, &mut solids);
+    solids.into_iter().find(|s| s.part == part).expect("the part").solid
+}
+
+/// A tall king beside the forearm's sweep: the base turns the report's arm (elbow up, tool
+/// down over the board) through 0.6 rad while a 20 cm king stands beside the tool's path,
+/// under the forearm's sweep, reaching 2 mm into the forearm only at mid-motion. The sweep
+/// finds link 3 touching the king there, while the fingers pass it 4 cm and more away (a
+/// check of the tool or the carried piece alone would not see it).
+#[test]
+fn a_tall_king_beside_the_forearm_s_sweep_is_caught() {
+    use chessarm_chess::clearance::{Obstacle, StandingPiece};
+    use chessarm_core::arm::bodies::Solid;
+    use chessarm_core::arm::model::JointVector;
+    let arm = report_arm();
+    let q = |t: f64| JointVector::<4>::new(1.3 + 0.6 * t, 1.2, -1.6, -1.17);
+    let Solid::Cylinder { a, b, radius } = solid_of(&arm, &q(0.5), Part::Link(3)) else { panic!("a cylinder") };
+    // Under the forearm's middle, 2 mm into its underside.
+    let middle = 0.5 * (a + b);
+    let slope = ((b - a).z / (b - a).norm()).abs();
+    let top = middle.z - radius / (1.0 - slope * slope).sqrt() + 0.002;
+    let king = StandingPiece {
+        base: chessarm_core::nalgebra::Vector3::new(middle.x, middle.y, 0.0),
+        radius: 0.02,
+        height: top,
+    };
+    assert!(top > 0.15, "a tall king: {top}");
+    let (when, closest) = swept(&arm, &q, [0.6, 0.0, 0.0, 0.0], &[king], 0.0);
+    assert_eq!(closest.distance, 0.0, "{closest:?}");
+    assert!(matches!(closest.part, Part::Link(3) | Part::Housing(_)), "{closest:?}");
+    assert_eq!(closest.obstacle, Obstacle::Piece(0));
+    // Only around mid-motion: clear at the start and the end.
+    assert!((when - 0.5).abs() < 0.25, "at {when}");
+    for t in [0.0, 1.0] {
+        let forearm = chessarm_chess::clearance::Placed::of(&solid_of(&arm, &q(t), Part::Link(3)));
+        assert!(forearm.distance(&chessarm_chess::clearance::Placed::piece(&king)) > 0.01, "at {t}");
+    }
+    let Solid::Cuboid { centre, .. } = solid_of(&arm, &q(when), Part::Finger(1)) else { panic!("a box") };
+    assert!((centre.xy() - king.base.xy()).norm() > 0.04, "the fingers are far: {centre}");
+}
+
+/// A long forearm on a low elbow path: an arm with a short upper arm (15 cm) on a low
+/// shoulder (8 cm) and a forearm half a metre long, rising from its elbow to a wrist that holds
+/// the tool high; as the shoulder lowers the elbow comes down, and a pawn standing just in
+/// front of the elbow meets the forearm's underside. The sweep finds the forearm touching the
+/// pawn, while the fingers are 10 cm and more from it.
+#[test]
+fn a_long_forearm_on_a_low_elbow_path_is_caught() {
+    use chessarm_chess::clearance::{Obstacle, StandingPiece};
+    use chessarm_core::arm::bodies::Solid;
+    use chessarm_core::arm::model::{ArmModel, JointVector};
+    let report = report_arm();
+    let mut links = *report.links();
+    links[0].dh.d = 0.08;
+    links[1].dh.a = 0.15;
+    links[2].dh.a = 0.5;
+    let arm = ArmModel::new(links, report.gravity()).unwrap();
+    // The shoulder lowers from 0.3 to −0.06 rad, the upper arm dipping below the shoulder, the
+    // forearm rising from the low elbow (+0.6 rad) and the tool pointing down.
+    let q = |t: f64| {
+        let shoulder = 0.3 - 0.36 * t;
+        JointVector::<4>::new(std::f64::consts::FRAC_PI_2, shoulder, 0.6, -std::f64::consts::FRAC_PI_2 - shoulder - 0.6)
+    };
+    let Solid::Cylinder { a, b, radius } = solid_of(&arm, &q(0.9), Part::Link(3)) else { panic!("a cylinder") };
+    // A pawn (50 mm) under the forearm's point 10 % of the way from the elbow (4 cm in front of
+    // its axis), 1 mm into it at t = 0.9 s: the table is put so.
+    let under = a + 0.1 * (b - a);
+    let slope = ((b - a).z / (b - a).norm()).abs();
+    let table = under.z - radius / (1.0 - slope * slope).sqrt() + 0.001 - 0.05;
+    let pawn = StandingPiece {
+        base: chessarm_core::nalgebra::Vector3::new(under.x, under.y, table),
+        radius: 0.0145,
+        height: 0.05,
+    };
+    let (when, closest) = swept(&arm, &q, [0.0, 0.36, 0.0, 0.36], &[pawn], table);
+    // Nothing else comes down to the table: the elbow's housing stays above it throughout.
+    for t in [0.0, 0.5, 1.0] {
+        assert!(solid_of(&arm, &q(t), Part::Housing(3)).lowest() > table, "at {t}");
+    }
+    assert_eq!(closest.distance, 0.0, "{closest:?} at {when}");
+    assert!(matches!(closest.part, Part::Link(3) | Part::Housing(3)), "{closest:?}");
+    assert_eq!(closest.obstacle, Obstacle::Piece(0));
+    let Solid::Cuboid { centre, .. } = solid_of(&arm, &q(when), Part::Finger(1)) else { panic!("a box") };
+    assert!((centre.xy() - pawn.base.xy()).norm() > 0.1, "the fingers are far: {centre}");
+}

@@ -6,7 +6,9 @@
 //!   (`header`, `joint_names`, `points[]` with `positions` rad, `velocities` rad/s,
 //!   `accelerations` rad/s², `effort` (empty), `time_from_start` {`sec`, `nanosec`}), so
 //!   `rosidl_runtime_py.set_message_fields(JointTrajectory(), data["trajectory"])` fills the
-//!   message; `gripper` lists the commands (`close`/`open`, the instant, the piece and where).
+//!   message; `gripper` lists the commands (`close`/`open`, the instant, the piece and where);
+//!   `finger_opening_m` is how far each finger stands off a piece when open (the setup's
+//!   `[gripper] finger_opening`, or less where the clearance check narrowed it for this move).
 //! - `NNN-<uci>.csv`: `t` s, `q1..q4` rad, `qd1..qd4` rad/s, `qdd1..qdd4` rad/s², `q_<name>`
 //!   per held joint (its position, rad or m), `gripper` (`open`/`closed`), `piece` (the piece
 //!   held, empty when open): one row per sample, to stream to servos row by row at the times in
@@ -50,6 +52,8 @@ pub struct MoveLabel<'a> {
     /// (a fine point: `None` where the commands go by the clock, or for a plan alone).
     pub fine_points: Vec<chessarm_core::nalgebra::Vector3<f64>>,
     pub in_position: Option<chessarm_core::plan::fine_point::InPosition>,
+    /// How far each finger stands off a piece when open, m (`None`: not known).
+    pub finger_opening: Option<f64>,
 }
 
 /// Writes `<dir>/<stem>.json` and `<dir>/<stem>.csv`; returns their paths.
@@ -125,6 +129,7 @@ pub fn write_move(
             }).collect::<Vec<_>>(),
         },
         "gripper": gripper,
+        "finger_opening_m": label.finger_opening,
         "move": {"ply": label.ply, "san": label.san, "uci": label.uci},
         "rate_hz": rate,
         "units": {"positions": "rad", "velocities": "rad/s", "accelerations": "rad/s^2", "t": "s"},

@@ -255,3 +255,32 @@ fn joint_accelerations_in_the_setup_file_take_one_number_as_the_flag_does() {
     let three = write("three.toml", "[motion]\njoint_acceleration = [1, 2, 3]\n");
     assert_one_line_error(&chessarm(&["--arm", &three, "arm"]), &["motion.joint_acceleration has 3 numbers"]);
 }
+
+/// On 42 mm squares the default fingers, opened 6 mm, would come nearer than the margin to
+/// e2's neighbours: the move's opening is narrowed, game.json says so (the adjustment and
+/// the opening), and the hardware export's gripper opens as narrowly as the plan that was
+/// checked (`finger_opening_m`), while a move with room keeps the setup's 6 mm.
+#[test]
+fn a_narrowed_opening_reaches_the_hardware_export() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = dir.path().join("tight.toml");
+    // The board of crates/chess/tests/clearance.rs's narrowing case.
+    std::fs::write(&setup, "[board]\nsquare_size = 0.042\ncenter = [0.0, 0.288]\n").unwrap();
+    let out = dir.path().join("out");
+    let played = chessarm(&["--arm", setup.to_str().unwrap(), "play", "--moves", "e4", "--out", out.to_str().unwrap()]);
+    assert!(played.status.success(), "{}", String::from_utf8_lossy(&played.stderr));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
+    let first = &report["moves"][0];
+    let opening_mm = first["finger_opening_mm"].as_f64().unwrap();
+    assert!(opening_mm < 6.0, "{first}");
+    assert!(!first["clearance_adjustments"].as_array().unwrap().is_empty(), "{first}");
+    let exported: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("hardware/001-e2e4.json")).unwrap()).unwrap();
+    assert!((exported["finger_opening_m"].as_f64().unwrap() * 1e3 - opening_mm).abs() < 1e-12, "{exported}");
+    let roomy = dir.path().join("roomy");
+    assert!(chessarm(&["play", "--moves", "e4", "--out", roomy.to_str().unwrap()]).status.success());
+    let exported: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(roomy.join("hardware/001-e2e4.json")).unwrap()).unwrap();
+    assert_eq!(exported["finger_opening_m"].as_f64(), Some(0.006));
+}

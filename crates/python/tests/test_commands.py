@@ -49,6 +49,13 @@ def test_play_equals_the_cli_and_gives_the_game_and_its_trajectories(tmp_path):
     trajectory = game.hardware["hardware/001-e2e4.json"]["trajectory"]
     assert trajectory["joint_names"] == ["joint1", "joint2", "joint3", "joint4"]
     assert game.hardware["hardware/001-e2e4.csv"]["gripper"][0] == "open"
+    # Every robot move's clearance, as game.json has it, and the game's smallest.
+    clearance = game.clearance
+    assert [m["ply"] for m in clearance["moves"]] == [1, 2, 3]
+    smallest = min(m["smallest_mm"] for m in clearance["moves"])
+    assert clearance["summary"]["smallest_mm"] == smallest
+    assert clearance["summary"]["contacts"] == 0
+    assert all(m["part"] and m["obstacle"] and m["executed"]["contact"] is False for m in clearance["moves"])
 
 
 def test_play_takes_pgn_text_and_a_temporary_folder_goes_away():

@@ -93,7 +93,15 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
         plan.path.events().iter().map(|e| GripperCommand { time: e.time, action: e.action }).collect();
     let grips = vec![format!("the {} scenario's piece", plan.name); commands.len() / 2];
     // The report's scenario goes by the clock, as its Simulink model did.
-    let label = MoveLabel { ply: 1, san: &plan.name, uci: "", grips, fine_points: Vec::new(), in_position: None };
+    let label = MoveLabel {
+        ply: 1,
+        san: &plan.name,
+        uci: "",
+        grips,
+        fine_points: Vec::new(),
+        in_position: None,
+        finger_opening: Some(setup.clearance.gripper.finger_opening),
+    };
     files.extend(write_hardware(setup, &hardware, "scenario", &plan.path, &commands, &label, args.export_rate)?);
     let samples = plan.joint.samples();
     let peak = |f: fn(&JointSample) -> [f64; 4]| -> Vec<f64> {
@@ -343,6 +351,7 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
             in_position: Some(chessarm_core::plan::fine_point::InPosition::for_tolerance(
                 chessarm_chess::play::DEFAULT_TOLERANCE,
             )),
+            finger_opening: Some(setup.clearance.gripper.finger_opening),
         };
         files.extend(write_hardware(setup, &hardware, &name, motion, &commands, &label, args.export_rate)?);
         if !planned.legs.is_empty() {

@@ -241,6 +241,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
                     grips: hardware.grips.clone(),
                     fine_points: hardware.fine_points.clone(),
                     in_position: hardware.in_position,
+                    finger_opening: report.opening,
                 };
                 crate::hardware::write_move(
                     &hardware_dir,

@@ -252,6 +252,20 @@ class Game(Result):
         return {k: v for k, v in {**self.documents, **self.tables}.items() if k.startswith("hardware")}
 
     @property
+    def clearance(self) -> Dict[str, Any]:
+        """How near the arm came to the pieces, the table and itself (game.json's, mm): the game's
+        ``summary`` (``smallest_mm``, ``contacts``, ``adjusted_moves``, ``by_kind``…), and
+        ``moves``, one dict per robot move: ``ply``, ``san``, ``smallest_mm``, ``part``,
+        ``obstacle``, ``time_s``, the simulated motion's ``executed`` and the
+        ``clearance_adjustments`` the planner made."""
+        moves = [
+            {"ply": m["ply"], "san": m["san"], **m["clearance"], "clearance_adjustments": m["clearance_adjustments"]}
+            for m in self.game["moves"]
+            if m.get("clearance")
+        ]
+        return {"summary": self.game["clearance"], "moves": moves}
+
+    @property
     def servo_goals(self) -> Dict[str, Table]:
         """With servos (``actuator=``): each robot move's goals as the host sent them at the bus
         rate (``t`` s, ``goal`` rad of shape (n, 4), ``goal1_ticks``… in the servos' ticks), by
