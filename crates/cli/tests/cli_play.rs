@@ -140,6 +140,42 @@ fn a_game_against_stockfish() {
     assert!(game["moves"].as_array().unwrap().len() >= 10);
 }
 
+/// Stockfish plays both sides for 80 plies and the arm makes every move: each has its
+/// clearance on the record and none touches (planned or simulated), with the smallest
+/// clearance per move kind said for the record (Stockfish's moves depend on its clock, so the
+/// game differs from run to run; the assertions hold for any game on the report's board).
+#[test]
+#[cfg_attr(not(tool_stockfish), ignore = "needs Stockfish (apt install stockfish); see docs/testing.md")]
+fn a_stockfish_game_touches_nothing() {
+    let stockfish = find_stockfish().expect("stockfish on PATH or in /usr/games");
+    let dir = tempfile::tempdir().unwrap();
+    let game = play(
+        dir.path(),
+        &[
+            "--engine",
+            stockfish.to_str().unwrap(),
+            "--robot",
+            "both",
+            "--plies",
+            "80",
+            "--movetime",
+            "20",
+            "--engine-timeout",
+            "60000",
+        ],
+    );
+    let moves = game["moves"].as_array().unwrap();
+    assert!(moves.len() >= 20, "{}", moves.len());
+    for m in moves {
+        let clearance = &m["clearance"];
+        assert!(clearance["smallest_mm"].as_f64().unwrap() >= 2.0 - 1e-9, "{m}");
+        assert_eq!(clearance["executed"]["contact"], false, "{m}");
+    }
+    let summary = &game["clearance"];
+    assert_eq!(summary["contacts"], 0, "{summary}");
+    eprintln!("stockfish game, {} plies: clearance {summary}", moves.len());
+}
+
 fn fake_engine(dir: &Path, name: &str, on_go: &str) -> String {
     use std::os::unix::fs::PermissionsExt;
     let path = dir.join(name);
