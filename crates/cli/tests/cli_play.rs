@@ -116,27 +116,19 @@ fn find_stockfish() -> Option<PathBuf> {
     on_path.into_iter().chain([PathBuf::from("/usr/games/stockfish")]).find(|p| p.is_file())
 }
 
+/// A game against Stockfish with the robot playing `robot` for `plies` plies, in `dir`.
+fn stockfish_game(dir: &Path, robot: &str, plies: &str) -> Value {
+    let stockfish = find_stockfish().expect("stockfish on PATH or in /usr/games");
+    // A generous start-up timeout: the other tests (a browser among them) load this machine.
+    let args = ["--engine", stockfish.to_str().unwrap(), "--robot", robot, "--plies", plies, "--movetime", "20"];
+    play(dir, &[&args[..], &["--engine-timeout", "60000"]].concat())
+}
+
 #[test]
 #[cfg_attr(not(tool_stockfish), ignore = "needs Stockfish (apt install stockfish); see docs/testing.md")]
 fn a_game_against_stockfish() {
-    let stockfish = find_stockfish().expect("stockfish on PATH or in /usr/games");
     let dir = tempfile::tempdir().unwrap();
-    let game = play(
-        dir.path(),
-        // A generous start-up timeout: the other tests (a browser among them) load this machine.
-        &[
-            "--engine",
-            stockfish.to_str().unwrap(),
-            "--robot",
-            "white",
-            "--plies",
-            "20",
-            "--movetime",
-            "20",
-            "--engine-timeout",
-            "60000",
-        ],
-    );
+    let game = stockfish_game(dir.path(), "white", "20");
     assert!(game["moves"].as_array().unwrap().len() >= 10);
 }
 
@@ -147,23 +139,8 @@ fn a_game_against_stockfish() {
 #[test]
 #[cfg_attr(not(tool_stockfish), ignore = "needs Stockfish (apt install stockfish); see docs/testing.md")]
 fn a_stockfish_game_touches_nothing() {
-    let stockfish = find_stockfish().expect("stockfish on PATH or in /usr/games");
     let dir = tempfile::tempdir().unwrap();
-    let game = play(
-        dir.path(),
-        &[
-            "--engine",
-            stockfish.to_str().unwrap(),
-            "--robot",
-            "both",
-            "--plies",
-            "80",
-            "--movetime",
-            "20",
-            "--engine-timeout",
-            "60000",
-        ],
-    );
+    let game = stockfish_game(dir.path(), "both", "80");
     let moves = game["moves"].as_array().unwrap();
     assert!(moves.len() >= 20, "{}", moves.len());
     for m in moves {
