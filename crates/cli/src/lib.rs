@@ -3,6 +3,7 @@
 
 pub mod actuators;
 pub mod args;
+pub mod bus;
 pub mod cli;
 pub mod commands;
 pub mod conditions;
