@@ -117,7 +117,13 @@ pub struct Placed {
 /// of vertices become the hull's tens to hundreds, which GJK scans. `Err` with the reason when
 /// the points span no volume (fewer than four, or all in a plane).
 pub fn hull_of(points: &[Vector3<f64>]) -> Result<Vec<Vector3<f64>>, String> {
-    let input: Vec<Vector> = points.iter().map(vector).collect();
+    // A mesh repeats each vertex in every triangle that has it (six times on average): once is
+    // enough for the hull.
+    let mut unique: Vec<[u64; 3]> = points.iter().map(|p| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits())).collect();
+    unique.sort_unstable();
+    unique.dedup();
+    let input: Vec<Vector> =
+        unique.iter().map(|p| Vector::new(f64::from_bits(p[0]), f64::from_bits(p[1]), f64::from_bits(p[2]))).collect();
     let (vertices, faces) =
         parry3d_f64::transformation::try_convex_hull(&input).map_err(|e| format!("no convex hull: {e:?}"))?;
     // The volume by the divergence theorem, `Σ v₀ · (v₁ × v₂) / 6` over the faces, against
