@@ -60,8 +60,22 @@ pub fn read_stl(path: &Path, scale: [f64; 3]) -> Result<Vec<Vector3<f64>>> {
     if bytes.len() as u64 > MAX_MESH_BYTES {
         bail!("{}: longer than {MAX_MESH_BYTES} bytes (the most chessarm reads of a mesh)", path.display());
     }
+    if scale.contains(&0.0) {
+        bail!(
+            "{}: scale=\"{} {} {}\" flattens it (every factor must be non-zero)",
+            path.display(),
+            scale[0],
+            scale[1],
+            scale[2]
+        );
+    }
     let points = parse_stl(&bytes).map_err(|why| anyhow::anyhow!("{}: {why}", path.display()))?;
-    Ok(points.into_iter().map(|p| Vector3::new(p.x * scale[0], p.y * scale[1], p.z * scale[2])).collect())
+    let scaled: Vec<Vector3<f64>> =
+        points.into_iter().map(|p| Vector3::new(p.x * scale[0], p.y * scale[1], p.z * scale[2])).collect();
+    if scaled.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
+        bail!("{}: scale=\"{} {} {}\" makes a vertex infinite", path.display(), scale[0], scale[1], scale[2]);
+    }
+    Ok(scaled)
 }
 
 /// The vertices of STL `bytes`: binary (an 80-byte header, a triangle count, 50 bytes a
@@ -85,6 +99,8 @@ pub fn parse_stl(bytes: &[u8]) -> Result<Vec<Vector3<f64>>, String> {
             }
         }
     } else {
+        // A byte-order mark some editors write is not part of the text.
+        let bytes = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(bytes);
         let text = std::str::from_utf8(bytes).map_err(|_| {
             "neither binary STL (its length does not match its triangle count) nor ASCII STL".to_string()
         })?;

@@ -670,7 +670,10 @@ pub fn from_urdf_in(text: &str, options: &ImportOptions, folder: Option<&Path>) 
     let links_of =
         Tree { order: &order, carried: &carried, links: &links, parent_joint: &parent_joint, joints: &joints };
     let in_dh = chessarm_core::arm::chain::chain_frames_in_dh(&chain, &model);
-    let bodies = collision_bodies(&links_of, &arm, &locked, &in_dh, folder, &mut notes, &mut warnings)?;
+    // A shape reaching farther from its link than twice the whole chain is long is a unit slip.
+    let chain_length: f64 = model.links().iter().map(|l| l.dh.a.hypot(l.dh.d)).sum();
+    let frames = Frames { in_dh: &in_dh, farthest: 2.0 * chain_length.max(0.1) };
+    let bodies = collision_bodies(&links_of, &arm, &locked, &frames, folder, &mut notes, &mut warnings)?;
     Ok(ImportedArm {
         model,
         joint_names,
@@ -1076,6 +1079,13 @@ struct Tree<'t, 'a, 'input> {
     joints: &'t [JointElement<'a, 'input>],
 }
 
+/// Where the links' shapes go: each arm link's joint frame in its DH frame, and how far from
+/// its frame a shape may reach, m.
+struct Frames<'a> {
+    in_dh: &'a [Pose; 4],
+    farthest: f64,
+}
+
 /// A convex hull's vertices, m.
 type Points = std::sync::Arc<[Vector3<f64>]>;
 
@@ -1098,7 +1108,7 @@ fn collision_bodies(
     tree: &Tree<'_, '_, '_>,
     arm: &[usize],
     locked: &[LockedJoint],
-    in_dh: &[Pose; 4],
+    frames: &Frames<'_>,
     folder: Option<&Path>,
     notes: &mut Vec<String>,
     warnings: &mut Vec<String>,
@@ -1117,6 +1127,8 @@ fn collision_bodies(
     // Each mesh file's hull at each scale, read once (an arm repeats its servo's mesh).
     let mut hulls: BTreeMap<(std::path::PathBuf, [u64; 3]), Points> = BTreeMap::new();
     let mut meshes = 0;
+    // The bodies (0 the base, k arm link k) that have shapes.
+    let mut with_shapes = std::collections::BTreeSet::new();
     for link in tree.order {
         let node = tree.links[link.as_str()];
         let elements: Vec<Node<'_, '_>> = node.children().filter(|n| n.has_tag_name("collision")).collect();
@@ -1141,7 +1153,7 @@ fn collision_bodies(
             continue;
         }
         let (carrier, pose) = tree.carried[link];
-        let frame = if carrier == 0 { pose } else { in_dh[carrier - 1] * pose };
+        let frame = if carrier == 0 { pose } else { frames.in_dh[carrier - 1] * pose };
         for element in elements {
             let placed = frame * origin(&element)?;
             let geometry = child(&element, "geometry")
@@ -1152,7 +1164,11 @@ fn collision_bodies(
                     "box" => {
                         let [x, y, z] = triple(&geometry, "size", [f64::NAN; 3])?;
                         if !(x > 0.0 && y > 0.0 && z > 0.0) {
-                            bail!("{}: <box> needs size=\"x y z\", each > 0 (m)", at(&node));
+                            bail!(
+                                "{}: size=\"{}\" needs three sizes, each > 0 (m)",
+                                at(&geometry),
+                                geometry.attribute("size").unwrap_or_default()
+                            );
                         }
                         Shape::Cuboid { half: Vector3::new(x, y, z) * 0.5 }
                     }
@@ -1195,6 +1211,18 @@ fn collision_bodies(
             })()
             .map_err(|e| anyhow!("link '{link}': {e:#}"))?;
             if let Some(shape) = shape {
+                let reach = chessarm_core::arm::bodies::place(&shape, &(pose * origin(&element)?))
+                    .farthest_from(&Vector3::zeros());
+                if reach.is_nan() || reach > frames.farthest {
+                    bail!(
+                        "link '{link}': its <collision> <{}> reaches {} m from the arm's frame it rides in, more than \
+                         twice the whole arm is long ({} m): a mesh drawn in mm needs scale=\"0.001 0.001 0.001\"",
+                        geometry.tag_name().name(),
+                        chessarm_core::short_number(reach),
+                        chessarm_core::short_number(frames.farthest)
+                    );
+                }
+                with_shapes.insert(carrier);
                 shapes.push(BodyShape { body: carrier, pose: placed, shape });
             }
         }
@@ -1221,6 +1249,18 @@ fn collision_bodies(
             places.join(", ")
         ));
         return Ok(Bodies::Drawn);
+    }
+    let bare: Vec<String> = arm
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| !with_shapes.contains(&(k + 1)))
+        .map(|(_, j)| format!("'{}'", tree.joints[*j].child))
+        .collect();
+    if !shapes.is_empty() && !bare.is_empty() {
+        warnings.push(format!(
+            "links {} (and what they carry) have no <collision> shapes: the clearance check does not see them",
+            bare.join(", ")
+        ));
     }
     if shapes.is_empty() {
         notes.push(format!("the file gives no <collision> shapes: {stand_in}"));

@@ -755,11 +755,26 @@ fn a_missing_mesh_is_said_and_a_bad_shape_refused() {
     let warning = imported.warnings.iter().find(|w| w.contains("not found")).unwrap();
     assert!(warning.contains("'package://offset_arm/meshes/forearm.stl'"), "{warning}");
     assert!(warning.contains("offset_arm/meshes/forearm.stl"), "{warning}");
+    // Shapes on every link but the turret: said, naming it.
     let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(dir.path().join("offset_arm/meshes/forearm.stl"), box_stl(90.0, 20.0, 16.0)).unwrap();
+    let turret = text.lines().find(|l| l.contains("<cylinder radius=\"0.03\"")).unwrap().to_string();
+    let partial = dir.path().join("offset_arm/urdf/partial.urdf");
+    std::fs::write(&partial, text.replace(&turret, "")).unwrap();
+    let imported = chessarm::urdf_import::load(&partial, &Default::default()).unwrap();
+    assert!(matches!(imported.bodies, Bodies::Described(_)));
+    let warning = imported.warnings.iter().find(|w| w.contains("no <collision> shapes")).unwrap();
+    assert!(warning.contains("'turret'") && !warning.contains("'forearm'"), "{warning}");
+    // A mesh drawn in mm without its scale reaches 90 m: refused, saying how to scale it.
+    let unscaled = dir.path().join("offset_arm/urdf/unscaled.urdf");
+    std::fs::write(&unscaled, text.replace(r#" scale="0.001 0.001 0.001""#, "")).unwrap();
+    let error = format!("{:#}", chessarm::urdf_import::load(&unscaled, &Default::default()).unwrap_err());
+    assert!(error.contains("link 'forearm'") && error.contains("scale=\"0.001 0.001 0.001\""), "{error}");
     for (from, to, needle) in [
         (r#"<sphere radius="0.02"/>"#, r#"<sphere radius="-0.02"/>"#, r#"radius="-0.02" must be > 0"#),
         (r#"<sphere radius="0.02"/>"#, r#"<capsule radius="0.02" length="0.1"/>"#, "with a <capsule>"),
         (r#"<box size="0.12 0.03 0.02"/>"#, r#"<box size="0.12 0.03"/>"#, "needs three finite numbers"),
+        (r#"<box size="0.12 0.03 0.02"/>"#, r#"<box size="0.12 0 0.02"/>"#, r#"size="0.12 0 0.02" needs three sizes"#),
     ] {
         let bad = text.replace(from, to);
         let output = import(dir.path(), "bad.urdf", &bad);

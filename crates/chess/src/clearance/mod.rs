@@ -70,7 +70,9 @@ struct HullPoints(Arc<[Vector3<f64>]>);
 
 impl SupportMap for HullPoints {
     fn local_support_point(&self, dir: Vector) -> Vector {
-        let mut best = (f64::NEG_INFINITY, Vector::ZERO);
+        // From the first point, so that even a direction of NaN gives a point of the hull.
+        let first = self.0.first().map_or(Vector::ZERO, |p| Vector::new(p.x, p.y, p.z));
+        let mut best = (f64::NEG_INFINITY, first);
         for p in self.0.iter() {
             let dot = p.x * dir.x + p.y * dir.y + p.z * dir.z;
             if dot > best.0 {

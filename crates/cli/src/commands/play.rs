@@ -491,8 +491,6 @@ fn waits_text(fine_points: bool, totals: &chessarm_chess::play::WaitTotals) -> S
     )
 }
 
-/// A move's closest approach as JSON (mm, s from the move's start): the plan's nearest pair
-/// (the arm's part and the obstacle), the fingers' smallest gap to the piece they open around,
 /// The move's closest pair for the replay: the simulated motion's where it was measured, else
 /// the plan's, at the run's time.
 fn replay_closest(report: &chessarm_chess::play::MoveReport) -> Option<crate::replay::ReplayClosest> {
@@ -513,6 +511,8 @@ fn replay_closest(report: &chessarm_chess::play::MoveReport) -> Option<crate::re
     })
 }
 
+/// A move's closest approach as JSON (mm, s from the move's start): the plan's nearest pair
+/// (the arm's part and the obstacle), the fingers' smallest gap to the piece they open around,
 /// and the simulated motion's clearance, a lower bound or measured.
 fn clearance_json(
     planned: &chessarm_chess::clearance::moves::MoveClearance,
