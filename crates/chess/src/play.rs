@@ -379,7 +379,7 @@ impl Game {
         let table = Table::from_position(board, &start);
         crate::reach::check_table(&arm, &board, &settings.pieces, &limits).map_err(PlayError::Reach)?;
         let tool = home_tool(&board, &settings.pieces, &limits);
-        let q = inverse_kinematics(&arm, &tool, TOOL_DOWN).map_err(PlayError::Home)?;
+        let q = home_pose(&arm, &board, &settings.pieces, &limits)?;
         let misplaced =
             table.verify(start.board(), settings.tolerance).into_iter().map(|m| (0, "start".to_string(), m)).collect();
         let history = vec![position_key(&start)];
@@ -936,6 +936,21 @@ pub fn home_tool(board: &BoardGeometry, pieces: &PieceSet, limits: &MotionLimits
     // Above the middle of rank 1, between d1 and e1.
     let home = board.on_table(0.0, -3.5);
     Vector3::new(home.x, home.y, board.surface_height + limits.highest_traverse(pieces))
+}
+
+/// The joint angles the arm rests at before the first move (rad): the tool down at
+/// [`home_tool`]. A driver of the real arm starts from here, and the simulated servo bus too.
+///
+/// # Errors
+///
+/// [`PlayError::Home`] if the arm cannot reach it.
+pub fn home_pose(
+    arm: &ArmModel<4>,
+    board: &BoardGeometry,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+) -> Result<JointVector<4>, PlayError> {
+    inverse_kinematics(arm, &home_tool(board, pieces, limits), TOOL_DOWN).map_err(PlayError::Home)
 }
 
 /// Where a piece that stood at `standing` (board plane, m) is put down when gripped with the

@@ -394,6 +394,17 @@ pub struct ServoBusFile {
     pub directions: Option<Vec<i8>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub zero_ticks: Option<Vec<f64>>,
+    /// `feetech` or `dynamixel` (default: the servos' own: STS → Feetech, XL/XM → Dynamixel).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub protocol: Option<crate::bus::Protocol>,
+    /// The gripper's servo, driven to `gripper_open_ticks` and `gripper_closed_ticks` as the
+    /// plan opens and closes it (none: the gripper is not driven).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gripper_id: Option<u8>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gripper_open_ticks: Option<i64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gripper_closed_ticks: Option<i64>,
 }
 
 /// The servos' addresses and register mapping, checked ([`ServoBusFile`]).
@@ -404,6 +415,10 @@ pub struct ServoBus {
     pub zero_ticks: [f64; 4],
     /// Counts per output revolution of each joint's servo (a stepper's microsteps).
     pub counts_per_revolution: [f64; 4],
+    /// The bus's protocol (`None`: the servos speak neither, e.g. a hobby PWM servo or a
+    /// stepper; the goals are then only exported).
+    pub protocol: Option<crate::bus::Protocol>,
+    pub gripper: Option<crate::bus::driver::GripperServo>,
 }
 
 impl ServoBus {
@@ -449,7 +464,30 @@ impl ServoBus {
             }
             None => counts_per_revolution.map(|c| (c / 2.0).round()),
         };
-        let bus = Self { ids, directions, zero_ticks, counts_per_revolution };
+        let protocol = file.protocol.or_else(|| {
+            let of = |name: &String| {
+                crate::bus::Protocol::of_servo(name).or_else(|| {
+                    setup
+                        .actuator_tables
+                        .get(name)
+                        .and_then(|t| t.base.as_deref())
+                        .and_then(crate::bus::Protocol::of_servo)
+                })
+            };
+            let each: Vec<Option<crate::bus::Protocol>> = setup.actuator_names.iter().map(of).collect();
+            each[0].filter(|p| each.iter().all(|e| *e == Some(*p)))
+        });
+        let gripper = match (file.gripper_id, file.gripper_open_ticks, file.gripper_closed_ticks) {
+            (None, None, None) => None,
+            (Some(id), Some(open), Some(closed)) => {
+                if id > 252 || ids.contains(&id) {
+                    bail!("servo_bus.gripper_id = {id}: give an ID 0–252 that no joint's servo has ({ids:?})");
+                }
+                Some(crate::bus::driver::GripperServo { id, open, closed })
+            }
+            _ => bail!("servo_bus: give gripper_id, gripper_open_ticks and gripper_closed_ticks together (or none)"),
+        };
+        let bus = Self { ids, directions, zero_ticks, counts_per_revolution, protocol, gripper };
         // Every angle the joint may take must be a tick of its servo's register (a joint that
         // turns a whole turn, ±π, may end on the register's wrap: each goal sent is checked too).
         for j in 0..4 {
@@ -472,6 +510,13 @@ impl ServoBus {
     pub fn ticks(&self, j: usize, q: f64) -> f64 {
         let count = std::f64::consts::TAU / self.counts_per_revolution[j];
         self.zero_ticks[j] + self.directions[j] * (q / count).round()
+    }
+
+    /// Joint `j`'s angle (rad, the setup's sense) at tick `tick` of its servo's register
+    /// ([`ServoBus::ticks`]' inverse on whole ticks).
+    pub fn angle(&self, j: usize, tick: f64) -> f64 {
+        let count = std::f64::consts::TAU / self.counts_per_revolution[j];
+        self.directions[j] * (tick - self.zero_ticks[j]) * count
     }
 }
 

@@ -208,6 +208,27 @@ escaped! {
     mass => mass_unescaped -> f64;
     locks => locks_unescaped -> Locks;
     servo_command => servo_command_unescaped -> chessarm_core::control::servo_host::ServoCommand;
+    fault => fault_unescaped -> crate::bus::simulator::Fault;
+}
+
+/// `ID@N`: servo `ID` (0–252) misbehaves from the `N`-th goal packet on (N ≥ 1).
+fn fault_unescaped(text: &str) -> Result<crate::bus::simulator::Fault, String> {
+    let (id, after) = text
+        .split_once('@')
+        .ok_or_else(|| format!("'{text}' is not ID@N (a servo ID and the goal packet it fails from, e.g. 3@120)"))?;
+    let id: u8 = id
+        .trim()
+        .parse()
+        .ok()
+        .filter(|i| *i <= 252)
+        .ok_or_else(|| format!("'{id}' is not a servo ID 0–252 (in '{text}')"))?;
+    let after: usize = after
+        .trim()
+        .parse()
+        .ok()
+        .filter(|n| *n >= 1)
+        .ok_or_else(|| format!("'{after}' is not a packet count >= 1 (in '{text}')"))?;
+    Ok(crate::bus::simulator::Fault { id, after })
 }
 
 /// `plain`, `sag` or `feedforward`.

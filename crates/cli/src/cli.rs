@@ -95,9 +95,33 @@ pub enum Command {
     Tune(TuneArgs),
     /// Play chess with the simulated arm: a PGN game, a move list, or against an engine.
     Play(PlayArgs),
+    /// A simulated servo bus on a pseudo-terminal (for `play --port` without hardware, and
+    /// the vendors' SDKs): the setup's servos answering their protocol, the arm's dynamics
+    /// behind them. Prints the device's path, then serves until Ctrl-C.
+    BusSim(BusSimArgs),
     /// Monte Carlo: randomised trials (sensor noise, model errors, piece masses) of each
     /// controller; success rate and placement-error distribution.
     Robustness(RobustnessArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct BusSimArgs {
+    /// The protocol (default: the setup's servos', or `[servo_bus] protocol`).
+    #[arg(long, value_enum)]
+    pub protocol: Option<crate::bus::Protocol>,
+    /// Log every instruction received to this file, one JSON line each (`t` s, `packet` hex).
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// Servo ID@N stops answering from the N-th goal packet on (a lost reply).
+    #[arg(long, value_name = "ID@N", value_parser = args::fault)]
+    pub lose_reply: Option<crate::bus::simulator::Fault>,
+    /// Servo ID@N reports an overload (and turns its torque off) from the N-th goal packet on.
+    #[arg(long, value_name = "ID@N", value_parser = args::fault)]
+    pub overload: Option<crate::bus::simulator::Fault>,
+    /// The joints' angles at the start, rad (the setup's sense; default: the pose `play`
+    /// starts a game from).
+    #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
+    pub start: Option<[f64; 4]>,
 }
 
 /// A controller of `simulate` and `robustness`, in a comma-separated list.

@@ -265,7 +265,8 @@ pub fn run(cli: Cli) -> Result<()> {
             | Command::Fk(_)
             | Command::Ik(_)
             | Command::Urdf
-            | Command::Board(_),
+            | Command::Board(_)
+            | Command::BusSim(_),
         ) => None,
     };
     let folder = out.map(|dir| folder_lock::RunFolder::take(dir)).transpose()?;
@@ -290,6 +291,7 @@ fn dispatch(setup: &Setup, command: Option<Command>) -> Result<()> {
             commands::tune::run(setup, &args)
         }
         Some(Command::Play(args)) => commands::play::run(setup, &args),
+        Some(Command::BusSim(args)) => commands::bus_sim::run(setup, &args),
         Some(Command::Robustness(mut args)) => {
             args.shard = args::resolve_shard(args.shard, &args.batch, |name| std::env::var(name).ok())
                 .map_err(anyhow::Error::msg)?;

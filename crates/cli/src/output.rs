@@ -37,6 +37,8 @@ pub fn remove_temporaries_on_signal() -> Result<()> {
         // Held until exit: no rename can start after the files are gone, and the main thread,
         // which sees the engines die, waits in `await_signal_handler` instead of exiting first
         // with an error of its own.
+        // The arm first: torque off on a driven arm's servos, nothing sent after it.
+        crate::bus::driver::torque_off_before_exit();
         let files = pending();
         // Engines run in process groups of their own, which the terminal's Ctrl-C misses.
         chessarm_chess::opponent::kill_all_engines();

@@ -12,11 +12,14 @@ use super::{PacketError, Status};
 pub const PING: u8 = 0x01;
 pub const READ: u8 = 0x02;
 pub const WRITE: u8 = 0x03;
+pub const SYNC_READ: u8 = 0x82;
 pub const SYNC_WRITE: u8 = 0x83;
 pub const STATUS: u8 = 0x55;
 pub const BROADCAST: u8 = 0xFE;
 
 /// XM430/XL430 control table addresses.
+pub const MODEL_NUMBER: u16 = 0;
+pub const FIRMWARE_VERSION: u16 = 6;
 pub const TORQUE_ENABLE: u16 = 64;
 pub const HARDWARE_ERROR_STATUS: u16 = 70;
 pub const GOAL_POSITION: u16 = 116;
@@ -98,6 +101,14 @@ pub fn sync_write(address: u16, goals: &[(u8, &[u8])]) -> Vec<u8> {
     instruction(BROADCAST, SYNC_WRITE, &params)
 }
 
+/// `SYNC_READ` (broadcast) of `length` bytes at `address` of each of `ids`: each answers in turn.
+pub fn sync_read(address: u16, length: u16, ids: &[u8]) -> Vec<u8> {
+    let mut params = address.to_le_bytes().to_vec();
+    params.extend(length.to_le_bytes());
+    params.extend_from_slice(ids);
+    instruction(BROADCAST, SYNC_READ, &params)
+}
+
 /// The status packet servo `id` answers with `error` and `params`.
 pub fn status(id: u8, error: u8, params: &[u8]) -> Vec<u8> {
     let mut all = vec![error];
@@ -112,14 +123,33 @@ pub fn status(id: u8, error: u8, params: &[u8]) -> Vec<u8> {
 /// No header, a packet cut short, a length too small for a status, an instruction byte that is
 /// not a status's, or a CRC that does not match.
 pub fn parse_status(stream: &[u8]) -> Result<Status, PacketError> {
+    let packet = parse_packet(stream)?;
+    if packet.error != STATUS || packet.params.is_empty() {
+        return Err(PacketError::Malformed("not a status packet (instruction 0x55 and an error byte)"));
+    }
+    Ok(Status {
+        id: packet.id,
+        error: packet.params[0],
+        params: packet.params[1..].to_vec(),
+        consumed: packet.consumed,
+    })
+}
+
+/// Any packet from the front of `stream`, unstuffed: `error` holds its instruction byte (0x55
+/// for a status) and `params` everything after it.
+///
+/// # Errors
+///
+/// No header, a packet cut short, a length under 3, or a CRC that does not match.
+pub fn parse_packet(stream: &[u8]) -> Result<Status, PacketError> {
     let at = stream.windows(4).position(|w| w == HEADER).ok_or(PacketError::NoHeader(stream.len()))?;
     let head = &stream[at..];
     if head.len() < 7 {
-        return Err(PacketError::Short { got: head.len(), needed: 11 });
+        return Err(PacketError::Short { got: head.len(), needed: 10 });
     }
     let length = u16::from_le_bytes([head[5], head[6]]) as usize;
-    if length < 4 {
-        return Err(PacketError::Malformed("length under 4"));
+    if length < 3 {
+        return Err(PacketError::Malformed("length under 3"));
     }
     let total = 7 + length;
     if head.len() < total {
@@ -141,10 +171,7 @@ pub fn parse_status(stream: &[u8]) -> Result<Status, PacketError> {
         }
         i += 1;
     }
-    if body.first() != Some(&STATUS) || body.len() < 2 {
-        return Err(PacketError::Malformed("not a status packet (instruction 0x55 and an error byte)"));
-    }
-    Ok(Status { id: head[4], error: body[1], params: body[2..].to_vec(), consumed: at + total })
+    Ok(Status { id: head[4], error: body[0], params: body[1..].to_vec(), consumed: at + total })
 }
 
 #[cfg(test)]

@@ -10,10 +10,12 @@ use super::{PacketError, Status};
 pub const PING: u8 = 0x01;
 pub const READ: u8 = 0x02;
 pub const WRITE: u8 = 0x03;
+pub const SYNC_READ: u8 = 0x82;
 pub const SYNC_WRITE: u8 = 0x83;
 pub const BROADCAST: u8 = 0xFE;
 
 /// STS3215 control table addresses.
+pub const MODEL_NUMBER: u8 = 3;
 pub const TORQUE_ENABLE: u8 = 40;
 pub const GOAL_POSITION: u8 = 42;
 pub const PRESENT_POSITION: u8 = 56;
@@ -70,12 +72,29 @@ pub fn sync_write(address: u8, goals: &[(u8, &[u8])]) -> Vec<u8> {
     instruction(BROADCAST, SYNC_WRITE, &params)
 }
 
+/// `SYNC_READ` (broadcast) of `length` bytes at `address` of each of `ids`: each answers in turn.
+pub fn sync_read(address: u8, length: u8, ids: &[u8]) -> Vec<u8> {
+    let mut params = vec![address, length];
+    params.extend_from_slice(ids);
+    instruction(BROADCAST, SYNC_READ, &params)
+}
+
 /// A status packet from the front of `stream` (noise before its header skipped).
 ///
 /// # Errors
 ///
 /// No header, a packet cut short, a length under 2, or a checksum that does not match.
 pub fn parse_status(stream: &[u8]) -> Result<Status, PacketError> {
+    parse_packet(stream)
+}
+
+/// Any packet from the front of `stream`: a status (`error` its error byte) or an instruction
+/// (`error` its instruction byte: the two share one layout).
+///
+/// # Errors
+///
+/// As [`parse_status`].
+pub fn parse_packet(stream: &[u8]) -> Result<Status, PacketError> {
     let start = stream.windows(2).position(|w| w == [0xFF, 0xFF]).ok_or(PacketError::NoHeader(stream.len()))?;
     // A run of FF: the header is the last two before the ID (an ID is never FF).
     let mut at = start;

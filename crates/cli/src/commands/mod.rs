@@ -1,6 +1,7 @@
 //! One module per command.
 
 pub mod board;
+pub mod bus_sim;
 pub mod demo;
 pub mod gains;
 pub mod kinematics;

@@ -93,3 +93,63 @@ pub fn python_with(module: &str) -> Option<String> {
 /// Needle fingers for the small boards the real arms serve (see the file).
 #[allow(dead_code)]
 pub const NEEDLE_FINGERS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/needle_fingers.toml");
+
+/// `chessarm bus-sim` running: the simulated servo bus on a pseudo-terminal (`device`), its
+/// log of every instruction received at `log`; ended (Ctrl-C's signal) when dropped.
+#[allow(dead_code)]
+pub struct BusSim {
+    pub child: std::process::Child,
+    pub device: String,
+    pub log: std::path::PathBuf,
+}
+
+#[allow(dead_code)]
+impl BusSim {
+    /// Starts `chessarm <setup…> bus-sim --log <dir>/bus-sim.jsonl <extra…>`.
+    pub fn start(dir: &std::path::Path, setup: &[&str], extra: &[&str]) -> Self {
+        use std::io::BufRead;
+        let log = dir.join("bus-sim.jsonl");
+        let mut args: Vec<&str> = setup.to_vec();
+        args.extend(["bus-sim", "--log", log.to_str().unwrap()]);
+        args.extend(extra);
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))
+            .args(&args)
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let device = line.trim().to_string();
+        assert!(device.starts_with("/dev/"), "bus-sim printed {line:?}");
+        Self { child, device, log }
+    }
+
+    /// The instruction packets the simulated servos received, in order: (time s, bytes).
+    pub fn received(&self) -> Vec<(f64, Vec<u8>)> {
+        let text = std::fs::read_to_string(&self.log).unwrap_or_default();
+        text.lines()
+            .map(|line| {
+                let value: Value = serde_json::from_str(line).unwrap();
+                let hex = value["packet"].as_str().unwrap();
+                let bytes =
+                    (0..hex.len()).step_by(2).map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap()).collect();
+                (value["t"].as_f64().unwrap(), bytes)
+            })
+            .collect()
+    }
+}
+
+impl Drop for BusSim {
+    fn drop(&mut self) {
+        let _ = rustix_kill(self.child.id());
+        let _ = self.child.wait();
+    }
+}
+
+/// SIGTERM to `pid` (the simulated bus ends as on Ctrl-C).
+#[allow(dead_code)]
+fn rustix_kill(pid: u32) -> std::io::Result<()> {
+    std::process::Command::new("kill").arg("-TERM").arg(pid.to_string()).status().map(|_| ())
+}

@@ -1,0 +1,460 @@
+//! The driver of the real arm: the goal positions the simulation proved, sent to the servos at
+//! the bus rate, every one checked on the wire first.
+//!
+//! Each bus period the driver reads the four joints' present positions (one `SYNC_READ`),
+//! checks every servo's status (an overload, overheat or voltage error stops the arm), checks
+//! the period's goal — inside the joint's limits, no further than `max_step` from where the
+//! joint is, no faster than the joint's speed limit from the last goal — and only then sends it
+//! (one `SYNC_WRITE`). Anything wrong (a servo that does not answer within the reply timeout, a
+//! fault flag, a goal that fails a check, Ctrl-C) turns the torque off on every servo (one
+//! broadcast write, nothing else sent after it) and is a [`DriverError`] naming the joint, the
+//! servo and the values. A dry run opens nothing: it logs the packets it would send, the joints
+//! taken to be at their last goals.
+
+use super::port::SerialLine;
+use super::{PacketError, Protocol, Status};
+use std::io::Write;
+use std::time::{Duration, Instant};
+
+/// The serial line of the driver that runs and its torque-off packet, for the signal handler:
+/// a driver's packet goes out holding this lock, so that after the handler's torque-off nothing
+/// else is sent (the handler keeps the lock until the process exits).
+static EMERGENCY: std::sync::Mutex<Option<(std::fs::File, Vec<u8>)>> = std::sync::Mutex::new(None);
+
+/// Called by the signal handler before the process exits: torque off on the running driver's
+/// servos (nothing if none runs); no packet of the driver follows it.
+pub fn torque_off_before_exit() {
+    let mut guard = EMERGENCY.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some((file, packet)) = guard.as_mut() {
+        let _ = file.write_all(packet);
+        let _ = file.flush();
+    }
+    // Held until the process exits.
+    std::mem::forget(guard);
+}
+
+/// What stopped the arm. The torque is off when one of these is returned.
+#[derive(Debug, thiserror::Error)]
+pub enum DriverError {
+    #[error("servo {id} ({joint}) did not answer within {waited_ms} ms; torque off")]
+    NoReply { id: u8, joint: String, waited_ms: u64 },
+    #[error("servo {id} ({joint}) reports {what}; torque off")]
+    Fault { id: u8, joint: String, what: String },
+    #[error("servo {id} ({joint}): a damaged reply ({error}); torque off")]
+    BadReply { id: u8, joint: String, error: PacketError },
+    #[error(
+        "{joint}'s goal at t = {t:.3} s is tick {goal}, outside its limits {lower}..{upper} (the setup's joint limits); nothing sent, torque off"
+    )]
+    OutOfLimits { joint: String, t: f64, goal: i64, lower: i64, upper: i64 },
+    #[error(
+        "{joint}'s goal at t = {t:.3} s is tick {goal}, {distance} ticks from where it is ({present}); --max-step allows {max}; nothing sent, torque off"
+    )]
+    TooFar { joint: String, t: f64, goal: i64, present: i64, distance: i64, max: i64 },
+    #[error(
+        "{joint}'s goal at t = {t:.3} s moves {change} ticks in one bus period; its speed limit allows {max}; nothing sent, torque off"
+    )]
+    TooFast { joint: String, t: f64, change: i64, max: i64 },
+    #[error("interrupted; torque off")]
+    Interrupted,
+    #[error("the serial line failed: {0}; torque off was attempted")]
+    Io(#[from] std::io::Error),
+}
+
+/// The checks on every goal, in ticks of each joint's servo.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WireLimits {
+    /// The joint limits, lowest and highest tick.
+    pub lower: [i64; 4],
+    pub upper: [i64; 4],
+    /// The largest distance of a goal from the joint's present position.
+    pub max_step: [i64; 4],
+    /// The largest change of a goal from the last one, per bus period.
+    pub max_change: [i64; 4],
+}
+
+/// A gripper servo: its ID and its goal ticks open and closed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GripperServo {
+    pub id: u8,
+    pub open: i64,
+    pub closed: i64,
+}
+
+/// One period's goal: when (s from the move's start), the joints' ticks, and the gripper's
+/// state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TickGoal {
+    pub t: f64,
+    pub ticks: [i64; 4],
+    pub gripper_closed: bool,
+}
+
+/// The line the driver talks on.
+#[derive(Debug)]
+pub enum Wire {
+    Serial(SerialLine),
+    /// Nothing opened: packets are only logged.
+    DryRun,
+}
+
+/// What a followed move measured.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Followed {
+    pub periods: usize,
+    /// The largest |goal − present| per joint, ticks.
+    pub largest_lead: [i64; 4],
+    /// The largest |goal − last goal| per joint, ticks.
+    pub largest_change: [i64; 4],
+    /// The latest a period's packets went out after their time, s.
+    pub largest_lateness: f64,
+}
+
+/// The driver: a wire, the servos' addresses, the checks and a log of every packet.
+pub struct Driver {
+    wire: Wire,
+    protocol: Protocol,
+    ids: [u8; 4],
+    names: [String; 4],
+    gripper: Option<GripperServo>,
+    limits: WireLimits,
+    period: f64,
+    reply_timeout: Duration,
+    log: Box<dyn Write + Send>,
+    started: Instant,
+    last_goal: Option<[i64; 4]>,
+    gripper_closed: Option<bool>,
+    /// The joints' positions the dry run takes them to be at.
+    assumed: [i64; 4],
+    pub packets_sent: usize,
+}
+
+impl Drop for Driver {
+    fn drop(&mut self) {
+        if !self.is_dry_run() {
+            *EMERGENCY.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = None;
+        }
+    }
+}
+
+impl std::fmt::Debug for Driver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Driver").field("protocol", &self.protocol).field("ids", &self.ids).finish_non_exhaustive()
+    }
+}
+
+impl Driver {
+    /// A driver on `wire` for servos `ids` (joint names `names`), checking `limits`, one goal
+    /// every `period` s, a reply awaited at most `reply_timeout`, every packet logged to `log`
+    /// (JSON lines: `t` s, `sent` or `received` bytes in hex).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        wire: Wire,
+        protocol: Protocol,
+        ids: [u8; 4],
+        names: [String; 4],
+        gripper: Option<GripperServo>,
+        limits: WireLimits,
+        period: f64,
+        reply_timeout: Duration,
+        log: Box<dyn Write + Send>,
+    ) -> Self {
+        if let Wire::Serial(line) = &wire
+            && let Ok(file) = line.try_clone_file()
+        {
+            let packet = protocol.write(Protocol::BROADCAST, protocol.torque_enable(), &[0]);
+            *EMERGENCY.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some((file, packet));
+        }
+        Self {
+            wire,
+            protocol,
+            ids,
+            names,
+            gripper,
+            limits,
+            period,
+            reply_timeout,
+            log,
+            started: Instant::now(),
+            last_goal: None,
+            gripper_closed: None,
+            assumed: [0; 4],
+            packets_sent: 0,
+        }
+    }
+
+    pub fn is_dry_run(&self) -> bool {
+        matches!(self.wire, Wire::DryRun)
+    }
+
+    fn joint(&self, id: u8) -> String {
+        match self.ids.iter().position(|i| *i == id) {
+            Some(j) => format!("joint {} ({})", j + 1, self.names[j]),
+            None if self.gripper.is_some_and(|g| g.id == id) => "the gripper".to_string(),
+            None => "not one of the arm's".to_string(),
+        }
+    }
+
+    fn note(&mut self, key: &str, bytes: &[u8]) -> std::io::Result<()> {
+        let hex: String = bytes.iter().map(|b| format!("{b:02X}")).collect();
+        writeln!(self.log, "{{\"t\": {:.6}, \"{key}\": \"{hex}\"}}", self.started.elapsed().as_secs_f64())
+    }
+
+    fn send(&mut self, packet: &[u8]) -> std::io::Result<()> {
+        self.note("sent", packet)?;
+        self.packets_sent += 1;
+        match &mut self.wire {
+            Wire::Serial(line) => {
+                let _stop = EMERGENCY.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                line.send(packet)
+            }
+            Wire::DryRun => Ok(()),
+        }
+    }
+
+    /// `n` status packets, from `ids` in order, within the reply timeout.
+    fn receive(&mut self, ids: &[u8]) -> Result<Vec<Status>, DriverError> {
+        if self.is_dry_run() {
+            return Ok(Vec::new());
+        }
+        let protocol = self.protocol;
+        let mut buffer = Vec::new();
+        let mut statuses = Vec::with_capacity(ids.len());
+        let deadline = Instant::now() + self.reply_timeout;
+        for &id in ids {
+            let complete = |b: &[u8]| {
+                !matches!(protocol.parse_status(b), Err(PacketError::Short { .. } | PacketError::NoHeader(_)))
+            };
+            let left = deadline.saturating_duration_since(Instant::now());
+            if let Wire::Serial(line) = &mut self.wire {
+                line.receive_until(&mut buffer, left, complete)?;
+            }
+            match protocol.parse_status(&buffer) {
+                Ok(status) => {
+                    let consumed = status.consumed;
+                    let bytes = buffer[..consumed].to_vec();
+                    buffer.drain(..consumed);
+                    self.note("received", &bytes)?;
+                    if status.id != id {
+                        return Err(DriverError::BadReply {
+                            id,
+                            joint: self.joint(id),
+                            error: PacketError::Malformed("a reply from another servo"),
+                        });
+                    }
+                    statuses.push(status);
+                }
+                Err(PacketError::Short { .. } | PacketError::NoHeader(_)) => {
+                    if !buffer.is_empty() {
+                        self.note("received", &buffer.clone())?;
+                    }
+                    return Err(DriverError::NoReply {
+                        id,
+                        joint: self.joint(id),
+                        waited_ms: self.reply_timeout.as_millis() as u64,
+                    });
+                }
+                Err(error) => return Err(DriverError::BadReply { id, joint: self.joint(id), error }),
+            }
+        }
+        Ok(statuses)
+    }
+
+    /// A status's error byte checked: a fault named (a Dynamixel's hardware error read).
+    fn check_status(&mut self, status: &Status) -> Result<(), DriverError> {
+        let Some(what) = self.protocol.fault(status.error) else { return Ok(()) };
+        let mut what = what;
+        if self.protocol == Protocol::Dynamixel && status.error & super::dynamixel::ALERT != 0 {
+            let read = self.protocol.read(status.id, super::dynamixel::HARDWARE_ERROR_STATUS, 1);
+            self.send(&read)?;
+            if let Ok(reply) = self.receive(&[status.id])
+                && let Some(byte) = reply.first().and_then(|r| r.params.first())
+            {
+                what = format!("{what}: {}", Protocol::hardware_error(*byte));
+            }
+        }
+        Err(DriverError::Fault { id: status.id, joint: self.joint(status.id), what })
+    }
+
+    /// The joints' present positions, ticks (one `SYNC_READ`; a dry run's: the last goals).
+    fn read_present(&mut self) -> Result<[i64; 4], DriverError> {
+        if self.is_dry_run() {
+            let packet =
+                self.protocol.sync_read(self.protocol.present_position(), self.protocol.position_bytes(), &self.ids);
+            self.send(&packet)?;
+            return Ok(self.assumed);
+        }
+        let packet =
+            self.protocol.sync_read(self.protocol.present_position(), self.protocol.position_bytes(), &self.ids);
+        self.send(&packet)?;
+        let ids = self.ids;
+        let statuses = self.receive(&ids)?;
+        let mut present = [0; 4];
+        for (j, status) in statuses.iter().enumerate() {
+            self.check_status(status)?;
+            present[j] = self.protocol.decode_position(&status.params).ok_or_else(|| DriverError::BadReply {
+                id: status.id,
+                joint: self.joint(status.id),
+                error: PacketError::Malformed("a position of the wrong length"),
+            })?;
+        }
+        Ok(present)
+    }
+
+    /// Torque off on every servo: one broadcast write, no reply awaited.
+    pub fn torque_off(&mut self) -> std::io::Result<()> {
+        let packet = self.protocol.write(Protocol::BROADCAST, self.protocol.torque_enable(), &[0]);
+        self.send(&packet)?;
+        self.log.flush()
+    }
+
+    /// Runs `step`; on its error, the torque goes off first.
+    fn guarded<T>(&mut self, step: impl FnOnce(&mut Self) -> Result<T, DriverError>) -> Result<T, DriverError> {
+        match step(self) {
+            Ok(value) => Ok(value),
+            Err(error) => {
+                let _ = self.torque_off();
+                Err(error)
+            }
+        }
+    }
+
+    /// Torque on, holding where the joints are; refused (torque off) unless every joint is
+    /// within `max_step` of `start`, the plan's first goal.
+    ///
+    /// # Errors
+    ///
+    /// A joint too far from the plan's start, or any [`DriverError`] of the bus.
+    pub fn enable(&mut self, start: [i64; 4]) -> Result<[i64; 4], DriverError> {
+        if self.is_dry_run() {
+            self.assumed = start;
+        }
+        self.guarded(|driver| {
+            let present = driver.read_present()?;
+            driver.check_goal(0.0, &start, &present, None)?;
+            // The goal registers at the present positions, then torque on: nothing jumps.
+            let data: Vec<Vec<u8>> = present.iter().map(|t| driver.protocol.encode_position(*t)).collect();
+            let goals: Vec<(u8, &[u8])> = driver.ids.iter().zip(&data).map(|(id, d)| (*id, d.as_slice())).collect();
+            let packet = driver.protocol.sync_write(driver.protocol.goal_position(), &goals);
+            driver.send(&packet)?;
+            let mut ids = driver.ids.to_vec();
+            if let Some(gripper) = driver.gripper {
+                ids.push(gripper.id);
+            }
+            for id in ids {
+                let packet = driver.protocol.write(id, driver.protocol.torque_enable(), &[1]);
+                driver.send(&packet)?;
+                if let Some(status) = driver.receive(&[id])?.first() {
+                    driver.check_status(status)?;
+                }
+            }
+            driver.last_goal = Some(present);
+            Ok(present)
+        })
+    }
+
+    /// The checks of a goal against the joints' `present` positions and the `last` goal.
+    fn check_goal(
+        &self,
+        t: f64,
+        goal: &[i64; 4],
+        present: &[i64; 4],
+        last: Option<&[i64; 4]>,
+    ) -> Result<(), DriverError> {
+        let limits = &self.limits;
+        for j in 0..4 {
+            let joint = || format!("joint {} ({})", j + 1, self.names[j]);
+            if goal[j] < limits.lower[j] || goal[j] > limits.upper[j] {
+                return Err(DriverError::OutOfLimits {
+                    joint: joint(),
+                    t,
+                    goal: goal[j],
+                    lower: limits.lower[j],
+                    upper: limits.upper[j],
+                });
+            }
+            if let Some(last) = last {
+                let change = (goal[j] - last[j]).abs();
+                if change > limits.max_change[j] {
+                    return Err(DriverError::TooFast { joint: joint(), t, change, max: limits.max_change[j] });
+                }
+            }
+            let distance = (goal[j] - present[j]).abs();
+            if distance > limits.max_step[j] {
+                return Err(DriverError::TooFar {
+                    joint: joint(),
+                    t,
+                    goal: goal[j],
+                    present: present[j],
+                    distance,
+                    max: limits.max_step[j],
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Sends `goals` one per bus period (paced by the clock on a serial line), each checked on
+    /// the wire first; `cancelled` is asked every period.
+    ///
+    /// # Errors
+    ///
+    /// Any [`DriverError`]: the torque is off and nothing else was sent.
+    pub fn follow(&mut self, goals: &[TickGoal], cancelled: &dyn Fn() -> bool) -> Result<Followed, DriverError> {
+        self.guarded(|driver| {
+            let mut followed = Followed::default();
+            let start = Instant::now();
+            for goal in goals {
+                if cancelled() {
+                    return Err(DriverError::Interrupted);
+                }
+                if !driver.is_dry_run() {
+                    let due = start + Duration::from_secs_f64(goal.t.max(0.0));
+                    let now = Instant::now();
+                    if due > now {
+                        std::thread::sleep(due - now);
+                    } else {
+                        followed.largest_lateness = followed.largest_lateness.max((now - due).as_secs_f64());
+                    }
+                }
+                let present = driver.read_present()?;
+                let last = driver.last_goal;
+                driver.check_goal(goal.t, &goal.ticks, &present, last.as_ref())?;
+                for j in 0..4 {
+                    followed.largest_lead[j] = followed.largest_lead[j].max((goal.ticks[j] - present[j]).abs());
+                    if let Some(last) = last {
+                        followed.largest_change[j] = followed.largest_change[j].max((goal.ticks[j] - last[j]).abs());
+                    }
+                }
+                let data: Vec<Vec<u8>> = goal.ticks.iter().map(|t| driver.protocol.encode_position(*t)).collect();
+                let mut targets: Vec<(u8, &[u8])> =
+                    driver.ids.iter().zip(&data).map(|(id, d)| (*id, d.as_slice())).collect();
+                let gripper_data;
+                if let Some(gripper) = driver.gripper
+                    && driver.gripper_closed != Some(goal.gripper_closed)
+                {
+                    gripper_data = driver.protocol.encode_position(if goal.gripper_closed {
+                        gripper.closed
+                    } else {
+                        gripper.open
+                    });
+                    targets.push((gripper.id, gripper_data.as_slice()));
+                    driver.gripper_closed = Some(goal.gripper_closed);
+                }
+                let packet = driver.protocol.sync_write(driver.protocol.goal_position(), &targets);
+                driver.send(&packet)?;
+                driver.last_goal = Some(goal.ticks);
+                if driver.is_dry_run() {
+                    driver.assumed = goal.ticks;
+                }
+                followed.periods += 1;
+            }
+            driver.log.flush()?;
+            Ok(followed)
+        })
+    }
+
+    /// The bus period, s.
+    pub fn period(&self) -> f64 {
+        self.period
+    }
+}

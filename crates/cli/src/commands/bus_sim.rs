@@ -1,0 +1,47 @@
+//! `bus-sim`: the setup's servos on a simulated bus ([`crate::bus::simulator`]) on a
+//! pseudo-terminal, for a driver (`play --port`) or a vendor's SDK to talk to.
+
+use crate::bus::port::PseudoTerminal;
+use crate::bus::simulator::{Faults, SimulatedBus};
+use crate::cli::BusSimArgs;
+use crate::config::Setup;
+use anyhow::{Context, Result, bail};
+use chessarm_core::arm::model::JointVector;
+
+pub fn run(setup: &Setup, args: &BusSimArgs) -> Result<()> {
+    if !setup.actuators.take_positions() {
+        bail!(
+            "bus-sim simulates servos: give them with --actuator (e.g. --actuator sts3215) or the setup's [actuators]"
+        );
+    }
+    let bus = crate::actuators::ServoBus::of(setup)?;
+    let Some(protocol) = args.protocol.or(bus.protocol) else {
+        bail!(
+            "bus-sim: the servos ({}) speak neither Feetech's nor Dynamixel's protocol; give --protocol or [servo_bus] protocol",
+            setup.actuator_names.join(", ")
+        );
+    };
+    let q = match args.start {
+        Some(user) => JointVector::<4>::from(setup.convention.user(user)),
+        None => chessarm_chess::play::home_pose(&setup.arm, &setup.board, &setup.pieces, &setup.motion.validated()?)?,
+    };
+    let gripper = bus.gripper.map(|g| (g.id, g.open));
+    let mut sim = SimulatedBus::new(protocol, &setup.arm, &setup.actuators, bus, setup.convention.signs, q, gripper)?
+        .with_faults(Faults { lose_reply: args.lose_reply, overload: args.overload });
+    if let Some(path) = &args.log {
+        let file =
+            std::fs::File::create(path).with_context(|| format!("--log {}: cannot create it", path.display()))?;
+        sim = sim.with_log(Box::new(std::io::BufWriter::new(file)));
+    }
+    let mut terminal = PseudoTerminal::open().context("cannot open a pseudo-terminal for the simulated bus")?;
+    // The device's path is the one line on standard output: a script reads it.
+    println!("{}", terminal.device_path);
+    crate::tell(&format!(
+        "simulated {} bus on {} (servos {:?}{}); Ctrl-C ends it\n",
+        protocol.name(),
+        terminal.device_path,
+        bus.ids,
+        bus.gripper.map(|g| format!(", gripper {}", g.id)).unwrap_or_default()
+    ));
+    sim.serve(&mut terminal, crate::cancelled)
+}
