@@ -5,6 +5,7 @@ pub mod board;
 pub mod clearance;
 pub mod motion;
 pub mod notation;
+pub mod occupancy;
 pub mod opponent;
 pub mod outcome;
 pub mod pieces;

@@ -16,7 +16,7 @@ use std::fmt;
 use std::io::{self, Read};
 use std::ops::ControlFlow;
 
-use pgn_reader::{Outcome, RawTag, Reader, SanPlus, Skip, Visitor};
+use pgn_reader::{Outcome, RawComment, RawTag, Reader, SanPlus, Skip, Visitor};
 use shakmaty::fen::Fen;
 use shakmaty::san::SanError;
 use shakmaty::uci::UciMove;
@@ -31,6 +31,9 @@ pub struct GameRecord {
     pub start: Chess,
     /// The moves, each legal in the position reached by the moves before it.
     pub moves: Vec<Move>,
+    /// Per move, the PGN comment after it (`None`: none; several are joined by a space);
+    /// empty for move lists.
+    pub comments: Vec<Option<String>>,
 }
 
 impl GameRecord {
@@ -281,7 +284,7 @@ pub fn parse_move_list(text: &str, start: Chess) -> Result<GameRecord, NotationE
             }
         }
     }
-    Ok(GameRecord { headers: Vec::new(), start, moves })
+    Ok(GameRecord { headers: Vec::new(), start, moves, comments: Vec::new() })
 }
 
 /// Removes a leading move number (`12.`, `12...`); `None` if nothing is left.
@@ -297,6 +300,82 @@ fn strip_move_number(token: &str) -> Option<&str> {
 
 fn is_result(token: &str) -> bool {
     matches!(token, "1-0" | "0-1" | "1/2-1/2" | "½-½" | "*")
+}
+
+/// One move typed in SAN (`Nf3`, `O-O`, `0-0`, `e8=Q`, trailing `+`/`#`/`!`/`?` allowed) or
+/// UCI (`g1f3`, `e7e8q`), legal in `pos`.
+///
+/// # Errors
+///
+/// The token is neither, matches no legal move, or is ambiguous.
+pub fn parse_move(token: &str, pos: &Chess) -> Result<Move, MoveProblem> {
+    list_token_to_move(token.trim(), pos)
+}
+
+/// A game as PGN text: the Seven Tag Roster first (`?` where `headers` does not give one; the
+/// `Result` tag is `result`), then the other `headers`, `SetUp`/`FEN` when `start` is not the
+/// initial position; the moves in SAN, each followed by its comment if it has one (`}` in a
+/// comment is replaced, as PGN comments cannot hold it), lines under 80 characters, the result
+/// last.
+pub fn write_pgn(
+    headers: &[(String, String)],
+    start: &Chess,
+    moves: &[(Move, Option<String>)],
+    result: &str,
+) -> String {
+    let escape = |v: &str| v.replace('\\', "\\\\").replace('"', "\\\"");
+    let mut out = String::new();
+    let given = |name: &str| headers.iter().find(|(k, _)| k == name).map(|(_, v)| v.as_str());
+    for name in ["Event", "Site", "Date", "Round", "White", "Black"] {
+        out.push_str(&format!("[{name} \"{}\"]\n", escape(given(name).unwrap_or("?"))));
+    }
+    out.push_str(&format!("[Result \"{result}\"]\n"));
+    let initial = Chess::default();
+    let custom_start = fen_of(start) != fen_of(&initial);
+    for (name, value) in headers {
+        let roster = ["Event", "Site", "Date", "Round", "White", "Black", "Result", "SetUp", "FEN"];
+        if !roster.contains(&name.as_str()) {
+            out.push_str(&format!("[{name} \"{}\"]\n", escape(value)));
+        }
+    }
+    if custom_start {
+        out.push_str("[SetUp \"1\"]\n");
+        out.push_str(&format!("[FEN \"{}\"]\n", fen_of(start)));
+    }
+    out.push('\n');
+    let mut tokens = Vec::new();
+    let mut pos = start.clone();
+    let mut after_comment = false;
+    for (m, comment) in moves {
+        let number = pos.fullmoves().get();
+        if pos.turn() == Color::White {
+            tokens.push(format!("{number}."));
+        } else if after_comment || tokens.is_empty() {
+            tokens.push(format!("{number}..."));
+        }
+        tokens.push(SanPlus::from_move_and_play_unchecked(&mut pos, *m).to_string());
+        after_comment = false;
+        if let Some(comment) = comment {
+            tokens.push(format!("{{{}}}", comment.replace('}', ")")));
+            after_comment = true;
+        }
+    }
+    tokens.push(result.to_string());
+    let mut line = String::new();
+    for token in tokens {
+        if !line.is_empty() && line.len() + 1 + token.len() > 79 {
+            out.push_str(&line);
+            out.push('\n');
+            line.clear();
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(&token);
+    }
+    out.push_str(&line);
+    out.push('\n');
+    out
 }
 
 fn list_token_to_move(token: &str, pos: &Chess) -> Result<Move, MoveProblem> {
@@ -502,7 +581,8 @@ fn malformed(game: usize, err: &io::Error) -> NotationError {
 
 /// Turns the visitor output into a record, or into the first error of the game.
 fn finish_game(game: usize, parsed: ParsedGame, bad_token: Option<&BadToken>) -> Result<GameRecord, NotationError> {
-    let ParsedGame { headers, start, moves, failure } = parsed;
+    let ParsedGame { headers, start, moves, mut comments, failure } = parsed;
+    comments.resize(moves.len(), None);
     let failed_at = match failure {
         Some(Failure::FenTag { fen, reason }) => return Err(NotationError::InvalidFenTag { game, fen, reason }),
         Some(Failure::Variant(variant)) => return Err(NotationError::UnsupportedVariant { game, variant }),
@@ -516,7 +596,7 @@ fn finish_game(game: usize, parsed: ParsedGame, bad_token: Option<&BadToken>) ->
             (bad.ply, bad.token.clone(), MoveProblem::NotSan)
         }
         (_, Some(failed)) => failed,
-        (_, None) => return Ok(GameRecord { headers, start, moves }),
+        (_, None) => return Ok(GameRecord { headers, start, moves, comments }),
     };
     let mut pos = start;
     for &m in moves.iter().take(ply) {
@@ -543,6 +623,7 @@ struct ParsedGame {
     headers: Vec<(String, String)>,
     start: Chess,
     moves: Vec<Move>,
+    comments: Vec<Option<String>>,
     failure: Option<Failure>,
 }
 
@@ -582,16 +663,37 @@ impl Visitor for GameVisitor {
         };
         match start {
             Ok(start) => ControlFlow::Continue(Movetext {
-                game: ParsedGame { headers: tags, start: start.clone(), moves: Vec::new(), failure: None },
+                game: ParsedGame {
+                    headers: tags,
+                    start: start.clone(),
+                    moves: Vec::new(),
+                    comments: Vec::new(),
+                    failure: None,
+                },
                 pos: start,
             }),
             Err(failure) => ControlFlow::Break(ParsedGame {
                 headers: tags,
                 start: Chess::default(),
                 moves: Vec::new(),
+                comments: Vec::new(),
                 failure: Some(failure),
             }),
         }
+    }
+
+    fn comment(&mut self, movetext: &mut Self::Movetext, comment: RawComment<'_>) -> ControlFlow<Self::Output> {
+        let moves = movetext.game.moves.len();
+        if moves > 0 {
+            let text = String::from_utf8_lossy(comment.as_bytes()).trim().to_string();
+            movetext.game.comments.resize(moves, None);
+            let slot = &mut movetext.game.comments[moves - 1];
+            *slot = Some(match slot.take() {
+                Some(earlier) => format!("{earlier} {text}"),
+                None => text,
+            });
+        }
+        ControlFlow::Continue(())
     }
 
     fn san(&mut self, movetext: &mut Self::Movetext, san_plus: SanPlus) -> ControlFlow<Self::Output> {
@@ -831,5 +933,40 @@ fn tag_name(bytes: &[u8], start: usize, end: usize) -> String {
         name.chars().take(MAX_CHARS).collect::<String>() + "…"
     } else {
         name.to_owned()
+    }
+}
+
+#[cfg(test)]
+mod pgn_writing {
+    use super::*;
+
+    /// A written game reads back: headers, a custom start, moves and their comments; a comment
+    /// on White's move is followed by Black's number (`3...`).
+    #[test]
+    fn written_games_read_back() {
+        let start = parse_fen("r1bqkbnr/pppp1ppp/2n5/4p3/4P3/5N2/PPPP1PPP/RNBQKB1R w KQkq - 2 3").unwrap();
+        let record = parse_move_list("Bb5 a6 Ba4 Nf6 O-O Be7 Re1 b5 Bb3 d6 c3 O-O h3", start.clone()).unwrap();
+        let moves: Vec<(Move, Option<String>)> = record
+            .moves
+            .iter()
+            .enumerate()
+            .map(|(i, m)| (*m, (i % 2 == 0).then(|| format!("robot {i}.25 s, clear {i} mm {{x}}"))))
+            .collect();
+        let headers = vec![
+            ("White".to_string(), "A \"quoted\" person".to_string()),
+            ("Annotator".to_string(), "chessarm".to_string()),
+        ];
+        let text = write_pgn(&headers, &start, &moves, "*");
+        assert!(text.contains("3. Bb5 {robot 0.25 s, clear 0 mm {x)} 3... a6 4. Ba4"), "{text}");
+        assert!(text.lines().all(|l| l.len() < 80), "{text}");
+        let back = parse_pgn(&text).unwrap().remove(0);
+        assert_eq!(back.moves, record.moves);
+        assert_eq!(fen_of(&back.start), fen_of(&start));
+        assert_eq!(back.header("White"), Some("A \"quoted\" person"));
+        assert_eq!(back.header("Annotator"), Some("chessarm"));
+        assert_eq!(back.header("Result"), Some("*"));
+        let comments: Vec<Option<String>> =
+            moves.iter().map(|(_, c)| c.as_ref().map(|c| c.replace('}', ")"))).collect();
+        assert_eq!(back.comments, comments);
     }
 }

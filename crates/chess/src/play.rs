@@ -139,6 +139,8 @@ impl PlaySettings {
 /// Why a game cannot go on.
 #[derive(Debug, thiserror::Error)]
 pub enum PlayError {
+    #[error("cannot take back {plies} plies: {played} were played")]
+    TakeBack { plies: usize, played: usize },
     #[error(transparent)]
     Task(#[from] TaskError),
     #[error("move {mv}: {source}")]
@@ -537,6 +539,49 @@ impl Game {
             }
         }
         Ok(report)
+    }
+
+    /// The person takes back the last `plies` moves, which moved pieces by `moved` (each
+    /// move's relocations, from and to, in the order they were made): every such piece is put
+    /// back by hand on its earlier place's centre, last relocation first, and the rules'
+    /// position becomes the one before those moves. The arm stays where it is; robot time and
+    /// the ply count go on. Returns the hand's handlings (for the replay).
+    ///
+    /// # Errors
+    ///
+    /// `plies` is more than were played, or a relocation does not match the table.
+    pub fn take_back(
+        &mut self,
+        plies: usize,
+        moved: &[(Location, Location)],
+        position: Chess,
+    ) -> Result<Vec<Handling>, PlayError> {
+        if plies == 0 || plies >= self.history.len() {
+            return Err(PlayError::TakeBack { plies, played: self.history.len() - 1 });
+        }
+        let mut handled = Vec::with_capacity(moved.len());
+        for (from, to) in moved.iter().rev() {
+            let target = self.table.nominal_position(*from);
+            if let Some(piece) = self.table.index_at(*to) {
+                handled.push(Handling {
+                    piece,
+                    from: *to,
+                    to: *from,
+                    grip_time: self.robot_time,
+                    release_time: self.robot_time,
+                    standing: self.table.pieces()[piece].position,
+                    placed: target,
+                    grip_tip: None,
+                });
+            }
+            self.relocate("take-back", *to, *from, target)?;
+        }
+        self.history.truncate(self.history.len() - plies);
+        self.position = position;
+        self.misplaced.retain(|(_, _, m)| {
+            self.table.verify(self.position.board(), self.settings.tolerance).iter().any(|n| n.reason == m.reason)
+        });
+        Ok(handled)
     }
 
     fn move_number(&self) -> String {

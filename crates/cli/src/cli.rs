@@ -410,6 +410,13 @@ pub enum RobotSide {
     Both,
 }
 
+/// The side a person plays (`play --human`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum HumanSide {
+    White,
+    Black,
+}
+
 #[derive(Debug, Args)]
 pub struct PlayArgs {
     /// A PGN file to replay (comments and variations are ignored).
@@ -450,6 +457,39 @@ pub struct PlayArgs {
     /// Against an engine the robot's moves come from its built-in engine (with both: all moves from --engine).
     #[arg(long, value_enum, default_value_t = RobotSide::Both)]
     pub robot: RobotSide,
+    /// Play against the arm: you play this side, the arm the other with --engine's moves. Your
+    /// moves come from standard input (or --input-socket), as --human-input says; `undo`,
+    /// `resign`, `draw` and `quit` work too. The game is saved as game.pgn in --out after every
+    /// move.
+    #[arg(long, value_enum, conflicts_with_all = ["game_file", "moves", "robot"])]
+    pub human: Option<HumanSide>,
+    /// How your moves arrive: `typed` (SAN or UCI) or `occupancy` (the board's sensors: 64
+    /// characters 0/1 from a1 to h8, a 0x bitboard, or a FEN board field, one line after each
+    /// move).
+    #[arg(long, value_enum, default_value_t = crate::live::input::HumanInput::Typed, requires = "human")]
+    pub human_input: crate::live::input::HumanInput,
+    /// Read your moves from a Unix socket chessarm creates at this path (a board's reader
+    /// program connects and writes lines) instead of standard input.
+    #[arg(long, value_name = "PATH", requires = "human")]
+    pub input_socket: Option<PathBuf>,
+    /// Go on with the game saved in --out's game.pgn (its start and moves, the board standing
+    /// as they leave it).
+    #[arg(long, requires = "human")]
+    pub resume: bool,
+    /// Drive the real arm: the servos (--actuator, `[servo_bus]`) on this serial device, each
+    /// robot move's proved goal stream sent at the bus rate, every goal checked on the wire.
+    #[arg(long, value_name = "DEVICE")]
+    pub port: Option<PathBuf>,
+    /// Log the packets the real arm would be sent (--out's bus.jsonl), opening nothing.
+    #[arg(long, conflicts_with = "port")]
+    pub dry_run: bool,
+    /// With --port: the largest distance of a goal from a joint's present position, degrees;
+    /// a goal further away stops the arm (torque off).
+    #[arg(long, default_value_t = 20.0, value_parser = args::positive, allow_hyphen_values = true)]
+    pub max_step_deg: f64,
+    /// With --port: how long a servo may take to answer, ms, before the arm is stopped.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    pub reply_timeout_ms: u64,
     /// Outer loop of the computed-torque controller.
     #[arg(long, value_enum, default_value_t = OneController::Pd)]
     pub controller: OneController,

@@ -11,6 +11,7 @@ pub mod config;
 pub mod folder_lock;
 pub mod hardware;
 pub mod input;
+pub mod live;
 pub mod meshes;
 pub mod output;
 pub mod plots;

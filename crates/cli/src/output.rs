@@ -258,6 +258,17 @@ pub fn claim(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Creates `path` (claimed as [`claim`] does) for a log written as things happen (the bus's
+/// packets): it holds what happened so far, never more.
+///
+/// # Errors
+///
+/// A file there chessarm did not write, or the file cannot be created.
+pub fn create_log(path: &Path) -> Result<std::fs::File> {
+    claim(path)?;
+    std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))
+}
+
 /// Writes `path` through `write` into a temporary sibling, then renames it into place.
 pub fn write_atomic(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     claim(path)?;

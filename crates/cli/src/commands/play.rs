@@ -31,6 +31,35 @@ const BYTES_PER_PLY: f64 =
 enum Source {
     Record(GameRecord),
     Engines { start: Chess, robot: Box<dyn Opponent>, opponent: Box<dyn Opponent> },
+    Human(Box<HumanGame>),
+}
+
+/// A person against the arm (`--human`): who plays what, the person's input, the engine that
+/// chooses the arm's moves, the game's PGN as it stands, and how it ended.
+struct HumanGame {
+    person: Color,
+    input: crate::live::input::Person,
+    engine: Box<dyn Opponent>,
+    pgn: crate::live::PgnGame,
+    /// The moves resumed from game.pgn (played by hand at the start: the board shows them).
+    resumed: usize,
+    /// Per ply of the PGN, the pieces it moved (from, to), for take-backs.
+    relocations: Vec<Vec<(chessarm_chess::table::Location, chessarm_chess::table::Location)>>,
+    /// Why it ended (result and reason), when the person resigned, drew or stopped.
+    ended: Option<(String, String)>,
+    /// The socket the input comes from, removed at the end.
+    _socket: Option<crate::live::input::SocketFile>,
+    /// Per robot move: the engine's thinking and the time from the person's move to the arm
+    /// starting less that thinking (planning, checking and simulating the move), s.
+    timings: Vec<RobotTiming>,
+}
+
+/// A robot move's times in the live loop, s.
+#[derive(Debug, Clone, Copy)]
+struct RobotTiming {
+    ply: usize,
+    thinking: f64,
+    latency: f64,
 }
 
 fn start_position(args: &PlayArgs) -> Result<Chess> {
@@ -72,6 +101,9 @@ fn opponent(args: &PlayArgs) -> Result<Box<dyn Opponent>> {
 }
 
 fn source(args: &PlayArgs) -> Result<Source> {
+    if let Some(side) = args.human {
+        return human_source(args, side);
+    }
     if let Some(path) = &args.game_file {
         if args.fen.is_some() {
             bail!("--fen goes with --moves or an engine game; a PGN file sets its own start ([FEN] tag)");
@@ -86,6 +118,66 @@ fn source(args: &PlayArgs) -> Result<Source> {
     // With --robot both every move comes from --engine; the robot's own engine is not asked.
     let robot: Box<dyn Opponent> = Box::new(builtin(args));
     Ok(Source::Engines { start, robot, opponent })
+}
+
+/// The person's game: a new one from --fen (or the initial position), or the one saved in
+/// --out's game.pgn (`--resume`).
+fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> {
+    let person = match side {
+        crate::cli::HumanSide::White => Color::White,
+        crate::cli::HumanSide::Black => Color::Black,
+    };
+    let pgn = if args.resume {
+        if args.fen.is_some() {
+            bail!("--fen starts a new game; --resume goes on with the one in game.pgn (its [FEN] tag gives its start)");
+        }
+        crate::live::PgnGame::resume(&args.out.join("game.pgn"))?
+    } else {
+        crate::live::PgnGame { headers: Vec::new(), start: start_position(args)?, moves: Vec::new() }
+    };
+    let engine = opponent(args)?;
+    let mut pgn = pgn;
+    if !args.resume {
+        let arm = format!("chessarm arm ({})", engine.name());
+        let (white, black) = if person == Color::White { ("person", arm.as_str()) } else { (arm.as_str(), "person") };
+        pgn.headers = vec![
+            ("Event".into(), "chessarm: a person against the arm".into()),
+            ("Site".into(), if args.port.is_some() { "the real arm".into() } else { "simulation".into() }),
+            ("Date".into(), pgn_date(std::time::SystemTime::now())),
+            ("Round".into(), "-".into()),
+            ("White".into(), white.into()),
+            ("Black".into(), black.into()),
+        ];
+    }
+    let resumed = pgn.moves.len();
+    let (lines, socket) = crate::live::input::lines_from(args.input_socket.as_deref())?;
+    Ok(Source::Human(Box::new(HumanGame {
+        person,
+        input: crate::live::input::Person::new(args.human_input, lines),
+        engine,
+        pgn,
+        resumed,
+        relocations: Vec::new(),
+        ended: None,
+        _socket: socket,
+        timings: Vec::new(),
+    })))
+}
+
+/// `time`'s date as PGN writes it (`2026.12.06`, UTC).
+fn pgn_date(time: std::time::SystemTime) -> String {
+    let days = time.duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs() / 86_400) as i64;
+    // Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!("{year:04}.{month:02}.{day:02}")
 }
 
 /// Game `number` (1-based) of the PGN file at `path`, read as a stream: the file is read only
@@ -147,10 +239,12 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let start = match &source {
         Source::Record(record) => record.start.clone(),
         Source::Engines { start, .. } => start.clone(),
+        Source::Human(human) => human.pgn.start.clone(),
     };
     let total = match &source {
         Source::Record(record) => record.moves.len(),
         Source::Engines { .. } => args.plies,
+        Source::Human(_) => LONGEST_GAME_PLIES,
     };
     // Each ply's recorded steps are kept for the plots: a bound before anything runs. An engine
     // game cannot last longer than the fifty-move rule allows (< 6000 plies).
@@ -163,6 +257,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             total as f64,
         ),
         Source::Engines { .. } => (format!("--plies {}", args.plies), args.plies.min(LONGEST_GAME_PLIES) as f64),
+        // A person's game is bounded as an engine game is; its plies are kept as they come.
+        Source::Human(_) => ("--human".to_owned(), 0.0),
     };
     crate::resources::ensure_fits(&cause, "plies", plies, BYTES_PER_PLY)?;
     ensure_dir(&args.out)?;
@@ -171,6 +267,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     // Results of an earlier game in the same folder must not pass for this one's; only files
     // an earlier chessarm run wrote (and listed) are removed.
     remove_stale(&[args.out.join("game.json")])?;
+    if !args.resume {
+        remove_stale(&[args.out.join("game.pgn"), args.out.join("bus.jsonl")])?;
+    }
     remove_listed_in(&moves_dir)?;
     // Move CSVs are named NNN-<uci>.csv: any such file that is not chessarm's is refused now.
     let numbered_file = |name: &str, extensions: &[&str]| {
@@ -196,16 +295,43 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         tip_desired: game.tool(),
         tip_error: 0.0,
     };
-    let bar = crate::progress::bar(total as u64, "playing");
+    // A person's game needs the terminal for the person: no progress bar.
+    let bar = if matches!(source, Source::Human(_)) {
+        indicatif::ProgressBar::hidden()
+    } else {
+        crate::progress::bar(total as u64, "playing")
+    };
     let header = format!(
         "{:>4} {:>8} {:>6} {:<18} {:>8} {:>8} {:>12} {:>22} {:>9}  {}",
         "ply", "san", "by", "kind", "time s", "wait s", "max tip mm", "placement mm", "clear mm", "closest pair"
     );
-    let mut reports = Vec::new();
-    // The tip error of every recorded step (robot time s, mm), for the game's plot.
-    let mut tip_errors: Vec<(f64, f64)> = Vec::new();
-    let mut replay = ReplayBuilder::new(first_number, start_pose);
+    let mut kept = Kept {
+        reports: Vec::new(),
+        tip_errors: Vec::new(),
+        replay: ReplayBuilder::new(first_number, start_pose),
+        header,
+    };
+    // The real arm (or a dry run), opened before anything moves.
+    let mut real_arm = (args.port.is_some() || args.dry_run)
+        .then(|| {
+            crate::live::arm::RealArm::open(
+                setup,
+                &crate::live::arm::ArmOptions {
+                    port: args.port.as_deref(),
+                    dry_run: args.dry_run,
+                    max_step: args.max_step_deg.to_radians(),
+                    reply_timeout: Duration::from_millis(args.reply_timeout_ms),
+                    log: &args.out.join("bus.jsonl"),
+                },
+            )
+        })
+        .transpose()?;
+    let outputs =
+        Outputs { setup, moves_dir: &moves_dir, hardware_dir: &hardware_dir, servo_bus: servo_bus.as_ref(), args };
     let mut played = || -> Result<()> {
+        if let Source::Human(human) = &mut source {
+            return play_human(human, &mut game, &mut kept, &outputs, &bar, real_arm.as_mut());
+        }
         for ply in 0..total {
             if crate::cancelled() {
                 return Err(crate::interrupted());
@@ -222,62 +348,20 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
                         if robot_moves(args.robot, turn) && args.robot != RobotSide::Both { robot } else { opponent };
                     player.choose_move(game.position()).with_context(|| format!("ply {}", ply + 1))?
                 }
+                Source::Human(_) => unreachable!("played above"),
             };
             let mover = if robot_moves(args.robot, turn) { Mover::Robot } else { Mover::Opponent };
-            let mut report = game.play(&mv, mover)?;
-            if reports.is_empty() {
-                say(&bar, header.clone());
+            let report = game.play(&mv, mover)?;
+            if let Some(arm) = real_arm.as_mut() {
+                send_to_arm(arm, &report)?;
             }
-            say(&bar, move_line(&report));
-            if report.mover == Mover::Robot {
-                write_move_csv(&moves_dir, &report, &setup.convention)?;
-            }
-            if let Some(hardware) = report.hardware.take() {
-                ensure_dir(&hardware_dir)?;
-                let label = MoveLabel {
-                    ply: report.ply,
-                    san: &report.san,
-                    uci: &report.uci,
-                    grips: hardware.grips.clone(),
-                    fine_points: hardware.fine_points.clone(),
-                    in_position: hardware.in_position,
-                    finger_opening: report.opening,
-                };
-                crate::hardware::write_move(
-                    &hardware_dir,
-                    &format!("{:03}-{}", report.ply, report.uci),
-                    (&setup.base_link, &setup.joint_names, &setup.convention),
-                    &hardware.points,
-                    &hardware.commands,
-                    &label,
-                    args.export_rate,
-                )?;
-                if let Some(bus) = &servo_bus {
-                    if !hardware_dir.join("servo_bus.json").is_file() {
-                        crate::hardware::write_servo_bus(&hardware_dir, setup, bus)?;
-                    }
-                    crate::hardware::write_servo_goals(
-                        &hardware_dir,
-                        &format!("{:03}-{}", report.ply, report.uci),
-                        &setup.convention,
-                        bus,
-                        &hardware.servo_goals,
-                    )?;
-                }
-            }
-            bar.inc(1);
-            // The recorded steps are in the move's CSV now: only the plot's and the replay's share
-            // of them stays (16 of a step's 300-odd bytes, and the replay's frames), so that
-            // memory does not grow with the records of every move.
-            tip_errors
-                .extend(report.records.iter().map(|r| (report.start_time + r.t, (r.tip - r.tip_desired).norm() * 1e3)));
-            replay.add(&report);
-            report.records = Vec::new();
-            reports.push(report);
+            kept.keep(report, &outputs, &bar)?;
         }
         Ok(())
     };
-    if let Err(error) = played() {
+    let outcome = played();
+    let Kept { reports, tip_errors, replay, .. } = kept;
+    if let Err(error) = outcome {
         bar.finish_and_clear();
         // A game that stops part-way for any reason leaves nothing that passes for a whole
         // game: game.json says where and why, and the hardware trajectories so far move to
@@ -323,6 +407,13 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let result = game_result(&game, &source, args, reports.len());
     let mut summary = game_json(&game, &reports, wall_time_s, &dependence, &result);
     summary["complete"] = json!(true);
+    if let Source::Human(human) = &source {
+        human.pgn.save(&args.out.join("game.pgn"), &result.result)?;
+        summary["human"] = human_json(human, args);
+    }
+    if let Some(arm) = &real_arm {
+        summary["real_arm"] = real_arm_json(arm);
+    }
     summary["controller"] = json!(settings_name);
     summary["conditions"] = if ideal { Value::Null } else { study.describe() };
     summary["dt_s"] = json!(args.dt);
@@ -392,6 +483,267 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     Ok(())
 }
 
+/// Where a game's per-move files go.
+struct Outputs<'a> {
+    setup: &'a Setup,
+    moves_dir: &'a Path,
+    hardware_dir: &'a Path,
+    servo_bus: Option<&'a crate::actuators::ServoBus>,
+    args: &'a PlayArgs,
+}
+
+/// What a game keeps of its moves until its end: their reports (without their recorded
+/// steps), the tip errors for the plot, the replay's frames.
+struct Kept {
+    reports: Vec<MoveReport>,
+    /// The tip error of every recorded step (robot time s, mm), for the game's plot.
+    tip_errors: Vec<(f64, f64)>,
+    replay: ReplayBuilder,
+    header: String,
+}
+
+impl Kept {
+    /// A played move: its line in the table, its CSV and hardware files, its share of the
+    /// plots and the replay.
+    fn keep(&mut self, mut report: MoveReport, out: &Outputs<'_>, bar: &indicatif::ProgressBar) -> Result<()> {
+        let setup = out.setup;
+        if self.reports.is_empty() {
+            say(bar, self.header.clone());
+        }
+        say(bar, move_line(&report));
+        if report.mover == Mover::Robot {
+            write_move_csv(out.moves_dir, &report, &setup.convention)?;
+        }
+        if let Some(hardware) = report.hardware.take() {
+            ensure_dir(out.hardware_dir)?;
+            let label = MoveLabel {
+                ply: report.ply,
+                san: &report.san,
+                uci: &report.uci,
+                grips: hardware.grips.clone(),
+                fine_points: hardware.fine_points.clone(),
+                in_position: hardware.in_position,
+                finger_opening: report.opening,
+            };
+            crate::hardware::write_move(
+                out.hardware_dir,
+                &format!("{:03}-{}", report.ply, report.uci),
+                (&setup.base_link, &setup.joint_names, &setup.convention),
+                &hardware.points,
+                &hardware.commands,
+                &label,
+                out.args.export_rate,
+            )?;
+            if let Some(bus) = out.servo_bus {
+                if !out.hardware_dir.join("servo_bus.json").is_file() {
+                    crate::hardware::write_servo_bus(out.hardware_dir, setup, bus)?;
+                }
+                crate::hardware::write_servo_goals(
+                    out.hardware_dir,
+                    &format!("{:03}-{}", report.ply, report.uci),
+                    &setup.convention,
+                    bus,
+                    &hardware.servo_goals,
+                )?;
+            }
+        }
+        bar.inc(1);
+        // The recorded steps are in the move's CSV now: only the plot's and the replay's share
+        // of them stays (16 of a step's 300-odd bytes, and the replay's frames), so that
+        // memory does not grow with the records of every move.
+        self.tip_errors
+            .extend(report.records.iter().map(|r| (report.start_time + r.t, (r.tip - r.tip_desired).norm() * 1e3)));
+        self.replay.add(&report);
+        report.records = Vec::new();
+        self.reports.push(report);
+        Ok(())
+    }
+}
+
+/// Sends a robot move to the real arm, only if the simulation proved it: no piece misplaced
+/// and no contact in the simulated motion (else nothing is sent and the game stops, saved).
+fn send_to_arm(arm: &mut crate::live::arm::RealArm, report: &MoveReport) -> Result<()> {
+    let Some(hardware) = report.hardware.as_ref() else { return Ok(()) };
+    if let Some(misplaced) = report.new_misplaced.first() {
+        bail!(
+            "ply {} {}: not sent to the real arm: the simulated move misplaced a piece ({misplaced}); nothing was sent",
+            report.ply,
+            report.san
+        );
+    }
+    if report.executed_clearance.as_ref().is_some_and(|e| e.is_contact()) {
+        bail!(
+            "ply {} {}: not sent to the real arm: the simulated arm touched (game.json's clearance says where); nothing was sent",
+            report.ply,
+            report.san
+        );
+    }
+    arm.execute(&hardware.servo_goals, report.start_time, &report.handled)
+        .with_context(|| format!("ply {} {}: the real arm", report.ply, report.san))?;
+    Ok(())
+}
+
+/// A robot move's PGN comment: its robot time, its largest placement error and its smallest
+/// clearance.
+fn robot_comment(report: &MoveReport) -> String {
+    let mut comment = format!("robot {:.2} s", report.duration);
+    if let Some(worst) = report.place_errors.iter().copied().reduce(f64::max) {
+        comment.push_str(&format!(", placed within {:.2} mm", worst * 1e3));
+    }
+    if let Some(c) = &report.clearance {
+        comment.push_str(&format!(", clearance {:.1} mm", c.distance * 1e3));
+    }
+    comment
+}
+
+/// A person plays the arm: the person's moves from their input (played by hand), the arm's
+/// from the engine (planned, checked, simulated, then sent to the real arm if there is one),
+/// game.pgn saved after every ply, until the rules end the game, the person resigns, a draw is
+/// agreed or the input ends.
+fn play_human(
+    human: &mut HumanGame,
+    game: &mut Game,
+    kept: &mut Kept,
+    out: &Outputs<'_>,
+    bar: &indicatif::ProgressBar,
+    mut real_arm: Option<&mut crate::live::arm::RealArm>,
+) -> Result<()> {
+    let pgn_path = out.args.out.join("game.pgn");
+    // The resumed moves: the board shows them, so they are played by hand.
+    for (m, _) in human.pgn.moves.clone().iter().take(human.resumed) {
+        let report = game.play(m, Mover::Opponent)?;
+        human.relocations.push(report.handled.iter().map(|h| (h.from, h.to)).collect());
+        kept.keep(report, out, bar)?;
+    }
+    if human.resumed > 0 {
+        crate::tell(&format!("resumed {} after {} plies\n", pgn_path.display(), human.resumed));
+    }
+    let robot = !human.person;
+    let side = |c: Color| if c == Color::White { "white" } else { "black" };
+    // When the person's last move was read (for the arm's latency).
+    let mut person_moved = Instant::now();
+    human.pgn.save(&pgn_path, "*")?;
+    loop {
+        if crate::cancelled() {
+            return Err(crate::interrupted());
+        }
+        if game.outcome().is_some() {
+            return Ok(());
+        }
+        let position = game.position().clone();
+        if position.turn() == human.person {
+            crate::tell(&format!("your move ({}):\n", side(human.person)));
+            match human.input.next(&position)? {
+                crate::live::input::Action::Move(m) => {
+                    person_moved = Instant::now();
+                    let report = game.play(&m, Mover::Opponent)?;
+                    human.relocations.push(report.handled.iter().map(|h| (h.from, h.to)).collect());
+                    human.pgn.moves.push((m, None));
+                    kept.keep(report, out, bar)?;
+                }
+                crate::live::input::Action::Undo => {
+                    // The person's last move and the arm's reply to it (only the person's if the
+                    // arm has not replied, e.g. at the start as black).
+                    let plies = if human.pgn.moves.len() >= 2 { 2 } else { human.pgn.moves.len() };
+                    let last_person = human.pgn.moves.len() >= plies && plies > 0;
+                    if !last_person || plies == 0 {
+                        crate::tell("nothing to take back\n");
+                        continue;
+                    }
+                    let keep_moves = human.pgn.moves.len() - plies;
+                    let moved: Vec<_> = human.relocations[keep_moves..].concat();
+                    let mut earlier = human.pgn.clone();
+                    earlier.moves.truncate(keep_moves);
+                    let handled = game.take_back(plies, &moved, earlier.position())?;
+                    let put: Vec<String> = handled.iter().map(|h| format!("{} to {}", h.from, h.to)).collect();
+                    crate::tell(&format!("taken back {plies} plies: put back {}\n", put.join(", ")));
+                    kept.replay.take_back(&handled, plies);
+                    human.relocations.truncate(keep_moves);
+                    human.pgn.moves.truncate(keep_moves);
+                }
+                crate::live::input::Action::Resign => {
+                    let result = if human.person == Color::White { "0-1" } else { "1-0" };
+                    human.ended = Some((result.into(), format!("{} (the person) resigned", side(human.person))));
+                    return Ok(());
+                }
+                crate::live::input::Action::Draw => {
+                    if crate::live::accepts_draw(&position, robot) {
+                        human.ended = Some(("1/2-1/2".into(), "draw agreed".into()));
+                        return Ok(());
+                    }
+                    crate::tell(&format!(
+                        "the arm declines the draw: it is ahead by {} in material\n",
+                        crate::live::material_balance(&position, robot)
+                    ));
+                }
+                crate::live::input::Action::Quit => {
+                    human.ended = Some((
+                        "*".into(),
+                        format!("the person stopped; go on with --resume (game.pgn in {})", out.args.out.display()),
+                    ));
+                    return Ok(());
+                }
+            }
+        } else {
+            let thinking_started = Instant::now();
+            let m = human
+                .engine
+                .choose_move(&position)
+                .with_context(|| format!("the arm's move after {} plies", human.pgn.moves.len()))?;
+            let thinking = thinking_started.elapsed().as_secs_f64();
+            let report = game.play(&m, Mover::Robot)?;
+            // The arm starts now: the move is planned, checked and simulated.
+            let latency = person_moved.elapsed().as_secs_f64() - thinking;
+            if let Some(arm) = real_arm.as_deref_mut() {
+                send_to_arm(arm, &report)?;
+            }
+            human.timings.push(RobotTiming { ply: report.ply, thinking, latency });
+            human.relocations.push(report.handled.iter().map(|h| (h.from, h.to)).collect());
+            human.pgn.moves.push((m, Some(robot_comment(&report))));
+            kept.keep(report, out, bar)?;
+        }
+        human.pgn.save(&pgn_path, "*")?;
+    }
+}
+
+/// The person's game in game.json: sides, input, what was refused, and per robot move the
+/// engine's thinking and the latency from the person's move to the arm starting (s).
+fn human_json(human: &HumanGame, args: &PlayArgs) -> Value {
+    let latencies: Vec<f64> = human.timings.iter().map(|t| t.latency).collect();
+    json!({
+        "person": if human.person == Color::White { "white" } else { "black" },
+        "input": match args.human_input {
+            crate::live::input::HumanInput::Typed => "typed",
+            crate::live::input::HumanInput::Occupancy => "occupancy",
+        },
+        "engine": human.engine.name(),
+        "resumed_plies": human.resumed,
+        "refused_input": human.input.refused,
+        "robot_moves": human.timings.iter().map(|t| json!({
+            "ply": t.ply,
+            "thinking_s": t.thinking,
+            "latency_s": t.latency,
+        })).collect::<Vec<_>>(),
+        "largest_latency_s": latencies.iter().copied().reduce(f64::max),
+    })
+}
+
+/// The real arm's record in game.json: packets sent and, over the moves, the largest lead of
+/// a goal over the present position and change between goals (ticks), and lateness (s).
+fn real_arm_json(arm: &crate::live::arm::RealArm) -> Value {
+    let lead: [i64; 4] = std::array::from_fn(|j| arm.followed.iter().map(|f| f.largest_lead[j]).max().unwrap_or(0));
+    let change: [i64; 4] = std::array::from_fn(|j| arm.followed.iter().map(|f| f.largest_change[j]).max().unwrap_or(0));
+    json!({
+        "dry_run": arm.is_dry_run(),
+        "moves": arm.followed.len(),
+        "periods": arm.followed.iter().map(|f| f.periods).sum::<usize>(),
+        "packets_sent": arm.packets_sent(),
+        "largest_lead_ticks": lead,
+        "largest_change_ticks": change,
+        "largest_lateness_s": arm.followed.iter().map(|f| f.largest_lateness).fold(0.0, f64::max),
+    })
+}
+
 /// A line above the progress bar, or plainly on stderr when there is no terminal to draw on.
 fn say(bar: &indicatif::ProgressBar, line: String) {
     if bar.is_hidden() { crate::tell(&format!("{line}\n")) } else { bar.println(line) }
@@ -447,6 +799,11 @@ struct GameResult {
 /// What the rules say of the final position; a replayed game that is not over there keeps the
 /// result its PGN records; otherwise `*` and why the game stopped.
 fn game_result(game: &Game, source: &Source, args: &PlayArgs, plies: usize) -> GameResult {
+    if let Source::Human(human) = source
+        && let Some((result, reason)) = &human.ended
+    {
+        return GameResult { result: result.clone(), reason: reason.clone() };
+    }
     let outcome = game.outcome();
     // Threefold repetition and the fifty-move rule are draws a player may claim: a replayed
     // game whose PGN records another result was played on, so its record stands.
@@ -454,7 +811,7 @@ fn game_result(game: &Game, source: &Source, args: &PlayArgs, plies: usize) -> G
         outcome.is_some_and(|o| matches!(o.reason, OutcomeReason::ThreefoldRepetition | OutcomeReason::FiftyMoveRule));
     let recorded = match source {
         Source::Record(record) => record.header("Result").filter(|r| ["1-0", "0-1", "1/2-1/2"].contains(r)),
-        Source::Engines { .. } => None,
+        Source::Engines { .. } | Source::Human(_) => None,
     };
     if let Some(outcome) = outcome
         && !(claimable && recorded.is_some())
@@ -477,6 +834,7 @@ fn game_result(game: &Game, source: &Source, args: &PlayArgs, plies: usize) -> G
             result: "*".into(),
             reason: format!("stopped after --plies {} ({plies} played); the game is not over", args.plies),
         },
+        Source::Human(_) => GameResult { result: "*".into(), reason: "the game is not over".into() },
     }
 }
 
@@ -777,6 +1135,17 @@ impl ReplayBuilder {
                 .filter(|w| w.duration > 0.0)
                 .map(|w| [start + w.reached, start + w.reached + w.duration]),
         );
+    }
+
+    /// The person took back `plies` moves, putting pieces back by hand (`handled`).
+    fn take_back(&mut self, handled: &[chessarm_chess::play::Handling], plies: usize) {
+        self.handled.extend_from_slice(handled);
+        for _ in 0..plies {
+            self.turn = !self.turn;
+            if self.turn == Color::Black {
+                self.number -= 1;
+            }
+        }
     }
 
     fn finish(self, name: &str) -> ReplayRun {

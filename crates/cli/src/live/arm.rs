@@ -1,0 +1,133 @@
+//! The real arm in the live loop: each robot move's goal stream — the one the simulation
+//! proved, at the bus rate, fine points' waits included — converted to the servos' ticks
+//! (`[servo_bus]`) and sent by the [`Driver`], every goal checked on the wire.
+
+use crate::actuators::ServoBus;
+use crate::bus::driver::{Driver, DriverError, Followed, TickGoal, Wire, WireLimits};
+use crate::bus::port::{BAUD_RATE, SerialLine};
+use crate::config::Setup;
+use anyhow::{Result, bail};
+use chessarm_chess::play::{Handling, ServoGoal};
+use std::path::Path;
+use std::time::Duration;
+
+/// The driven arm: its driver and how angles become ticks.
+#[derive(Debug)]
+pub struct RealArm {
+    driver: Driver,
+    bus: ServoBus,
+    signs: [f64; 4],
+    enabled: bool,
+    /// Per robot move: what following it measured.
+    pub followed: Vec<Followed>,
+}
+
+/// How the driver is set up from the command line.
+#[derive(Debug, Clone)]
+pub struct ArmOptions<'a> {
+    /// The serial device (`None` with `dry_run`).
+    pub port: Option<&'a Path>,
+    pub dry_run: bool,
+    /// The largest distance of a goal from a joint's present position, rad.
+    pub max_step: f64,
+    pub reply_timeout: Duration,
+    /// Where every packet is logged (JSON lines).
+    pub log: &'a Path,
+}
+
+/// The checks on the wire for `setup`'s joints: their limits, `max_step` (rad) and speed
+/// limits over one bus period, in ticks of `bus`.
+pub fn wire_limits(setup: &Setup, bus: &ServoBus, max_step: f64) -> WireLimits {
+    let period = 1.0 / setup.bus_rate;
+    let count = |j: usize| std::f64::consts::TAU / bus.counts_per_revolution[j];
+    let mut limits = WireLimits { lower: [0; 4], upper: [0; 4], max_step: [0; 4], max_change: [0; 4] };
+    for j in 0..4 {
+        let (lower, upper) = setup.user_limits(j);
+        let (a, b) = (bus.ticks(j, lower) as i64, bus.ticks(j, upper) as i64);
+        limits.lower[j] = a.min(b);
+        limits.upper[j] = a.max(b);
+        limits.max_step[j] = (max_step / count(j)).floor() as i64;
+        // The joint's speed limit over a period, and a tick for the goals' rounding.
+        limits.max_change[j] = (setup.arm.link(j).limits.velocity * period / count(j)).ceil() as i64 + 1;
+    }
+    limits
+}
+
+impl RealArm {
+    /// The driver for `setup`'s servos on `options.port` (or a dry run).
+    ///
+    /// # Errors
+    ///
+    /// The joints have no servos of a known protocol, or the port cannot be opened.
+    pub fn open(setup: &Setup, options: &ArmOptions<'_>) -> Result<Self> {
+        if !setup.actuators.take_positions() {
+            bail!(
+                "--port and --dry-run drive servos: give them with --actuator (e.g. sts3215 for the SO-101, xm430 for the OpenManipulator-X)"
+            );
+        }
+        let bus = ServoBus::of(setup)?;
+        let Some(protocol) = bus.protocol else {
+            bail!(
+                "the servos ({}) speak neither Feetech's nor Dynamixel's protocol; give [servo_bus] protocol",
+                setup.actuator_names.join(", ")
+            );
+        };
+        let wire = match (options.port, options.dry_run) {
+            (_, true) => Wire::DryRun,
+            (Some(port), false) => Wire::Serial(SerialLine::open(port, BAUD_RATE)?),
+            (None, false) => bail!("give --port DEVICE or --dry-run"),
+        };
+        let log = crate::output::create_log(options.log)?;
+        let driver = Driver::new(
+            wire,
+            protocol,
+            bus.ids,
+            setup.joint_names.clone(),
+            bus.gripper,
+            wire_limits(setup, &bus, options.max_step),
+            1.0 / setup.bus_rate,
+            options.reply_timeout,
+            Box::new(std::io::BufWriter::new(log)),
+        );
+        Ok(Self { driver, bus, signs: setup.convention.signs, enabled: false, followed: Vec::new() })
+    }
+
+    /// A goal (rad, the model's sense) in ticks.
+    fn ticks(&self, goal: &[f64; 4]) -> [i64; 4] {
+        std::array::from_fn(|j| self.bus.ticks(j, self.signs[j] * goal[j]) as i64)
+    }
+
+    /// Sends a robot move's goal stream (`goals`, s from the move's start, which began at
+    /// robot time `start`), the gripper closed between each of `handled`'s grip and release.
+    /// The torque goes on before the first move, holding where the joints are, refused unless
+    /// they are within the largest step of the stream's first goal.
+    ///
+    /// # Errors
+    ///
+    /// Any [`DriverError`] (the torque is then off).
+    pub fn execute(&mut self, goals: &[ServoGoal], start: f64, handled: &[Handling]) -> Result<Followed, DriverError> {
+        let Some(first) = goals.first() else { return Ok(Followed::default()) };
+        if !self.enabled {
+            self.driver.enable(self.ticks(&first.goal))?;
+            self.enabled = true;
+        }
+        let closed = |t: f64| {
+            handled.iter().any(|h| h.grip_tip.is_some() && start + t >= h.grip_time && start + t < h.release_time)
+        };
+        let stream: Vec<TickGoal> = goals
+            .iter()
+            .map(|g| TickGoal { t: g.t, ticks: self.ticks(&g.goal), gripper_closed: closed(g.t) })
+            .collect();
+        let followed = self.driver.follow(&stream, &crate::cancelled)?;
+        self.followed.push(followed);
+        Ok(followed)
+    }
+
+    pub fn packets_sent(&self) -> usize {
+        self.driver.packets_sent
+    }
+
+    pub fn is_dry_run(&self) -> bool {
+        self.driver.is_dry_run()
+    }
+}

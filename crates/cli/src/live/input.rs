@@ -1,0 +1,190 @@
+//! The person's side of the board: what they type, or what the board's sensors read, one line
+//! at a time from standard input or a local socket.
+//!
+//! Typed: a move in SAN or UCI (`e4`, `Nf3`, `O-O`, `e7e8q`), or `undo` (take back your last
+//! move and the arm's reply), `resign`, `draw` (offer one), `quit` (stop; the game is saved and
+//! can be resumed). Occupancy: a reading of the board after the person's move
+//! ([`chessarm_chess::occupancy`]), resolved against the legal moves; a promotion is asked
+//! (`q`, `r`, `b` or `n` on the next line), and the typed words work there too. A line that
+//! gives no move is answered with why and what was expected, and the next line is read:
+//! nothing is played until a line gives a legal move.
+
+use anyhow::{Context, Result};
+use chessarm_chess::notation::parse_move;
+use chessarm_chess::occupancy::{Resolved, parse_reading, resolve};
+use chessarm_chess::shakmaty::{Chess, Move, Role};
+use std::io::BufRead;
+
+/// Longest line read, bytes (a reading is 64 characters; a FEN board field under 100).
+const MAX_LINE: usize = 4096;
+
+/// How the person's moves arrive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum HumanInput {
+    /// Moves typed in SAN or UCI.
+    Typed,
+    /// The board's occupancy read by its sensors (64 × 0/1 from a1 to h8, a hex bitboard, or a
+    /// FEN board field), one reading per line after each move.
+    Occupancy,
+}
+
+/// What the person did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Action {
+    Move(Move),
+    Undo,
+    Resign,
+    /// Offered a draw.
+    Draw,
+    /// Stopped (or the input ended): the game is saved, resumable.
+    Quit,
+}
+
+/// The person's input: a line source and how to read it.
+pub struct Person {
+    kind: HumanInput,
+    lines: Box<dyn BufRead + Send>,
+    /// What was refused, line by line (for the game's record).
+    pub refused: Vec<String>,
+}
+
+impl std::fmt::Debug for Person {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Person").field("kind", &self.kind).finish_non_exhaustive()
+    }
+}
+
+impl Person {
+    pub fn new(kind: HumanInput, lines: Box<dyn BufRead + Send>) -> Self {
+        Self { kind, lines, refused: Vec::new() }
+    }
+
+    /// The next line (trimmed), `None` at the end of the input.
+    fn line(&mut self) -> Result<Option<String>> {
+        let mut buffer = Vec::new();
+        let n = std::io::Read::take(&mut self.lines, MAX_LINE as u64)
+            .read_until(b'\n', &mut buffer)
+            .context("reading the person's input")?;
+        if n == 0 {
+            return Ok(None);
+        }
+        if n == MAX_LINE && buffer.last() != Some(&b'\n') {
+            // The rest of an overlong line is not a move.
+            let mut rest = Vec::new();
+            while std::io::Read::take(&mut self.lines, MAX_LINE as u64).read_until(b'\n', &mut rest)? == MAX_LINE
+                && rest.last() != Some(&b'\n')
+            {
+                rest.clear();
+            }
+            return Ok(Some(format!("(a line over {MAX_LINE} bytes)")));
+        }
+        Ok(Some(String::from_utf8_lossy(&buffer).trim().to_string()))
+    }
+
+    fn refuse(&mut self, line: &str, why: &str) {
+        crate::tell(&format!("not played: {why}\n"));
+        self.refused.push(format!("{}: {why}", crate::escape_controls(line)));
+    }
+
+    /// The person's next action in `position`; lines that give none are refused (said on
+    /// standard error) and the next one read.
+    ///
+    /// # Errors
+    ///
+    /// The input could not be read.
+    pub fn next(&mut self, position: &Chess) -> Result<Action> {
+        loop {
+            let Some(line) = self.line()? else { return Ok(Action::Quit) };
+            if line.is_empty() {
+                continue;
+            }
+            match line.to_ascii_lowercase().as_str() {
+                "undo" | "takeback" => return Ok(Action::Undo),
+                "resign" => return Ok(Action::Resign),
+                "draw" => return Ok(Action::Draw),
+                "quit" | "exit" => return Ok(Action::Quit),
+                _ => {}
+            }
+            match self.kind {
+                HumanInput::Typed => match parse_move(&line, position) {
+                    Ok(m) => return Ok(Action::Move(m)),
+                    Err(problem) => {
+                        let why = format!(
+                            "'{line}' {problem} in this position (type a move in SAN or UCI, undo, resign, draw or quit)"
+                        );
+                        self.refuse(&line, &why);
+                    }
+                },
+                HumanInput::Occupancy => {
+                    let resolved = parse_reading(&line).and_then(|reading| resolve(position, &reading));
+                    match resolved {
+                        Ok(Resolved::Unchanged) => {}
+                        Ok(Resolved::Move(m)) => return Ok(Action::Move(m)),
+                        Ok(Resolved::Promotion(choices)) => {
+                            if let Some(m) = self.promotion(&choices)? {
+                                return Ok(Action::Move(m));
+                            }
+                            return Ok(Action::Quit);
+                        }
+                        Err(error) => self.refuse(&line, &error.to_string()),
+                    }
+                }
+            }
+        }
+    }
+
+    /// Asks which piece a pawn becomes: `q`, `r`, `b` or `n` (or the piece's name) on the next
+    /// line; `None` if the input ends.
+    fn promotion(&mut self, choices: &[Move]) -> Result<Option<Move>> {
+        loop {
+            crate::tell("promotion: which piece does the pawn become (q, r, b, n)?\n");
+            let Some(line) = self.line()? else { return Ok(None) };
+            let role = match line.to_ascii_lowercase().as_str() {
+                "q" | "queen" => Some(Role::Queen),
+                "r" | "rook" => Some(Role::Rook),
+                "b" | "bishop" => Some(Role::Bishop),
+                "n" | "knight" => Some(Role::Knight),
+                _ => None,
+            };
+            match role.and_then(|r| choices.iter().find(|m| m.promotion() == Some(r))) {
+                Some(m) => return Ok(Some(*m)),
+                None => self.refuse(&line, &format!("'{line}' is not q, r, b or n")),
+            }
+        }
+    }
+}
+
+/// The person's lines: standard input, or a Unix socket at `path` that chessarm creates,
+/// listens on (one client at a time: a reader program connects and writes lines) and removes
+/// when the game ends. An existing file at `path` is refused, not replaced.
+///
+/// # Errors
+///
+/// The socket cannot be made.
+pub fn lines_from(socket: Option<&std::path::Path>) -> Result<(Box<dyn BufRead + Send>, Option<SocketFile>)> {
+    let Some(path) = socket else {
+        return Ok((Box::new(std::io::BufReader::new(std::io::stdin())), None));
+    };
+    if path.exists() || path.is_symlink() {
+        anyhow::bail!(
+            "--input-socket {}: a file is there; give a path where chessarm may create its socket",
+            path.display()
+        );
+    }
+    let listener = std::os::unix::net::UnixListener::bind(path)
+        .with_context(|| format!("--input-socket {}: cannot create the socket", path.display()))?;
+    let file = SocketFile(path.to_path_buf());
+    crate::tell(&format!("waiting for the board's reader to connect to {}\n", path.display()));
+    let (stream, _) = listener.accept().with_context(|| format!("--input-socket {}", path.display()))?;
+    Ok((Box::new(std::io::BufReader::new(stream)), Some(file)))
+}
+
+/// The socket file chessarm made; removed when dropped.
+#[derive(Debug)]
+pub struct SocketFile(std::path::PathBuf);
+
+impl Drop for SocketFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
