@@ -2,15 +2,20 @@
 //! switches or Hall sensors under the squares, or a camera program), resolved against the
 //! legal moves.
 //!
-//! A reading is the whole board as the person left it after moving: 64 characters `0`/`1`
-//! from a1, b1, … h1, a2, … to h8 (spaces and `/` between them ignored), a 64-bit bitboard in
-//! hexadecimal (`0x…`, bit 0 = a1, bit 63 = h8), or a FEN board field (`rnbqkbnr/pppppppp/8/…`,
-//! rank 8 first), whose letters also say which piece stands where. The move is the legal move
-//! after which the board reads the same: a capture (one square emptied), castling (four
-//! changes), en passant (the captured pawn's square emptied) are told apart by occupancy alone;
-//! a promotion is not (the squares are the same whatever the pawn becomes) unless the reading
-//! names the pieces, so it is returned as a choice to ask. A reading no legal move gives is
-//! refused with what changed and what was legal from the squares that changed; nothing is played.
+//! A reading is the whole board as it stands: 64 characters `0`/`1` from a1, b1, … h1, a2, … to
+//! h8 (spaces and `/` between them ignored), a 64-bit bitboard in hexadecimal (`0x…`, bit 0 =
+//! a1, bit 63 = h8), or a FEN board field (`rnbqkbnr/pppppppp/8/…`, rank 8 first), whose letters
+//! also say which piece stands where. A reader sends one when the board settles (after the
+//! person's move, and may send some while the person moves). The move is the legal move after
+//! which the board reads the same. Castling (four changes) and en passant (the captured pawn's
+//! square emptied) are told apart by occupancy alone. A capture is not, when the same piece
+//! could take on several squares (only its own square empties: Nxc6, Nxd7 and Nxf7 read
+//! alike): a reading taken while the captured piece was off the board (its square seen empty)
+//! tells which; without one the person is asked. A promotion is asked too (the squares are the
+//! same whatever the pawn becomes) unless the reading names the pieces. A reading with pieces
+//! only lifted (squares emptied, none filled) that no legal move gives is a move in progress;
+//! one that fills a square no legal move fills is refused with what changed and what was legal
+//! from the squares that changed; nothing is played.
 
 use shakmaty::{Bitboard, Board, Chess, Move, Position, Square};
 use std::fmt::Write as _;
@@ -51,9 +56,13 @@ pub enum OccupancyError {
 pub enum Resolved {
     /// Nothing moved (the reading is the position's own board).
     Unchanged,
+    /// Pieces lifted, none put down where a legal move would: the move goes on.
+    InProgress,
     Move(Move),
     /// A pawn reached the last rank: the reading cannot tell the new piece; ask which.
     Promotion(Vec<Move>),
+    /// Several captures read alike and no reading showed which piece was taken: ask which.
+    Choice(Vec<Move>),
 }
 
 /// Parses a reading ([module](self) docs for the forms).
@@ -108,66 +117,100 @@ fn change(before: Bitboard, after: Bitboard) -> String {
     out
 }
 
-/// The legal move of `position` after which the board reads `reading`.
+/// Reads one move from the readings that arrive while the person makes it: remembers the
+/// squares seen emptied since the position's own board was last read (a captured piece lifted
+/// off shows which capture it was).
+#[derive(Debug, Clone, Default)]
+pub struct MoveReader {
+    lifted: Bitboard,
+}
+
+impl MoveReader {
+    /// Forgets the readings so far (after a move was played).
+    pub fn reset(&mut self) {
+        self.lifted = Bitboard::EMPTY;
+    }
+
+    /// What `reading` says of the person's move in `position`
+    /// ([module](self) docs for how).
+    ///
+    /// # Errors
+    ///
+    /// A square filled that no legal move fills, or (pieces named) a board no legal move gives.
+    pub fn read(&mut self, position: &Chess, reading: &Reading) -> Result<Resolved, OccupancyError> {
+        let before = position.board().occupied();
+        let seen = reading.occupied();
+        let same = match reading {
+            Reading::Occupied(bits) => *bits == before,
+            Reading::Pieces(board) => board == position.board(),
+        };
+        if same {
+            self.reset();
+            return Ok(Resolved::Unchanged);
+        }
+        self.lifted |= before & !seen;
+        let candidates: Vec<Move> = position
+            .legal_moves()
+            .into_iter()
+            .filter(|m| {
+                let mut after = position.clone();
+                after.play_unchecked(*m);
+                match reading {
+                    Reading::Occupied(bits) => after.board().occupied() == *bits,
+                    Reading::Pieces(board) => after.board() == board,
+                }
+            })
+            .collect();
+        let seen_text = change(before, seen);
+        let san = |m: &Move| shakmaty::san::San::from_move(position, *m).to_string();
+        match candidates.as_slice() {
+            [] if (seen & !before).is_empty() => Ok(Resolved::InProgress),
+            [] => {
+                // What was legal from the squares the person emptied (or any move, if none).
+                let emptied = before & !seen;
+                let from: Vec<String> = position
+                    .legal_moves()
+                    .into_iter()
+                    .filter(|m| m.from().is_some_and(|f| emptied.contains(f)))
+                    .map(|m| san(&m))
+                    .collect();
+                let expected = if from.is_empty() {
+                    "one of the side to move's pieces should leave its square".to_string()
+                } else {
+                    format!("legal from {}: {}", squares(emptied), from.join(", "))
+                };
+                Err(OccupancyError::NoMove { seen: seen_text, expected })
+            }
+            [one] => Ok(Resolved::Move(*one)),
+            many if many.iter().all(|m| m.is_promotion() && m.from() == many[0].from() && m.to() == many[0].to()) => {
+                Ok(Resolved::Promotion(many.to_vec()))
+            }
+            many => {
+                // Captures that read alike: the one whose victim was seen lifted.
+                let shown: Vec<Move> =
+                    many.iter().copied().filter(|m| m.capture().is_some() && self.lifted.contains(m.to())).collect();
+                match shown.as_slice() {
+                    [one] => Ok(Resolved::Move(*one)),
+                    _ if many.iter().all(|m| m.capture().is_some()) => Ok(Resolved::Choice(many.to_vec())),
+                    _ => Err(OccupancyError::Ambiguous {
+                        seen: seen_text,
+                        count: many.len(),
+                        moves: many.iter().map(san).collect::<Vec<_>>().join(", "),
+                    }),
+                }
+            }
+        }
+    }
+}
+
+/// The legal move of `position` after which the board reads `reading`, from that reading alone
+/// ([`MoveReader::read`] with no earlier readings).
 ///
 /// # Errors
 ///
-/// No legal move gives the reading, or (pieces named, a board that several moves give — which
-/// chess does not allow — or occupancy that only promotions give differs from them) several do.
+/// As [`MoveReader::read`].
 pub fn resolve(position: &Chess, reading: &Reading) -> Result<Resolved, OccupancyError> {
-    let before = position.board().occupied();
-    let seen = reading.occupied();
-    let same = match reading {
-        Reading::Occupied(bits) => *bits == before,
-        Reading::Pieces(board) => board == position.board(),
-    };
-    if same {
-        return Ok(Resolved::Unchanged);
-    }
-    let candidates: Vec<Move> = position
-        .legal_moves()
-        .into_iter()
-        .filter(|m| {
-            let mut after = position.clone();
-            after.play_unchecked(*m);
-            match reading {
-                Reading::Occupied(bits) => after.board().occupied() == *bits,
-                Reading::Pieces(board) => after.board() == board,
-            }
-        })
-        .collect();
-    let seen_text = change(before, seen);
-    match candidates.as_slice() {
-        [] => {
-            // What was legal from the squares the person emptied (or any move, if none).
-            let emptied = before & !seen;
-            let from: Vec<String> = position
-                .legal_moves()
-                .into_iter()
-                .filter(|m| m.from().is_some_and(|f| emptied.contains(f)))
-                .map(|m| shakmaty::san::San::from_move(position, m).to_string())
-                .collect();
-            let expected = if from.is_empty() {
-                "one of the side to move's pieces should leave its square".to_string()
-            } else {
-                format!("legal from {}: {}", squares(emptied), from.join(", "))
-            };
-            Err(OccupancyError::NoMove { seen: seen_text, expected })
-        }
-        [one] => Ok(Resolved::Move(*one)),
-        many if many.iter().all(|m| m.is_promotion() && m.from() == many[0].from() && m.to() == many[0].to()) => {
-            Ok(Resolved::Promotion(many.to_vec()))
-        }
-        many => Err(OccupancyError::Ambiguous {
-            seen: seen_text,
-            count: many.len(),
-            moves: many
-                .iter()
-                .map(|m| shakmaty::san::San::from_move(position, *m).to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
-        }),
-    }
+    MoveReader::default().read(position, reading)
 }
 
 /// The occupancy of `board` as the 64-character reading (a1 … h8).
@@ -211,7 +254,19 @@ mod tests {
                     Resolved::Promotion(choices) => {
                         assert!(m.is_promotion() && choices.contains(&m) && choices.len() == 4, "{fen} {m:?}")
                     }
-                    Resolved::Unchanged => panic!("{fen} {m:?}"),
+                    Resolved::Choice(choices) => {
+                        // Captures alike: with the victim lifted first, the reading tells.
+                        assert!(m.capture().is_some() && choices.contains(&m), "{fen} {m:?}");
+                        let mut reader = MoveReader::default();
+                        let mut lifted = position.board().clone();
+                        let _ = lifted.remove_piece_at(m.to());
+                        assert_eq!(
+                            reader.read(&position, &Reading::Occupied(lifted.occupied())).unwrap(),
+                            Resolved::InProgress
+                        );
+                        assert_eq!(reader.read(&position, &bits).unwrap(), Resolved::Move(m), "{fen} {m:?}");
+                    }
+                    Resolved::Unchanged | Resolved::InProgress => panic!("{fen} {m:?}"),
                 }
                 let named = parse_reading(&board.to_string()).unwrap();
                 assert_eq!(resolve(&position, &named).unwrap(), Resolved::Move(m), "{fen}");
@@ -249,15 +304,43 @@ mod tests {
         let error = resolve(&start, &parse_reading(&reading_of(&board)).unwrap()).unwrap_err();
         let text = error.to_string();
         assert!(text.contains("e2 emptied, e5 filled") && text.contains("legal from e2: e3, e4"), "{text}");
-        // A piece lifted and not put down.
+        // A piece lifted and not put down: a move in progress.
         let mut lifted = start.board().clone();
         let _ = lifted.remove_piece_at(Square::G1);
-        let text = resolve(&start, &parse_reading(&reading_of(&lifted)).unwrap()).unwrap_err().to_string();
-        assert!(text.contains("g1 emptied") && text.contains("Nf3") && text.contains("Nh3"), "{text}");
+        assert_eq!(resolve(&start, &parse_reading(&reading_of(&lifted)).unwrap()).unwrap(), Resolved::InProgress);
+        // A knight put down where it cannot go.
+        let mut wrong = lifted.clone();
+        wrong.set_piece_at(Square::G4, shakmaty::Piece { color: shakmaty::Color::White, role: Role::Knight });
+        let text = resolve(&start, &parse_reading(&reading_of(&wrong)).unwrap()).unwrap_err().to_string();
+        assert!(text.contains("g1 emptied, g4 filled") && text.contains("Nf3") && text.contains("Nh3"), "{text}");
         // Unchanged, and unreadable text.
         assert_eq!(resolve(&start, &parse_reading(&reading_of(start.board())).unwrap()).unwrap(), Resolved::Unchanged);
         for bad in ["", "0101", "0x1g", "rnbqkbnr/pppppppp/8/8", "2".repeat(64).as_str()] {
             assert!(matches!(parse_reading(bad), Err(OccupancyError::Unreadable(_))), "{bad:?}");
         }
+    }
+
+    /// A knight that may take on c6, d7 or f7 reads alike whichever it takes: asked, unless a
+    /// reading showed the victim lifted.
+    #[test]
+    fn captures_that_read_alike_are_told_by_the_lifted_victim_or_asked() {
+        let position = position("4k3/3p1p2/2p5/4N3/8/8/8/4K3 w - - 0 1");
+        let (m, board) = after(&position, "e5d7");
+        let reading = Reading::Occupied(board.occupied());
+        let Resolved::Choice(choices) = resolve(&position, &reading).unwrap() else { panic!() };
+        assert_eq!(choices.len(), 3);
+        let mut reader = MoveReader::default();
+        let mut lifted = position.board().clone();
+        let _ = lifted.remove_piece_at(Square::D7);
+        assert_eq!(reader.read(&position, &Reading::Occupied(lifted.occupied())).unwrap(), Resolved::InProgress);
+        let _ = lifted.remove_piece_at(Square::E5);
+        assert_eq!(reader.read(&position, &Reading::Occupied(lifted.occupied())).unwrap(), Resolved::InProgress);
+        assert_eq!(reader.read(&position, &reading).unwrap(), Resolved::Move(m));
+        // Put back untouched: the reader forgets what it saw.
+        assert_eq!(
+            reader.read(&position, &Reading::Occupied(position.board().occupied())).unwrap(),
+            Resolved::Unchanged
+        );
+        assert!(matches!(reader.read(&position, &reading).unwrap(), Resolved::Choice(_)));
     }
 }

@@ -1,12 +1,14 @@
 //! The driver of the real arm: the goal positions the simulation proved, sent to the servos at
 //! the bus rate, every one checked on the wire first.
 //!
-//! Each bus period the driver reads the four joints' present positions (one `SYNC_READ`),
-//! checks every servo's status (an overload, overheat or voltage error stops the arm), checks
-//! the period's goal — inside the joint's limits, no further than `max_step` from where the
-//! joint is, no faster than the joint's speed limit from the last goal — and only then sends it
-//! (one `SYNC_WRITE`). Anything wrong (a servo that does not answer within the reply timeout, a
-//! fault flag, a goal that fails a check, Ctrl-C) turns the torque off on every servo (one
+//! A move's goal stream is checked whole before any of it is sent: every goal inside the
+//! joints' limits, and from one period to the next no faster than their speed limits allow (a
+//! stream that fails is refused; the servos keep holding where they are). Then each bus period
+//! the driver reads the four joints' present positions (one `SYNC_READ`), checks every servo's
+//! status (an overload, overheat or voltage error stops the arm), checks that the period's goal
+//! is no further than `max_step` from where the joint is, and only then sends it (one
+//! `SYNC_WRITE`). Anything wrong while the arm moves (a servo that does not answer within the
+//! reply timeout, a fault flag, a goal too far, Ctrl-C) turns the torque off on every servo (one
 //! broadcast write, nothing else sent after it) and is a [`DriverError`] naming the joint, the
 //! servo and the values. A dry run opens nothing: it logs the packets it would send, the joints
 //! taken to be at their last goals.
@@ -43,7 +45,7 @@ pub enum DriverError {
     #[error("servo {id} ({joint}): a damaged reply ({error}); torque off")]
     BadReply { id: u8, joint: String, error: PacketError },
     #[error(
-        "{joint}'s goal at t = {t:.3} s is tick {goal}, outside its limits {lower}..{upper} (the setup's joint limits); nothing sent, torque off"
+        "{joint}'s goal at t = {t:.3} s is tick {goal}, outside its limits {lower}..{upper} (the setup's joint limits); the move was not started, the arm holds where it is"
     )]
     OutOfLimits { joint: String, t: f64, goal: i64, lower: i64, upper: i64 },
     #[error(
@@ -51,7 +53,7 @@ pub enum DriverError {
     )]
     TooFar { joint: String, t: f64, goal: i64, present: i64, distance: i64, max: i64 },
     #[error(
-        "{joint}'s goal at t = {t:.3} s moves {change} ticks in one bus period; its speed limit allows {max}; nothing sent, torque off"
+        "{joint}'s goal at t = {t:.3} s moves {change} ticks in one bus period; its speed limit allows {max}; the move was not started, the arm holds where it is"
     )]
     TooFast { joint: String, t: f64, change: i64, max: i64 },
     #[error("interrupted; torque off")]
@@ -234,6 +236,14 @@ impl Driver {
                     let bytes = buffer[..consumed].to_vec();
                     buffer.drain(..consumed);
                     self.note("received", &bytes)?;
+                    if status.id != id && ids.contains(&status.id) {
+                        // A later servo answered: this one did not.
+                        return Err(DriverError::NoReply {
+                            id,
+                            joint: self.joint(id),
+                            waited_ms: self.reply_timeout.as_millis() as u64,
+                        });
+                    }
                     if status.id != id {
                         return Err(DriverError::BadReply {
                             id,
@@ -330,7 +340,7 @@ impl Driver {
         }
         self.guarded(|driver| {
             let present = driver.read_present()?;
-            driver.check_goal(0.0, &start, &present, None)?;
+            driver.check_step(0.0, &start, &present)?;
             // The goal registers at the present positions, then torque on: nothing jumps.
             let data: Vec<Vec<u8>> = present.iter().map(|t| driver.protocol.encode_position(*t)).collect();
             let goals: Vec<(u8, &[u8])> = driver.ids.iter().zip(&data).map(|(id, d)| (*id, d.as_slice())).collect();
@@ -352,41 +362,50 @@ impl Driver {
         })
     }
 
-    /// The checks of a goal against the joints' `present` positions and the `last` goal.
-    fn check_goal(
-        &self,
-        t: f64,
-        goal: &[i64; 4],
-        present: &[i64; 4],
-        last: Option<&[i64; 4]>,
-    ) -> Result<(), DriverError> {
+    /// A move's goal stream checked before anything of it is sent: every goal inside the
+    /// joints' limits, and from one period to the next no faster than their speed limits allow.
+    fn check_stream(&self, goals: &[TickGoal]) -> Result<(), DriverError> {
         let limits = &self.limits;
-        for j in 0..4 {
-            let joint = || format!("joint {} ({})", j + 1, self.names[j]);
-            if goal[j] < limits.lower[j] || goal[j] > limits.upper[j] {
-                return Err(DriverError::OutOfLimits {
-                    joint: joint(),
-                    t,
-                    goal: goal[j],
-                    lower: limits.lower[j],
-                    upper: limits.upper[j],
-                });
-            }
-            if let Some(last) = last {
-                let change = (goal[j] - last[j]).abs();
-                if change > limits.max_change[j] {
-                    return Err(DriverError::TooFast { joint: joint(), t, change, max: limits.max_change[j] });
+        let joint = |j: usize| format!("joint {} ({})", j + 1, self.names[j]);
+        for (k, goal) in goals.iter().enumerate() {
+            for j in 0..4 {
+                if goal.ticks[j] < limits.lower[j] || goal.ticks[j] > limits.upper[j] {
+                    return Err(DriverError::OutOfLimits {
+                        joint: joint(j),
+                        t: goal.t,
+                        goal: goal.ticks[j],
+                        lower: limits.lower[j],
+                        upper: limits.upper[j],
+                    });
+                }
+                if k > 0 {
+                    let change = (goal.ticks[j] - goals[k - 1].ticks[j]).abs();
+                    if change > limits.max_change[j] {
+                        return Err(DriverError::TooFast {
+                            joint: joint(j),
+                            t: goal.t,
+                            change,
+                            max: limits.max_change[j],
+                        });
+                    }
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// A goal about to be sent checked against where the joints are (`present`).
+    fn check_step(&self, t: f64, goal: &[i64; 4], present: &[i64; 4]) -> Result<(), DriverError> {
+        for j in 0..4 {
             let distance = (goal[j] - present[j]).abs();
-            if distance > limits.max_step[j] {
+            if distance > self.limits.max_step[j] {
                 return Err(DriverError::TooFar {
-                    joint: joint(),
+                    joint: format!("joint {} ({})", j + 1, self.names[j]),
                     t,
                     goal: goal[j],
                     present: present[j],
                     distance,
-                    max: limits.max_step[j],
+                    max: self.limits.max_step[j],
                 });
             }
         }
@@ -400,9 +419,14 @@ impl Driver {
     ///
     /// Any [`DriverError`]: the torque is off and nothing else was sent.
     pub fn follow(&mut self, goals: &[TickGoal], cancelled: &dyn Fn() -> bool) -> Result<Followed, DriverError> {
+        // Refused whole before it starts: the servos keep holding where they are.
+        self.check_stream(goals)?;
         self.guarded(|driver| {
             let mut followed = Followed::default();
             let start = Instant::now();
+            // A move's first goal follows the last move's after a pause: it is checked against
+            // where the joints are (the largest step); the speeds were checked within the move.
+            driver.last_goal = None;
             for goal in goals {
                 if cancelled() {
                     return Err(DriverError::Interrupted);
@@ -418,7 +442,7 @@ impl Driver {
                 }
                 let present = driver.read_present()?;
                 let last = driver.last_goal;
-                driver.check_goal(goal.t, &goal.ticks, &present, last.as_ref())?;
+                driver.check_step(goal.t, &goal.ticks, &present)?;
                 for j in 0..4 {
                     followed.largest_lead[j] = followed.largest_lead[j].max((goal.ticks[j] - present[j]).abs());
                     if let Some(last) = last {

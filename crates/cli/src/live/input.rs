@@ -11,7 +11,7 @@
 
 use anyhow::{Context, Result};
 use chessarm_chess::notation::parse_move;
-use chessarm_chess::occupancy::{Resolved, parse_reading, resolve};
+use chessarm_chess::occupancy::{MoveReader, Resolved, parse_reading};
 use chessarm_chess::shakmaty::{Chess, Move, Role};
 use std::io::BufRead;
 
@@ -44,6 +44,7 @@ pub enum Action {
 pub struct Person {
     kind: HumanInput,
     lines: Box<dyn BufRead + Send>,
+    reader: MoveReader,
     /// What was refused, line by line (for the game's record).
     pub refused: Vec<String>,
 }
@@ -56,7 +57,7 @@ impl std::fmt::Debug for Person {
 
 impl Person {
     pub fn new(kind: HumanInput, lines: Box<dyn BufRead + Send>) -> Self {
-        Self { kind, lines, refused: Vec::new() }
+        Self { kind, lines, reader: MoveReader::default(), refused: Vec::new() }
     }
 
     /// The next line (trimmed), `None` at the end of the input.
@@ -93,6 +94,8 @@ impl Person {
     ///
     /// The input could not be read.
     pub fn next(&mut self, position: &Chess) -> Result<Action> {
+        // A new move: what the sensors saw before (the arm's own move) is not part of it.
+        self.reader.reset();
         loop {
             let Some(line) = self.line()? else { return Ok(Action::Quit) };
             if line.is_empty() {
@@ -116,19 +119,38 @@ impl Person {
                     }
                 },
                 HumanInput::Occupancy => {
-                    let resolved = parse_reading(&line).and_then(|reading| resolve(position, &reading));
-                    match resolved {
-                        Ok(Resolved::Unchanged) => {}
-                        Ok(Resolved::Move(m)) => return Ok(Action::Move(m)),
-                        Ok(Resolved::Promotion(choices)) => {
-                            if let Some(m) = self.promotion(&choices)? {
-                                return Ok(Action::Move(m));
-                            }
-                            return Ok(Action::Quit);
+                    let resolved = parse_reading(&line).and_then(|reading| self.reader.read(position, &reading));
+                    let chosen = match resolved {
+                        Ok(Resolved::Unchanged | Resolved::InProgress) => continue,
+                        Ok(Resolved::Move(m)) => Some(m),
+                        Ok(Resolved::Promotion(choices)) => self.promotion(&choices)?,
+                        Ok(Resolved::Choice(choices)) => self.which(position, &choices)?,
+                        Err(error) => {
+                            self.refuse(&line, &error.to_string());
+                            continue;
                         }
-                        Err(error) => self.refuse(&line, &error.to_string()),
-                    }
+                    };
+                    self.reader.reset();
+                    return Ok(chosen.map_or(Action::Quit, Action::Move));
                 }
+            }
+        }
+    }
+
+    /// Asks which of several captures that read alike was made: the move typed (SAN or UCI) on
+    /// the next line; `None` if the input ends.
+    fn which(&mut self, position: &Chess, choices: &[Move]) -> Result<Option<Move>> {
+        let names: Vec<String> =
+            choices.iter().map(|m| chessarm_chess::shakmaty::san::San::from_move(position, *m).to_string()).collect();
+        loop {
+            crate::tell(&format!(
+                "the board reads alike after {}: which was it? (type it; lift the taken piece first next time)\n",
+                names.join(", ")
+            ));
+            let Some(line) = self.line()? else { return Ok(None) };
+            match parse_move(&line, position) {
+                Ok(m) if choices.contains(&m) => return Ok(Some(m)),
+                _ => self.refuse(&line, &format!("'{line}' is not one of {}", names.join(", "))),
             }
         }
     }
