@@ -472,6 +472,10 @@ pub struct PlayArgs {
     /// program connects and writes lines) instead of standard input.
     #[arg(long, value_name = "PATH", requires = "human")]
     pub input_socket: Option<PathBuf>,
+    /// Read your moves from this file instead of standard input: a recorded session, or a
+    /// named pipe (mkfifo) a board's reader program writes into.
+    #[arg(long, value_name = "FILE", requires = "human", conflicts_with = "input_socket")]
+    pub input_file: Option<PathBuf>,
     /// Go on with the game saved in --out's game.pgn (its start and moves, the board standing
     /// as they leave it).
     #[arg(long, requires = "human")]

@@ -247,6 +247,20 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             assert_eq!(json["result"].as_str(), Some("0-1"), "game 2 is the fool's mate: {json}");
             assert!(dir.join("out/play/replay.html").exists());
         }
+        _ if args.iter().any(|a| a == "--human") => {
+            // The person's game is saved as PGN; resumed, it goes on; a dry run logs packets.
+            let out = args.iter().skip_while(|a| *a != "--out").nth(1).unwrap();
+            let pgn = std::fs::read_to_string(dir.join(out).join("game.pgn")).unwrap();
+            assert!(pgn.contains("1. Nc3"), "{pgn}");
+            if args.iter().any(|a| a == "--resume") {
+                assert!(pgn.contains("Bd3"), "{pgn}");
+            }
+            if args.iter().any(|a| a == "--dry-run") {
+                let log = std::fs::read_to_string(dir.join(out).join("bus.jsonl")).unwrap();
+                assert!(log.lines().count() > 100, "{log}");
+            }
+            assert!(terminal.contains("not played"), "the README's inputs hold a refused line: {terminal}");
+        }
         Some("play") if args.iter().any(|a| a == "--moves") => {
             assert!(terminal.contains("replay.html"), "{terminal}");
         }

@@ -150,7 +150,7 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         ];
     }
     let resumed = pgn.moves.len();
-    let (lines, socket) = crate::live::input::lines_from(args.input_socket.as_deref())?;
+    let (lines, socket) = crate::live::input::lines_from(args.input_socket.as_deref(), args.input_file.as_deref())?;
     Ok(Source::Human(Box::new(HumanGame {
         person,
         input: crate::live::input::Person::new(args.human_input, lines),

@@ -98,7 +98,8 @@ impl Person {
         self.reader.reset();
         loop {
             let Some(line) = self.line()? else { return Ok(Action::Quit) };
-            if line.is_empty() {
+            // Blank lines and comments (a recorded session's notes).
+            if line.is_empty() || line.starts_with('#') {
                 continue;
             }
             match line.to_ascii_lowercase().as_str() {
@@ -176,14 +177,23 @@ impl Person {
     }
 }
 
-/// The person's lines: standard input, or a Unix socket at `path` that chessarm creates,
+/// The person's lines: standard input, a file (or named pipe) at `file`, or a Unix socket at
+/// `socket` that chessarm creates,
 /// listens on (one client at a time: a reader program connects and writes lines) and removes
 /// when the game ends. An existing file at `path` is refused, not replaced.
 ///
 /// # Errors
 ///
 /// The socket cannot be made.
-pub fn lines_from(socket: Option<&std::path::Path>) -> Result<(Box<dyn BufRead + Send>, Option<SocketFile>)> {
+pub fn lines_from(
+    socket: Option<&std::path::Path>,
+    file: Option<&std::path::Path>,
+) -> Result<(Box<dyn BufRead + Send>, Option<SocketFile>)> {
+    if let Some(path) = file {
+        let opened =
+            std::fs::File::open(path).with_context(|| format!("--input-file {}: cannot read it", path.display()))?;
+        return Ok((Box::new(std::io::BufReader::new(opened)), None));
+    }
     let Some(path) = socket else {
         return Ok((Box::new(std::io::BufReader::new(std::io::stdin())), None));
     };
