@@ -95,13 +95,44 @@ pub enum Command {
     Tune(TuneArgs),
     /// Play chess with the simulated arm: a PGN game, a move list, or against an engine.
     Play(PlayArgs),
+    /// Where the board lies (and the joints' zero errors) from the arm touching square centres:
+    /// angles typed (--touch) or read over the servos' bus (--port); a fitted setup file, the
+    /// residual per touch printed and plotted.
+    Calibrate(CalibrateArgs),
     /// A simulated servo bus on a pseudo-terminal (for `play --port` without hardware, and
     /// the vendors' SDKs): the setup's servos answering their protocol, the arm's dynamics
-    /// behind them. Prints the device's path, then serves until Ctrl-C.
+    /// behind them. Prints the device's path, then serves until Ctrl-C; `pose Q1,Q2,Q3,Q4`
+    /// lines on its standard input move the arm by hand while its torque is off.
     BusSim(BusSimArgs),
     /// Monte Carlo: randomised trials (sensor noise, model errors, piece masses) of each
     /// controller; success rate and placement-error distribution.
     Robustness(RobustnessArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// A touch: the square whose centre the tool tip touched and the joint angles then, rad
+    /// (the setup's sense), e.g. `--touch a1=0.62,1.2,-1.9,-0.87`; repeat for each (at least 3; 4
+    /// with --zeros, at different distances from the base).
+    #[arg(long = "touch", value_name = "SQUARE=Q1,Q2,Q3,Q4", allow_hyphen_values = true)]
+    pub touches: Vec<String>,
+    /// Read the angles from the servos on this serial device instead: their torque goes off,
+    /// and for each of --squares you move the tool tip onto its centre and press Enter.
+    #[arg(long, value_name = "DEVICE")]
+    pub port: Option<PathBuf>,
+    /// With --port: the squares to touch, in order.
+    #[arg(long, value_delimiter = ',', default_value = "a1,h1,h8,a8")]
+    pub squares: Vec<String>,
+    /// Fit the zero errors of joints 2–4 too (written as `[servo_bus] zero_ticks` with servos).
+    #[arg(long)]
+    pub zeros: bool,
+    /// With --port: how long a servo may take to answer, ms.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    pub reply_timeout_ms: u64,
+    /// Output folder: setup.toml (the setup with the fitted board), residuals.png,
+    /// calibration.json (and bus.jsonl with --port).
+    #[arg(long, default_value = "out/calibrate")]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, Args)]

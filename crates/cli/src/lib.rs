@@ -259,6 +259,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Play(args)) => Some(&args.out),
         Some(Command::Robustness(args)) => Some(&args.out),
         Some(Command::Plan(args)) => Some(&args.out),
+        Some(Command::Calibrate(args)) => Some(&args.out),
         Some(
             Command::Dynamics(_)
             | Command::Gains(_)
@@ -293,6 +294,7 @@ fn dispatch(setup: &Setup, command: Option<Command>) -> Result<()> {
         }
         Some(Command::Play(args)) => commands::play::run(setup, &args),
         Some(Command::BusSim(args)) => commands::bus_sim::run(setup, &args),
+        Some(Command::Calibrate(args)) => commands::calibrate::run(setup, &args),
         Some(Command::Robustness(mut args)) => {
             args.shard = args::resolve_shard(args.shard, &args.batch, |name| std::env::var(name).ok())
                 .map_err(anyhow::Error::msg)?;

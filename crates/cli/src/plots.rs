@@ -520,6 +520,42 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
     })
 }
 
+/// A heat map of the board: each square's value, grey where it has none (`grey` says why, with
+/// the first square's reason).
+pub fn plot_squares(
+    path: &std::path::Path,
+    title: &str,
+    value_label: &str,
+    values: impl Iterator<Item = (chessarm_chess::shakmaty::Square, std::result::Result<f64, String>)>,
+    grey: &str,
+) -> Result<()> {
+    let mut cells = vec![vec![None; 8]; 8];
+    let mut failed = Vec::new();
+    for (square, value) in values {
+        let (file, rank) = (usize::from(u8::from(square.file())), usize::from(u8::from(square.rank())));
+        match value {
+            Ok(v) => cells[rank][file] = Some(v),
+            Err(why) => failed.push(why),
+        }
+    }
+    let files: Vec<f64> = (1..=8).map(f64::from).collect();
+    plot_heat_map(
+        path,
+        &HeatMap {
+            title,
+            x_label: "file (1 = a)",
+            y_label: "rank",
+            value_label,
+            x_values: &files,
+            y_values: &files,
+            y_names: None,
+            values: &cells,
+            marked: None,
+            note: failed.first().map(|why| format!("grey: {grey} ({} squares), e.g. {why}", failed.len())),
+        },
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

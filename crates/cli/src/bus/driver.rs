@@ -310,6 +310,16 @@ impl Driver {
         Ok(present)
     }
 
+    /// The joints' present positions, ticks, every servo's status checked (calibration reads
+    /// the arm a person moved by hand).
+    ///
+    /// # Errors
+    ///
+    /// Any [`DriverError`] of the bus.
+    pub fn read_joints(&mut self) -> Result<[i64; 4], DriverError> {
+        self.read_present()
+    }
+
     /// Torque off on every servo: one broadcast write, no reply awaited.
     pub fn torque_off(&mut self) -> std::io::Result<()> {
         let packet = self.protocol.write(Protocol::BROADCAST, self.protocol.torque_enable(), &[0]);

@@ -465,17 +465,45 @@ impl SimulatedBus {
         self.bank.send(&goal, &self.lower, &self.upper);
     }
 
-    /// Serves the bus on `terminal` until `stop()` says so.
+    /// Puts the arm at `q` (rad, the model's sense) at rest, as a person's hand would move it:
+    /// only while every joint's torque is off (a held joint cannot be moved by hand). Whether
+    /// it was moved.
+    pub fn move_by_hand(&mut self, q: JointVector<4>) -> bool {
+        if self.servos.iter().any(|s| s.joint.is_some() && s.torque) {
+            return false;
+        }
+        self.state = JointState::at_rest(q);
+        // The firmware's targets start again where the joints now are.
+        if let Some(bank) = PositionBank::holding(&self.bank.actuators(), DT, self.plant.model(), &q, &q) {
+            self.bank = bank;
+        }
+        self.refresh();
+        true
+    }
+
+    /// Serves the bus on `terminal` until `stop()` says so; angles from `hand` (rad, the
+    /// model's sense) move the arm by hand ([`SimulatedBus::move_by_hand`]).
     ///
     /// # Errors
     ///
     /// The terminal failed, or the dynamics.
-    pub fn serve(&mut self, terminal: &mut super::port::PseudoTerminal, stop: impl Fn() -> bool) -> anyhow::Result<()> {
+    pub fn serve(
+        &mut self,
+        terminal: &mut super::port::PseudoTerminal,
+        stop: impl Fn() -> bool,
+        hand: Option<&std::sync::mpsc::Receiver<JointVector<4>>>,
+    ) -> anyhow::Result<()> {
         use std::io::Read;
         let mut input = Vec::new();
         let mut output = Vec::new();
         let mut chunk = [0u8; 1024];
         while !stop() {
+            while let Some(q) = hand.and_then(|h| h.try_recv().ok()) {
+                self.catch_up()?;
+                if !self.move_by_hand(q) {
+                    crate::tell("bus-sim: not moved: a joint's torque is on\n");
+                }
+            }
             if !super::port::wait_readable(&terminal.controller, std::time::Duration::from_millis(20))? {
                 continue;
             }

@@ -3,7 +3,6 @@
 
 use crate::cli::BoardArgs;
 use crate::config::Setup;
-use crate::plots::{HeatMap, plot_heat_map};
 use anyhow::{Result, anyhow};
 use chessarm_chess::reach::{check_table, fit_board, square_margins};
 use chessarm_chess::sag::{SquareHold, sag_map};
@@ -149,43 +148,7 @@ fn plot_reach_map(
     );
     let values =
         margins.iter().map(|(square, margin)| (*square, margin.as_ref().map(|m| m * 1e3).map_err(Clone::clone)));
-    plot_squares(path, &title, "radial margin (mm)", values, "not served")
-}
-
-/// A heat map of the board: each square's value, grey where it has none (`grey` says why, with
-/// the first square's reason).
-fn plot_squares(
-    path: &std::path::Path,
-    title: &str,
-    value_label: &str,
-    values: impl Iterator<Item = (chessarm_chess::shakmaty::Square, std::result::Result<f64, String>)>,
-    grey: &str,
-) -> Result<()> {
-    let mut cells = vec![vec![None; 8]; 8];
-    let mut failed = Vec::new();
-    for (square, value) in values {
-        let (file, rank) = (usize::from(u8::from(square.file())), usize::from(u8::from(square.rank())));
-        match value {
-            Ok(v) => cells[rank][file] = Some(v),
-            Err(why) => failed.push(why),
-        }
-    }
-    let files: Vec<f64> = (1..=8).map(f64::from).collect();
-    plot_heat_map(
-        path,
-        &HeatMap {
-            title,
-            x_label: "file (1 = a)",
-            y_label: "rank",
-            value_label,
-            x_values: &files,
-            y_values: &files,
-            y_names: None,
-            values: &cells,
-            marked: None,
-            note: failed.first().map(|why| format!("grey: {grey} ({} squares), e.g. {why}", failed.len())),
-        },
-    )
+    crate::plots::plot_squares(path, &title, "radial margin (mm)", values, "not served")
 }
 
 /// The sag table for people: per rank (8 at the top), the largest horizontal tool-tip error of
@@ -265,7 +228,7 @@ fn plot_sag_map(path: &std::path::Path, sag: &[SquareHold]) -> Result<()> {
         };
         (hold.square, value)
     });
-    plot_squares(path, &title, "tool-tip error (mm)", values, "not reached")
+    crate::plots::plot_squares(path, &title, "tool-tip error (mm)", values, "not reached")
 }
 
 /// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they

@@ -1,5 +1,7 @@
 //! `bus-sim`: the setup's servos on a simulated bus ([`crate::bus::simulator`]) on a
-//! pseudo-terminal, for a driver (`play --port`) or a vendor's SDK to talk to.
+//! pseudo-terminal, for a driver (`play --port`, `calibrate --port`) or a vendor's SDK to talk
+//! to. A line `pose Q1,Q2,Q3,Q4` on its standard input (rad, the setup's sense) moves the arm by
+//! hand while its torque is off.
 
 use crate::bus::port::PseudoTerminal;
 use crate::bus::simulator::{Faults, SimulatedBus};
@@ -43,5 +45,25 @@ pub fn run(setup: &Setup, args: &BusSimArgs) -> Result<()> {
         bus.ids,
         bus.gripper.map(|g| format!(", gripper {}", g.id)).unwrap_or_default()
     ));
-    sim.serve(&mut terminal, crate::cancelled)
+    // `pose Q1,Q2,Q3,Q4` lines on standard input (rad, the setup's sense) move the arm by hand
+    // while its torque is off (calibration's tests touch squares so).
+    let (sender, receiver) = std::sync::mpsc::channel();
+    let signs = setup.convention.signs;
+    std::thread::spawn(move || {
+        use std::io::BufRead;
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            let Some(angles) = line.trim().strip_prefix("pose ") else { continue };
+            match crate::args::angles(angles) {
+                Ok(user) => {
+                    let q = JointVector::<4>::from(std::array::from_fn::<f64, 4, _>(|j| signs[j] * user[j]));
+                    if sender.send(q).is_err() {
+                        break;
+                    }
+                }
+                Err(e) => crate::tell(&format!("bus-sim: pose {angles}: {e}\n")),
+            }
+        }
+    });
+    sim.serve(&mut terminal, crate::cancelled, Some(&receiver))
 }

@@ -2,6 +2,7 @@
 
 pub mod board;
 pub mod bus_sim;
+pub mod calibrate;
 pub mod demo;
 pub mod gains;
 pub mod kinematics;

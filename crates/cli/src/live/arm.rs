@@ -133,6 +133,26 @@ impl RealArm {
         Ok(followed)
     }
 
+    /// The joints' angles now, rad (the setup's sense), read over the bus.
+    ///
+    /// # Errors
+    ///
+    /// Any [`DriverError`] of the bus.
+    pub fn read_angles(&mut self) -> Result<[f64; 4], DriverError> {
+        let ticks = self.driver.read_joints()?;
+        Ok(std::array::from_fn(|j| self.bus.angle(j, ticks[j] as f64)))
+    }
+
+    /// Torque off on every servo (the person moves the arm by hand).
+    ///
+    /// # Errors
+    ///
+    /// The line failed.
+    pub fn torque_off(&mut self) -> std::io::Result<()> {
+        self.enabled = false;
+        self.driver.torque_off()
+    }
+
     pub fn packets_sent(&self) -> usize {
         self.driver.packets_sent
     }

@@ -107,6 +107,23 @@ pub struct BusSim {
 impl BusSim {
     /// Starts `chessarm <setup…> bus-sim --log <dir>/bus-sim.jsonl <extra…>`.
     pub fn start(dir: &std::path::Path, setup: &[&str], extra: &[&str]) -> Self {
+        Self::spawn(dir, setup, extra, false)
+    }
+
+    /// As [`BusSim::start`], its standard input open for `pose` lines ([`BusSim::say`]).
+    pub fn start_with_stdin(dir: &std::path::Path, setup: &[&str], extra: &[&str]) -> Self {
+        Self::spawn(dir, setup, extra, true)
+    }
+
+    /// A line to bus-sim's standard input.
+    pub fn say(&mut self, line: &str) {
+        use std::io::Write;
+        let stdin = self.child.stdin.as_mut().unwrap();
+        stdin.write_all(format!("{line}\n").as_bytes()).unwrap();
+        stdin.flush().unwrap();
+    }
+
+    fn spawn(dir: &std::path::Path, setup: &[&str], extra: &[&str], stdin: bool) -> Self {
         use std::io::BufRead;
         let log = dir.join("bus-sim.jsonl");
         let mut args: Vec<&str> = setup.to_vec();
@@ -114,7 +131,7 @@ impl BusSim {
         args.extend(extra);
         let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))
             .args(&args)
-            .stdin(std::process::Stdio::null())
+            .stdin(if stdin { std::process::Stdio::piped() } else { std::process::Stdio::null() })
             .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::piped())
             .spawn()

@@ -1,6 +1,7 @@
 //! The arm: model, kinematics, inverse kinematics and dynamics.
 
 pub mod bodies;
+pub mod calibration;
 pub mod chain;
 pub mod dynamics;
 pub mod kinematics;
