@@ -247,6 +247,15 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             assert_eq!(json["result"].as_str(), Some("0-1"), "game 2 is the fool's mate: {json}");
             assert!(dir.join("out/play/replay.html").exists());
         }
+        Some("calibrate") => {
+            // The README's figures: the board found moved 8 mm and turned 2°.
+            let result: Value =
+                serde_json::from_slice(&std::fs::read(dir.join("calibration/calibration.json")).unwrap()).unwrap();
+            assert!((result["moved_mm"].as_f64().unwrap() - 8.0).abs() < 0.2, "{result}");
+            assert!((result["turned_deg"].as_f64().unwrap() - 2.0).abs() < 0.02, "{result}");
+            assert!(result["largest_residual_mm"].as_f64().unwrap() < 0.21, "{result}");
+            assert!(dir.join("calibration/setup.toml").is_file() && dir.join("calibration/residuals.png").is_file());
+        }
         _ if args.iter().any(|a| a == "--human") => {
             // The person's game is saved as PGN; resumed, it goes on; a dry run logs packets.
             let out = args.iter().skip_while(|a| *a != "--out").nth(1).unwrap();
