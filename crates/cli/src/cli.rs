@@ -507,6 +507,11 @@ pub struct PlayArgs {
     /// named pipe (mkfifo) a board's reader program writes into.
     #[arg(long, value_name = "FILE", requires = "human", conflicts_with = "input_socket")]
     pub input_file: Option<PathBuf>,
+    /// Serve a live page on 127.0.0.1:PORT (0: any free port; the address is printed): the
+    /// arm in 3D, a board to click your moves on (they replace standard input), the move list
+    /// and the built-in engine's evaluation.
+    #[arg(long, value_name = "PORT", requires = "human", conflicts_with_all = ["input_socket", "input_file"])]
+    pub live: Option<u16>,
     /// Go on with the game saved in --out's game.pgn (its start and moves, the board standing
     /// as they leave it).
     #[arg(long, requires = "human")]

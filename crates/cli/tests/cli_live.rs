@@ -505,3 +505,103 @@ fn the_live_loops_bad_input_is_named() {
     );
     common::assert_one_line_error(&chessarm(&["bus-sim", "--lose-reply", "3x"]), &["'3x'", "ID@N"]);
 }
+
+/// Why the browser test cannot run here, if it cannot (Chromium, Node.js, playwright-core).
+fn missing_browser() -> Option<String> {
+    let chromium = std::env::var("CHESSARM_CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
+    if !Path::new(&chromium).exists() {
+        return Some(format!("{chromium} is not installed"));
+    }
+    let browser = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser/node_modules/playwright-core");
+    (!browser.exists()).then(|| "playwright-core is not installed (npm ci in crates/cli/tests/browser)".into())
+}
+
+/// 20 moves clicked on the live page in headless Chromium against the built-in engine, the
+/// OpenManipulator-X answering on the simulated Dynamixel bus: the page on 127.0.0.1 only,
+/// nothing loaded from anywhere else, no page error; after each click the arm's reply on the
+/// page's board and move list; the 3D scene of the game loaded; every piece placed; the PGN as
+/// python-chess reads it the game played. A second game on the same port is refused, naming it.
+#[test]
+#[cfg_attr(
+    not(all(tool_browser, tool_python)),
+    ignore = "needs Chromium, Node.js, playwright-core and CHESSARM_PYTHON with python-chess; see docs/testing.md"
+)]
+fn twenty_moves_clicked_on_the_live_page_with_the_arm_on_its_bus() {
+    if let Some(reason) = missing_browser() {
+        panic!("this test needs a browser: {reason} (see docs/testing.md)");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let arm = open_manipulator(dir.path());
+    let reference = engine_game(dir.path());
+    let white: Vec<&str> = reference.iter().step_by(2).map(String::as_str).collect();
+    let sim = BusSim::start(dir.path(), &strs(&arm.setup()), &[]);
+    let out = dir.path().join("game");
+    let mut args = arm.setup();
+    args.extend(
+        ["play", "--human", "white", "--live", "0", "--port", &sim.device, "--out", out.to_str().unwrap()]
+            .map(String::from),
+    );
+    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(&args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The page's address, from the line chessarm prints.
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    let url = loop {
+        let mut line = String::new();
+        assert!(std::io::BufRead::read_line(&mut stderr, &mut line).unwrap() > 0, "no live page: {seen}");
+        seen.push_str(&line);
+        if let Some(at) = line.find("http://127.0.0.1:") {
+            break line[at..].split_whitespace().next().unwrap().to_string();
+        }
+    };
+    let rest = std::thread::spawn(move || {
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut stderr, &mut text).unwrap();
+        text
+    });
+    // The same port again: refused, naming it.
+    let port = url.trim_end_matches('/').rsplit(':').next().unwrap().to_string();
+    let again =
+        chessarm(&["play", "--human", "white", "--live", &port, "--out", dir.path().join("again").to_str().unwrap()]);
+    common::assert_one_line_error(&again, &[&format!("--live {port}"), "127.0.0.1"]);
+    let screenshot = dir.path().join("live.png");
+    let probe = Command::new("node")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser/live.mjs"))
+        .args([&url, screenshot.to_str().unwrap(), &white.join(",")])
+        .output()
+        .unwrap();
+    let status = child.wait().unwrap();
+    let stderr_text = rest.join().unwrap();
+    assert!(probe.status.success(), "{}", String::from_utf8_lossy(&probe.stderr));
+    let report: Value = serde_json::from_slice(&probe.stdout).unwrap();
+    assert!(status.success(), "{stderr_text}");
+    assert_eq!(report["errors"].as_array().unwrap().len(), 0, "{report}");
+    // Only the page's own address (and the blobs the 3D scene makes of its scripts).
+    for request in report["requests"].as_array().unwrap() {
+        let request = request.as_str().unwrap();
+        assert!(request.starts_with(&url) || request.starts_with(&format!("blob:{url}")), "{request}");
+    }
+    assert_eq!(report["clicked"].as_array().unwrap().len(), 20, "{report}");
+    let plies: Vec<u64> = report["plies"].as_array().unwrap().iter().map(|p| p.as_u64().unwrap()).collect();
+    assert_eq!(plies, (1..=20).map(|k| 2 * k).collect::<Vec<u64>>());
+    assert_eq!(report["scene"]["ready"], true);
+    assert_eq!(report["scene"]["moves"], 40);
+    assert!(report["moves_text"].as_str().unwrap().starts_with("1. "), "{report}");
+    let evaluation = report["evaluation_text"].as_str().unwrap();
+    assert!(evaluation.parse::<f64>().is_ok(), "{evaluation}");
+    let game = json_file(&out.join("game.json"));
+    assert_eq!(game["misplaced"].as_array().unwrap().len(), 0, "{}", game["misplaced"]);
+    assert_eq!(game["clearance"]["contacts"], 0);
+    assert_eq!(game["real_arm"]["moves"], 20);
+    let read = python_chess_reading(&out);
+    let played: Vec<&str> = read["uci"].as_array().unwrap().iter().map(|m| m.as_str().unwrap()).collect();
+    assert_eq!(played, reference.iter().map(String::as_str).collect::<Vec<_>>());
+    let copy = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/test-artifacts");
+    std::fs::create_dir_all(&copy).unwrap();
+    std::fs::copy(&screenshot, copy.join("live-page.png")).unwrap();
+}

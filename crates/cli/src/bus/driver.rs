@@ -107,8 +107,9 @@ pub struct Followed {
     pub largest_lead: [i64; 4],
     /// The largest |goal − last goal| per joint, ticks.
     pub largest_change: [i64; 4],
-    /// The latest a period's packets went out after their time, s.
-    pub largest_lateness: f64,
+    /// How far the stream slid behind the plan's clock because the machine was late, s (the
+    /// goals then go out later, never in a burst).
+    pub slid: f64,
 }
 
 /// The driver: a wire, the servos' addresses, the checks and a log of every packet.
@@ -434,6 +435,7 @@ impl Driver {
         self.guarded(|driver| {
             let mut followed = Followed::default();
             let start = Instant::now();
+            let mut slid = Duration::ZERO;
             // A move's first goal follows the last move's after a pause: it is checked against
             // where the joints are (the largest step); the speeds were checked within the move.
             driver.last_goal = None;
@@ -442,12 +444,15 @@ impl Driver {
                     return Err(DriverError::Interrupted);
                 }
                 if !driver.is_dry_run() {
-                    let due = start + Duration::from_secs_f64(goal.t.max(0.0));
+                    // A period late (the machine busy) slides the rest of the stream: goals are
+                    // never sent in a burst to catch up, which would make the goal run ahead of
+                    // the joints by the plan's motion over the delay.
+                    let due = start + slid + Duration::from_secs_f64(goal.t.max(0.0));
                     let now = Instant::now();
                     if due > now {
                         std::thread::sleep(due - now);
                     } else {
-                        followed.largest_lateness = followed.largest_lateness.max((now - due).as_secs_f64());
+                        slid += now - due;
                     }
                 }
                 let present = driver.read_present()?;
@@ -482,6 +487,7 @@ impl Driver {
                 }
                 followed.periods += 1;
             }
+            followed.slid = slid.as_secs_f64();
             driver.log.flush()?;
             Ok(followed)
         })

@@ -49,6 +49,8 @@ struct HumanGame {
     ended: Option<(String, String)>,
     /// The socket the input comes from, removed at the end.
     _socket: Option<crate::live::input::SocketFile>,
+    /// The live page, if served (`--live`).
+    live: Option<crate::live::page::LivePage>,
     /// Per robot move: the engine's thinking and the time from the person's move to the arm
     /// starting less that thinking (planning, checking and simulating the move), s.
     timings: Vec<RobotTiming>,
@@ -150,7 +152,18 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         ];
     }
     let resumed = pgn.moves.len();
-    let (lines, socket) = crate::live::input::lines_from(args.input_socket.as_deref(), args.input_file.as_deref())?;
+    let (lines, socket, live): (Box<dyn std::io::BufRead + Send>, _, _) = match args.live {
+        Some(port) => {
+            let (page, clicks) = crate::live::page::LivePage::serve(port)?;
+            crate::tell(&format!("live page: {} (open it in a browser; your moves are clicked there)\n", page.url));
+            (Box::new(crate::live::page::PageLines::new(clicks)), None, Some(page))
+        }
+        None => {
+            let (lines, socket) =
+                crate::live::input::lines_from(args.input_socket.as_deref(), args.input_file.as_deref())?;
+            (lines, socket, None)
+        }
+    };
     Ok(Source::Human(Box::new(HumanGame {
         person,
         input: crate::live::input::Person::new(args.human_input, lines),
@@ -160,6 +173,7 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         relocations: Vec::new(),
         ended: None,
         _socket: socket,
+        live,
         timings: Vec::new(),
     })))
 }
@@ -326,8 +340,15 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             )
         })
         .transpose()?;
-    let outputs =
-        Outputs { setup, moves_dir: &moves_dir, hardware_dir: &hardware_dir, servo_bus: servo_bus.as_ref(), args };
+    let outputs = Outputs {
+        setup,
+        start_table: &start_table,
+        controller: &settings_name,
+        moves_dir: &moves_dir,
+        hardware_dir: &hardware_dir,
+        servo_bus: servo_bus.as_ref(),
+        args,
+    };
     let mut played = || -> Result<()> {
         if let Source::Human(human) = &mut source {
             return play_human(human, &mut game, &mut kept, &outputs, &bar, real_arm.as_mut());
@@ -486,6 +507,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
 /// Where a game's per-move files go.
 struct Outputs<'a> {
     setup: &'a Setup,
+    /// The table at the start and the controller's name (for the live page's replay).
+    start_table: &'a chessarm_chess::table::Table,
+    controller: &'a str,
     moves_dir: &'a Path,
     hardware_dir: &'a Path,
     servo_bus: Option<&'a crate::actuators::ServoBus>,
@@ -623,6 +647,7 @@ fn play_human(
     // When the person's last move was read (for the arm's latency).
     let mut person_moved = Instant::now();
     human.pgn.save(&pgn_path, "*")?;
+    publish(human, game, kept, out, "")?;
     loop {
         if crate::cancelled() {
             return Err(crate::interrupted());
@@ -703,7 +728,77 @@ fn play_human(
             kept.keep(report, out, bar)?;
         }
         human.pgn.save(&pgn_path, "*")?;
+        publish(human, game, kept, out, "")?;
     }
+}
+
+/// The live page's view of the game now (if it is served): the board, the moves, whose turn,
+/// the legal moves, the built-in engine's evaluation, and the replay of the game so far.
+fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, status: &str) -> Result<()> {
+    use chessarm_chess::shakmaty::{CastlingMode, EnPassantMode, fen::Fen};
+    let Some(page) = &human.live else { return Ok(()) };
+    let position = game.position();
+    let over = game.outcome().is_some() || human.ended.is_some();
+    let your_turn = !over && position.turn() == human.person;
+    let evaluation = if game.outcome().is_some() {
+        None
+    } else {
+        let score =
+            BuiltinEngine::new(2, None).search(position).ok().map(|s| f64::from(s.score.clamp(-9_900, 9_900)) / 100.0);
+        score.map(|s| if position.turn() == Color::White { s } else { -s })
+    };
+    let mut list = String::new();
+    let mut replayed = human.pgn.start.clone();
+    for (k, (m, _)) in human.pgn.moves.iter().enumerate() {
+        if replayed.turn() == Color::White || k == 0 {
+            let dots = if replayed.turn() == Color::White { "." } else { "..." };
+            list.push_str(&format!("{}{dots} ", replayed.fullmoves()));
+        }
+        let san = chessarm_chess::shakmaty::san::SanPlus::from_move_and_play_unchecked(&mut replayed, *m);
+        list.push_str(&format!("{san} "));
+        if replayed.turn() == Color::White {
+            list.push('\n');
+        }
+    }
+    let status = if !status.is_empty() {
+        status.to_string()
+    } else if let Some((result, reason)) = &human.ended {
+        format!("{result}: {reason}")
+    } else if let Some(outcome) = game.outcome() {
+        format!("{}: {}", outcome.result, outcome.reason)
+    } else if your_turn {
+        "your move: click a piece, then its square".to_string()
+    } else {
+        "the arm is moving".to_string()
+    };
+    let state = json!({
+        "fen": Fen::from_position(position, EnPassantMode::Legal).to_string(),
+        "person": if human.person == Color::White { "white" } else { "black" },
+        "your_turn": your_turn,
+        "legal": if your_turn { position.legal_moves().iter().map(|m| m.to_uci(CastlingMode::Standard).to_string()).collect::<Vec<_>>() } else { Vec::new() },
+        "last_uci": human.pgn.moves.last().map(|(m, _)| m.to_uci(CastlingMode::Standard).to_string()),
+        "last_robot_ply": kept.reports.iter().rev().find(|r| r.mover == Mover::Robot).map(|r| r.ply),
+        "plies": human.pgn.moves.len(),
+        "move_list": list.trim_end(),
+        "evaluation": evaluation,
+        "status": status,
+        "over": over,
+        "replay_version": kept.reports.len(),
+    });
+    let replay = Replay {
+        title: format!("chessarm: a person against the arm, {} plies", human.pgn.moves.len()),
+        arm: &out.setup.arm,
+        board: &out.setup.board,
+        pieces: &out.setup.pieces,
+        table: out.start_table,
+        tolerance: out.args.tolerance_mm / 1e3,
+        note: String::new(),
+        runs: vec![kept.replay.clone().finish(out.controller)],
+    };
+    let mut html = Vec::new();
+    crate::replay::write_replay_html(&mut html, &replay)?;
+    page.show(state, html);
+    Ok(())
 }
 
 /// The person's game in game.json: sides, input, what was refused, and per robot move the
@@ -729,7 +824,8 @@ fn human_json(human: &HumanGame, args: &PlayArgs) -> Value {
 }
 
 /// The real arm's record in game.json: packets sent and, over the moves, the largest lead of
-/// a goal over the present position and change between goals (ticks), and lateness (s).
+/// a goal over the present position and change between goals (ticks), and how far a move's
+/// stream slid behind its clock when the machine was late (s).
 fn real_arm_json(arm: &crate::live::arm::RealArm) -> Value {
     let lead: [i64; 4] = std::array::from_fn(|j| arm.followed.iter().map(|f| f.largest_lead[j]).max().unwrap_or(0));
     let change: [i64; 4] = std::array::from_fn(|j| arm.followed.iter().map(|f| f.largest_change[j]).max().unwrap_or(0));
@@ -740,7 +836,7 @@ fn real_arm_json(arm: &crate::live::arm::RealArm) -> Value {
         "packets_sent": arm.packets_sent(),
         "largest_lead_ticks": lead,
         "largest_change_ticks": change,
-        "largest_lateness_s": arm.followed.iter().map(|f| f.largest_lateness).fold(0.0, f64::max),
+        "largest_slide_s": arm.followed.iter().map(|f| f.slid).fold(0.0, f64::max),
     })
 }
 
@@ -1087,6 +1183,7 @@ fn game_json(
 /// The game as the replay shows it, built move by move: the arm at rest at its home pose at
 /// t = 0, then every robot move's recorded steps at the display rate and its simulated end
 /// state at its end, every piece moved, every move on the timeline.
+#[derive(Clone)]
 struct ReplayBuilder {
     frames: Vec<Frame>,
     moves: Vec<ReplayMove>,

@@ -1,8 +1,9 @@
-//! The live loop's pieces (`play --human`): the person's input ([`input`]), the real arm
-//! ([`arm`]), and the game's PGN record kept as it is played.
+//! The live loop's pieces (`play --human`): the person's input ([`input`]), the live page
+//! ([`page`]), the real arm ([`arm`]), and the game's PGN record kept as it is played.
 
 pub mod arm;
 pub mod input;
+pub mod page;
 
 use anyhow::{Context, Result};
 use chessarm_chess::notation::write_pgn;
