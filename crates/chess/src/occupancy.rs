@@ -13,7 +13,9 @@
 //! alike): a reading taken while the captured piece was off the board (its square seen empty)
 //! tells which; without one the person is asked. A promotion is asked too (the squares are the
 //! same whatever the pawn becomes) unless the reading names the pieces. A reading with pieces
-//! only lifted (squares emptied, none filled) that no legal move gives is a move in progress;
+//! only lifted (squares emptied, none filled) that no legal move gives is a move in progress, and
+//! so is a rook's move from its corner while castling that side is legal (the king may follow:
+//! the same reading again plays the rook's move);
 //! one that fills a square no legal move fills is refused with what changed and what was legal
 //! from the squares that changed; nothing is played.
 
@@ -123,12 +125,16 @@ fn change(before: Bitboard, after: Bitboard) -> String {
 #[derive(Debug, Clone, Default)]
 pub struct MoveReader {
     lifted: Bitboard,
+    /// A reading that would be a rook's move from its corner while castling that side is
+    /// legal: played when it comes again (the king may be about to follow).
+    unconfirmed: Option<Bitboard>,
 }
 
 impl MoveReader {
     /// Forgets the readings so far (after a move was played).
     pub fn reset(&mut self) {
         self.lifted = Bitboard::EMPTY;
+        self.unconfirmed = None;
     }
 
     /// What `reading` says of the person's move in `position`
@@ -181,7 +187,19 @@ impl MoveReader {
                 };
                 Err(OccupancyError::NoMove { seen: seen_text, expected })
             }
-            [one] => Ok(Resolved::Move(*one)),
+            [one] => {
+                // A rook from its corner while castling that side is legal: the person may be
+                // castling rook first; the same reading again (the board settled) plays it.
+                let castles_with_it = position
+                    .legal_moves()
+                    .iter()
+                    .any(|m| matches!(m, Move::Castle { rook, .. } if Some(*rook) == one.from()));
+                if one.role() == shakmaty::Role::Rook && castles_with_it && self.unconfirmed != Some(seen) {
+                    self.unconfirmed = Some(seen);
+                    return Ok(Resolved::InProgress);
+                }
+                Ok(Resolved::Move(*one))
+            }
             many if many.iter().all(|m| m.is_promotion() && m.from() == many[0].from() && m.to() == many[0].to()) => {
                 Ok(Resolved::Promotion(many.to_vec()))
             }
@@ -266,10 +284,22 @@ mod tests {
                         );
                         assert_eq!(reader.read(&position, &bits).unwrap(), Resolved::Move(m), "{fen} {m:?}");
                     }
-                    Resolved::Unchanged | Resolved::InProgress => panic!("{fen} {m:?}"),
+                    Resolved::InProgress => {
+                        // A rook from its corner while castling is legal: the same reading again.
+                        assert_eq!(m.role(), Role::Rook, "{fen} {m:?}");
+                        let mut reader = MoveReader::default();
+                        assert_eq!(reader.read(&position, &bits).unwrap(), Resolved::InProgress);
+                        assert_eq!(reader.read(&position, &bits).unwrap(), Resolved::Move(m), "{fen} {m:?}");
+                    }
+                    Resolved::Unchanged => panic!("{fen} {m:?}"),
                 }
                 let named = parse_reading(&board.to_string()).unwrap();
-                assert_eq!(resolve(&position, &named).unwrap(), Resolved::Move(m), "{fen}");
+                let mut reader = MoveReader::default();
+                let mut resolved = reader.read(&position, &named).unwrap();
+                if resolved == Resolved::InProgress {
+                    resolved = reader.read(&position, &named).unwrap();
+                }
+                assert_eq!(resolved, Resolved::Move(m), "{fen}");
             }
         }
     }
@@ -342,5 +372,25 @@ mod tests {
             Resolved::Unchanged
         );
         assert!(matches!(reader.read(&position, &reading).unwrap(), Resolved::Choice(_)));
+    }
+
+    /// Castling rook first: the rook's move alone is a move in progress (castling is legal
+    /// that side); the king following makes it castling; the same rook reading twice is the
+    /// rook's move.
+    #[test]
+    fn castling_rook_first_waits_for_the_king() {
+        let position = position("rn1qkbnr/ppp2ppp/3p4/4p3/2B1P1b1/5N2/PPPP1PPP/RNBQK2R w KQkq - 0 1");
+        let (rook_move, rook_board) = after(&position, "h1f1");
+        let (castle, castle_board) = after(&position, "e1g1");
+        let mut reader = MoveReader::default();
+        let rook_reading = Reading::Occupied(rook_board.occupied());
+        assert_eq!(reader.read(&position, &rook_reading).unwrap(), Resolved::InProgress);
+        assert_eq!(
+            reader.read(&position, &Reading::Occupied(castle_board.occupied())).unwrap(),
+            Resolved::Move(castle)
+        );
+        reader.reset();
+        assert_eq!(reader.read(&position, &rook_reading).unwrap(), Resolved::InProgress);
+        assert_eq!(reader.read(&position, &rook_reading).unwrap(), Resolved::Move(rook_move));
     }
 }

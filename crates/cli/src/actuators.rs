@@ -483,6 +483,12 @@ impl ServoBus {
                 if id > 252 || ids.contains(&id) {
                     bail!("servo_bus.gripper_id = {id}: give an ID 0–252 that no joint's servo has ({ids:?})");
                 }
+                // The gripper's servo is taken to have both vendors' 12-bit register.
+                for (field, tick) in [("gripper_open_ticks", open), ("gripper_closed_ticks", closed)] {
+                    if !(0..=4095).contains(&tick) {
+                        bail!("servo_bus.{field} = {tick}: a gripper servo's goal is a tick 0–4095");
+                    }
+                }
                 Some(crate::bus::driver::GripperServo { id, open, closed })
             }
             _ => bail!("servo_bus: give gripper_id, gripper_open_ticks and gripper_closed_ticks together (or none)"),

@@ -258,15 +258,21 @@ pub fn claim(path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Creates `path` (claimed as [`claim`] does) for a log written as things happen (the bus's
-/// packets): it holds what happened so far, never more.
+/// Creates `path` (claimed as [`claim`] does; with `append`, goes on after what it holds) for a
+/// log written as things happen (the bus's packets): it holds what happened so far, never more.
 ///
 /// # Errors
 ///
 /// A file there chessarm did not write, or the file cannot be created.
-pub fn create_log(path: &Path) -> Result<std::fs::File> {
+pub fn create_log(path: &Path, append: bool) -> Result<std::fs::File> {
     claim(path)?;
-    std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))
+    std::fs::OpenOptions::new()
+        .create(true)
+        .write(true)
+        .append(append)
+        .truncate(!append)
+        .open(path)
+        .with_context(|| format!("cannot create {}", path.display()))
 }
 
 /// Writes `path` through `write` into a temporary sibling, then renames it into place.

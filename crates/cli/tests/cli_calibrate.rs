@@ -153,6 +153,13 @@ fn touches_read_over_the_bus_give_the_board_and_the_zero_errors() {
     for j in 1..4 {
         assert!((fitted[j] - errors[j]).abs().to_degrees() < 0.3, "joint {}: {fitted:?} vs {errors:?}", j + 1);
     }
+    // The servos' zero ticks move by the fitted errors (direction +1, 4096 counts a turn: the
+    // true angle is the read one plus the error, so the zero moves down by error / count).
+    let count = std::f64::consts::TAU / 4096.0;
+    let ticks: Vec<f64> = result["zero_ticks"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    for j in 0..4 {
+        assert_eq!(ticks[j], (2048.0 - fitted[j] / count).round(), "joint {}: {ticks:?}", j + 1);
+    }
     let saved = std::fs::read_to_string(out.join("setup.toml")).unwrap();
     assert!(saved.contains("zero_ticks"), "{saved}");
 }

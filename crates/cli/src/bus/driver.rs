@@ -18,21 +18,40 @@ use super::{PacketError, Protocol, Status};
 use std::io::Write;
 use std::time::{Duration, Instant};
 
-/// The serial line of the driver that runs and its torque-off packet, for the signal handler:
-/// a driver's packet goes out holding this lock, so that after the handler's torque-off nothing
-/// else is sent (the handler keeps the lock until the process exits).
+/// The line: every request and its replies go out and come back holding this lock, so that the
+/// signal handler's torque-off never collides with a servo's answer on the half-duplex bus and
+/// nothing is sent after it (the handler keeps the lock until the process exits).
+static WIRE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// The running driver's line (its own handle) and torque-off packet, for the signal handler.
 static EMERGENCY: std::sync::Mutex<Option<(std::fs::File, Vec<u8>)>> = std::sync::Mutex::new(None);
 
 /// Called by the signal handler before the process exits: torque off on the running driver's
-/// servos (nothing if none runs); no packet of the driver follows it.
+/// servos (nothing if none runs), sent twice, once the request on the line has had its replies
+/// (at most 300 ms: a line blocked longer gets the torque-off anyway); no packet of the driver
+/// follows it.
 pub fn torque_off_before_exit() {
-    let mut guard = EMERGENCY.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    if let Some((file, packet)) = guard.as_mut() {
-        let _ = file.write_all(packet);
+    let deadline = Instant::now() + Duration::from_millis(300);
+    let wire = loop {
+        match WIRE.try_lock() {
+            Ok(guard) => break Some(guard),
+            Err(std::sync::TryLockError::Poisoned(poisoned)) => break Some(poisoned.into_inner()),
+            Err(std::sync::TryLockError::WouldBlock) if Instant::now() < deadline => {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            Err(std::sync::TryLockError::WouldBlock) => break None,
+        }
+    };
+    if let Ok(mut emergency) = EMERGENCY.try_lock()
+        && let Some((file, packet)) = emergency.as_mut()
+    {
+        for _ in 0..2 {
+            let _ = file.write_all(packet);
+        }
         let _ = file.flush();
     }
     // Held until the process exits.
-    std::mem::forget(guard);
+    std::mem::forget(wire);
 }
 
 /// What stopped the arm. The torque is off when one of these is returned.
@@ -49,7 +68,7 @@ pub enum DriverError {
     )]
     OutOfLimits { joint: String, t: f64, goal: i64, lower: i64, upper: i64 },
     #[error(
-        "{joint}'s goal at t = {t:.3} s is tick {goal}, {distance} ticks from where it is ({present}); --max-step allows {max}; nothing sent, torque off"
+        "{joint}'s goal at t = {t:.3} s is tick {goal}, {distance} ticks from where it is ({present}); the largest step (--max-step-deg) is {max} ticks; nothing sent, torque off"
     )]
     TooFar { joint: String, t: f64, goal: i64, present: i64, distance: i64, max: i64 },
     #[error(
@@ -129,6 +148,8 @@ pub struct Driver {
     /// The joints' positions the dry run takes them to be at.
     assumed: [i64; 4],
     pub packets_sent: usize,
+    /// Goals of the ramp to the plan's start when the torque went on ([`Driver::enable`]).
+    pub ramp_periods: usize,
 }
 
 impl Drop for Driver {
@@ -182,6 +203,7 @@ impl Driver {
             gripper_closed: None,
             assumed: [0; 4],
             packets_sent: 0,
+            ramp_periods: 0,
         }
     }
 
@@ -202,16 +224,30 @@ impl Driver {
         writeln!(self.log, "{{\"t\": {:.6}, \"{key}\": \"{hex}\"}}", self.started.elapsed().as_secs_f64())
     }
 
+    /// Sends `packet` (holding the line), then logs it.
     fn send(&mut self, packet: &[u8]) -> std::io::Result<()> {
-        self.note("sent", packet)?;
         self.packets_sent += 1;
-        match &mut self.wire {
-            Wire::Serial(line) => {
-                let _stop = EMERGENCY.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                line.send(packet)
-            }
-            Wire::DryRun => Ok(()),
+        if let Wire::Serial(line) = &mut self.wire {
+            let _line = WIRE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            line.send(packet)?;
         }
+        self.note("sent", packet)
+    }
+
+    /// Sends `packet` and reads the status packets of `ids` in order, holding the line
+    /// throughout (within the reply timeout).
+    fn request(&mut self, packet: &[u8], ids: &[u8]) -> Result<Vec<Status>, DriverError> {
+        self.packets_sent += 1;
+        let Wire::Serial(line) = &mut self.wire else {
+            self.note("sent", packet)?;
+            return Ok(Vec::new());
+        };
+        let held = WIRE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        line.send(packet)?;
+        let received = self.receive(ids);
+        drop(held);
+        self.note("sent", packet)?;
+        received
     }
 
     /// `n` status packets, from `ids` in order, within the reply timeout.
@@ -276,8 +312,7 @@ impl Driver {
         let mut what = what;
         if self.protocol == Protocol::Dynamixel && status.error & super::dynamixel::ALERT != 0 {
             let read = self.protocol.read(status.id, super::dynamixel::HARDWARE_ERROR_STATUS, 1);
-            self.send(&read)?;
-            if let Ok(reply) = self.receive(&[status.id])
+            if let Ok(reply) = self.request(&read, &[status.id])
                 && let Some(byte) = reply.first().and_then(|r| r.params.first())
             {
                 what = format!("{what}: {}", Protocol::hardware_error(*byte));
@@ -286,29 +321,43 @@ impl Driver {
         Err(DriverError::Fault { id: status.id, joint: self.joint(status.id), what })
     }
 
-    /// The joints' present positions, ticks (one `SYNC_READ`; a dry run's: the last goals).
-    fn read_present(&mut self) -> Result<[i64; 4], DriverError> {
+    /// The servos on the bus: the joints' and the gripper's.
+    fn all_ids(&self) -> Vec<u8> {
+        let mut ids = self.ids.to_vec();
+        ids.extend(self.gripper.map(|g| g.id));
+        ids
+    }
+
+    /// The present positions of the joints and the gripper's servo, ticks (one `SYNC_READ`,
+    /// every servo's status checked; a dry run's: the last goals).
+    fn read_all(&mut self) -> Result<([i64; 4], Option<i64>), DriverError> {
+        let ids = self.all_ids();
+        let packet = self.protocol.sync_read(self.protocol.present_position(), self.protocol.position_bytes(), &ids);
         if self.is_dry_run() {
-            let packet =
-                self.protocol.sync_read(self.protocol.present_position(), self.protocol.position_bytes(), &self.ids);
-            self.send(&packet)?;
-            return Ok(self.assumed);
+            self.request(&packet, &ids)?;
+            return Ok((self.assumed, self.gripper.map(|g| g.open)));
         }
-        let packet =
-            self.protocol.sync_read(self.protocol.present_position(), self.protocol.position_bytes(), &self.ids);
-        self.send(&packet)?;
-        let ids = self.ids;
-        let statuses = self.receive(&ids)?;
+        let statuses = self.request(&packet, &ids)?;
         let mut present = [0; 4];
-        for (j, status) in statuses.iter().enumerate() {
+        let mut gripper = None;
+        for (k, status) in statuses.iter().enumerate() {
             self.check_status(status)?;
-            present[j] = self.protocol.decode_position(&status.params).ok_or_else(|| DriverError::BadReply {
+            let tick = self.protocol.decode_position(&status.params).ok_or_else(|| DriverError::BadReply {
                 id: status.id,
                 joint: self.joint(status.id),
                 error: PacketError::Malformed("a position of the wrong length"),
             })?;
+            if k < 4 {
+                present[k] = tick;
+            } else {
+                gripper = Some(tick);
+            }
         }
-        Ok(present)
+        Ok((present, gripper))
+    }
+
+    fn read_present(&mut self) -> Result<[i64; 4], DriverError> {
+        Ok(self.read_all()?.0)
     }
 
     /// The joints' present positions, ticks, every servo's status checked (calibration reads
@@ -321,11 +370,28 @@ impl Driver {
         self.read_present()
     }
 
-    /// Torque off on every servo: one broadcast write, no reply awaited.
+    /// Torque off on every servo: once the line is quiet (the replies of a request cut short
+    /// have come in, or 50 ms passed), one broadcast write, sent twice, no reply awaited; the
+    /// log's failure does not keep it from going out.
     pub fn torque_off(&mut self) -> std::io::Result<()> {
         let packet = self.protocol.write(Protocol::BROADCAST, self.protocol.torque_enable(), &[0]);
-        self.send(&packet)?;
-        self.log.flush()
+        if let Wire::Serial(line) = &mut self.wire {
+            let _line = WIRE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let until = Instant::now() + Duration::from_millis(50);
+            let mut stray = Vec::new();
+            while Instant::now() < until {
+                let before = stray.len();
+                line.receive_until(&mut stray, Duration::from_millis(3), |_| false)?;
+                if stray.len() == before {
+                    break;
+                }
+            }
+            line.send(&packet)?;
+            line.send(&packet)?;
+        }
+        self.packets_sent += 2;
+        let _ = self.note("sent", &packet).and_then(|()| self.note("sent", &packet)).and_then(|()| self.log.flush());
+        Ok(())
     }
 
     /// Runs `step`; on its error, the torque goes off first.
@@ -339,8 +405,11 @@ impl Driver {
         }
     }
 
-    /// Torque on, holding where the joints are; refused (torque off) unless every joint is
-    /// within `max_step` of `start`, the plan's first goal.
+    /// Torque on, holding where the joints (and the gripper) are; refused (torque off) unless
+    /// every joint is within `max_step` of `start`, the plan's first goal; then, if a joint is
+    /// further from it than one period's change, a straight ramp to it at a quarter of the
+    /// joints' speed limits, every goal checked as a move's are (the one motion that is not the
+    /// simulation's: from where the arm was left to where the plan starts).
     ///
     /// # Errors
     ///
@@ -350,25 +419,43 @@ impl Driver {
             self.assumed = start;
         }
         self.guarded(|driver| {
-            let present = driver.read_present()?;
+            let (present, gripper_at) = driver.read_all()?;
             driver.check_step(0.0, &start, &present)?;
             // The goal registers at the present positions, then torque on: nothing jumps.
-            let data: Vec<Vec<u8>> = present.iter().map(|t| driver.protocol.encode_position(*t)).collect();
-            let goals: Vec<(u8, &[u8])> = driver.ids.iter().zip(&data).map(|(id, d)| (*id, d.as_slice())).collect();
+            let mut data: Vec<(u8, Vec<u8>)> =
+                driver.ids.iter().zip(&present).map(|(id, t)| (*id, driver.protocol.encode_position(*t))).collect();
+            if let (Some(gripper), Some(at)) = (driver.gripper, gripper_at) {
+                data.push((gripper.id, driver.protocol.encode_position(at)));
+            }
+            let goals: Vec<(u8, &[u8])> = data.iter().map(|(id, d)| (*id, d.as_slice())).collect();
             let packet = driver.protocol.sync_write(driver.protocol.goal_position(), &goals);
             driver.send(&packet)?;
-            let mut ids = driver.ids.to_vec();
-            if let Some(gripper) = driver.gripper {
-                ids.push(gripper.id);
-            }
-            for id in ids {
+            for id in driver.all_ids() {
                 let packet = driver.protocol.write(id, driver.protocol.torque_enable(), &[1]);
-                driver.send(&packet)?;
-                if let Some(status) = driver.receive(&[id])?.first() {
+                if let Some(status) = driver.request(&packet, &[id])?.first() {
                     driver.check_status(status)?;
                 }
             }
             driver.last_goal = Some(present);
+            // The ramp to the plan's start, if the joints are not there already.
+            let steps = (0..4)
+                .map(|j| {
+                    let per_period = (driver.limits.max_change[j] / 4).max(1);
+                    ((start[j] - present[j]).abs() + per_period - 1) / per_period
+                })
+                .max()
+                .unwrap_or(0);
+            if steps > 1 {
+                let ramp: Vec<TickGoal> = (1..=steps)
+                    .map(|k| TickGoal {
+                        t: k as f64 * driver.period,
+                        ticks: std::array::from_fn(|j| present[j] + (start[j] - present[j]) * k / steps),
+                        gripper_closed: false,
+                    })
+                    .collect();
+                driver.stream(&ramp, &|| false)?;
+                driver.ramp_periods += ramp.len();
+            }
             Ok(present)
         })
     }
@@ -432,65 +519,77 @@ impl Driver {
     pub fn follow(&mut self, goals: &[TickGoal], cancelled: &dyn Fn() -> bool) -> Result<Followed, DriverError> {
         // Refused whole before it starts: the servos keep holding where they are.
         self.check_stream(goals)?;
-        self.guarded(|driver| {
-            let mut followed = Followed::default();
-            let start = Instant::now();
-            let mut slid = Duration::ZERO;
-            // A move's first goal follows the last move's after a pause: it is checked against
-            // where the joints are (the largest step); the speeds were checked within the move.
-            driver.last_goal = None;
-            for goal in goals {
-                if cancelled() {
-                    return Err(DriverError::Interrupted);
-                }
-                if !driver.is_dry_run() {
-                    // A period late (the machine busy) slides the rest of the stream: goals are
-                    // never sent in a burst to catch up, which would make the goal run ahead of
-                    // the joints by the plan's motion over the delay.
-                    let due = start + slid + Duration::from_secs_f64(goal.t.max(0.0));
-                    let now = Instant::now();
-                    if due > now {
-                        std::thread::sleep(due - now);
-                    } else {
-                        slid += now - due;
-                    }
-                }
-                let present = driver.read_present()?;
-                let last = driver.last_goal;
-                driver.check_step(goal.t, &goal.ticks, &present)?;
-                for j in 0..4 {
-                    followed.largest_lead[j] = followed.largest_lead[j].max((goal.ticks[j] - present[j]).abs());
-                    if let Some(last) = last {
-                        followed.largest_change[j] = followed.largest_change[j].max((goal.ticks[j] - last[j]).abs());
-                    }
-                }
-                let data: Vec<Vec<u8>> = goal.ticks.iter().map(|t| driver.protocol.encode_position(*t)).collect();
-                let mut targets: Vec<(u8, &[u8])> =
-                    driver.ids.iter().zip(&data).map(|(id, d)| (*id, d.as_slice())).collect();
-                let gripper_data;
-                if let Some(gripper) = driver.gripper
-                    && driver.gripper_closed != Some(goal.gripper_closed)
-                {
-                    gripper_data = driver.protocol.encode_position(if goal.gripper_closed {
-                        gripper.closed
-                    } else {
-                        gripper.open
+        // A move's first goal follows the last move's after a pause: it is held to one period's
+        // change from where the joints are (the stream's own steps were checked whole).
+        if let Some(first) = goals.first() {
+            let present = self.guarded(Self::read_present)?;
+            for (j, at) in present.iter().enumerate() {
+                let change = (first.ticks[j] - at).abs();
+                if change > self.limits.max_change[j] {
+                    return Err(DriverError::TooFast {
+                        joint: format!("joint {} ({})", j + 1, self.names[j]),
+                        t: first.t,
+                        change,
+                        max: self.limits.max_change[j],
                     });
-                    targets.push((gripper.id, gripper_data.as_slice()));
-                    driver.gripper_closed = Some(goal.gripper_closed);
                 }
-                let packet = driver.protocol.sync_write(driver.protocol.goal_position(), &targets);
-                driver.send(&packet)?;
-                driver.last_goal = Some(goal.ticks);
-                if driver.is_dry_run() {
-                    driver.assumed = goal.ticks;
-                }
-                followed.periods += 1;
             }
-            followed.slid = slid.as_secs_f64();
-            driver.log.flush()?;
-            Ok(followed)
-        })
+        }
+        self.guarded(|driver| driver.stream(goals, cancelled))
+    }
+
+    /// Sends `goals` one per bus period (the loop of [`Driver::follow`], unguarded).
+    fn stream(&mut self, goals: &[TickGoal], cancelled: &dyn Fn() -> bool) -> Result<Followed, DriverError> {
+        let mut followed = Followed::default();
+        let start = Instant::now();
+        let mut slid = Duration::ZERO;
+        for goal in goals {
+            if cancelled() {
+                return Err(DriverError::Interrupted);
+            }
+            if !self.is_dry_run() {
+                // A period late (the machine busy) slides the rest of the stream: goals are
+                // never sent in a burst to catch up, which would make the goal run ahead of
+                // the joints by the plan's motion over the delay.
+                let due = start + slid + Duration::from_secs_f64(goal.t.max(0.0));
+                let now = Instant::now();
+                if due > now {
+                    std::thread::sleep(due - now);
+                } else {
+                    slid += now - due;
+                }
+            }
+            let present = self.read_present()?;
+            self.check_step(goal.t, &goal.ticks, &present)?;
+            let last = self.last_goal;
+            for j in 0..4 {
+                followed.largest_lead[j] = followed.largest_lead[j].max((goal.ticks[j] - present[j]).abs());
+                if let Some(last) = last {
+                    followed.largest_change[j] = followed.largest_change[j].max((goal.ticks[j] - last[j]).abs());
+                }
+            }
+            let data: Vec<Vec<u8>> = goal.ticks.iter().map(|t| self.protocol.encode_position(*t)).collect();
+            let mut targets: Vec<(u8, &[u8])> = self.ids.iter().zip(&data).map(|(id, d)| (*id, d.as_slice())).collect();
+            let gripper_data;
+            if let Some(gripper) = self.gripper
+                && self.gripper_closed != Some(goal.gripper_closed)
+            {
+                gripper_data =
+                    self.protocol.encode_position(if goal.gripper_closed { gripper.closed } else { gripper.open });
+                targets.push((gripper.id, gripper_data.as_slice()));
+                self.gripper_closed = Some(goal.gripper_closed);
+            }
+            let packet = self.protocol.sync_write(self.protocol.goal_position(), &targets);
+            self.send(&packet)?;
+            self.last_goal = Some(goal.ticks);
+            if self.is_dry_run() {
+                self.assumed = goal.ticks;
+            }
+            followed.periods += 1;
+        }
+        followed.slid = slid.as_secs_f64();
+        self.log.flush()?;
+        Ok(followed)
     }
 
     /// The bus period, s.

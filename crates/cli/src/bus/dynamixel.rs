@@ -131,6 +131,7 @@ pub fn parse_status(stream: &[u8]) -> Result<Status, PacketError> {
         id: packet.id,
         error: packet.params[0],
         params: packet.params[1..].to_vec(),
+        start: packet.start,
         consumed: packet.consumed,
     })
 }
@@ -171,7 +172,7 @@ pub fn parse_packet(stream: &[u8]) -> Result<Status, PacketError> {
         }
         i += 1;
     }
-    Ok(Status { id: head[4], error: body[0], params: body[1..].to_vec(), consumed: at + total })
+    Ok(Status { id: head[4], error: body[0], params: body[1..].to_vec(), start: at, consumed: at + total })
 }
 
 #[cfg(test)]

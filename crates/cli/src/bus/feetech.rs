@@ -117,7 +117,7 @@ pub fn parse_packet(stream: &[u8]) -> Result<Status, PacketError> {
     if head[total - 1] != expected {
         return Err(PacketError::Checksum { got: head[total - 1].into(), expected: expected.into() });
     }
-    Ok(Status { id: head[2], error: head[4], params: head[5..total - 1].to_vec(), consumed: at + total })
+    Ok(Status { id: head[2], error: head[4], params: head[5..total - 1].to_vec(), start: at, consumed: at + total })
 }
 
 /// The status packet servo `id` answers with `error` and `params`.

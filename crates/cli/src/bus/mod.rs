@@ -35,7 +35,9 @@ pub struct Status {
     pub id: u8,
     pub error: u8,
     pub params: Vec<u8>,
-    /// Bytes of the stream the packet and anything before it took.
+    /// Where the packet starts in the stream (after any noise), and the bytes the packet and
+    /// anything before it took.
+    pub start: usize,
     pub consumed: usize,
 }
 
@@ -69,7 +71,8 @@ impl Protocol {
 
     /// The protocol of a built-in servo (`sts3215…` Feetech, `xl430`/`xm430` Dynamixel).
     pub fn of_servo(name: &str) -> Option<Self> {
-        if name.starts_with("sts") || name.starts_with("scs") {
+        // (The SCS series is big-endian: not spoken here.)
+        if name.starts_with("sts") {
             Some(Self::Feetech)
         } else if name.starts_with("xl") || name.starts_with("xm") || name.starts_with("xh") {
             Some(Self::Dynamixel)

@@ -13,9 +13,15 @@ pub const BAUD_RATE: u32 = 1_000_000;
 
 /// `fd` raw (no echo, no line editing, 8 data bits, no parity), reads returning what is there.
 fn make_raw(fd: impl AsFd, baud: Option<u32>) -> std::io::Result<()> {
+    use rustix::termios::{ControlModes, InputModes};
     use rustix::termios::{OptionalActions, SpecialCodeIndex, tcgetattr, tcsetattr};
     let mut termios = tcgetattr(&fd)?;
     termios.make_raw();
+    // No modem lines (an adapter without carrier detect would block) and no flow control (a
+    // blocked write would hold the line the torque-off needs).
+    termios.control_modes |= ControlModes::CLOCAL | ControlModes::CREAD;
+    termios.control_modes &= !ControlModes::CRTSCTS;
+    termios.input_modes &= !(InputModes::IXON | InputModes::IXOFF);
     termios.special_codes[SpecialCodeIndex::VMIN] = 0;
     termios.special_codes[SpecialCodeIndex::VTIME] = 0;
     if let Some(baud) = baud {
@@ -56,12 +62,16 @@ impl SerialLine {
         let file = std::fs::OpenOptions::new()
             .read(true)
             .write(true)
-            .custom_flags(rustix::fs::OFlags::NOCTTY.bits() as i32)
+            // Non-blocking to open (a line waiting for carrier detect would hang here), then
+            // blocking once it is set up (reads wait in `poll`).
+            .custom_flags((rustix::fs::OFlags::NOCTTY | rustix::fs::OFlags::NONBLOCK).bits() as i32)
             .open(path)
             .with_context(|| format!("--port {}: cannot open it", path.display()))?;
         make_raw(&file, Some(baud)).with_context(|| {
             format!("--port {}: not a serial line (cannot set it raw at {baud} baud)", path.display())
         })?;
+        let flags = rustix::fs::fcntl_getfl(&file)?;
+        rustix::fs::fcntl_setfl(&file, flags & !rustix::fs::OFlags::NONBLOCK)?;
         // Anything an earlier program left unread is not a reply to us.
         let _ = rustix::termios::tcflush(&file, rustix::termios::QueueSelector::IFlush);
         Ok(Self { file, name: path.display().to_string() })

@@ -250,7 +250,7 @@ impl SimulatedBus {
         loop {
             match self.protocol.parse_instruction(input) {
                 Ok(packet) => {
-                    let bytes = input[packet.consumed - packet_len(self.protocol, &packet)..packet.consumed].to_vec();
+                    let bytes = input[packet.start..packet.consumed].to_vec();
                     input.drain(..packet.consumed);
                     if let Some(log) = &mut self.log {
                         let hex: String = bytes.iter().map(|b| format!("{b:02X}")).collect();
@@ -367,7 +367,8 @@ impl SimulatedBus {
         }
     }
 
-    /// A read's or sync packet's address and length.
+    /// A read's or sync packet's address and length (`None` for a length no status packet can
+    /// carry: an STS answers at most 250 bytes of data).
     fn address_length(&self, params: &[u8]) -> Option<(usize, usize)> {
         let n = self.header_bytes();
         if params.len() < 2 * n {
@@ -377,7 +378,7 @@ impl SimulatedBus {
             Protocol::Feetech => params[1] as usize,
             Protocol::Dynamixel => u16::from_le_bytes([params[2], params[3]]) as usize,
         };
-        Some((self.address(params), length))
+        (length <= 250).then(|| (self.address(params), length))
     }
 
     /// The servo `id` if it is on the bus and answers.
@@ -521,15 +522,5 @@ impl SimulatedBus {
             }
         }
         Ok(())
-    }
-}
-
-/// The length of the packet `packet` was read from (its bytes end at `packet.consumed`).
-fn packet_len(protocol: Protocol, packet: &super::Status) -> usize {
-    match protocol {
-        // FF FF ID LEN INST params CHK.
-        Protocol::Feetech => 6 + packet.params.len(),
-        // Header 4, ID, LEN 2, INST, params (stuffed: possibly longer), CRC 2: recomputed.
-        Protocol::Dynamixel => super::dynamixel::instruction(packet.id, packet.error, &packet.params).len(),
     }
 }

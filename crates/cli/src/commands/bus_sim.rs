@@ -31,8 +31,14 @@ pub fn run(setup: &Setup, args: &BusSimArgs) -> Result<()> {
     let mut sim = SimulatedBus::new(protocol, &setup.arm, &setup.actuators, bus, setup.convention.signs, q, gripper)?
         .with_faults(Faults { lose_reply: args.lose_reply, overload: args.overload });
     if let Some(path) = &args.log {
-        let file =
-            std::fs::File::create(path).with_context(|| format!("--log {}: cannot create it", path.display()))?;
+        // A new file only: nothing there is replaced (and no folder is locked for the bus's
+        // whole life, as a result folder would be).
+        let file = std::fs::OpenOptions::new().write(true).create_new(true).open(path).with_context(|| {
+            format!(
+                "--log {}: cannot create it (a file already there is not replaced: give a new path)",
+                path.display()
+            )
+        })?;
         sim = sim.with_log(Box::new(std::io::BufWriter::new(file)));
     }
     let mut terminal = PseudoTerminal::open().context("cannot open a pseudo-terminal for the simulated bus")?;

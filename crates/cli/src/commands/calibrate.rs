@@ -36,6 +36,12 @@ fn board_point(setup: &Setup, square: Square) -> Vector2<f64> {
 /// The touches read over the bus: torque off, then for each square the person moves the tool
 /// tip onto its centre and presses Enter (a line on standard input).
 fn read_over_bus(setup: &Setup, args: &CalibrateArgs, port: &std::path::Path) -> Result<Vec<(Square, [f64; 4])>> {
+    // Every square named before anyone touches one.
+    let squares: Vec<Square> = args
+        .squares
+        .iter()
+        .map(|name| parse_square(name).map_err(|e| anyhow::anyhow!("--squares {}: {e}", args.squares.join(","))))
+        .collect::<Result<_>>()?;
     let mut arm = crate::live::arm::RealArm::open(
         setup,
         &crate::live::arm::ArmOptions {
@@ -44,13 +50,13 @@ fn read_over_bus(setup: &Setup, args: &CalibrateArgs, port: &std::path::Path) ->
             max_step: std::f64::consts::PI,
             reply_timeout: std::time::Duration::from_millis(args.reply_timeout_ms),
             log: &args.out.join("bus.jsonl"),
+            append_log: false,
         },
     )?;
     arm.torque_off().context("cannot turn the servos' torque off")?;
     let mut stdin = std::io::stdin().lock();
     let mut touches = Vec::new();
-    for name in &args.squares {
-        let square = parse_square(name).map_err(|e| anyhow::anyhow!("--squares: {e}"))?;
+    for square in squares {
         crate::tell(&format!("move the tool tip onto the centre of {square} and press Enter\n"));
         let mut line = String::new();
         if stdin.read_line(&mut line).context("reading standard input")? == 0 {

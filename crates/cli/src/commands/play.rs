@@ -133,7 +133,7 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         if args.fen.is_some() {
             bail!("--fen starts a new game; --resume goes on with the one in game.pgn (its [FEN] tag gives its start)");
         }
-        crate::live::PgnGame::resume(&args.out.join("game.pgn"))?
+        crate::live::PgnGame::resume(&args.out.join("game.pgn"), person)?
     } else {
         crate::live::PgnGame { headers: Vec::new(), start: start_position(args)?, moves: Vec::new() }
     };
@@ -336,6 +336,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
                     max_step: args.max_step_deg.to_radians(),
                     reply_timeout: Duration::from_millis(args.reply_timeout_ms),
                     log: &args.out.join("bus.jsonl"),
+                    append_log: args.resume,
                 },
             )
         })
@@ -667,12 +668,11 @@ fn play_human(
                     kept.keep(report, out, bar)?;
                 }
                 crate::live::input::Action::Undo => {
-                    // The person's last move and the arm's reply to it (only the person's if the
-                    // arm has not replied, e.g. at the start as black).
-                    let plies = if human.pgn.moves.len() >= 2 { 2 } else { human.pgn.moves.len() };
-                    let last_person = human.pgn.moves.len() >= plies && plies > 0;
-                    if !last_person || plies == 0 {
-                        crate::tell("nothing to take back\n");
+                    // The person's last move and the arm's reply to it (on the person's turn the
+                    // last move is the arm's): none before the person has moved.
+                    let plies = 2;
+                    if human.pgn.moves.len() < plies {
+                        crate::tell("nothing to take back: you have not moved yet\n");
                         continue;
                     }
                     let keep_moves = human.pgn.moves.len() - plies;
@@ -834,6 +834,7 @@ fn real_arm_json(arm: &crate::live::arm::RealArm) -> Value {
         "moves": arm.followed.len(),
         "periods": arm.followed.iter().map(|f| f.periods).sum::<usize>(),
         "packets_sent": arm.packets_sent(),
+        "ramp_periods": arm.ramp_periods(),
         "largest_lead_ticks": lead,
         "largest_change_ticks": change,
         "largest_slide_s": arm.followed.iter().map(|f| f.slid).fold(0.0, f64::max),

@@ -31,8 +31,10 @@ pub struct ArmOptions<'a> {
     /// The largest distance of a goal from a joint's present position, rad.
     pub max_step: f64,
     pub reply_timeout: Duration,
-    /// Where every packet is logged (JSON lines).
+    /// Where every packet is logged (JSON lines), after what it holds with `append_log` (a
+    /// resumed game's).
     pub log: &'a Path,
+    pub append_log: bool,
 }
 
 /// How much faster than a joint's speed limit its goals may change: sag and feedforward goals
@@ -87,7 +89,7 @@ impl RealArm {
             (Some(port), false) => Wire::Serial(SerialLine::open(port, BAUD_RATE)?),
             (None, false) => bail!("give --port DEVICE or --dry-run"),
         };
-        let log = crate::output::create_log(options.log)?;
+        let log = crate::output::create_log(options.log, options.append_log)?;
         let driver = Driver::new(
             wire,
             protocol,
@@ -151,6 +153,11 @@ impl RealArm {
     pub fn torque_off(&mut self) -> std::io::Result<()> {
         self.enabled = false;
         self.driver.torque_off()
+    }
+
+    /// Goals of the ramp to the first move's start when the torque went on.
+    pub fn ramp_periods(&self) -> usize {
+        self.driver.ramp_periods
     }
 
     pub fn packets_sent(&self) -> usize {

@@ -24,7 +24,7 @@ impl PgnGame {
     /// # Errors
     ///
     /// The file cannot be read, or is not a game chessarm can go on with.
-    pub fn resume(path: &Path) -> Result<Self> {
+    pub fn resume(path: &Path, person: Color) -> Result<Self> {
         if !path.is_file() {
             anyhow::bail!("--resume: there is no {} to go on with", path.display());
         }
@@ -33,6 +33,16 @@ impl PgnGame {
             anyhow::bail!(
                 "--resume: the game in {} is over ({result}); start a new one without --resume",
                 path.display()
+            );
+        }
+        // The person plays the side the saved game says they played.
+        let (side, other) = if person == Color::White { ("White", "Black") } else { ("Black", "White") };
+        if record.header(other) == Some("person") && record.header(side) != Some("person") {
+            anyhow::bail!(
+                "--resume: in {} the person plays {}; give --human {}",
+                path.display(),
+                other.to_lowercase(),
+                other.to_lowercase()
             );
         }
         let comments = record.comments.clone().into_iter().chain(std::iter::repeat(None));

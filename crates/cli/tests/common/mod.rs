@@ -125,7 +125,10 @@ impl BusSim {
 
     fn spawn(dir: &std::path::Path, setup: &[&str], extra: &[&str], stdin: bool) -> Self {
         use std::io::BufRead;
-        let log = dir.join("bus-sim.jsonl");
+        // A new log each time (bus-sim never replaces a file).
+        static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        let log = dir.join(format!("bus-sim-{n}.jsonl"));
         let mut args: Vec<&str> = setup.to_vec();
         args.extend(["bus-sim", "--log", log.to_str().unwrap()]);
         args.extend(extra);
