@@ -462,11 +462,9 @@ fn a_dry_run_logs_the_packets_and_opens_nothing() {
         .collect();
     let periods =
         (game["real_arm"]["periods"].as_u64().unwrap() + game["real_arm"]["ramp_periods"].as_u64().unwrap()) as usize;
-    let moves = game["real_arm"]["moves"].as_u64().unwrap() as usize;
-    // Per period a sync read and a sync write (the ramp's too); a read before each move (its
-    // first goal against where the joints are); the torque going on (a read, a sync write, a
-    // write per servo, the gripper's too).
-    assert_eq!(sent.len(), 2 * periods + moves + 2 + 5);
+    // Per period a sync read and a sync write (the ramp's too); the torque going on (a read, a
+    // sync write, a write per servo, the gripper's too).
+    assert_eq!(sent.len(), 2 * periods + 2 + 5);
     let goals: Vec<(f64, Vec<u8>)> = sent.iter().map(|s| (0.0, s.clone())).collect();
     assert_eq!(goal_packets(arm.protocol, &goals, &[11, 12, 13, 14]).len(), periods + 1);
 }

@@ -520,10 +520,15 @@ impl Driver {
         // Refused whole before it starts: the servos keep holding where they are.
         self.check_stream(goals)?;
         // A move's first goal follows the last move's after a pause: it is held to one period's
-        // change from where the joints are (the stream's own steps were checked whole).
+        // change from the goal the servos hold (where the joints are, if none was sent yet; a
+        // servo holding against gravity rests off its goal by the sag, which the goals carry),
+        // the stream's own steps being checked whole.
         if let Some(first) = goals.first() {
-            let present = self.guarded(Self::read_present)?;
-            for (j, at) in present.iter().enumerate() {
+            let held = match self.last_goal {
+                Some(goal) => goal,
+                None => self.guarded(Self::read_present)?,
+            };
+            for (j, at) in held.iter().enumerate() {
                 let change = (first.ticks[j] - at).abs();
                 if change > self.limits.max_change[j] {
                     return Err(DriverError::TooFast {
