@@ -18,6 +18,15 @@ use std::process::{Command, Stdio};
 
 const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
 
+/// The 20-move games run in real time against a simulated bus in another process: one at a
+/// time, so that on a 2-core machine they (and Chromium) do not starve each other's servos.
+static REAL_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// The reply timeout the games give the driver: the simulated servos are a process that a busy
+/// 2-core machine may not run for longer than a real servo's 100 ms (the timeout itself is
+/// tested by the lost-reply test, with the default).
+const GAME_REPLY_TIMEOUT_MS: &str = "1000";
+
 /// A real arm as a maker runs it: its URDF, its fitted board with needle fingers, its servos
 /// with feedforward goals, the bus's addresses (and the gripper's servo).
 struct Arm {
@@ -223,7 +232,14 @@ fn a_person_types_twenty_moves_and_the_so101_answers_on_its_feetech_bus() {
     }
     let sim = BusSim::start(dir.path(), &strs(&arm.setup()), &[]);
     let out = dir.path().join("game");
-    let output = play_human(&arm, &sim, &out, &["--pace", "0.3"], &(lines.join("\n") + "\n"));
+    let _one_at_a_time = REAL_TIME.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let output = play_human(
+        &arm,
+        &sim,
+        &out,
+        &["--pace", "0.3", "--reply-timeout-ms", GAME_REPLY_TIMEOUT_MS],
+        &(lines.join("\n") + "\n"),
+    );
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let game = json_file(&out.join("game.json"));
     assert_eq!(game["misplaced"].as_array().unwrap().len(), 0, "{}", game["misplaced"]);
@@ -315,11 +331,14 @@ fn a_boards_occupancy_through_a_socket_plays_twenty_moves_on_the_dynamixel_bus()
             socket.to_str().unwrap(),
             "--port",
             &sim.device,
+            "--reply-timeout-ms",
+            GAME_REPLY_TIMEOUT_MS,
             "--out",
             out.to_str().unwrap(),
         ]
         .map(String::from),
     );
+    let _one_at_a_time = REAL_TIME.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
         .args(&args)
         .stdin(Stdio::null())
@@ -545,6 +564,8 @@ fn twenty_moves_clicked_on_the_live_page_with_the_arm_on_its_bus() {
         ["play", "--human", "white", "--live", "0", "--port", &sim.device, "--out", out.to_str().unwrap()]
             .map(String::from),
     );
+    args.extend(["--reply-timeout-ms".to_string(), GAME_REPLY_TIMEOUT_MS.to_string()]);
+    let _one_at_a_time = REAL_TIME.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
         .args(&args)
         .stdin(Stdio::null())
