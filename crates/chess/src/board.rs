@@ -84,10 +84,15 @@ impl BoardGeometry {
         }
     }
 
+    /// `square`'s centre in squares along the files and the ranks from the board's centre
+    /// (a1: −3.5, −3.5).
+    pub fn squares_from_center(square: Square) -> (f64, f64) {
+        (f64::from(u8::from(square.file())) - 3.5, f64::from(u8::from(square.rank())) - 3.5)
+    }
+
     /// Centre of `square` on the board surface, m.
     pub fn square_center(&self, square: Square) -> Vector3<f64> {
-        let file = f64::from(u8::from(square.file())) - 3.5;
-        let rank = f64::from(u8::from(square.rank())) - 3.5;
+        let (file, rank) = Self::squares_from_center(square);
         let xy = self.on_table(file, rank);
         Vector3::new(xy.x, xy.y, self.surface_height)
     }

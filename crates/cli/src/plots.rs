@@ -360,6 +360,8 @@ pub struct HeatMap<'a> {
     pub y_names: Option<&'a [String]>,
     pub values: &'a [Vec<Option<f64>>],
     pub marked: Option<(usize, usize)>,
+    /// What a grey (`None`) cell means, in the key ("failed" for a sweep's candidates).
+    pub grey: &'a str,
     /// A warning written under the title (e.g. the best pick on the edge of the sweep).
     pub note: Option<String>,
 }
@@ -509,7 +511,7 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
             key_area
                 .draw(&Rectangle::new([(10, 10), (30, 26)], RGBColor(190, 190, 190).filled()))
                 .map_err(|e| anyhow!("{e}"))?;
-            key_area.draw(&Text::new("failed", (36, 11), key.clone())).map_err(|e| anyhow!("{e}"))?;
+            key_area.draw(&Text::new(map.grey, (36, 11), key.clone())).map_err(|e| anyhow!("{e}"))?;
         }
         if map.marked.is_some() {
             key_area.draw(&Rectangle::new([(10, 36), (30, 52)], BLACK.stroke_width(3))).map_err(|e| anyhow!("{e}"))?;
@@ -551,6 +553,7 @@ pub fn plot_squares(
             y_names: None,
             values: &cells,
             marked: None,
+            grey,
             note: failed.first().map(|why| format!("grey: {grey} ({} squares), e.g. {why}", failed.len())),
         },
     )

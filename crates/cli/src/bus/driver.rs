@@ -596,9 +596,4 @@ impl Driver {
         self.log.flush()?;
         Ok(followed)
     }
-
-    /// The bus period, s.
-    pub fn period(&self) -> f64 {
-        self.period
-    }
 }

@@ -184,11 +184,6 @@ impl SimulatedBus {
         }
     }
 
-    /// The joints' angles now, rad (the model's sense).
-    pub fn joint_angles(&self) -> [f64; 4] {
-        self.state.q.into()
-    }
-
     /// Integrates the arm up to the wall clock's time since the bus started.
     pub fn catch_up(&mut self) -> anyhow::Result<()> {
         self.advance_to(self.started.elapsed().as_secs_f64())

@@ -28,8 +28,7 @@ fn parse_touch(text: &str) -> Result<(Square, [f64; 4])> {
 
 /// A square's centre in the board's own frame (m, from its centre along files and ranks).
 fn board_point(setup: &Setup, square: Square) -> Vector2<f64> {
-    let file = f64::from(u8::from(square.file())) - 3.5;
-    let rank = f64::from(u8::from(square.rank())) - 3.5;
+    let (file, rank) = chessarm_chess::board::BoardGeometry::squares_from_center(square);
     Vector2::new(file, rank) * setup.board.square_size
 }
 

@@ -743,6 +743,7 @@ fn draw_heat_map(args: &TuneArgs, candidates: &[Candidate], path: &std::path::Pa
             y_names: None,
             values: &cells,
             marked: best.map(|(_, cell)| cell),
+            grey: "failed",
             note: edge_warning(
                 args,
                 candidates
@@ -849,6 +850,7 @@ fn draw_servo_heat_map(setup: &Setup, args: &TuneArgs, candidates: &[Candidate],
             y_names: Some(&names),
             values: &cells,
             marked: best.map(|(_, cell)| cell),
+            grey: "failed",
             note: servo_edge_warning(
                 args,
                 candidates
