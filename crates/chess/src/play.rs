@@ -103,6 +103,9 @@ pub struct HardwareExport {
 }
 
 impl PlaySettings {
+    /// The plant's time step unless told otherwise, s.
+    pub const DEFAULT_DT: f64 = 1e-3;
+
     /// Report-style defaults with the given controller.
     pub fn new(controller: impl Into<String>, gains: Gains<4>) -> Self {
         Self {
@@ -124,7 +127,7 @@ impl PlaySettings {
             true_pieces: None,
             conditions: Conditions::ideal(),
             tolerance: DEFAULT_TOLERANCE,
-            dt: 1e-3,
+            dt: Self::DEFAULT_DT,
             control_period: 1e-3,
             integrator: Integrator::default(),
             record_every: 10,
@@ -544,8 +547,9 @@ impl Game {
     /// The person takes back the last `plies` moves, which moved pieces by `moved` (each
     /// move's relocations, from and to, in the order they were made): every such piece is put
     /// back by hand on its earlier place's centre, last relocation first, and the rules'
-    /// position becomes the one before those moves. The arm stays where it is; robot time and
-    /// the ply count go on. Returns the hand's handlings (for the replay).
+    /// position becomes the one before those moves. The arm stays where it is and robot time
+    /// goes on; the ply count goes back, so that the next move has the ply it has in the game.
+    /// Returns the hand's handlings (for the replay).
     ///
     /// # Errors
     ///
@@ -577,6 +581,7 @@ impl Game {
             self.relocate("take-back", *to, *from, target)?;
         }
         self.history.truncate(self.history.len() - plies);
+        self.ply = self.ply.saturating_sub(plies);
         self.position = position;
         self.misplaced.retain(|(_, _, m)| {
             self.table.verify(self.position.board(), self.settings.tolerance).iter().any(|n| n.reason == m.reason)

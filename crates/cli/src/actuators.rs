@@ -345,6 +345,33 @@ pub fn control_period(setup: &Setup, torque_period: f64) -> f64 {
     if setup.actuators.take_positions() { 1.0 / setup.bus_rate } else { torque_period }
 }
 
+/// Refuses, before any work, a bus period (`1 / --bus-rate`) that is not a whole number of the
+/// simulation's time steps `dt` (`dt_flag` the flag that gave it, if one did): the simulated servos take
+/// their goals at whole steps, and the simulation would refuse at its first move.
+///
+/// # Errors
+///
+/// The period is not a whole multiple of `dt`, naming both flags as typed.
+pub fn check_bus_period(setup: &Setup, dt: f64, dt_flag: &str) -> anyhow::Result<()> {
+    if !setup.actuators.take_positions() {
+        return Ok(());
+    }
+    let period = 1.0 / setup.bus_rate;
+    let ratio = period / dt;
+    if ratio.round() < 1.0 || (ratio - ratio.round()).abs() > 1e-9 * ratio {
+        let show = crate::resources::show;
+        anyhow::bail!(
+            "--bus-rate {} Hz (a goal every {} s) must be a whole multiple of the simulation's time step{dt_flag} {} s: \
+             e.g. --bus-rate {}, or a smaller time step",
+            show(setup.bus_rate),
+            show(period),
+            show(dt),
+            show(1.0 / (ratio.round().max(1.0) * dt))
+        );
+    }
+    Ok(())
+}
+
 /// `settings` driving the setup's servos or steppers (their host at the bus's period); left
 /// as they are with torque motors.
 pub fn drive(setup: &Setup, settings: &mut chessarm_chess::play::PlaySettings) {

@@ -73,6 +73,29 @@ fn export_rate_unescaped(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A servo bus's goal rate for `--bus-rate`, Hz: within
+/// [[`MIN_BUS_RATE`], [`MAX_BUS_RATE`]].
+///
+/// [`MIN_BUS_RATE`]: crate::config::MIN_BUS_RATE
+/// [`MAX_BUS_RATE`]: crate::config::MAX_BUS_RATE
+fn bus_rate_unescaped(text: &str) -> Result<f64, String> {
+    use crate::config::{MAX_BUS_RATE, MIN_BUS_RATE};
+    let value = positive_unescaped(text)?;
+    if value < MIN_BUS_RATE {
+        Err(format!(
+            "{value} Hz is below {MIN_BUS_RATE} Hz: goals that far apart do not follow a plan (a move's \
+             simulation would wait {} s for each goal); servo buses send 50-1000 goals a second",
+            crate::resources::show(1.0 / value)
+        ))
+    } else if value > MAX_BUS_RATE {
+        Err(format!(
+            "{value} Hz is above {MAX_BUS_RATE} Hz, faster than a servo bus can carry goal packets for four servos"
+        ))
+    } else {
+        Ok(value)
+    }
+}
+
 /// A finite number.
 fn finite_unescaped(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
@@ -197,6 +220,7 @@ escaped! {
     non_negative => non_negative_unescaped -> f64;
     positive => positive_unescaped -> f64;
     export_rate => export_rate_unescaped -> f64;
+    bus_rate => bus_rate_unescaped -> f64;
     finite => finite_unescaped -> f64;
     gain => gain_unescaped -> [f64; 4];
     range => range_unescaped -> GainRange;

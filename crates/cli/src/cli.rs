@@ -42,8 +42,9 @@ pub struct Cli {
     /// inverse dynamics); `simulate` compares several given with commas.
     #[arg(long, global = true, value_name = "plain|sag|feedforward[,…]", value_delimiter = ',', value_parser = args::servo_command)]
     pub servo_command: Option<Vec<chessarm_core::control::servo_host::ServoCommand>>,
-    /// With servos or steppers: how often the host sends goal positions, Hz (default 100).
-    #[arg(long, global = true, value_name = "HZ", value_parser = args::positive)]
+    /// With servos or steppers: how often the host sends goal positions, Hz (default 100;
+    /// 10 to 10 000).
+    #[arg(long, global = true, value_name = "HZ", value_parser = args::bus_rate)]
     pub bus_rate: Option<f64>,
     /// Print the result as one line of JSON on standard output (for scripts) instead of a
     /// summary for people; tables and progress then go to standard error.
@@ -496,9 +497,9 @@ pub struct PlayArgs {
     pub human: Option<HumanSide>,
     /// How your moves arrive: `typed` (SAN or UCI) or `occupancy` (the board's sensors: 64
     /// characters 0/1 from a1 to h8, a 0x bitboard, or a FEN board field, one line after each
-    /// move).
-    #[arg(long, value_enum, default_value_t = crate::live::input::HumanInput::Typed, requires = "human")]
-    pub human_input: crate::live::input::HumanInput,
+    /// move). Default: typed.
+    #[arg(long, value_enum, requires = "human")]
+    pub human_input: Option<crate::live::input::HumanInput>,
     /// Read your moves from a Unix socket chessarm creates at this path (a board's reader
     /// program connects and writes lines) instead of standard input.
     #[arg(long, value_name = "PATH", requires = "human")]

@@ -250,6 +250,13 @@ pub fn run(cli: Cli) -> Result<()> {
         (None, _) => vec![Default::default()],
     };
     setup.bus_rate = cli.bus_rate.unwrap_or(config::DEFAULT_BUS_RATE);
+    // The bus's period against the simulation's time step, before any work.
+    let (dt, dt_flag) = match &cli.command {
+        Some(Command::Play(args)) => (args.dt, " --dt"),
+        Some(Command::Simulate(args)) => (args.dt, " --dt"),
+        _ => (chessarm_chess::play::PlaySettings::DEFAULT_DT, ""),
+    };
+    actuators::check_bus_period(&setup, dt, dt_flag)?;
     let default_out = std::path::PathBuf::from("out");
     let out = match &cli.command {
         None => Some(&default_out),
@@ -272,7 +279,7 @@ pub fn run(cli: Cli) -> Result<()> {
         ) => None,
     };
     let folder = out.map(|dir| folder_lock::RunFolder::take(dir)).transpose()?;
-    let result = dispatch(&setup, cli.command);
+    let result = out.map_or(Ok(()), |dir| output::check_list(dir)).and_then(|()| dispatch(&setup, cli.command));
     if let Some(folder) = folder {
         folder.end(result.is_ok());
     }

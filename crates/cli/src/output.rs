@@ -19,6 +19,26 @@ static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// Folders already swept of stale temporary files by this process.
 static SWEPT: Mutex<Option<HashSet<PathBuf>>> = Mutex::new(None);
 
+/// Files this process made that must not outlive it (the person's input socket): removed when
+/// their owner is dropped, and by the signal handler.
+static REMOVE_AT_EXIT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn remove_at_exit_list() -> MutexGuard<'static, Vec<PathBuf>> {
+    REMOVE_AT_EXIT.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Registers `path` for removal if a signal ends the program.
+pub fn remove_at_exit(path: &Path) {
+    remove_at_exit_list().push(path.to_path_buf());
+}
+
+/// Removes `path` (if there) and forgets it.
+pub fn remove_now(path: &Path) {
+    let mut list = remove_at_exit_list();
+    let _ = std::fs::remove_file(path);
+    list.retain(|p| p != path);
+}
+
 fn pending() -> MutexGuard<'static, Vec<PathBuf>> {
     PENDING.lock().unwrap_or_else(PoisonError::into_inner)
 }
@@ -26,8 +46,8 @@ fn pending() -> MutexGuard<'static, Vec<PathBuf>> {
 /// Exit code after a termination signal (128 + SIGINT, the shell's convention for Ctrl-C).
 pub const SIGNAL_EXIT_CODE: i32 = 130;
 
-/// Installs the handler that deletes this process's temporary files on SIGINT, SIGTERM or
-/// SIGHUP and exits with [`SIGNAL_EXIT_CODE`].
+/// Installs the handler that deletes this process's temporary files (and the files registered
+/// with [`remove_at_exit`]) on SIGINT, SIGTERM or SIGHUP and exits with [`SIGNAL_EXIT_CODE`].
 ///
 /// # Errors
 ///
@@ -43,7 +63,7 @@ pub fn remove_temporaries_on_signal() -> Result<()> {
         // Engines run in process groups of their own, which the terminal's Ctrl-C misses.
         chessarm_chess::opponent::kill_all_engines();
         test_pause("CHESSARM_TEST_SLOW_SIGNAL_MS");
-        for file in files.iter() {
+        for file in files.iter().chain(remove_at_exit_list().iter()) {
             let _ = std::fs::remove_file(file);
         }
         std::process::exit(SIGNAL_EXIT_CODE);
@@ -187,6 +207,37 @@ fn read_list(dir: &Path) -> Result<HashSet<String>> {
     }
 }
 
+/// Reads `dir`'s list before a run's work, so that a list chessarm cannot read (damaged: not
+/// text, or a link) stops the run before it simulates anything rather than at its first write.
+///
+/// # Errors
+///
+/// The list cannot be read, naming it and what to do.
+pub fn check_list(dir: &Path) -> Result<()> {
+    read_list(dir).map(drop).with_context(|| {
+        format!(
+            "{}'s {WRITTEN_LIST} (chessarm's list of the files it wrote there) is damaged; remove it if the folder \
+             holds only chessarm's results, or choose another --out; nothing was changed",
+            dir.display()
+        )
+    })
+}
+
+/// Refuses `path` before a run's work if a file is there that chessarm did not write (its
+/// folder's list does not name it): the run would stop at its first write there. The
+/// message advises another `flag` (the one that named the path).
+///
+/// # Errors
+///
+/// Such a file, or a list that cannot be read.
+pub fn refuse_if_not_ours(path: &Path, flag: &str) -> Result<()> {
+    if std::fs::symlink_metadata(path).is_err() {
+        return Ok(());
+    }
+    let (dir, name) = split(path)?;
+    if read_list(&dir)?.contains(&name) { Ok(()) } else { Err(not_ours_for(path, flag)) }
+}
+
 /// A file name without folders, so a damaged list cannot reach outside its folder.
 fn is_plain_name(name: &str) -> bool {
     !name.is_empty()
@@ -217,9 +268,14 @@ fn split(path: &Path) -> Result<(PathBuf, String)> {
 }
 
 fn not_ours(path: &Path) -> anyhow::Error {
+    not_ours_for(path, "--out")
+}
+
+/// The refusal of `path`, a file chessarm did not write, advising another `flag`.
+fn not_ours_for(path: &Path, flag: &str) -> anyhow::Error {
     anyhow!(
         "{} exists and was not written by chessarm (its folder's {WRITTEN_LIST} does not list it): move it away \
-         or choose another --out; nothing was changed",
+         or choose another {flag}; nothing was changed",
         path.display()
     )
 }

@@ -1,4 +1,4 @@
-//! Issue 10's findings, each as a regression test: output that cannot be written, runaway
+//! Hardening findings, each as a regression test: output that cannot be written, runaway
 //! work, files chessarm must not touch, silently accepted input and messages.
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
@@ -777,4 +777,76 @@ fn a_refused_run_removes_only_the_folders_it_made() {
         .unwrap();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     assert!(std::fs::read_to_string(latin.join(".chessarm-lock")).unwrap().contains("caf\u{fffd}"));
+}
+
+/// A bus rate that would size the work beyond reason (a goal every 10⁹ s hung the clearance
+/// sweep; 10⁻⁴ Hz took 2.35 GB in 25 s) or that the simulation cannot step is refused before
+/// anything runs, naming the flag and the value as typed.
+#[test]
+fn bus_rates_that_size_work_are_refused_before_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    for (rate, needle) in [("1e-9", "below 10 Hz"), ("1e-4", "below 10 Hz"), ("20000", "above 10000 Hz")] {
+        let output = chessarm(&["--actuator", "sts3215", "--bus-rate", rate, "play", "--moves", "e4", "--out", out]);
+        assert_one_line_error(&output, &["--bus-rate", rate, needle]);
+    }
+    // A period that is not a whole number of the simulation's steps: refused before the game
+    // (it stopped at its first move, having written game.json).
+    let output = chessarm(&[
+        "--actuator",
+        "sts3215",
+        "--bus-rate",
+        "300",
+        "play",
+        "--moves",
+        "e4",
+        "--dt",
+        "1e-3",
+        "--out",
+        out,
+    ]);
+    assert_one_line_error(&output, &["--bus-rate 300 Hz", "--dt 0.001"]);
+    assert!(!std::path::Path::new(out).join("game.json").exists());
+}
+
+/// What would refuse at the first write is refused before the work: a game.pgn the user wrote
+/// given to `--resume` (it replayed the moves, wrote game.json, then refused), a damaged list
+/// of chessarm's files (refused after the simulation, leaving empty moves/ and hardware/).
+#[test]
+fn refusals_come_before_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("mine");
+    std::fs::create_dir(&out).unwrap();
+    let pgn = "[Event \"mine\"]\n[White \"person\"]\n[Black \"arm\"]\n[Result \"*\"]\n\n1. e4 e5 2. Nf3 Nc6 3. Bb5 a6 4. Ba4 Nf6 *\n";
+    std::fs::write(out.join("game.pgn"), pgn).unwrap();
+    let output = chessarm(&["play", "--human", "white", "--resume", "--out", out.to_str().unwrap()]);
+    assert_one_line_error(&output, &["--resume", "game.pgn", "not written by chessarm"]);
+    assert_eq!(std::fs::read_to_string(out.join("game.pgn")).unwrap(), pgn);
+    assert!(!out.join("game.json").exists() && !out.join("moves").exists());
+    // A list that is not text.
+    let damaged = dir.path().join("damaged");
+    std::fs::create_dir(&damaged).unwrap();
+    std::fs::write(damaged.join(".chessarm-written"), b"game.json\n\xff\xfe\x00junk\n").unwrap();
+    let output = chessarm(&["play", "--moves", "e4", "--out", damaged.to_str().unwrap()]);
+    assert_one_line_error(&output, &[".chessarm-written", "damaged"]);
+    for made in ["moves", "hardware", "game.json"] {
+        assert!(!damaged.join(made).exists(), "{made} was made before the refusal");
+    }
+}
+
+/// `board`'s output flags are checked before the fit, and their errors name them: `--save`
+/// on a device (it said "choose another --out"), `--map` not a PNG (a library's debug dump).
+#[test]
+fn board_outputs_are_refused_naming_their_flag() {
+    let output = chessarm(&["board", "--fit", "--save", "/dev/full"]);
+    assert_one_line_error(&output, &["--save /dev/full"]);
+    assert!(!String::from_utf8_lossy(&output.stderr).contains("--out"));
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("x.txt");
+    let output = chessarm(&["board", "--map", map.to_str().unwrap()]);
+    assert_one_line_error(&output, &["--map", "x.txt", ".png"]);
+    assert!(!map.exists());
+    let output = chessarm(&["board", "--fit", "--save", dir.path().to_str().unwrap()]);
+    assert_one_line_error(&output, &["--save", "a folder"]);
 }

@@ -3,12 +3,36 @@
 
 use crate::cli::BoardArgs;
 use crate::config::Setup;
-use anyhow::{Result, anyhow};
+use anyhow::{Context, Result, anyhow};
 use chessarm_chess::reach::{check_table, fit_board, square_margins};
 use chessarm_chess::sag::{SquareHold, sag_map};
 use serde_json::json;
 
+/// Refuses, before any work, output paths the board's files cannot go to: a plot not named
+/// `.png`, a file there that chessarm did not write.
+fn check_outputs(args: &BoardArgs) -> Result<()> {
+    for (flag, path) in [("--map", &args.map), ("--sag-map", &args.sag_map)] {
+        let Some(path) = path else { continue };
+        let png = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !png {
+            anyhow::bail!(
+                "{flag} {}: the map is drawn as a PNG image; give a file name ending in .png",
+                path.display()
+            );
+        }
+        crate::output::refuse_if_not_ours(path, flag).with_context(|| format!("{flag} {}", path.display()))?;
+    }
+    if let Some(path) = &args.save {
+        if path.is_dir() {
+            anyhow::bail!("--save {}: a folder; give the setup file's name (FILE.toml)", path.display());
+        }
+        crate::output::refuse_if_not_ours(path, "--save").with_context(|| format!("--save {}", path.display()))?;
+    }
+    Ok(())
+}
+
 pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
+    check_outputs(args)?;
     let limits = setup.motion;
     let started = std::time::Instant::now();
     let mut fitted = setup.clone();
@@ -46,7 +70,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     let check = check_table(&setup.arm, &fitted.board, &fitted.pieces, &limits);
     let margins = square_margins(&setup.arm, &fitted.board, &fitted.pieces, &limits);
     if let Some(map) = &args.map {
-        plot_reach_map(map, &fitted, &margins)?;
+        plot_reach_map(map, &fitted, &margins).with_context(|| format!("--map {}", map.display()))?;
     }
     // With servos or steppers: which squares they hold, and how well.
     let sag = match (setup.actuators.take_positions(), &args.sag_map) {
@@ -57,7 +81,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         (false, None) => None,
     };
     if let (Some(path), Some(sag)) = (&args.sag_map, &sag) {
-        plot_sag_map(path, sag)?;
+        plot_sag_map(path, sag).with_context(|| format!("--sag-map {}", path.display()))?;
     }
     let sag_text = sag.as_ref().map_or(String::new(), |sag| sag_table(setup, sag));
     let sag_json = sag.as_ref().map(|sag| sag_json(setup, sag));
@@ -110,7 +134,8 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         match &args.save {
             // The setup in its file, the summary on stdout.
             Some(path) => {
-                crate::output::write_atomic(path, |out| Ok(out.write_all(text.as_bytes())?))?;
+                crate::output::write_atomic(path, |out| Ok(out.write_all(text.as_bytes())?))
+                    .with_context(|| format!("--save {}", path.display()))?;
                 crate::emit(&format!("{summary}setup file: {}\n", path.display()), &value)?;
             }
             // The setup file on stdout (with --json, one JSON line instead); the summary on stderr.

@@ -133,7 +133,11 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         if args.fen.is_some() {
             bail!("--fen starts a new game; --resume goes on with the one in game.pgn (its [FEN] tag gives its start)");
         }
-        crate::live::PgnGame::resume(&args.out.join("game.pgn"), person)?
+        let path = args.out.join("game.pgn");
+        // Saved over after every move: a game.pgn chessarm did not write is refused now, not
+        // after the resumed moves have been replayed.
+        crate::output::refuse_if_not_ours(&path, "--out").context("--resume")?;
+        crate::live::PgnGame::resume(&path, person)?
     } else {
         crate::live::PgnGame { headers: Vec::new(), start: start_position(args)?, moves: Vec::new() }
     };
@@ -156,7 +160,7 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         Some(port) => {
             let (page, clicks) = crate::live::page::LivePage::serve(port)?;
             crate::tell(&format!("live page: {} (open it in a browser; your moves are clicked there)\n", page.url));
-            (Box::new(crate::live::page::PageLines::new(clicks)), None, Some(page))
+            (Box::new(clicks), None, Some(page))
         }
         None => {
             let (lines, socket) =
@@ -166,7 +170,10 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
     };
     Ok(Source::Human(Box::new(HumanGame {
         person,
-        input: crate::live::input::Person::new(args.human_input, lines),
+        input: crate::live::input::Person::new(
+            args.human_input.unwrap_or(crate::live::input::HumanInput::Typed),
+            lines,
+        ),
         engine,
         pgn,
         resumed,
@@ -206,7 +213,27 @@ fn robot_moves(side: RobotSide, turn: Color) -> bool {
     matches!((side, turn), (RobotSide::Both, _) | (RobotSide::White, Color::White) | (RobotSide::Black, Color::Black))
 }
 
+/// Refuses the person's flags without a person: they would be ignored (and `--resume` would
+/// keep an old game.pgn beside a new game.json).
+fn refuse_person_flags_without_a_person(args: &PlayArgs) -> Result<()> {
+    if args.human.is_some() {
+        return Ok(());
+    }
+    let given = [
+        ("--live", args.live.is_some()),
+        ("--input-file", args.input_file.is_some()),
+        ("--input-socket", args.input_socket.is_some()),
+        ("--resume", args.resume),
+        ("--human-input", args.human_input.is_some()),
+    ];
+    if let Some((flag, _)) = given.iter().find(|(_, given)| *given) {
+        bail!("{flag} is for a person's game: give --human white or --human black with it");
+    }
+    Ok(())
+}
+
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
+    refuse_person_flags_without_a_person(args)?;
     let setup = &args.motion.apply(setup)?;
     let hosts = crate::actuators::servo_hosts(setup);
     if hosts.as_ref().is_some_and(|h| h.len() > 1) {
@@ -324,6 +351,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         tip_errors: Vec::new(),
         replay: ReplayBuilder::new(first_number, start_pose),
         header,
+        taken_back: Vec::new(),
     };
     // The real arm (or a dry run), opened before anything moves.
     let mut real_arm = (args.port.is_some() || args.dry_run)
@@ -382,7 +410,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         Ok(())
     };
     let outcome = played();
-    let Kept { reports, tip_errors, replay, .. } = kept;
+    let Kept { reports, tip_errors, replay, taken_back, .. } = kept;
     if let Err(error) = outcome {
         bar.finish_and_clear();
         // A game that stops part-way for any reason leaves nothing that passes for a whole
@@ -431,7 +459,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     summary["complete"] = json!(true);
     if let Source::Human(human) = &source {
         human.pgn.save(&args.out.join("game.pgn"), &result.result)?;
-        summary["human"] = human_json(human, args);
+        summary["human"] = human_json(human, args, &taken_back);
     }
     if let Some(arm) = &real_arm {
         summary["real_arm"] = real_arm_json(arm);
@@ -525,6 +553,8 @@ struct Kept {
     tip_errors: Vec<(f64, f64)>,
     replay: ReplayBuilder,
     header: String,
+    /// The moves a person took back (ply, SAN, by whom), for game.json.
+    taken_back: Vec<Value>,
 }
 
 impl Kept {
@@ -581,6 +611,23 @@ impl Kept {
         self.replay.add(&report);
         report.records = Vec::new();
         self.reports.push(report);
+        Ok(())
+    }
+}
+
+impl Kept {
+    /// The person took back every move after the first `keep`: their reports and their files
+    /// (the move CSVs, the hardware trajectories) go, so that the folder, game.json and
+    /// game.pgn hold one game; the replay keeps them, as what the arm did before the take-back.
+    fn take_back(&mut self, keep: usize, out: &Outputs<'_>) -> Result<()> {
+        for report in self.reports.drain(keep.min(self.reports.len())..) {
+            let stem = format!("{:03}-{}", report.ply, report.uci);
+            crate::output::remove_file_if_there(&out.moves_dir.join(format!("{stem}.csv")))?;
+            for suffix in [".csv", ".json", "-goals.csv"] {
+                crate::output::remove_file_if_there(&out.hardware_dir.join(format!("{stem}{suffix}")))?;
+            }
+            self.taken_back.push(json!({"ply": report.ply, "san": report.san, "by": if report.mover == Mover::Robot { "robot" } else { "hand" }}));
+        }
         Ok(())
     }
 }
@@ -683,6 +730,7 @@ fn play_human(
                     let put: Vec<String> = handled.iter().map(|h| format!("{} to {}", h.from, h.to)).collect();
                     crate::tell(&format!("taken back {plies} plies: put back {}\n", put.join(", ")));
                     kept.replay.take_back(&handled, plies);
+                    kept.take_back(keep_moves, out)?;
                     human.relocations.truncate(keep_moves);
                     human.pgn.moves.truncate(keep_moves);
                 }
@@ -803,17 +851,21 @@ fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, statu
 
 /// The person's game in game.json: sides, input, what was refused, and per robot move the
 /// engine's thinking and the latency from the person's move to the arm starting (s).
-fn human_json(human: &HumanGame, args: &PlayArgs) -> Value {
+fn human_json(human: &HumanGame, args: &PlayArgs, taken_back: &[Value]) -> Value {
     let latencies: Vec<f64> = human.timings.iter().map(|t| t.latency).collect();
     json!({
         "person": if human.person == Color::White { "white" } else { "black" },
-        "input": match args.human_input {
+        "input": match args.human_input.unwrap_or(crate::live::input::HumanInput::Typed) {
             crate::live::input::HumanInput::Typed => "typed",
             crate::live::input::HumanInput::Occupancy => "occupancy",
         },
         "engine": human.engine.name(),
         "resumed_plies": human.resumed,
-        "refused_input": human.input.refused,
+        // The first refused lines (bounded), and how many there were in all.
+        "refused_input": human.input.refused.kept,
+        "refused_lines": human.input.refused.lines,
+        "refused_bytes": human.input.refused.bytes,
+        "taken_back": taken_back,
         "robot_moves": human.timings.iter().map(|t| json!({
             "ply": t.ply,
             "thinking_s": t.thinking,
@@ -1235,9 +1287,12 @@ impl ReplayBuilder {
         );
     }
 
-    /// The person took back `plies` moves, putting pieces back by hand (`handled`).
+    /// The person took back `plies` moves, putting pieces back by hand (`handled`): the moves
+    /// leave the move list (their plies are played again), the arm's motion stays on the
+    /// timeline as what it did.
     fn take_back(&mut self, handled: &[chessarm_chess::play::Handling], plies: usize) {
         self.handled.extend_from_slice(handled);
+        self.moves.truncate(self.moves.len().saturating_sub(plies));
         for _ in 0..plies {
             self.turn = !self.turn;
             if self.turn == Color::Black {

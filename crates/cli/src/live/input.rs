@@ -15,8 +15,13 @@ use chessarm_chess::occupancy::{MoveReader, Resolved, parse_reading};
 use chessarm_chess::shakmaty::{Chess, Move, Role};
 use std::io::BufRead;
 
-/// Longest line read, bytes (a reading is 64 characters; a FEN board field under 100).
-const MAX_LINE: usize = 4096;
+/// Longest line read, bytes (a reading is 64 characters; a FEN board field under 100). A
+/// longer line is no person's move and no board's reading: the input ends with an error.
+pub const MAX_LINE: usize = 4096;
+/// Refused lines kept for the game's record (the first ones), and characters kept of each;
+/// the rest are only counted.
+pub const REFUSED_KEPT: usize = 100;
+const REFUSED_CHARS: usize = 200;
 
 /// How the person's moves arrive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -40,13 +45,33 @@ pub enum Action {
     Quit,
 }
 
+/// The words the person may type instead of a move, at every prompt.
+fn word(line: &str) -> Option<Action> {
+    match line.to_ascii_lowercase().as_str() {
+        "undo" | "takeback" => Some(Action::Undo),
+        "resign" => Some(Action::Resign),
+        "draw" => Some(Action::Draw),
+        "quit" | "exit" => Some(Action::Quit),
+        _ => None,
+    }
+}
+
+/// The lines refused, for the game's record: the first [`REFUSED_KEPT`] (each cut to 200
+/// characters, control characters escaped), and how many there were and their bytes.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Refused {
+    pub kept: Vec<String>,
+    pub lines: usize,
+    pub bytes: usize,
+}
+
 /// The person's input: a line source and how to read it.
 pub struct Person {
     kind: HumanInput,
     lines: Box<dyn BufRead + Send>,
     reader: MoveReader,
-    /// What was refused, line by line (for the game's record).
-    pub refused: Vec<String>,
+    /// What was refused (for the game's record).
+    pub refused: Refused,
 }
 
 impl std::fmt::Debug for Person {
@@ -57,34 +82,43 @@ impl std::fmt::Debug for Person {
 
 impl Person {
     pub fn new(kind: HumanInput, lines: Box<dyn BufRead + Send>) -> Self {
-        Self { kind, lines, reader: MoveReader::default(), refused: Vec::new() }
+        Self { kind, lines, reader: MoveReader::default(), refused: Refused::default() }
     }
 
     /// The next line (trimmed), `None` at the end of the input.
+    ///
+    /// # Errors
+    ///
+    /// The input cannot be read, or a line runs past [`MAX_LINE`] bytes without ending (a
+    /// file of zeros, a device, a stream that is not lines of moves).
     fn line(&mut self) -> Result<Option<String>> {
         let mut buffer = Vec::new();
-        let n = std::io::Read::take(&mut self.lines, MAX_LINE as u64)
+        let n = std::io::Read::take(&mut self.lines, MAX_LINE as u64 + 1)
             .read_until(b'\n', &mut buffer)
             .context("reading the person's input")?;
         if n == 0 {
             return Ok(None);
         }
-        if n == MAX_LINE && buffer.last() != Some(&b'\n') {
-            // The rest of an overlong line is not a move.
-            let mut rest = Vec::new();
-            while std::io::Read::take(&mut self.lines, MAX_LINE as u64).read_until(b'\n', &mut rest)? == MAX_LINE
-                && rest.last() != Some(&b'\n')
-            {
-                rest.clear();
-            }
-            return Ok(Some(format!("(a line over {MAX_LINE} bytes)")));
+        if n > MAX_LINE {
+            anyhow::bail!(
+                "the person's input has a line of over {MAX_LINE} bytes without a line end (it starts '{}'): it is not moves typed or a board's readings; the game is saved",
+                crate::escape_controls(&String::from_utf8_lossy(&buffer[..buffer.len().min(40)]))
+            );
         }
         Ok(Some(String::from_utf8_lossy(&buffer).trim().to_string()))
     }
 
+    /// Refuses `line` (said on standard error with why, control characters escaped) and keeps
+    /// it for the record, within bounds.
     fn refuse(&mut self, line: &str, why: &str) {
+        let why = crate::escape_controls(why);
         crate::tell(&format!("not played: {why}\n"));
-        self.refused.push(format!("{}: {why}", crate::escape_controls(line)));
+        self.refused.lines += 1;
+        self.refused.bytes += line.len();
+        if self.refused.kept.len() < REFUSED_KEPT {
+            let entry = format!("{}: {why}", crate::escape_controls(line));
+            self.refused.kept.push(entry.chars().take(REFUSED_CHARS).collect());
+        }
     }
 
     /// The person's next action in `position`; lines that give none are refused (said on
@@ -92,7 +126,7 @@ impl Person {
     ///
     /// # Errors
     ///
-    /// The input could not be read.
+    /// The input could not be read, or is not lines (see [`Person::line`]).
     pub fn next(&mut self, position: &Chess) -> Result<Action> {
         // A new move: what the sensors saw before (the arm's own move) is not part of it.
         self.reader.reset();
@@ -102,19 +136,16 @@ impl Person {
             if line.is_empty() || line.starts_with('#') {
                 continue;
             }
-            match line.to_ascii_lowercase().as_str() {
-                "undo" | "takeback" => return Ok(Action::Undo),
-                "resign" => return Ok(Action::Resign),
-                "draw" => return Ok(Action::Draw),
-                "quit" | "exit" => return Ok(Action::Quit),
-                _ => {}
+            if let Some(action) = word(&line) {
+                return Ok(action);
             }
+            let shown = crate::escape_controls(&line);
             match self.kind {
                 HumanInput::Typed => match parse_move(&line, position) {
                     Ok(m) => return Ok(Action::Move(m)),
                     Err(problem) => {
                         let why = format!(
-                            "'{line}' {problem} in this position (type a move in SAN or UCI, undo, resign, draw or quit)"
+                            "'{shown}' {problem} in this position (type a move in SAN or UCI, undo, resign, draw or quit)"
                         );
                         self.refuse(&line, &why);
                     }
@@ -123,7 +154,7 @@ impl Person {
                     let resolved = parse_reading(&line).and_then(|reading| self.reader.read(position, &reading));
                     let chosen = match resolved {
                         Ok(Resolved::Unchanged | Resolved::InProgress) => continue,
-                        Ok(Resolved::Move(m)) => Some(m),
+                        Ok(Resolved::Move(m)) => Action::Move(m),
                         Ok(Resolved::Promotion(choices)) => self.promotion(&choices)?,
                         Ok(Resolved::Choice(choices)) => self.which(position, &choices)?,
                         Err(error) => {
@@ -132,36 +163,45 @@ impl Person {
                         }
                     };
                     self.reader.reset();
-                    return Ok(chosen.map_or(Action::Quit, Action::Move));
+                    return Ok(chosen);
                 }
             }
         }
     }
 
     /// Asks which of several captures that read alike was made: the move typed (SAN or UCI) on
-    /// the next line; `None` if the input ends.
-    fn which(&mut self, position: &Chess, choices: &[Move]) -> Result<Option<Move>> {
+    /// the next line, or one of the typed words; [`Action::Quit`] if the input ends.
+    fn which(&mut self, position: &Chess, choices: &[Move]) -> Result<Action> {
         let names: Vec<String> =
             choices.iter().map(|m| chessarm_chess::shakmaty::san::San::from_move(position, *m).to_string()).collect();
         loop {
             crate::tell(&format!(
-                "the board reads alike after {}: which was it? (type it; lift the taken piece first next time)\n",
+                "the board reads alike after {}: which was it? (type it, or undo, resign, draw or quit; lift the taken piece first next time)\n",
                 names.join(", ")
             ));
-            let Some(line) = self.line()? else { return Ok(None) };
+            let Some(line) = self.line()? else { return Ok(Action::Quit) };
+            if let Some(action) = word(&line) {
+                return Ok(action);
+            }
             match parse_move(&line, position) {
-                Ok(m) if choices.contains(&m) => return Ok(Some(m)),
-                _ => self.refuse(&line, &format!("'{line}' is not one of {}", names.join(", "))),
+                Ok(m) if choices.contains(&m) => return Ok(Action::Move(m)),
+                _ => {
+                    let why = format!("'{}' is not one of {}", crate::escape_controls(&line), names.join(", "));
+                    self.refuse(&line, &why);
+                }
             }
         }
     }
 
     /// Asks which piece a pawn becomes: `q`, `r`, `b` or `n` (or the piece's name) on the next
-    /// line; `None` if the input ends.
-    fn promotion(&mut self, choices: &[Move]) -> Result<Option<Move>> {
+    /// line, or one of the typed words; [`Action::Quit`] if the input ends.
+    fn promotion(&mut self, choices: &[Move]) -> Result<Action> {
         loop {
-            crate::tell("promotion: which piece does the pawn become (q, r, b, n)?\n");
-            let Some(line) = self.line()? else { return Ok(None) };
+            crate::tell("promotion: which piece does the pawn become (q, r, b, n; or undo, resign, draw, quit)?\n");
+            let Some(line) = self.line()? else { return Ok(Action::Quit) };
+            if let Some(action) = word(&line) {
+                return Ok(action);
+            }
             let role = match line.to_ascii_lowercase().as_str() {
                 "q" | "queen" => Some(Role::Queen),
                 "r" | "rook" => Some(Role::Rook),
@@ -170,8 +210,11 @@ impl Person {
                 _ => None,
             };
             match role.and_then(|r| choices.iter().find(|m| m.promotion() == Some(r))) {
-                Some(m) => return Ok(Some(*m)),
-                None => self.refuse(&line, &format!("'{line}' is not q, r, b or n")),
+                Some(m) => return Ok(Action::Move(*m)),
+                None => {
+                    let why = format!("'{}' is not q, r, b or n", crate::escape_controls(&line));
+                    self.refuse(&line, &why);
+                }
             }
         }
     }
@@ -205,18 +248,20 @@ pub fn lines_from(
     }
     let listener = std::os::unix::net::UnixListener::bind(path)
         .with_context(|| format!("--input-socket {}: cannot create the socket", path.display()))?;
+    crate::output::remove_at_exit(path);
     let file = SocketFile(path.to_path_buf());
     crate::tell(&format!("waiting for the board's reader to connect to {}\n", path.display()));
     let (stream, _) = listener.accept().with_context(|| format!("--input-socket {}", path.display()))?;
     Ok((Box::new(std::io::BufReader::new(stream)), Some(file)))
 }
 
-/// The socket file chessarm made; removed when dropped.
+/// The socket file chessarm made; removed when dropped (and by the signal handler on Ctrl-C
+/// or a termination signal).
 #[derive(Debug)]
 pub struct SocketFile(std::path::PathBuf);
 
 impl Drop for SocketFile {
     fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
+        crate::output::remove_now(&self.0);
     }
 }

@@ -1,0 +1,407 @@
+//! The live loop under bad input, as an attacker or a careless user gives it: the live page
+//! driven by other sites or out of turn, input that never ends a line, endless refused lines,
+//! control characters, the typed words at every prompt, a take-back's record, the input socket
+//! after a signal, and input flags without `--human`. Each case ends with a clear one-line
+//! error or the right behaviour; the report's arm with its torque motors (no bus) keeps them
+//! quick.
+
+#![allow(clippy::unwrap_used)] // tests
+
+mod common;
+
+use chessarm_chess::shakmaty::{Chess, Position, fen::Fen, uci::UciMove};
+use common::chessarm;
+use serde_json::Value;
+use std::io::{Read, Write};
+use std::path::Path;
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Runs `play` with `args` (and `--json`) and `input` on standard input; killed (and the test
+/// failed) if it runs longer than `limit` — a loop that never ends must not hang the suite.
+fn play_with_input(args: &[&str], input: &[u8], limit: Duration) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(args)
+        .arg("--json")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let input = input.to_vec();
+    // Written on a thread: the child may stop reading (and the pipe fill) before the end.
+    let writer = std::thread::spawn(move || {
+        let _ = stdin.write_all(&input);
+    });
+    let output = wait_within(child, limit);
+    let _ = writer.join();
+    output
+}
+
+fn wait_within(mut child: Child, limit: Duration) -> Output {
+    let started = Instant::now();
+    let stdout = child.stdout.take();
+    let stderr = child.stderr.take();
+    let out = std::thread::spawn(move || {
+        let mut bytes = Vec::new();
+        if let Some(mut stdout) = stdout {
+            stdout.read_to_end(&mut bytes).unwrap();
+        }
+        bytes
+    });
+    let err = std::thread::spawn(move || {
+        let mut bytes = Vec::new();
+        if let Some(mut stderr) = stderr {
+            stderr.read_to_end(&mut bytes).unwrap();
+        }
+        bytes
+    });
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if started.elapsed() > limit {
+            child.kill().unwrap();
+            let _ = child.wait();
+            panic!("still running after {limit:?}: {}", String::from_utf8_lossy(&err.join().unwrap()));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    Output { status, stdout: out.join().unwrap(), stderr: err.join().unwrap() }
+}
+
+/// Exit code 2 and the last line on standard error an error holding every `needle` (the
+/// prompts come before it).
+fn assert_error_last(output: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    let last = stderr.trim_end().lines().last().unwrap_or("");
+    assert!(last.starts_with("error: "), "{stderr}");
+    for needle in needles {
+        assert!(last.contains(needle), "'{needle}' missing from: {stderr}");
+    }
+}
+
+fn json_file(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The occupancy (a `0x` bitboard, a1 the lowest bit) after `uci` in the position `fen`.
+fn reading_after(fen: &str, uci: &str) -> String {
+    let mut position: Chess =
+        fen.parse::<Fen>().unwrap().into_position(chessarm_chess::shakmaty::CastlingMode::Standard).unwrap();
+    let m = uci.parse::<UciMove>().unwrap().to_move(&position).unwrap();
+    position.play_unchecked(m);
+    format!("0x{:016x}", u64::from(position.board().occupied()))
+}
+
+/// A file of zeros (no line end) and a stream of endless lines end the game with exit 2, the
+/// game saved; well within a minute (they never ended before).
+#[test]
+fn input_that_never_ends_a_line_stops_with_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("zero");
+    let output = play_with_input(
+        &["play", "--human", "white", "--input-file", "/dev/zero", "--out", out.to_str().unwrap()],
+        b"",
+        Duration::from_secs(120),
+    );
+    assert_error_last(&output, &["line of over 4096 bytes", "\\0\\0"]);
+    // The moves so far (none) are saved, to go on with.
+    assert!(out.join("game.pgn").is_file());
+    // A line of megabytes from standard input: the same.
+    let out = dir.path().join("long");
+    let long = vec![b'e'; 3_000_000];
+    let output =
+        play_with_input(&["play", "--human", "white", "--out", out.to_str().unwrap()], &long, Duration::from_secs(120));
+    assert_error_last(&output, &["line of over 4096 bytes"]);
+}
+
+/// 2 000 refused lines of 4 000 bytes each: the record keeps the first 100, cut short, and
+/// counts them all; game.json stays small (it held every line, 162 MB for 20 000, before).
+#[test]
+fn refused_input_is_kept_within_bounds() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let line = format!("{}\n", "z".repeat(3999));
+    let input = line.repeat(2000) + "quit\n";
+    let output = play_with_input(
+        &["play", "--human", "white", "--out", out.to_str().unwrap()],
+        input.as_bytes(),
+        Duration::from_secs(300),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let game = json_file(&out.join("game.json"));
+    let human = &game["human"];
+    assert_eq!(human["refused_lines"], 2000);
+    assert_eq!(human["refused_bytes"], 2000 * 3999);
+    let kept = human["refused_input"].as_array().unwrap();
+    assert_eq!(kept.len(), 100);
+    assert!(kept.iter().all(|k| k.as_str().unwrap().chars().count() <= 200));
+    let size = std::fs::metadata(out.join("game.json")).unwrap().len();
+    assert!(size < 200_000, "game.json is {size} bytes");
+}
+
+/// Escape sequences, a bell and NULs typed are shown escaped, never sent to the terminal.
+#[test]
+fn control_characters_in_the_input_are_shown_escaped() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let input = b"\x1b[2J\x1b]0;owned\x07e9\0\x9b\nquit\n";
+    let output =
+        play_with_input(&["play", "--human", "white", "--out", out.to_str().unwrap()], input, Duration::from_secs(120));
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("not played"), "{stderr}");
+    for raw in [b'\x1b', b'\x07', b'\0'] {
+        assert!(!output.stderr.contains(&raw), "raw {raw:#x} on the terminal: {stderr}");
+    }
+    assert!(stderr.contains("\\u{1b}[2J"), "{stderr}");
+    let game = json_file(&out.join("game.json"));
+    let kept = game["human"]["refused_input"][0].as_str().unwrap();
+    assert!(!kept.contains('\x1b') && kept.contains("\\u{1b}"), "{kept}");
+}
+
+/// `quit` at the promotion prompt and `resign` at the "which was it?" prompt end the game as
+/// they do at the move prompt (they were taken for bad answers before).
+#[test]
+fn the_typed_words_work_at_every_prompt() {
+    let dir = tempfile::tempdir().unwrap();
+    // A pawn on a7: the reading after a7a8 asks which piece it became.
+    let promotion = "4k3/P7/8/8/8/8/8/4K3 w - - 0 1";
+    let out = dir.path().join("promotion");
+    let input = format!("{}\nquit\n", reading_after(promotion, "a7a8q"));
+    let output = play_with_input(
+        &["play", "--human", "white", "--human-input", "occupancy", "--fen", promotion, "--out", out.to_str().unwrap()],
+        input.as_bytes(),
+        Duration::from_secs(120),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("promotion: which piece"), "{stderr}");
+    assert!(!stderr.contains("not played"), "quit was refused: {stderr}");
+    let game = json_file(&out.join("game.json"));
+    assert_eq!(game["result"], "*", "{game}");
+    assert_eq!(game["human"]["refused_lines"], 0);
+    // The rook on a1 takes on a5 or on e1: only a1 empties, so the board reads alike.
+    let which = "4k3/8/8/p7/8/8/8/R3b1K1 w - - 0 1";
+    let out = dir.path().join("which");
+    let input = format!("{}\nresign\n", reading_after(which, "a1a5"));
+    let output = play_with_input(
+        &["play", "--human", "white", "--human-input", "occupancy", "--fen", which, "--out", out.to_str().unwrap()],
+        input.as_bytes(),
+        Duration::from_secs(120),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("which was it?"));
+    let game = json_file(&out.join("game.json"));
+    assert_eq!(game["result"], "0-1", "{game}");
+    assert_eq!(game["human"]["refused_lines"], 0);
+}
+
+/// After a take-back the folder holds one game: moves/ only the played moves' CSVs, game.json
+/// the plies game.pgn has (the taken-back ones listed apart), the summary the same count.
+#[test]
+fn a_take_back_leaves_one_true_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let output = play_with_input(
+        &["play", "--human", "white", "--out", out.to_str().unwrap()],
+        b"e4\nundo\nd4\nquit\n",
+        Duration::from_secs(300),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let game = json_file(&out.join("game.json"));
+    let moves = game["moves"].as_array().unwrap();
+    assert_eq!(moves.len(), 2, "{game}");
+    assert_eq!(moves[0]["san"], "d4");
+    let pgn = std::fs::read_to_string(out.join("game.pgn")).unwrap();
+    assert!(pgn.contains("[PlyCount \"2\"]") && pgn.contains("1. d4"), "{pgn}");
+    assert!(!pgn.contains("e4 "), "{pgn}");
+    let summary: Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(summary["plies"], 2, "{summary}");
+    let taken: Vec<&str> =
+        game["human"]["taken_back"].as_array().unwrap().iter().map(|t| t["san"].as_str().unwrap()).collect();
+    assert_eq!(taken.len(), 2);
+    assert_eq!(taken[0], "e4");
+    let csvs: Vec<String> = std::fs::read_dir(out.join("moves"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| name.ends_with(".csv"))
+        .collect();
+    assert_eq!(csvs.len(), 1, "{csvs:?}");
+    assert!(csvs[0].starts_with("002-"), "{csvs:?}");
+}
+
+/// The input socket goes with the program however it ends: Ctrl-C and SIGTERM included (it
+/// stayed, and the next run refused to start, before).
+#[test]
+fn the_input_socket_is_removed_on_a_signal() {
+    let dir = tempfile::tempdir().unwrap();
+    for signal in ["INT", "TERM"] {
+        let socket = dir.path().join(format!("board-{signal}.sock"));
+        let out = dir.path().join(format!("out-{signal}"));
+        let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+            .args(["play", "--human", "white", "--input-socket", socket.to_str().unwrap(), "--out"])
+            .arg(&out)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = Instant::now();
+        while !socket.exists() {
+            assert!(started.elapsed() < Duration::from_secs(60), "no socket");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        // A reader connects, as a board would, then the signal comes while the game waits.
+        let _board = std::os::unix::net::UnixStream::connect(&socket).unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        let killed = Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status().unwrap();
+        assert!(killed.success());
+        let output = wait_within(child, Duration::from_secs(60));
+        assert_eq!(output.status.code(), Some(130), "{}", String::from_utf8_lossy(&output.stderr));
+        assert!(!socket.exists(), "SIG{signal} left the socket behind");
+    }
+}
+
+/// Input flags without `--human` are refused, naming the flag (they were ignored before, and
+/// `--resume` left an old game.pgn beside a new game.json).
+#[test]
+fn input_flags_without_a_person_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    let socket = dir.path().join("s.sock");
+    for flags in [
+        vec!["--live", "0"],
+        vec!["--input-file", "/dev/null"],
+        vec!["--input-socket", socket.to_str().unwrap()],
+        vec!["--resume"],
+        vec!["--human-input", "occupancy"],
+        vec!["--human-input", "typed"],
+    ] {
+        let mut args = vec!["play", "--moves", "e4", "--out", out];
+        args.extend(&flags);
+        let output = chessarm(&args);
+        common::assert_one_line_error(&output, &[flags[0], "--human"]);
+        assert!(!Path::new(out).join("game.json").exists(), "{flags:?} wrote game.json");
+    }
+}
+
+/// Raw HTTP to the live page.
+fn exchange(port: u16, text: &str) -> String {
+    let mut stream = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    stream.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+    stream.write_all(text.as_bytes()).unwrap();
+    let mut answer = String::new();
+    stream.read_to_string(&mut answer).unwrap();
+    answer
+}
+
+/// Another site cannot play, resign or stop the game, nor read it by rebinding a name to
+/// 127.0.0.1; the page's own second click while the arm moves is refused, not queued.
+#[test]
+fn only_the_live_page_plays_and_only_in_turn() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(["play", "--human", "white", "--live", "0", "--out"])
+        .arg(&out)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let port: u16 = loop {
+        let mut line = String::new();
+        assert!(std::io::BufRead::read_line(&mut stderr, &mut line).unwrap() > 0, "no live page");
+        if let Some(at) = line.find("http://127.0.0.1:") {
+            let address = line[at..].split_whitespace().next().unwrap();
+            break address.trim_end_matches('/').rsplit(':').next().unwrap().parse().unwrap();
+        }
+    };
+    let rest = std::thread::spawn(move || {
+        let mut text = String::new();
+        stderr.read_to_string(&mut text).unwrap();
+        text
+    });
+    let host = format!("127.0.0.1:{port}");
+    let origin = format!("http://{host}");
+    let post = |path: &str, body: &str, headers: &str| {
+        exchange(
+            port,
+            &format!(
+                "POST {path} HTTP/1.1\r\n{headers}Content-Type: text/plain\r\nContent-Length: {}\r\n\r\n{body}",
+                body.len()
+            ),
+        )
+    };
+    let plies = |token: &str| -> Value {
+        let answer =
+            exchange(port, &format!("GET /state HTTP/1.1\r\nHost: {host}\r\nX-Chessarm-Token: {token}\r\n\r\n"));
+        assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+        serde_json::from_str(answer.split("\r\n\r\n").nth(1).unwrap()).unwrap()
+    };
+    // The page, and the token it carries.
+    let page = exchange(port, &format!("GET / HTTP/1.1\r\nHost: {host}\r\n\r\n"));
+    assert!(page.starts_with("HTTP/1.1 200"));
+    let token = page.split("name=\"chessarm-token\" content=\"").nth(1).unwrap().split('"').next().unwrap().to_string();
+    assert_eq!(token.len(), 32, "{token}");
+    let started = Instant::now();
+    while plies(&token)["plies"].is_null() {
+        // The game has not shown its first state yet.
+        assert!(started.elapsed() < Duration::from_secs(120));
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Now the game waits for the person: what other sites send must change nothing.
+    while plies(&token)["your_turn"] != true {
+        assert!(started.elapsed() < Duration::from_secs(120));
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Another site's form: no token, its own Origin.
+    let evil = format!("Host: {host}\r\nOrigin: http://evil.example\r\n");
+    assert!(post("/move", "e2e4", &evil).starts_with("HTTP/1.1 403"));
+    assert!(post("/command", "quit", &evil).starts_with("HTTP/1.1 403"));
+    // DNS rebinding: the page and its state asked for under another name.
+    assert!(exchange(port, "GET /state HTTP/1.1\r\nHost: evil.example\r\n\r\n").starts_with("HTTP/1.1 403"));
+    assert!(
+        exchange(port, &format!("GET / HTTP/1.1\r\nHost: evil.example:{port}\r\n\r\n")).starts_with("HTTP/1.1 403")
+    );
+    // Without the token, even naming the page's own origin.
+    let tokenless = format!("Host: {host}\r\nOrigin: {origin}\r\n");
+    assert!(post("/move", "e2e4", &tokenless).starts_with("HTTP/1.1 403"));
+    std::thread::sleep(Duration::from_millis(500));
+    assert_eq!(plies(&token)["plies"], 0, "a refused request changed the game");
+    // The page's own move, then at once a second one: refused while the first is played.
+    let own = format!("Host: {host}\r\nOrigin: {origin}\r\nX-Chessarm-Token: {token}\r\n");
+    let started = Instant::now();
+    let first = loop {
+        let answer = post("/move", "e2e4", &own);
+        if !answer.contains("not now") {
+            break answer;
+        }
+        // The game had not asked for the person's move yet.
+        assert!(started.elapsed() < Duration::from_secs(120), "{answer}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(first.starts_with("HTTP/1.1 202"), "{first}");
+    let second = post("/move", "g1f3", &own);
+    assert!(second.starts_with("HTTP/1.1 409") && second.contains("not now"), "{second}");
+    for command in ["undo", "resign", "quit"] {
+        assert!(post("/command", command, &own).starts_with("HTTP/1.1 409"), "{command}");
+    }
+    // The arm's reply, then the person stops the game.
+    while plies(&token)["plies"] != 2 || plies(&token)["your_turn"] != true {
+        assert!(started.elapsed() < Duration::from_secs(300), "the arm did not answer");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(post("/command", "quit", &own).starts_with("HTTP/1.1 202"));
+    let output = wait_within(child, Duration::from_secs(120));
+    let stderr = rest.join().unwrap();
+    assert!(output.status.success(), "{stderr}");
+    let pgn = std::fs::read_to_string(out.join("game.pgn")).unwrap();
+    assert!(pgn.contains("[PlyCount \"2\"]") && pgn.contains("1. e4") && !pgn.contains("Nf3"), "{pgn}");
+}
