@@ -429,7 +429,13 @@ pub fn escape_controls(text: &str) -> String {
             '\r' => shown.push_str("\\r"),
             '\t' => shown.push_str("\\t"),
             '\0' => shown.push_str("\\0"),
-            c if c.is_control() => shown.push_str(&format!("\\u{{{:x}}}", u32::from(c))),
+            // Control characters, and the invisible ones that reorder or hide text (bidi
+            // overrides, zero-width marks), which could make a shown line lie.
+            c if c.is_control()
+                || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' | '\u{feff}') =>
+            {
+                shown.push_str(&format!("\\u{{{:x}}}", u32::from(c)))
+            }
             c => shown.push(c),
         }
     }

@@ -780,10 +780,10 @@ fn a_refused_run_removes_only_the_folders_it_made() {
 }
 
 /// A bus rate that would size the work beyond reason (a goal every 10⁹ s hung the clearance
-/// sweep; 10⁻⁴ Hz took 2.35 GB in 25 s) or that the simulation cannot step is refused before
-/// anything runs, naming the flag and the value as typed.
+/// sweep; 10⁻⁴ Hz took 2.35 GB in 25 s) or that the simulation cannot step, and a gripper
+/// dwell of days, are refused before anything runs, naming the flag and the value as typed.
 #[test]
-fn bus_rates_that_size_work_are_refused_before_it() {
+fn rates_and_dwells_that_size_work_are_refused_before_it() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let out = out.to_str().unwrap();
@@ -807,6 +807,11 @@ fn bus_rates_that_size_work_are_refused_before_it() {
         out,
     ]);
     assert_one_line_error(&output, &["--bus-rate 300 Hz", "--dt 0.001"]);
+    assert!(!std::path::Path::new(out).join("game.json").exists());
+    // A gripper dwell of days is simulated step by step: refused before the game (it stopped
+    // at its first move).
+    let output = chessarm(&["play", "--moves", "e4", "--grip-dwell", "1e6", "--out", out]);
+    assert_one_line_error(&output, &["grip_dwell", "1e6", "at most 60 s"]);
     assert!(!std::path::Path::new(out).join("game.json").exists());
 }
 

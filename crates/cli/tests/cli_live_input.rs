@@ -148,7 +148,8 @@ fn refused_input_is_kept_within_bounds() {
 fn control_characters_in_the_input_are_shown_escaped() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let input = b"\x1b[2J\x1b]0;owned\x07e9\0\x9b\nquit\n";
+    // (The last, U+202E, turns the rest of a line around on a terminal that honours it.)
+    let input = b"\x1b[2J\x1b]0;owned\x07e9\0\x9b\xe2\x80\xaeabc\nquit\n";
     let output =
         play_with_input(&["play", "--human", "white", "--out", out.to_str().unwrap()], input, Duration::from_secs(120));
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
@@ -157,7 +158,8 @@ fn control_characters_in_the_input_are_shown_escaped() {
     for raw in [b'\x1b', b'\x07', b'\0'] {
         assert!(!output.stderr.contains(&raw), "raw {raw:#x} on the terminal: {stderr}");
     }
-    assert!(stderr.contains("\\u{1b}[2J"), "{stderr}");
+    assert!(stderr.contains("\\u{1b}[2J") && stderr.contains("\\u{202e}abc"), "{stderr}");
+    assert!(!stderr.contains('\u{202e}'), "{stderr}");
     let game = json_file(&out.join("game.json"));
     let kept = game["human"]["refused_input"][0].as_str().unwrap();
     assert!(!kept.contains('\x1b') && kept.contains("\\u{1b}"), "{kept}");
