@@ -99,7 +99,7 @@ fn limits_far_too_low_or_fine_are_refused_before_the_planner_allocates() {
     assert_one_line_error(&play(&["--tool-speed", "1e-9"]), &["move e4", "tool speed limit"]);
     assert_one_line_error(&play(&["--timing", "lspb", "--traverse-acceleration", "1e-9"]), &["move e4", "LSPB"]);
     // What makes it long is named, in short numbers.
-    assert_one_line_error(&play(&["--grip-dwell", "1e8"]), &["would last 1e8 s", "grip or release dwell"]);
+    assert_one_line_error(&play(&["--grip-dwell", "1e8"]), &["grip_dwell = 1e8", "at most 60 s"]);
     assert_one_line_error(&play(&["--jerk", "1e-12"]), &["jerk limit is far too low"]);
     assert_one_line_error(&play(&["--timing", "lspb", "--pause", "1e8"]), &["would last 4e8 s", "pause"]);
     assert_one_line_error(&play(&["--tool-speed", "1e-100"]), &["would last 2.086e99 s", "tool speed limit"]);
