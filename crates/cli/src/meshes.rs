@@ -40,8 +40,8 @@ pub fn package_path() -> Vec<PathBuf> {
     std::env::var_os("ROS_PACKAGE_PATH").map(|v| std::env::split_paths(&v).collect()).unwrap_or_default()
 }
 
-/// Most distinct vertices a mesh's hull is computed over as they are (the real arms' meshes
-/// have up to 27 000): above it a grid of points around the vertices stands in (see
+/// Most distinct vertices a mesh's hull is computed over as they are (the meshes of
+/// `../shared/real-arms` have up to 26 967): above it a grid of points around the vertices stands in (see
 /// [`around`]), so that a mesh of a million triangles imports in seconds and its hull stays
 /// small for the clearance check, which scans the hull's vertices at every step.
 pub const MAX_HULL_INPUT: usize = 40_000;
@@ -55,7 +55,7 @@ pub const COLUMNS: usize = 64;
 pub const MIN_EXTENT: f64 = 1e-6;
 
 /// Largest extent of a mesh after its scale, m: the hull's arithmetic takes products of four
-/// lengths, which must stay finite (1e300 and more is infinite in f64).
+/// lengths, which must stay finite (f64 ends at 1.8e308; 1e60⁴ = 1e240 leaves room).
 pub const MAX_EXTENT: f64 = 1e60;
 
 /// A mesh's points for its convex hull, m, with what was done to a large mesh.
