@@ -8,7 +8,7 @@
 
 use anyhow::{Result, bail};
 use chessarm_core::nalgebra::Vector3;
-use std::io::Read;
+use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
 /// Largest mesh file read, bytes (64 MB: an arm's link meshes are 0.1–5 MB).
@@ -40,55 +40,205 @@ pub fn package_path() -> Vec<PathBuf> {
     std::env::var_os("ROS_PACKAGE_PATH").map(|v| std::env::split_paths(&v).collect()).unwrap_or_default()
 }
 
-/// The vertices of the STL file at `path`, m after `scale` (per axis).
+/// Most distinct vertices a mesh's hull is computed over as they are (the meshes of
+/// `../shared/real-arms` have up to 26 967): above it a grid of points around the vertices stands in (see
+/// [`around`]), so that a mesh of a million triangles imports in seconds and its hull stays
+/// small for the clearance check, which scans the hull's vertices at every step.
+pub const MAX_HULL_INPUT: usize = 40_000;
+
+/// Columns across the grid that stands in for a larger mesh: at most `2 (COLUMNS + 1)²` points
+/// (8450) go to the hull.
+pub const COLUMNS: usize = 64;
+
+/// Smallest extent of a mesh after its scale, m: below a micrometre there is nothing the
+/// clearance check can tell apart (its resolution is 0.5 mm).
+pub const MIN_EXTENT: f64 = 1e-6;
+
+/// Largest extent of a mesh after its scale, m: the hull's arithmetic takes products of four
+/// lengths, which must stay finite (f64 ends at 1.8e308; 1e60⁴ = 1e240 leaves room).
+pub const MAX_EXTENT: f64 = 1e60;
+
+/// A mesh's points for its convex hull, m, with what was done to a large mesh.
+#[derive(Debug, Clone)]
+pub struct MeshPoints {
+    /// Distinct vertices, sorted by their bits (or the grid points standing in for them).
+    pub points: Vec<Vector3<f64>>,
+    /// For a mesh of more than [`MAX_HULL_INPUT`] distinct vertices: how many it has, how many
+    /// points stand in, and how far outside the mesh's own hull theirs reaches at most, m.
+    pub decimated: Option<(usize, usize, f64)>,
+}
+
+/// The points for the convex hull of the STL file at `path`, m after `scale` (per axis;
+/// `scale_text` is the attribute as typed, for messages). The file is read as a stream (a
+/// vertex is kept as three f64, 72 bytes a triangle against the file's 50).
 ///
 /// # Errors
 ///
 /// The file cannot be read, is longer than [`MAX_MESH_BYTES`], is not STL (binary or ASCII),
-/// or has a vertex that is not finite.
-pub fn read_stl(path: &Path, scale: [f64; 3]) -> Result<Vec<Vector3<f64>>> {
+/// has a vertex that is not finite, all its vertices coincide, or scaled it overflows, is
+/// smaller than [`MIN_EXTENT`] or spans no volume; each said with the file's name.
+pub fn read_stl(path: &Path, scale: [f64; 3], scale_text: &str) -> Result<MeshPoints> {
+    let name = path.display();
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     if extension != "stl" {
-        bail!(
-            "{}: a .{extension} mesh; chessarm reads STL meshes only (convert it, e.g. with meshlab)",
-            path.display()
-        );
+        bail!("{name}: a .{extension} mesh; chessarm reads STL meshes only (convert it, e.g. with meshlab)");
     }
-    let file = std::fs::File::open(path).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", path.display()))?;
-    let mut bytes = Vec::new();
-    file.take(MAX_MESH_BYTES + 1).read_to_end(&mut bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    if bytes.len() as u64 > MAX_MESH_BYTES {
-        bail!("{}: longer than {MAX_MESH_BYTES} bytes (the most chessarm reads of a mesh)", path.display());
+    let file = std::fs::File::open(path).map_err(|e| anyhow::anyhow!("{name}: cannot read: {e}"))?;
+    let length = file.metadata().map_err(|e| anyhow::anyhow!("{name}: cannot read: {e}"))?.len();
+    if length > MAX_MESH_BYTES {
+        bail!("{name}: longer than {MAX_MESH_BYTES} bytes (the most chessarm reads of a mesh)");
     }
     if scale.contains(&0.0) {
+        bail!("{name}: scale=\"{scale_text}\" flattens it (every factor must be non-zero)");
+    }
+    let reader = std::io::BufReader::with_capacity(1 << 16, file.take(MAX_MESH_BYTES + 1));
+    let mut points = parse_stl_from(reader, length).map_err(|why| anyhow::anyhow!("{name}: {why}"))?;
+    let count = points.len();
+    let (low, high) = bounds(&points);
+    if low == high {
+        bail!("{name}: all {count} vertices coincide: no shape to check clearance with");
+    }
+    // Scaled in place, -0 as +0 (the hull's own pass sorts by bits so).
+    for p in &mut points {
+        *p = Vector3::new(p.x * scale[0] + 0.0, p.y * scale[1] + 0.0, p.z * scale[2] + 0.0);
+    }
+    let (low, high) = bounds(&points);
+    let extent = (high - low).max();
+    if extent.is_nan() || extent > MAX_EXTENT {
+        let size = if extent.is_finite() {
+            format!("the mesh would be {} m across", chessarm_core::short_number(extent))
+        } else {
+            format!("a coordinate would pass {}, the largest number there is", chessarm_core::short_number(f64::MAX))
+        };
         bail!(
-            "{}: scale=\"{} {} {}\" flattens it (every factor must be non-zero)",
-            path.display(),
-            scale[0],
-            scale[1],
-            scale[2]
+            "{name}: scaled by \"{scale_text}\" its vertices overflow ({size}; chessarm takes meshes up to {} m across)",
+            chessarm_core::short_number(MAX_EXTENT)
         );
     }
-    let points = parse_stl(&bytes).map_err(|why| anyhow::anyhow!("{}: {why}", path.display()))?;
-    let scaled: Vec<Vector3<f64>> =
-        points.into_iter().map(|p| Vector3::new(p.x * scale[0], p.y * scale[1], p.z * scale[2])).collect();
-    if scaled.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
-        bail!("{}: scale=\"{} {} {}\" makes a vertex infinite", path.display(), scale[0], scale[1], scale[2]);
+    if extent < MIN_EXTENT {
+        bail!(
+            "{name}: scaled by \"{scale_text}\" the mesh is {} m across, too small to check clearance with (under a \
+             micrometre)",
+            chessarm_core::short_number(extent)
+        );
     }
-    Ok(scaled)
+    // A mesh repeats each vertex in every triangle that has it (six times on average): once is
+    // enough for the hull. Sorted by bits, as the hull's own pass does, in place (no second
+    // copy of a large mesh).
+    let bits = |p: &Vector3<f64>| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    points.sort_unstable_by_key(bits);
+    points.dedup();
+    let unique = points;
+    if !spans_volume(&unique, extent) {
+        bail!("{name}: its vertices span no volume (they lie in a plane or on a line)");
+    }
+    if unique.len() <= MAX_HULL_INPUT {
+        return Ok(MeshPoints { points: unique, decimated: None });
+    }
+    let (points, within) = around(&unique, low, high);
+    Ok(MeshPoints { decimated: Some((unique.len(), points.len(), within)), points })
+}
+
+/// The smallest and largest coordinates of `points`, per axis.
+fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+    let first = points.first().copied().unwrap_or_else(Vector3::zeros);
+    points.iter().fold((first, first), |(l, h), p| (l.inf(p), h.sup(p)))
+}
+
+/// Whether `points` (`extent` m across) span a volume: the point farthest from the first, the
+/// one farthest from the line through both and the one farthest from the plane through the
+/// three, the last at least a billionth of the extent from it.
+fn spans_volume(points: &[Vector3<f64>], extent: f64) -> bool {
+    let a = points[0];
+    let farthest = |distance: &dyn Fn(&Vector3<f64>) -> f64| {
+        points.iter().map(|p| (distance(p), *p)).fold((0.0, a), |best, c| if c.0 > best.0 { c } else { best })
+    };
+    let (_, b) = farthest(&|p| (p - a).norm());
+    let line = (b - a).normalize();
+    let (off_line, c) = farthest(&|p| (p - a - line * (p - a).dot(&line)).norm());
+    if off_line <= 1e-9 * extent {
+        return false;
+    }
+    let normal = line.cross(&(c - a)).normalize();
+    let (off_plane, _) = farthest(&|p| (p - a).dot(&normal).abs());
+    off_plane > 1e-9 * extent
+}
+
+/// Points whose convex hull holds every one of `points` (between `low` and `high`) and lies
+/// within the returned distance of theirs, m: at most `2 (COLUMNS + 1)²` of them.
+///
+/// The mesh is cut into `COLUMNS` square columns of side `h` across its two shorter extents
+/// (the columns run along its longest, so an arm's long link gets narrow columns); each
+/// column's vertices lie in a box from its lowest to its highest vertex. Each corner of the
+/// grid takes a point at the lowest bottom and one at the highest top of the columns around
+/// it: the boxes, and so every vertex, lie in the hull of these points (conservative: the
+/// clearance check sees the mesh at least as large as it is), and each point is a column's
+/// diagonal, `h √2`, from the vertex whose height it took, so their hull lies within `h √2`
+/// of the mesh's own hull.
+pub fn around(points: &[Vector3<f64>], low: Vector3<f64>, high: Vector3<f64>) -> (Vec<Vector3<f64>>, f64) {
+    let extent = high - low;
+    let along = extent.imax();
+    let (u, v) = ((along + 1) % 3, (along + 2) % 3);
+    let h = extent[u].max(extent[v]) / COLUMNS as f64;
+    let cells = |k: usize| ((extent[k] / h).ceil() as usize).clamp(1, COLUMNS);
+    let (nu, nv) = (cells(u), cells(v));
+    let index = |p: &Vector3<f64>, k: usize, n: usize| (((p[k] - low[k]) / h).floor().max(0.0) as usize).min(n - 1);
+    let mut columns = vec![(f64::INFINITY, f64::NEG_INFINITY); nu * nv];
+    for p in points {
+        let column = &mut columns[index(p, u, nu) * nv + index(p, v, nv)];
+        *column = (column.0.min(p[along]), column.1.max(p[along]));
+    }
+    let mut out = Vec::new();
+    for i in 0..=nu {
+        for j in 0..=nv {
+            let (mut bottom, mut top) = (f64::INFINITY, f64::NEG_INFINITY);
+            for ci in i.saturating_sub(1)..(i + 1).min(nu) {
+                for cj in j.saturating_sub(1)..(j + 1).min(nv) {
+                    let (b, t) = columns[ci * nv + cj];
+                    (bottom, top) = (bottom.min(b), top.max(t));
+                }
+            }
+            if bottom > top {
+                continue;
+            }
+            let mut corner = low;
+            corner[u] += i as f64 * h;
+            corner[v] += j as f64 * h;
+            for height in if bottom < top { vec![bottom, top] } else { vec![top] } {
+                corner[along] = height;
+                out.push(corner);
+            }
+        }
+    }
+    (out, h * std::f64::consts::SQRT_2)
 }
 
 /// The vertices of STL `bytes`: binary (an 80-byte header, a triangle count, 50 bytes a
 /// triangle: normal, three vertices as little-endian f32, attribute) when the length says so,
 /// else ASCII (`vertex x y z` lines).
 pub fn parse_stl(bytes: &[u8]) -> Result<Vec<Vector3<f64>>, String> {
-    let binary = bytes.len() >= 84 && {
-        let count = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;
-        count.checked_mul(50).and_then(|n| n.checked_add(84)) == Some(bytes.len())
+    parse_stl_from(bytes, bytes.len() as u64)
+}
+
+/// [`parse_stl`] of a stream `length` bytes long, read once.
+fn parse_stl_from(mut reader: impl BufRead, length: u64) -> Result<Vec<Vector3<f64>>, String> {
+    let unreadable = |e: std::io::Error| format!("cannot read: {e}");
+    let mut head = Vec::with_capacity(84);
+    (&mut reader).take(84).read_to_end(&mut head).map_err(unreadable)?;
+    let binary = head.len() == 84 && {
+        let count = u64::from(u32::from_le_bytes([head[80], head[81], head[82], head[83]]));
+        count * 50 + 84 == length
     };
     let mut points = Vec::new();
     if binary {
-        for triangle in bytes[84..].chunks_exact(50) {
+        points.reserve_exact((length as usize - 84) / 50 * 3);
+        let mut triangle = [0u8; 50];
+        loop {
+            match reader.read_exact(&mut triangle) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => break,
+                Err(e) => return Err(unreadable(e)),
+            }
             for v in 0..3 {
                 let at = 12 + 12 * v;
                 let f = |k: usize| {
@@ -99,29 +249,42 @@ pub fn parse_stl(bytes: &[u8]) -> Result<Vec<Vector3<f64>>, String> {
             }
         }
     } else {
-        // A byte-order mark some editors write is not part of the text.
-        let bytes = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(bytes);
-        let text = std::str::from_utf8(bytes).map_err(|_| {
-            "neither binary STL (its length does not match its triangle count) nor ASCII STL".to_string()
-        })?;
-        if !text.trim_start().starts_with("solid") {
-            return Err(
-                "neither binary STL (its length does not match its triangle count) nor ASCII STL (no `solid`)".into()
-            );
-        }
-        for (number, line) in text.lines().enumerate() {
-            let mut words = line.split_whitespace();
+        let not_ascii =
+            || "neither binary STL (its length does not match its triangle count) nor ASCII STL".to_string();
+        let mut reader = std::io::Cursor::new(head).chain(reader);
+        let mut line = Vec::new();
+        let (mut number, mut started) = (0usize, false);
+        loop {
+            line.clear();
+            if reader.read_until(b'\n', &mut line).map_err(unreadable)? == 0 {
+                break;
+            }
+            number += 1;
+            // A byte-order mark some editors write is not part of the text.
+            let bytes = if number == 1 { line.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(&line) } else { &line };
+            let text = std::str::from_utf8(bytes).map_err(|_| not_ascii())?;
+            if !started {
+                if text.trim().is_empty() {
+                    continue;
+                }
+                if !text.trim_start().starts_with("solid") {
+                    return Err(not_ascii() + " (no `solid`)");
+                }
+                started = true;
+            }
+            let mut words = text.split_whitespace();
             if words.next() != Some("vertex") {
                 continue;
             }
-            let values: Vec<f64> = words
-                .map(str::parse)
-                .collect::<Result<_, _>>()
-                .map_err(|_| format!("line {}: `{}` is not `vertex x y z`", number + 1, line.trim()))?;
+            let bad = || format!("line {number}: `{}` is not `vertex x y z`", text.trim());
+            let values: Vec<f64> = words.map(str::parse).collect::<Result<_, _>>().map_err(|_| bad())?;
             let [x, y, z] = values[..] else {
-                return Err(format!("line {}: `{}` is not `vertex x y z`", number + 1, line.trim()));
+                return Err(bad());
             };
             points.push(Vector3::new(x, y, z));
+        }
+        if !started {
+            return Err(not_ascii() + " (no `solid`)");
         }
     }
     if let Some(bad) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {

@@ -1190,9 +1190,20 @@ fn collision_bodies(
                         let points = match hulls.get(&key) {
                             Some(points) => std::sync::Arc::clone(points),
                             None => {
-                                let vertices = crate::meshes::read_stl(path, scale)
+                                let scale_text = geometry.attribute("scale").unwrap_or("1 1 1");
+                                let mesh = crate::meshes::read_stl(path, scale, scale_text)
                                     .with_context(|| format!("{}: <mesh filename=\"{filename}\">", at(&node)))?;
-                                let hull = chessarm_chess::clearance::hull_of(&vertices).map_err(|why| {
+                                if let Some((vertices, kept, within)) = mesh.decimated {
+                                    warnings.push(format!(
+                                        "mesh {} has {vertices} distinct vertices, more than chessarm takes a hull of \
+                                         ({}): the hull of {kept} points around them stands in, at most {} mm outside \
+                                         the mesh's own hull and never inside it",
+                                        path.display(),
+                                        crate::meshes::MAX_HULL_INPUT,
+                                        chessarm_core::short_number((within * 1e4).ceil() / 10.0)
+                                    ));
+                                }
+                                let hull = chessarm_chess::clearance::hull_of(&mesh.points).map_err(|why| {
                                     anyhow!("{}: <mesh filename=\"{filename}\"> ({}): {why}", at(&node), path.display())
                                 })?;
                                 let points: std::sync::Arc<[Vector3<f64>]> = hull.into();

@@ -126,8 +126,8 @@ pub fn hull_of(points: &[Vector3<f64>]) -> Result<Vec<Vector3<f64>>, String> {
     unique.dedup();
     let input: Vec<Vector> =
         unique.iter().map(|p| Vector::new(f64::from_bits(p[0]), f64::from_bits(p[1]), f64::from_bits(p[2]))).collect();
-    let (vertices, faces) =
-        parry3d_f64::transformation::try_convex_hull(&input).map_err(|e| format!("no convex hull: {e:?}"))?;
+    let (vertices, faces) = parry3d_f64::transformation::try_convex_hull(&input)
+        .map_err(|_| "no convex hull could be made of its points".to_string())?;
     // The volume by the divergence theorem, `Σ v₀ · (v₁ × v₂) / 6` over the faces, against
     // the cube of the extent: a flat hull (a plane's points, both faces) has none.
     let volume: f64 =
