@@ -76,10 +76,10 @@ fn export_rate_unescaped(text: &str) -> Result<f64, String> {
 /// A servo bus's goal rate for `--bus-rate`, Hz: within
 /// [[`MIN_BUS_RATE`], [`MAX_BUS_RATE`]].
 ///
-/// [`MIN_BUS_RATE`]: crate::config::MIN_BUS_RATE
-/// [`MAX_BUS_RATE`]: crate::config::MAX_BUS_RATE
+/// [`MIN_BUS_RATE`]: chessarm_core::control::servo_host::MIN_BUS_RATE
+/// [`MAX_BUS_RATE`]: chessarm_core::control::servo_host::MAX_BUS_RATE
 fn bus_rate_unescaped(text: &str) -> Result<f64, String> {
-    use crate::config::{MAX_BUS_RATE, MIN_BUS_RATE};
+    use chessarm_core::control::servo_host::{MAX_BUS_RATE, MIN_BUS_RATE};
     let value = positive_unescaped(text)?;
     if value < MIN_BUS_RATE {
         Err(format!(

@@ -384,14 +384,6 @@ pub struct UrdfFile {
 /// How often a host sends servo goals when `--bus-rate` does not say, Hz (LeRobot's
 /// teleoperation runs at 30–60 Hz; a Dynamixel or Feetech bus at 1 Mbit/s carries a few hundred).
 pub const DEFAULT_BUS_RATE: f64 = 100.0;
-/// The slowest goal rate simulated, Hz: a goal every 0.1 s is already coarse beside a move's
-/// 0.2-1 s phases (hobby servos take 50 Hz pulses; bus servos 100-1000 goals a second), and
-/// slower goals stretch each move's simulation by whole periods (at 10⁻⁴ Hz, hours of
-/// simulated waiting and gigabytes of records per move).
-pub const MIN_BUS_RATE: f64 = 10.0;
-/// The fastest goal rate, Hz: a sync write to four servos is ~30 bytes, 0.3 ms at 1 Mbaud and
-/// 0.07 ms at the fastest buses' 4.5 Mbaud, so no bus carries more than ~10 000 a second.
-pub const MAX_BUS_RATE: f64 = 10_000.0;
 
 /// What a setup file describes, validated.
 #[derive(Debug, Clone)]

@@ -14,6 +14,15 @@ use crate::arm::dynamics::{COULOMB_SMOOTHING, gravity_torques, inverse_dynamics}
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::sim::actuator::{Actuator, Actuators};
 
+/// The slowest goal rate simulated, Hz: a goal every 0.1 s is already coarse beside a move's
+/// 0.2-1 s phases (hobby servos take 50 Hz pulses; bus servos 100-1000 goals a second), and
+/// slower goals stretch each move's simulation by whole periods (at 10⁻⁴ Hz, hours of
+/// simulated waiting and gigabytes of records per move).
+pub const MIN_BUS_RATE: f64 = 10.0;
+/// The fastest goal rate, Hz: a sync write to four servos is ~30 bytes, 0.3 ms at 1 Mbaud and
+/// 0.07 ms at the fastest buses' 4.5 Mbaud, so no bus carries more than ~10 000 a second.
+pub const MAX_BUS_RATE: f64 = 10_000.0;
+
 /// How the host computes the goals it sends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ServoCommand {
