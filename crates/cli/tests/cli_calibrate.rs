@@ -356,7 +356,7 @@ fn pressing_enter_four_times_without_moving_the_arm_is_refused() {
     }
     let output = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert_eq!(output.status.code(), Some(2), "{stderr} {}", String::from_utf8_lossy(&output.stdout));
     let last = stderr.trim_end().lines().last().unwrap();
     assert!(last.starts_with("error: the touches of a1 and h1 put the tool tip 0.0 mm apart"), "{stderr}");
     for file in ["setup.toml", "residuals.png", "calibration.json"] {

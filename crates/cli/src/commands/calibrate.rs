@@ -119,14 +119,16 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
         zero_ticks = Some(ticks);
     }
     // The fitted board must be one the setup's own check (`board`, `play`) accepts.
-    chessarm_chess::reach::check_table(&setup.arm, &calibrated.board, &calibrated.pieces, &setup.motion).map_err(|e| {
-        anyhow::anyhow!(
-            "the fitted board (centre ({:.1}, {:.1}) mm, yaw {:.2}°) is not served: {e}; nothing was written",
-            fitted.center.x * 1e3,
-            fitted.center.y * 1e3,
-            fitted.yaw.to_degrees()
-        )
-    })?;
+    chessarm_chess::reach::check_table(&setup.arm, &calibrated.board, &calibrated.pieces, &setup.motion).map_err(
+        |e| {
+            anyhow::anyhow!(
+                "the fitted board (centre ({:.1}, {:.1}) mm, yaw {:.2}°) is not served: {e}; nothing was written",
+                fitted.center.x * 1e3,
+                fitted.center.y * 1e3,
+                fitted.yaw.to_degrees()
+            )
+        },
+    )?;
     ensure_dir(&args.out)?;
     let setup_path = args.out.join("setup.toml");
     let text = calibrated.to_toml_beside_urdf()?;

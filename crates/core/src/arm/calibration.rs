@@ -183,7 +183,10 @@ impl CalibrationFit {
     pub fn check_residuals(&self, bound: f64) -> Result<(), CalibrationError> {
         let worst = self.residuals.iter().enumerate().map(|(i, r)| (i, r.norm())).max_by(|a, b| a.1.total_cmp(&b.1));
         match worst {
-            Some((touch, residual)) if !(residual <= bound) => {
+            // A NaN bound (or residual) passes nothing.
+            Some((touch, residual))
+                if matches!(residual.partial_cmp(&bound), Some(std::cmp::Ordering::Greater) | None) =>
+            {
                 Err(CalibrationError::ResidualTooLarge { touch, residual, bound })
             }
             _ => Ok(()),
