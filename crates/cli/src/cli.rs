@@ -130,6 +130,16 @@ pub struct CalibrateArgs {
     /// With --port: how long a servo may take to answer, ms.
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     pub reply_timeout_ms: u64,
+    /// Refuse the calibration when a touch is further than this from where the fitted board
+    /// puts its square's centre, mm (default: half the 5 mm placement tolerance; honest touches
+    /// fit within about 1 mm).
+    #[arg(
+        long,
+        default_value_t = chessarm_core::arm::calibration::MAX_RESIDUAL * 1e3,
+        value_parser = args::positive,
+        allow_hyphen_values = true
+    )]
+    pub max_residual_mm: f64,
     /// Output folder: setup.toml (the setup with the fitted board), residuals.png,
     /// calibration.json (and bus.jsonl with --port).
     #[arg(long, default_value = "out/calibrate")]

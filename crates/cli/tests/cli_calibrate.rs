@@ -163,3 +163,204 @@ fn touches_read_over_the_bus_give_the_board_and_the_zero_errors() {
     let saved = std::fs::read_to_string(out.join("setup.toml")).unwrap();
     assert!(saved.contains("zero_ticks"), "{saved}");
 }
+
+/// `calibrate --touch …` for `squares`, each touched at the angles `q_of(square)`, into `out`.
+fn typed(squares: &[&str], q_of: impl Fn(&str) -> [f64; 4], out: &std::path::Path, extra: &[&str]) -> Vec<String> {
+    let mut args = vec!["calibrate".to_string()];
+    for square in squares {
+        args.push("--touch".into());
+        args.push(format!("{square}={}", angles(q_of(square))));
+    }
+    args.extend(["--out".into(), out.to_str().unwrap().into()]);
+    args.extend(extra.iter().map(|s| (*s).to_string()));
+    args
+}
+
+/// A refusal: exit 2, one line naming every `needle`, and no setup, plot or result in `out`.
+fn assert_refused(args: &[String], out: &std::path::Path, needles: &[&str]) {
+    let strs: Vec<&str> = args.iter().map(String::as_str).collect();
+    common::assert_one_line_error(&chessarm(&strs), needles);
+    for file in ["setup.toml", "residuals.png", "calibration.json"] {
+        assert!(!out.join(file).exists(), "{file} written by a refused calibration");
+    }
+}
+
+/// The same angles typed for all four corners (the arm not moved between touches): before,
+/// a fit with 297 mm residuals, exit 0 and a setup `board` refuses; now refused before the
+/// fit, naming the first pair whose tips are too close for their squares' distance.
+#[test]
+fn four_identical_touches_are_refused_naming_the_pair() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = Setup::load(None).unwrap();
+    let q = touch(&[], &setup, "a1", Vector2::zeros(), 0.0, [0.0; 4], 4096.0);
+    let out = dir.path().join("cal");
+    assert_refused(
+        &typed(&["a1", "h1", "h8", "a8"], |_| q, &out, &[]),
+        &out,
+        &["the touches of a1 and h1", "0.0 mm apart", "420.0 mm apart"],
+    );
+}
+
+/// Squares on one line (a1, b1, c1, d1, touched exactly where they are): their tips fit a
+/// board, but one that could lie tilted across that line unseen: refused, naming them.
+#[test]
+fn squares_on_one_line_are_refused_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = Setup::load(None).unwrap();
+    let out = dir.path().join("cal");
+    let q_of = |square: &str| touch(&[], &setup, square, Vector2::zeros(), 0.0, [0.0; 4], 4096.0);
+    assert_refused(
+        &typed(&["a1", "b1", "c1", "d1"], q_of, &out, &[]),
+        &out,
+        &["the touched squares a1, b1, c1, d1 lie on one line"],
+    );
+}
+
+/// a1 and h1 touched where they are, h8 at the angles of a point on their line 210 mm past
+/// h1: every pair of tips at least half its squares' distance apart, but the three tips on
+/// one line: refused, naming the three.
+#[test]
+fn tips_on_one_line_are_refused_naming_the_touches() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = Setup::load(None).unwrap();
+    let out = dir.path().join("cal");
+    let past_h1 = touch(&[], &setup, "h1", Vector2::new(0.21, 0.0), 0.0, [0.0; 4], 1e12);
+    let q_of = |square: &str| {
+        if square == "h8" { past_h1 } else { touch(&[], &setup, square, Vector2::zeros(), 0.0, [0.0; 4], 1e12) }
+    };
+    assert_refused(
+        &typed(&["a1", "h1", "h8"], q_of, &out, &[]),
+        &out,
+        &["the touches of a1, h1 and h8", "nearly on one line"],
+    );
+}
+
+/// Touches that span the board but disagree with it: before, exit 0 with residuals of
+/// hundreds of mm; now refused naming the worst touch, its residual and the bound. Honest
+/// touches (read in counts, residuals up to 0.2 mm) pass the default 2.5 mm, and fail a bound
+/// below their worst residual; the bound itself is checked as typed.
+#[test]
+fn residuals_above_the_bound_are_refused_naming_the_worst_touch() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = Setup::load(None).unwrap();
+    let out = dir.path().join("cal");
+    // Angles no hand would read at these squares (each joint well inside its range).
+    let random = |square: &str| match square {
+        "a1" => [0.3, 1.1, -0.4, 2.0],
+        "h1" => [-1.2, 0.2, 1.5, -0.7],
+        "h8" => [2.2, -0.9, 0.6, 0.1],
+        _ => [1.0, 0.5, -2.5, 1.3],
+    };
+    assert_refused(
+        &typed(&["a1", "h1", "h8", "a8"], random, &out, &[]),
+        &out,
+        &["the touch of h1 is 641.47 mm", "above --max-residual-mm 2.5"],
+    );
+    // a1's and h1's angles swapped: every distance between tips is one the board has, but no
+    // pose puts all four on their squares.
+    let shift = Vector2::new(0.0048, -0.0064);
+    let turn = 2f64.to_radians();
+    let honest = |square: &str| touch(&[], &setup, square, shift, turn, [0.0; 4], 4096.0);
+    let swapped = |square: &str| match square {
+        "a1" => honest("h1"),
+        "h1" => honest("a1"),
+        other => honest(other),
+    };
+    assert_refused(&typed(&["a1", "h1", "h8", "a8"], swapped, &out, &[]), &out, &["--max-residual-mm 2.5", "mm from"]);
+    // The honest touches: written at the default bound; at 0.1 mm, below their worst residual
+    // (about 0.2 mm: a count of 1.5 mrad moves the tip 0.1–0.3 mm), refused naming that touch.
+    let good = typed(&["a1", "h1", "h8", "a8"], honest, &out, &[]);
+    let strs: Vec<&str> = good.iter().map(String::as_str).collect();
+    let result = common::json_of(&chessarm(&strs));
+    let worst = result["largest_residual_mm"].as_f64().unwrap();
+    assert!(worst > 0.1 && worst < 0.5, "{worst}");
+    let worst_square = result["touches"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| {
+            let r = common::numbers(&t["residual_mm"]);
+            ((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt() - worst).abs() < 1e-9
+        })
+        .unwrap()["square"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let strict = dir.path().join("strict");
+    assert_refused(
+        &typed(&["a1", "h1", "h8", "a8"], honest, &strict, &["--max-residual-mm", "0.1"]),
+        &strict,
+        &[&format!("the touch of {worst_square} is {worst:.2} mm"), "above --max-residual-mm 0.1"],
+    );
+    for bad in ["0", "-1", "nan", "2.5mm"] {
+        assert_refused(
+            &typed(&["a1", "h1", "h8", "a8"], honest, &strict, &["--max-residual-mm", bad]),
+            &strict,
+            &["--max-residual-mm", &format!("'{bad}'")],
+        );
+    }
+}
+
+/// A board touched 30 mm nearer the base than the setup's: the touches fit it (residuals
+/// under 0.01 mm), but its reserve slots then pass within the base's own room, so `board` and
+/// `play` would refuse the setup written: refused with that reason, nothing written.
+#[test]
+fn a_fitted_board_the_arm_does_not_serve_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let setup = Setup::load(None).unwrap();
+    let out = dir.path().join("cal");
+    let nearer = |square: &str| touch(&[], &setup, square, Vector2::new(0.0, -0.03), 0.0, [0.0; 4], 1e12);
+    assert_refused(
+        &typed(&["a1", "h1", "h8", "a8"], nearer, &out, &[]),
+        &out,
+        &["the fitted board (centre (0.0, 300.0) mm", "is not served", "base_clearance"],
+    );
+}
+
+/// Over the simulated bus, Enter pressed four times without moving the arm: the four touches
+/// read the same pose. Before, a fit with 75 mm residuals and exit 0; now refused naming the
+/// first two squares, with no setup written into --out (only the bus log).
+#[test]
+fn pressing_enter_four_times_without_moving_the_arm_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms/so101_new_calib.urdf");
+    let board = dir.path().join("board.toml");
+    let fit = chessarm(&[
+        "--urdf",
+        urdf,
+        "--lock",
+        "wrist_roll=0",
+        "--arm",
+        common::NEEDLE_FINGERS,
+        "board",
+        "--fit",
+        "--save",
+        board.to_str().unwrap(),
+    ]);
+    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
+    let setup_args = ["--urdf", urdf, "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
+    let sim = common::BusSim::start_with_stdin(dir.path(), &setup_args, &[]);
+    let out = dir.path().join("cal");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(setup_args)
+        .args(["calibrate", "--port", &sim.device, "--json", "--out", out.to_str().unwrap()])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut enter = child.stdin.take().unwrap();
+    for _ in 0..4 {
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        enter.write_all(b"\n").unwrap();
+    }
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr} {}", String::from_utf8_lossy(&output.stdout));
+    let last = stderr.trim_end().lines().last().unwrap();
+    assert!(last.starts_with("error: the touches of a1 and h1 put the tool tip 0.0 mm apart"), "{stderr}");
+    for file in ["setup.toml", "residuals.png", "calibration.json"] {
+        assert!(!out.join(file).exists(), "{file} written by a refused calibration");
+    }
+    assert!(output.stdout.is_empty(), "{}", String::from_utf8_lossy(&output.stdout));
+}

@@ -2,7 +2,9 @@
 //! off) from the arm touching the centres of a few squares — the angles typed (`--touch`) or
 //! read from the servos over the bus (`--port`: torque off, the person moves the arm).
 //! The fit is `chessarm_core::arm::calibration::fit`; the result is a setup file with the fitted
-//! board (and `[servo_bus] zero_ticks`), the residual per touch printed and plotted.
+//! board (and `[servo_bus] zero_ticks`), the residual per touch printed and plotted. Touches that
+//! cannot tell where the board is, residuals above `--max-residual-mm`, and a fitted board the
+//! arm does not serve are refused, naming the touches, before anything is written.
 
 use crate::cli::CalibrateArgs;
 use crate::config::Setup;
@@ -10,7 +12,7 @@ use crate::output::{ensure_dir, write_json};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::board::parse_square;
 use chessarm_chess::shakmaty::Square;
-use chessarm_core::arm::calibration::{CalibrationFit, Touch, fit};
+use chessarm_core::arm::calibration::{CalibrationError, CalibrationFit, Touch, fit};
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::nalgebra::Vector2;
 use serde_json::json;
@@ -90,8 +92,9 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
             point: board_point(setup, *square),
         })
         .collect();
-    let fitted = fit(&setup.arm, &touches, args.zeros)?;
-    ensure_dir(&args.out)?;
+    let fitted = fit(&setup.arm, &touches, args.zeros)
+        .and_then(|fitted| fitted.check_residuals(args.max_residual_mm * 1e-3).map(|()| fitted))
+        .map_err(|e| anyhow::anyhow!("{}", refusal(&e, &touched)))?;
     let mut calibrated = setup.clone();
     calibrated.board.center = fitted.center;
     calibrated.board.yaw = fitted.yaw;
@@ -115,6 +118,18 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
         crate::actuators::ServoBus::of(&calibrated)?;
         zero_ticks = Some(ticks);
     }
+    // The fitted board must be one the setup's own check (`board`, `play`) accepts.
+    chessarm_chess::reach::check_table(&setup.arm, &calibrated.board, &calibrated.pieces, &setup.motion).map_err(
+        |e| {
+            anyhow::anyhow!(
+                "the fitted board (centre ({:.1}, {:.1}) mm, yaw {:.2}°) is not served: {e}; nothing was written",
+                fitted.center.x * 1e3,
+                fitted.center.y * 1e3,
+                fitted.yaw.to_degrees()
+            )
+        },
+    )?;
+    ensure_dir(&args.out)?;
     let setup_path = args.out.join("setup.toml");
     let text = calibrated.to_toml_beside_urdf()?;
     crate::output::write_atomic(&setup_path, |out| Ok(out.write_all(text.as_bytes())?))?;
@@ -135,6 +150,45 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
     let files = vec![setup_path.display().to_string(), plot.display().to_string(), json_path.display().to_string()];
     human.push_str(&crate::files_text(&files));
     crate::emit(&human, &value)
+}
+
+/// Why the touches are refused, naming them by their squares (mm, as typed and printed).
+fn refusal(error: &CalibrationError, touched: &[(Square, [f64; 4])]) -> String {
+    let square = |i: usize| touched.get(i).map_or_else(|| format!("touch {}", i + 1), |(s, _)| s.to_string());
+    let end = "nothing was written";
+    match error {
+        CalibrationError::PointsInLine => format!(
+            "the touched squares {} lie on one line: touch squares that span the board (e.g. a1, h1, h8, a8) — the \
+             fit takes the board as flat and level, and touches along one line cannot show it tilted across that \
+             line; {end}",
+            touched.iter().map(|(s, _)| s.to_string()).collect::<Vec<_>>().join(", ")
+        ),
+        CalibrationError::TooClose { first, second, tips, points } => format!(
+            "the touches of {} and {} put the tool tip {:.1} mm apart, but their squares' centres are {:.1} mm \
+             apart (at least half that expected): the arm was not moved between them, or an angle is wrong; {end}",
+            square(*first),
+            square(*second),
+            tips * 1e3,
+            points * 1e3
+        ),
+        CalibrationError::TipsInLine { touches, tips, points } => format!(
+            "the touches of {}, {} and {} put the tool tip nearly on one line (a triangle of {:.0} mm², their \
+             squares' centres {:.0} mm², at least half that expected): an angle is wrong; {end}",
+            square(touches[0]),
+            square(touches[1]),
+            square(touches[2]),
+            tips * 1e6,
+            points * 1e6
+        ),
+        CalibrationError::ResidualTooLarge { touch, residual, bound } => format!(
+            "the touch of {} is {:.2} mm from where the fitted board puts its centre, above --max-residual-mm {} \
+             (the touches disagree: a wrong square, a wrong angle, or the tip off the centre); {end}",
+            square(*touch),
+            residual * 1e3,
+            bound * 1e3
+        ),
+        other => format!("{other}; {end}"),
+    }
 }
 
 fn result_json(
