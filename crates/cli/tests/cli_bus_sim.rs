@@ -16,15 +16,8 @@ fn a_fault_for_a_servo_not_on_the_bus_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("bus.jsonl");
     for flag in ["--lose-reply", "--overload"] {
-        let output = common::chessarm(&[
-            "--actuator",
-            "sts3215",
-            "bus-sim",
-            "--log",
-            log.to_str().unwrap(),
-            flag,
-            "99@1",
-        ]);
+        let output =
+            common::chessarm(&["--actuator", "sts3215", "bus-sim", "--log", log.to_str().unwrap(), flag, "99@1"]);
         common::assert_one_line_error(&output, &[&format!("{flag} 99@1"), "servo 99", "1, 2, 3, 4"]);
         assert!(output.stdout.is_empty(), "{}", String::from_utf8_lossy(&output.stdout));
         assert!(!log.exists());
@@ -44,9 +37,8 @@ fn stray_bytes_do_not_hold_the_next_packet() {
     std::thread::sleep(Duration::from_millis(200));
     line.send(&Protocol::Feetech.ping(1)).unwrap();
     let mut reply = Vec::new();
-    let answered = line
-        .receive_until(&mut reply, Duration::from_secs(2), |b| Protocol::Feetech.parse_status(b).is_ok())
-        .unwrap();
+    let answered =
+        line.receive_until(&mut reply, Duration::from_secs(2), |b| Protocol::Feetech.parse_status(b).is_ok()).unwrap();
     sim.child.kill().unwrap();
     let mut stderr = String::new();
     std::io::Read::read_to_string(&mut sim.child.stderr.take().unwrap(), &mut stderr).unwrap();
