@@ -307,3 +307,288 @@ pub fn check_numbers(data: &[u8]) {
         Err(message) => assert_one_line(&message, input),
     }
 }
+
+/// The common properties of a packet read from the front of `data` by one protocol's parser:
+/// where it starts and ends lies inside `data`; an error says why with figures that fit.
+fn check_packet_bounds(data: &[u8], parsed: &Result<chessarm::bus::Status, chessarm::bus::PacketError>) {
+    use chessarm::bus::PacketError;
+    match parsed {
+        Ok(packet) => assert!(packet.start < packet.consumed && packet.consumed <= data.len(), "{packet:?}"),
+        Err(PacketError::NoHeader(n)) => assert_eq!(*n, data.len()),
+        Err(PacketError::Short { got, needed }) => assert!(got < needed && *got <= data.len(), "{got} of {needed}"),
+        Err(PacketError::Checksum { got, expected }) => assert_ne!(got, expected),
+        Err(PacketError::Malformed(_)) => {}
+    }
+    if let Err(e) = parsed {
+        assert!(!has_line_break(&e.to_string()), "{e}");
+    }
+}
+
+/// Feetech STS packets: whatever the bytes, the parser does not panic; a packet read (status
+/// or instruction: one layout) is built again byte for byte from its ID, error (instruction)
+/// byte and parameters; a packet built from the input's first bytes (ID, instruction, up to 253
+/// parameters) reads back whole.
+pub fn check_bus_feetech(data: &[u8]) {
+    use chessarm::bus::feetech;
+    let parsed = feetech::parse_packet(data);
+    check_packet_bounds(data, &parsed);
+    if let Ok(packet) = &parsed {
+        assert_eq!(
+            feetech::instruction(packet.id, packet.error, &packet.params),
+            &data[packet.start..packet.consumed],
+            "{packet:?}"
+        );
+        assert_eq!(feetech::parse_status(data), parsed, "a status reads as a packet does");
+    }
+    if let [id, instruction, params @ ..] = data
+        && *id != 0xFF
+    {
+        let params = &params[..params.len().min(253)];
+        let built = feetech::instruction(*id, *instruction, params);
+        let back = feetech::parse_packet(&built).unwrap_or_else(|e| panic!("{built:02X?} does not read back: {e}"));
+        assert_eq!(
+            (back.id, back.error, back.params.as_slice(), back.start, back.consumed),
+            (*id, *instruction, params, 0, built.len())
+        );
+    }
+}
+
+/// Dynamixel Protocol 2.0 packets: no panic; stuffing round-trips (`unstuff(stuff(x)) == x`,
+/// and a stuffed body holds no `FF FF FD` but as `FF FF FD FD`); a packet read is built again
+/// from its ID, instruction and parameters to bytes that read back the same, and to the very
+/// bytes read when those were stuffed as the protocol stuffs (a sender that does not stuff is
+/// read too, as the vendor's own SDK sends); a status read is rebuilt the same way; a packet
+/// built from the input's first bytes (ID, instruction, parameters) reads back whole.
+pub fn check_bus_dynamixel(data: &[u8]) {
+    use chessarm::bus::dynamixel;
+    let stuffed = dynamixel::stuff(data);
+    assert_eq!(dynamixel::unstuff(&stuffed), data, "stuffing round trip");
+    for (i, w) in stuffed.windows(3).enumerate() {
+        if w == [0xFF, 0xFF, 0xFD] {
+            assert_eq!(stuffed.get(i + 3), Some(&0xFD), "unstuffed header pattern at {i} in {stuffed:02X?}");
+        }
+    }
+    let parsed = dynamixel::parse_packet(data);
+    check_packet_bounds(data, &parsed);
+    if let Ok(packet) = &parsed {
+        let built = dynamixel::instruction(packet.id, packet.error, &packet.params);
+        let back = dynamixel::parse_packet(&built).unwrap_or_else(|e| panic!("{built:02X?} does not read back: {e}"));
+        assert_eq!((back.id, back.error, &back.params), (packet.id, packet.error, &packet.params));
+        let body = &data[packet.start + 7..packet.consumed - 2];
+        if dynamixel::stuff(&dynamixel::unstuff(body)) == body {
+            assert_eq!(built, &data[packet.start..packet.consumed], "{packet:?}");
+        }
+    }
+    let status = dynamixel::parse_status(data);
+    check_packet_bounds(data, &status);
+    if let Ok(status) = &status {
+        let built = dynamixel::status(status.id, status.error, &status.params);
+        let back = dynamixel::parse_status(&built).unwrap_or_else(|e| panic!("{built:02X?} does not read back: {e}"));
+        assert_eq!((back.id, back.error, &back.params), (status.id, status.error, &status.params));
+    }
+    if let [id, instruction, params @ ..] = data {
+        let built = dynamixel::instruction(*id, *instruction, params);
+        let back = dynamixel::parse_packet(&built).unwrap_or_else(|e| panic!("{built:02X?} does not read back: {e}"));
+        assert_eq!(
+            (back.id, back.error, back.params.as_slice(), back.start, back.consumed),
+            (*id, *instruction, params, 0, built.len())
+        );
+    }
+}
+
+/// The default setup's arm on STS3215 (Feetech) or XM430 (Dynamixel) servos, resting where a
+/// game starts, built once: what [`check_bus_simulator`] puts on its bus.
+struct SimulatedArm {
+    arm: chessarm_core::arm::model::ArmModel<4>,
+    actuators: chessarm_core::sim::actuator::Actuators<4>,
+    bus: chessarm::actuators::ServoBus,
+    signs: [f64; 4],
+    q: chessarm_core::arm::model::JointVector<4>,
+}
+
+fn simulated_arm(actuator: &str) -> SimulatedArm {
+    let mut setup = Setup::load(None).expect("the default setup");
+    setup.actuators = chessarm::actuators::resolve(&[actuator.to_string()], &setup.actuator_tables, "--actuator")
+        .expect("a built-in servo");
+    setup.actuator_names = std::array::from_fn(|_| actuator.to_string());
+    let bus = chessarm::actuators::ServoBus::of(&setup).expect("the default bus");
+    let motion = setup.motion.validated().expect("the default motion");
+    let q = chessarm_chess::play::home_pose(&setup.arm, &setup.board, &setup.pieces, &motion).expect("a home pose");
+    SimulatedArm { arm: setup.arm, actuators: setup.actuators, bus, signs: setup.convention.signs, q }
+}
+
+/// The simulated bus: the first byte chooses the protocol (bit 0: Dynamixel), a gripper servo
+/// (bit 1, ID 6), a servo 2 that stops answering after its second goal packet (bit 2) and a
+/// servo 3 that reports an overload at the first (bit 3). The rest is chunks, each a gap byte
+/// `g` (the line silent before it: `g` × 10 µs for `g` < 240; 10 ms × (`g` − 239) above, up to
+/// 160 ms; 100 s for 255, a long think), a length byte and that many bytes received at once.
+/// Properties: no panic (dynamics included); what the bus sends back is whole status packets of
+/// servos on the bus, each carrying at most 250 bytes of data, at most one per servo per
+/// packet received (so at most 5 per 6 bytes received, a Feetech packet's least).
+pub fn check_bus_simulator(data: &[u8]) {
+    use chessarm::bus::Protocol;
+    use chessarm::bus::simulator::{Fault, Faults, SimulatedBus};
+    use std::sync::OnceLock;
+    static STS: OnceLock<SimulatedArm> = OnceLock::new();
+    static XM: OnceLock<SimulatedArm> = OnceLock::new();
+    let Some((&flags, mut rest)) = data.split_first() else { return };
+    let (protocol, arm) = if flags & 1 == 0 {
+        (Protocol::Feetech, STS.get_or_init(|| simulated_arm("sts3215")))
+    } else {
+        (Protocol::Dynamixel, XM.get_or_init(|| simulated_arm("xm430")))
+    };
+    let gripper = (flags & 2 != 0).then_some((6, 2048));
+    let faults = Faults {
+        lose_reply: (flags & 4 != 0).then_some(Fault { id: 2, after: 2 }),
+        overload: (flags & 8 != 0).then_some(Fault { id: 3, after: 1 }),
+    };
+    let sim = SimulatedBus::new(protocol, &arm.arm, &arm.actuators, arm.bus, arm.signs, arm.q, gripper)
+        .expect("the simulated bus")
+        .with_faults(faults);
+    // The packets the bus took, counted by its log's lines.
+    let packets = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let mut sim = sim.with_log(Box::new(LineCount(packets.clone())));
+    let on_bus: Vec<u8> = arm.bus.ids.iter().copied().chain(gripper.map(|g| g.0)).collect();
+    let mut at = 0.0;
+    let mut output = Vec::new();
+    while let [gap, length, tail @ ..] = rest {
+        let (bytes, next) = tail.split_at((*length as usize).min(tail.len()));
+        rest = next;
+        at += match gap {
+            0..240 => f64::from(*gap) * 1e-5,
+            240..255 => f64::from(gap - 239) * 1e-2,
+            255 => 100.0,
+        };
+        if *gap > 0 {
+            // The line was silent for the gap.
+            if let Some(dropped) = sim.expire(at) {
+                assert!(!dropped.is_empty());
+            }
+        }
+        output.clear();
+        let before = packets.load(std::sync::atomic::Ordering::Relaxed);
+        sim.receive(at, bytes, &mut output).expect("the simulated arm's dynamics");
+        let taken = packets.load(std::sync::atomic::Ordering::Relaxed) - before;
+        let mut replies = 0;
+        let mut from = 0;
+        while from < output.len() {
+            let status = protocol
+                .parse_status(&output[from..])
+                .unwrap_or_else(|e| panic!("the bus sent {:02X?}: {e}", &output[from..]));
+            assert_eq!(status.start, 0, "bytes before a reply in {output:02X?}");
+            assert!(on_bus.contains(&status.id), "servo {} is not on the bus", status.id);
+            assert!(status.params.len() <= 250, "{} bytes of data", status.params.len());
+            from += status.consumed;
+            replies += 1;
+        }
+        assert!(replies <= on_bus.len() * taken, "{replies} replies to {taken} packets");
+    }
+}
+
+/// A log that counts its lines.
+struct LineCount(std::sync::Arc<std::sync::atomic::AtomicUsize>);
+
+impl std::io::Write for LineCount {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let lines = buf.iter().filter(|b| **b == b'\n').count();
+        self.0.fetch_add(lines, std::sync::atomic::Ordering::Relaxed);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Positions the board readings and typed moves are tried in: the start, both sides able to
+/// castle both ways with an en passant capture, a knight with three captures that read alike,
+/// promotions with and without a capture.
+const POSITIONS: [&str; 5] = [
+    "rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1",
+    "r3k2r/ppp2ppp/8/3pP3/8/8/PPP2PPP/R3K2R w KQkq d6 0 1",
+    "4k3/8/2p1p3/3p4/4N3/8/8/4K3 w - - 0 1",
+    "1n2k3/P7/8/8/8/8/7p/4K1N1 w - - 0 1",
+    "1n2k3/P7/8/8/8/8/7p/4K1N1 b - - 0 1",
+];
+
+/// The position the first byte chooses, and the rest of the input as text.
+fn position_and_text(data: &[u8]) -> Option<(Chess, Cow<'_, str>)> {
+    let (&which, rest) = data.split_first()?;
+    let pos = notation::parse_fen(POSITIONS[which as usize % POSITIONS.len()]).expect("a test position");
+    Some((pos, text(rest)))
+}
+
+/// Whether the board after `m` in `pos` reads as `reading`.
+fn reads_as(pos: &Chess, m: &chessarm_chess::shakmaty::Move, reading: &chessarm_chess::occupancy::Reading) -> bool {
+    use chessarm_chess::occupancy::Reading;
+    use chessarm_chess::shakmaty::Position;
+    let mut after = pos.clone();
+    after.play_unchecked(*m);
+    match reading {
+        Reading::Occupied(bits) => after.board().occupied() == *bits,
+        Reading::Pieces(board) => after.board() == board,
+    }
+}
+
+/// Board readings: the first byte chooses a position, then each line is a reading given to one
+/// `MoveReader` in turn (a move it returns is played and the reader reset). Properties: no
+/// panic; errors one line; a move returned is legal and leaves the board as read; a promotion's
+/// or a capture's choice is of two or more legal moves that all do; "unchanged" only for the
+/// position's own board.
+pub fn check_occupancy(data: &[u8]) {
+    use chessarm_chess::occupancy::{MoveReader, Resolved, parse_reading};
+    use chessarm_chess::shakmaty::Position;
+    let Some((mut pos, input)) = position_and_text(data) else { return };
+    let mut reader = MoveReader::default();
+    for line in input.lines() {
+        let reading = match parse_reading(line) {
+            Ok(reading) => reading,
+            Err(e) => {
+                assert_one_line(&e.to_string(), line);
+                continue;
+            }
+        };
+        let legal = pos.legal_moves();
+        match reader.read(&pos, &reading) {
+            Ok(Resolved::Move(m)) => {
+                assert!(legal.contains(&m), "{m:?} is not legal in {}", fen_of(&pos));
+                assert!(reads_as(&pos, &m, &reading), "{m:?} does not leave {line:?} in {}", fen_of(&pos));
+                pos.play_unchecked(m);
+                reader.reset();
+            }
+            Ok(Resolved::Promotion(moves) | Resolved::Choice(moves)) => {
+                assert!(moves.len() >= 2, "a choice of {moves:?}");
+                for m in &moves {
+                    assert!(legal.contains(m), "{m:?} is not legal in {}", fen_of(&pos));
+                    assert!(reads_as(&pos, m, &reading), "{m:?} does not leave {line:?}");
+                }
+            }
+            Ok(Resolved::Unchanged) => assert_eq!(reading.occupied(), pos.board().occupied(), "{line:?}"),
+            Ok(Resolved::InProgress) => {}
+            Err(e) => assert_one_line(&e.to_string(), line),
+        }
+    }
+}
+
+/// Typed moves: the first byte chooses a position, then each line is a move typed in it (a
+/// move parsed is played). Properties: no panic; a move returned is legal in the position, and
+/// its SAN and UCI typed again give the same move; errors one line.
+pub fn check_typed_move(data: &[u8]) {
+    use chessarm_chess::shakmaty::Position;
+    use chessarm_chess::shakmaty::san::San;
+    let Some((mut pos, input)) = position_and_text(data) else { return };
+    for line in input.lines() {
+        match notation::parse_move(line, &pos) {
+            Ok(m) => {
+                assert!(pos.legal_moves().contains(&m), "{line:?} gave {m:?}, not legal in {}", fen_of(&pos));
+                let san = San::from_move(&pos, m).to_string();
+                let uci = m.to_uci(CastlingMode::Standard).to_string();
+                for again in [&san, &uci] {
+                    assert_eq!(notation::parse_move(again, &pos), Ok(m), "{again:?} (from {line:?})");
+                }
+                pos.play_unchecked(m);
+            }
+            Err(e) => assert_one_line(&e.to_string(), line),
+        }
+    }
+}

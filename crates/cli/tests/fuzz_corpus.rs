@@ -67,6 +67,31 @@ fn numbers_corpus() {
 }
 
 #[test]
+fn bus_feetech_corpus() {
+    run_corpus("bus_feetech", checks::check_bus_feetech);
+}
+
+#[test]
+fn bus_dynamixel_corpus() {
+    run_corpus("bus_dynamixel", checks::check_bus_dynamixel);
+}
+
+#[test]
+fn bus_simulator_corpus() {
+    run_corpus("bus_simulator", checks::check_bus_simulator);
+}
+
+#[test]
+fn occupancy_corpus() {
+    run_corpus("occupancy", checks::check_occupancy);
+}
+
+#[test]
+fn typed_move_corpus() {
+    run_corpus("typed_move", checks::check_typed_move);
+}
+
+#[test]
 fn uci_line_corpus() {
     run_corpus("uci_line", uci_check::check_uci_line);
 }

@@ -43,7 +43,7 @@ pub fn crc16(bytes: &[u8]) -> u16 {
 }
 
 /// `body` with an `FD` after every `FF FF FD` (the header's pattern).
-fn stuff(body: &[u8]) -> Vec<u8> {
+pub fn stuff(body: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(body.len() + body.len() / 3);
     for (i, &b) in body.iter().enumerate() {
         out.push(b);
@@ -52,6 +52,20 @@ fn stuff(body: &[u8]) -> Vec<u8> {
         }
     }
     out
+}
+
+/// `stuffed` with the `FD` after each `FF FF FD` taken out ([`stuff`]'s inverse).
+pub fn unstuff(stuffed: &[u8]) -> Vec<u8> {
+    let mut body = Vec::with_capacity(stuffed.len());
+    let mut i = 0;
+    while i < stuffed.len() {
+        body.push(stuffed[i]);
+        if stuffed[i] == 0xFD && body.len() >= 3 && body[body.len() - 2] == 0xFF && body[body.len() - 3] == 0xFF {
+            i += 1;
+        }
+        i += 1;
+    }
+    body
 }
 
 /// A packet to or from servo `id`: `kind` (the instruction, or [`STATUS`]) then `params`.
@@ -161,17 +175,7 @@ pub fn parse_packet(stream: &[u8]) -> Result<Status, PacketError> {
     if got != expected {
         return Err(PacketError::Checksum { got, expected });
     }
-    // Unstuff: drop the FD after each FF FF FD.
-    let stuffed = &head[7..total - 2];
-    let mut body = Vec::with_capacity(stuffed.len());
-    let mut i = 0;
-    while i < stuffed.len() {
-        body.push(stuffed[i]);
-        if stuffed[i] == 0xFD && body.len() >= 3 && body[body.len() - 2] == 0xFF && body[body.len() - 3] == 0xFF {
-            i += 1;
-        }
-        i += 1;
-    }
+    let body = unstuff(&head[7..total - 2]);
     Ok(Status { id: head[4], error: body[0], params: body[1..].to_vec(), start: at, consumed: at + total })
 }
 

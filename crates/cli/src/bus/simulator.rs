@@ -5,13 +5,19 @@
 //! friction, back-EMF) driven by the servos' firmware ([`PositionBank`]), integrated in real
 //! time (1 ms steps, caught up to the wall clock before each packet is answered): a goal
 //! written over the bus moves the simulated joint as the servo would, and a present position
-//! read back is where it is, in whole ticks. While every joint's torque is off the arm rests
+//! read back is where it is, in whole ticks. A long silence is not integrated step by step:
+//! the first seconds after the last packet are (the servos' transient), the rest is skipped,
+//! the arm holding where it settled ([`SimulatedBus::advance_to`]). While every joint's torque is off the arm rests
 //! where it is (it stands on its stops: falling is not simulated); a joint whose torque goes off
 //! while others hold it gets no drive torque.
 //!
 //! Faults can be injected to test a driver: a servo that stops answering, or one that reports
 //! an overload (and turns its torque off, as the servos' own protection does), each after a
 //! given number of goal packets. Every instruction received is logged (time and bytes).
+//!
+//! Bytes are read as a servo reads them: a packet cut short (stray bytes, a cable pulled
+//! mid-packet) is dropped once the line stays silent for [`INTER_BYTE_TIMEOUT`]
+//! ([`SimulatedBus::expire`]), so the next whole packet is answered.
 
 use super::Protocol;
 use crate::actuators::ServoBus;
@@ -24,6 +30,30 @@ use std::time::Instant;
 
 /// Plant time step, s.
 const DT: f64 = 1e-3;
+
+/// Plant time integrated step by step after a silence before the rest of it is skipped, s
+/// (while the arm still moves, up to [`CATCH_UP_MAX`]). A servo's transient after its last
+/// goal is over well within it: the STS3215's and XM430's models reach a 200-tick step in
+/// 0.3 s and rest within their deadband after 1 s, and the longest move a driver sends as one
+/// goal, across a joint's range at the firmware's speed, takes about as long.
+const CATCH_UP: f64 = 2.0;
+
+/// The most plant time integrated step by step in one catch-up, s: a servo hunting inside its
+/// deadband never comes to rest (the default arm's STS3215s do not, after a 100-tick step), and
+/// the work of answering a packet must stay bounded: 5000 steps took 9 ms on a busy 2-core
+/// machine (an optimised build), a tenth of a driver's 100 ms reply timeout.
+const CATCH_UP_MAX: f64 = 5.0;
+
+/// Joint speeds under which the arm counts as at rest when a silence is skipped, rad/s: a
+/// tick of a 4096-tick servo (1.5 mrad) every 15 s.
+const AT_REST: f64 = 1e-4;
+
+/// Silence on the line after which the bytes of a packet cut short are dropped, s. At 1 Mbaud
+/// a byte takes 10 µs and the longest packet (259 bytes) 2.6 ms, and a packet's bytes come
+/// back to back; over a pseudo-terminal a driver's packet is one write and arrives at once.
+/// 20 ms leaves a busy machine's scheduler room to deliver a write in pieces, and is a fifth
+/// of a driver's 100 ms reply timeout: stray bytes are gone before a driver sends again.
+pub const INTER_BYTE_TIMEOUT: f64 = 0.020;
 
 /// A fault to inject: servo `id` misbehaves from the `after`-th goal packet on (1-based).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,6 +101,10 @@ pub struct SimulatedBus {
     /// Simulated time, s, and the plant steps taken.
     time: f64,
     step: usize,
+    /// Bytes received that hold no whole packet yet, and when the last byte came (s, the
+    /// bus's clock).
+    pending: Vec<u8>,
+    last_byte: f64,
     goal_packets: usize,
     faults: Faults,
     started: Instant,
@@ -133,6 +167,8 @@ impl SimulatedBus {
             upper,
             time: 0.0,
             step: 0,
+            pending: Vec::new(),
+            last_byte: 0.0,
             goal_packets: 0,
             faults: Faults::default(),
             started: Instant::now(),
@@ -184,37 +220,59 @@ impl SimulatedBus {
         }
     }
 
+    /// The bus's clock: the wall clock's time since the bus started, s.
+    pub fn now(&self) -> f64 {
+        self.started.elapsed().as_secs_f64()
+    }
+
     /// Integrates the arm up to the wall clock's time since the bus started.
     pub fn catch_up(&mut self) -> anyhow::Result<()> {
-        self.advance_to(self.started.elapsed().as_secs_f64())
+        self.advance_to(self.now())
     }
 
     /// Integrates the arm up to simulated time `t` (s).
+    ///
+    /// At most [`CATCH_UP`] s of it step by step (longer while a joint still moves, up to
+    /// [`CATCH_UP_MAX`]); the rest is skipped with the state as it is. The servos' goals
+    /// change only with a packet, so after their transient the arm holds still (a servo at
+    /// rest within its deadband, on its gears' friction): the state is stationary and skipping
+    /// time is integrating it exactly. A servo still hunting at the cap is left in its cycle's
+    /// phase, which no driver can tell from another. With every joint's torque off the arm
+    /// rests on its stops and the whole interval is skipped.
     ///
     /// # Errors
     ///
     /// The dynamics failed (a mass matrix not positive definite).
     pub fn advance_to(&mut self, t: f64) -> anyhow::Result<()> {
         let held: [bool; 4] = std::array::from_fn(|j| self.servos[j].torque);
+        let settling = (CATCH_UP / DT).round() as usize;
+        let most = (CATCH_UP_MAX / DT).round() as usize;
+        let mut taken = 0;
         while self.time + DT <= t {
-            if held.iter().any(|h| *h) {
-                self.bank.update(self.step, &self.state.q, &self.state.qd, DT);
-                let bank = &self.bank;
-                let next = self.plant.step_with(
-                    &self.state,
-                    |q, qd| {
-                        let drive = bank.torque_at(q, qd);
-                        JointVector::<4>::from_fn(|j, _| if held[j] { drive[j] } else { 0.0 })
-                    },
-                    DT,
-                    Integrator::RungeKutta4,
-                )?;
-                self.bank.after_step(&next.q);
-                self.state = next;
-                self.step += 1;
-            } else {
-                self.state.qd = JointVector::zeros();
+            let at_rest = self.state.qd.amax() < AT_REST;
+            if !held.iter().any(|h| *h) || (taken >= settling && at_rest) || taken >= most {
+                if !held.iter().any(|h| *h) {
+                    self.state.qd = JointVector::zeros();
+                }
+                // Whole steps, so that the clock stays on the plant's grid.
+                self.time += ((t - self.time) / DT).floor() * DT;
+                break;
             }
+            self.bank.update(self.step, &self.state.q, &self.state.qd, DT);
+            let bank = &self.bank;
+            let next = self.plant.step_with(
+                &self.state,
+                |q, qd| {
+                    let drive = bank.torque_at(q, qd);
+                    JointVector::<4>::from_fn(|j, _| if held[j] { drive[j] } else { 0.0 })
+                },
+                DT,
+                Integrator::RungeKutta4,
+            )?;
+            self.bank.after_step(&next.q);
+            self.state = next;
+            self.step += 1;
+            taken += 1;
             self.time += DT;
         }
         self.refresh();
@@ -233,42 +291,64 @@ impl SimulatedBus {
         }
     }
 
-    /// Answers the instruction packets at the front of `input` (consumed from it), the replies
-    /// appended to `output`. A packet cut short waits for its rest; a damaged one is dropped, as
-    /// a servo drops it.
+    /// Takes `bytes` received at `at` (s, the bus's clock) and answers the instruction packets
+    /// they complete, the replies appended to `output`; each packet is answered with the arm
+    /// integrated up to `at`. A packet cut short waits for its rest (or for [`Self::expire`]);
+    /// a damaged one is dropped, as a servo drops it.
     ///
     /// # Errors
     ///
     /// The dynamics failed, or the log could not be written.
-    pub fn answer(&mut self, input: &mut Vec<u8>, output: &mut Vec<u8>) -> anyhow::Result<()> {
+    pub fn receive(&mut self, at: f64, bytes: &[u8], output: &mut Vec<u8>) -> anyhow::Result<()> {
         use super::PacketError;
+        if !bytes.is_empty() {
+            self.pending.extend_from_slice(bytes);
+            self.last_byte = at;
+        }
         loop {
-            match self.protocol.parse_instruction(input) {
+            match self.protocol.parse_instruction(&self.pending) {
                 Ok(packet) => {
-                    let bytes = input[packet.start..packet.consumed].to_vec();
-                    input.drain(..packet.consumed);
+                    let bytes: Vec<u8> = self.pending.drain(..packet.consumed).skip(packet.start).collect();
                     if let Some(log) = &mut self.log {
                         let hex: String = bytes.iter().map(|b| format!("{b:02X}")).collect();
-                        writeln!(log, "{{\"t\": {:.6}, \"packet\": \"{hex}\"}}", self.started.elapsed().as_secs_f64())?;
+                        writeln!(log, "{{\"t\": {at:.6}, \"packet\": \"{hex}\"}}")?;
                         log.flush()?;
                     }
-                    self.catch_up()?;
+                    self.advance_to(at)?;
                     self.handle(packet.id, packet.error, &packet.params, output);
                 }
                 Err(PacketError::Short { .. }) => return Ok(()),
                 Err(PacketError::NoHeader(_)) => {
                     // Keep a possible header's first bytes.
-                    let keep = input.len().min(3);
-                    input.drain(..input.len() - keep);
+                    let keep = self.pending.len().min(3);
+                    self.pending.drain(..self.pending.len() - keep);
                     return Ok(());
                 }
                 Err(PacketError::Checksum { .. } | PacketError::Malformed(_)) => {
                     // Past this header: the next one is looked for.
-                    let at = input.iter().position(|b| *b == 0xFF).unwrap_or(0);
-                    input.drain(..=at.min(input.len().saturating_sub(1)));
+                    let at = self.pending.iter().position(|b| *b == 0xFF).unwrap_or(0);
+                    self.pending.drain(..=at.min(self.pending.len().saturating_sub(1)));
                 }
             }
         }
+    }
+
+    /// At `at` (s, the bus's clock), with the line silent since the last byte received: the
+    /// bytes of a packet cut short are dropped if that silence has lasted
+    /// [`INTER_BYTE_TIMEOUT`], as a servo's receiver drops them. The bytes dropped, if any.
+    ///
+    /// Only a silence seen on the line counts (the caller waited and nothing came): the time
+    /// between two reads is not one, as a busy machine may leave this program unscheduled
+    /// while the rest of a packet arrives.
+    pub fn expire(&mut self, at: f64) -> Option<Vec<u8>> {
+        (!self.pending.is_empty() && at - self.last_byte >= INTER_BYTE_TIMEOUT)
+            .then(|| std::mem::take(&mut self.pending))
+    }
+
+    /// How long the line may stay silent from `at` (s) before [`Self::expire`] drops the bytes
+    /// waiting, s (`None`: none wait).
+    pub fn expires_in(&self, at: f64) -> Option<f64> {
+        (!self.pending.is_empty()).then(|| (INTER_BYTE_TIMEOUT - (at - self.last_byte)).max(0.0))
     }
 
     fn handle(&mut self, id: u8, instruction: u8, params: &[u8], output: &mut Vec<u8>) {
@@ -331,7 +411,15 @@ impl SimulatedBus {
             SYNC_READ => {
                 let Some((address, length)) = self.address_length(params) else { return };
                 let header = 2 * self.header_bytes();
+                // Each servo answers once, in its turn: an ID listed again gets no second reply
+                // (a packet listing one ID thousands of times would otherwise be answered
+                // thousands of times).
+                let mut answered = Vec::new();
                 for &target in &params[header..] {
+                    if answered.contains(&target) {
+                        continue;
+                    }
+                    answered.push(target);
                     if let Some(servo) = self.answering(target)
                         && let Some(data) = servo.memory.get(address..address + length)
                     {
@@ -490,7 +578,6 @@ impl SimulatedBus {
         hand: Option<&std::sync::mpsc::Receiver<JointVector<4>>>,
     ) -> anyhow::Result<()> {
         use std::io::Read;
-        let mut input = Vec::new();
         let mut output = Vec::new();
         let mut chunk = [0u8; 1024];
         while !stop() {
@@ -500,7 +587,18 @@ impl SimulatedBus {
                     crate::tell("bus-sim: not moved: a joint's torque is on\n");
                 }
             }
-            if !super::port::wait_readable(&terminal.controller, std::time::Duration::from_millis(20))? {
+            // While a packet is cut short, wait no longer than its bytes may stay.
+            let idle = 0.020;
+            let wait = self.expires_in(self.now()).map_or(idle, |left| left.min(idle));
+            if !super::port::wait_readable(&terminal.controller, std::time::Duration::from_secs_f64(wait))? {
+                if let Some(dropped) = self.expire(self.now()) {
+                    let hex: String = dropped.iter().map(|b| format!("{b:02X}")).collect();
+                    crate::tell(&format!(
+                        "bus-sim: dropped {} bytes of a packet cut short (no byte for {} ms): {hex}\n",
+                        dropped.len(),
+                        INTER_BYTE_TIMEOUT * 1e3
+                    ));
+                }
                 continue;
             }
             let n = match terminal.controller.read(&mut chunk) {
@@ -508,8 +606,7 @@ impl SimulatedBus {
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
                 Err(e) => return Err(e.into()),
             };
-            input.extend_from_slice(&chunk[..n]);
-            self.answer(&mut input, &mut output)?;
+            self.receive(self.now(), &chunk[..n], &mut output)?;
             if !output.is_empty() {
                 terminal.controller.write_all(&output)?;
                 terminal.controller.flush()?;
@@ -517,5 +614,144 @@ impl SimulatedBus {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default setup's arm on STS3215 servos, its bus resting at the pose a game starts
+    /// from (as `bus-sim --actuator sts3215` starts).
+    fn sts_bus() -> SimulatedBus {
+        let mut setup = crate::config::Setup::load(None).unwrap();
+        setup.actuators =
+            crate::actuators::resolve(&["sts3215".to_string()], &setup.actuator_tables, "--actuator").unwrap();
+        setup.actuator_names = std::array::from_fn(|_| "sts3215".to_string());
+        let bus = ServoBus::of(&setup).unwrap();
+        let q = chessarm_chess::play::home_pose(
+            &setup.arm,
+            &setup.board,
+            &setup.pieces,
+            &setup.motion.validated().unwrap(),
+        )
+        .unwrap();
+        SimulatedBus::new(Protocol::Feetech, &setup.arm, &setup.actuators, bus, setup.convention.signs, q, None)
+            .unwrap()
+    }
+
+    /// The present positions of servos 1 to 4 read over the bus at `at`, ticks.
+    fn present(sim: &mut SimulatedBus, at: f64) -> [i64; 4] {
+        let protocol = Protocol::Feetech;
+        std::array::from_fn(|j| {
+            let mut out = Vec::new();
+            let read = protocol.read(sim.bus.ids[j], protocol.present_position(), 2);
+            sim.receive(at, &read, &mut out).unwrap();
+            let status = protocol.parse_status(&out).unwrap();
+            protocol.decode_position(&status.params).unwrap()
+        })
+    }
+
+    /// Torque on and a goal 100 ticks from the start on joint 2 at `at`.
+    fn hold_and_move(sim: &mut SimulatedBus, at: f64) -> [i64; 4] {
+        let protocol = Protocol::Feetech;
+        let mut out = Vec::new();
+        let start = present(sim, at);
+        for &id in &sim.bus.ids.clone() {
+            sim.receive(at, &protocol.write(id, protocol.torque_enable(), &[1]), &mut out).unwrap();
+        }
+        let mut goal = start;
+        goal[1] += 100;
+        let data: Vec<Vec<u8>> = goal.iter().map(|t| protocol.encode_position(*t)).collect();
+        let ids = sim.bus.ids;
+        let goals: Vec<(u8, &[u8])> = ids.iter().zip(&data).map(|(id, d)| (*id, d.as_slice())).collect();
+        sim.receive(at, &protocol.sync_write(protocol.goal_position(), &goals), &mut out).unwrap();
+        goal
+    }
+
+    /// After a long silence with the torque held, answering the next packet takes bounded
+    /// work: at most `CATCH_UP_MAX` of plant steps, not one per millisecond of the silence
+    /// (1000 s were a million steps, which made the driver's 100 ms reply timeout run out
+    /// after some 200 s of thinking). The arm is then where it settles: the same ticks as an
+    /// arm integrated step by step for 5 s after the same goal (the transient is over within
+    /// 1 s), within a tick for the rounding of a position resting on a tick's edge.
+    #[test]
+    fn a_long_silence_with_the_torque_held_costs_bounded_work() {
+        let mut sim = sts_bus();
+        hold_and_move(&mut sim, 0.0);
+        let mut reference = sts_bus();
+        hold_and_move(&mut reference, 0.0);
+        // 1 ms packets for 5 s: every step integrated.
+        for k in 1..=5000 {
+            reference.advance_to(f64::from(k) * 1e-3).unwrap();
+        }
+        let settled = present(&mut reference, 5.0);
+
+        let before = sim.step;
+        sim.advance_to(1000.0).unwrap();
+        let steps = sim.step - before;
+        assert!(steps <= (CATCH_UP_MAX / DT) as usize, "{steps} plant steps for 1000 s of silence");
+        assert!(sim.time > 1000.0 - DT && sim.time <= 1000.0, "{}", sim.time);
+        let after = present(&mut sim, 1000.0);
+        for j in 0..4 {
+            assert!((after[j] - settled[j]).abs() <= 1, "joint {}: {after:?} against {settled:?}", j + 1);
+        }
+        // And the next packet, a millisecond later, takes a step, not a catch-up.
+        let before = sim.step;
+        present(&mut sim, 1000.001);
+        // (Two: the skipped clock may sit a step's rounding short of 1000 s.)
+        assert!(sim.step - before <= 2, "{}", sim.step - before);
+    }
+
+    /// With every torque off a silence is skipped whole, the arm where it rested.
+    #[test]
+    fn a_long_silence_with_the_torque_off_takes_no_steps() {
+        let mut sim = sts_bus();
+        let start = present(&mut sim, 0.0);
+        sim.advance_to(86_400.0).unwrap();
+        assert_eq!(sim.step, 0);
+        assert_eq!(present(&mut sim, 86_400.0), start);
+    }
+
+    /// Four stray bytes (`FF FF 01 FF`: a header, ID 1 and a length of 255) once held every
+    /// later packet as the rest of theirs. Dropped after `INTER_BYTE_TIMEOUT` of silence, the
+    /// next ping is answered; bytes of a packet split in two reads close together are not
+    /// dropped.
+    #[test]
+    fn a_packet_cut_short_is_dropped_after_a_silence() {
+        let protocol = Protocol::Feetech;
+        let mut sim = sts_bus();
+        let mut out = Vec::new();
+        sim.receive(1.0, &[0xFF, 0xFF, 0x01, 0xFF], &mut out).unwrap();
+        assert!(out.is_empty());
+        // Not yet: half the timeout of silence.
+        assert_eq!(sim.expire(1.0 + INTER_BYTE_TIMEOUT / 2.0), None);
+        assert_eq!(sim.expire(1.0 + INTER_BYTE_TIMEOUT), Some(vec![0xFF, 0xFF, 0x01, 0xFF]));
+        sim.receive(1.1, &protocol.ping(1), &mut out).unwrap();
+        let status = protocol.parse_status(&out).unwrap();
+        assert_eq!((status.id, status.error, status.consumed), (1, 0, out.len()));
+
+        // A ping in two pieces 1 ms apart: answered, nothing to drop.
+        out.clear();
+        let ping = protocol.ping(2);
+        sim.receive(2.0, &ping[..3], &mut out).unwrap();
+        // Within 1e-9 s: the clock's readings differ from 0.5 ms by their rounding.
+        let left = sim.expires_in(2.0005).unwrap();
+        assert!((left - (INTER_BYTE_TIMEOUT - 0.0005)).abs() < 1e-9, "{left}");
+        sim.receive(2.001, &ping[3..], &mut out).unwrap();
+        assert_eq!(protocol.parse_status(&out).unwrap().id, 2);
+        assert_eq!(sim.expire(3.0), None);
+    }
+
+    /// A sync read listing a servo three times gets its one reply, not three.
+    #[test]
+    fn a_sync_read_answers_each_servo_once() {
+        let protocol = Protocol::Feetech;
+        let mut sim = sts_bus();
+        let mut out = Vec::new();
+        sim.receive(0.0, &protocol.sync_read(protocol.present_position(), 2, &[1, 1, 2, 1]), &mut out).unwrap();
+        let first = protocol.parse_status(&out).unwrap();
+        let second = protocol.parse_status(&out[first.consumed..]).unwrap();
+        assert_eq!((first.id, second.id, first.consumed + second.consumed), (1, 2, out.len()));
     }
 }

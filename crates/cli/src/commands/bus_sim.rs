@@ -17,6 +17,22 @@ pub fn run(setup: &Setup, args: &BusSimArgs) -> Result<()> {
         );
     }
     let bus = crate::actuators::ServoBus::of(setup)?;
+    // A fault for a servo not on the bus would never fire: refused before the bus starts.
+    let on_bus: Vec<u8> = bus.ids.iter().copied().chain(bus.gripper.map(|g| g.id)).collect();
+    for (flag, fault) in [("--lose-reply", args.lose_reply), ("--overload", args.overload)] {
+        if let Some(fault) = fault
+            && !on_bus.contains(&fault.id)
+        {
+            let ids: Vec<String> = on_bus.iter().map(u8::to_string).collect();
+            bail!(
+                "{flag} {}@{}: servo {} is not on the bus (its servos: {})",
+                fault.id,
+                fault.after,
+                fault.id,
+                ids.join(", ")
+            );
+        }
+    }
     let Some(protocol) = args.protocol.or(bus.protocol) else {
         bail!(
             "bus-sim: the servos ({}) speak neither Feetech's nor Dynamixel's protocol; give --protocol or [servo_bus] protocol",
