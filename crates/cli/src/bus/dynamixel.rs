@@ -60,7 +60,14 @@ pub fn unstuff(stuffed: &[u8]) -> Vec<u8> {
     let mut i = 0;
     while i < stuffed.len() {
         body.push(stuffed[i]);
-        if stuffed[i] == 0xFD && body.len() >= 3 && body[body.len() - 2] == 0xFF && body[body.len() - 3] == 0xFF {
+        // Only the stuffed `FD` after `FF FF FD` goes; any other byte there is the sender's
+        // own (a sender that does not stuff), kept.
+        if stuffed[i] == 0xFD
+            && body.len() >= 3
+            && body[body.len() - 2] == 0xFF
+            && body[body.len() - 3] == 0xFF
+            && stuffed.get(i + 1) == Some(&0xFD)
+        {
             i += 1;
         }
         i += 1;
@@ -182,6 +189,16 @@ pub fn parse_packet(stream: &[u8]) -> Result<Status, PacketError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Only the stuffed `FD` is taken out: a byte after an unstuffed `FF FF FD` (a sender that
+    /// does not stuff) stays.
+    #[test]
+    fn unstuffing_takes_out_only_the_stuffed_byte() {
+        assert_eq!(unstuff(&[0xFF, 0xFF, 0xFD, 0xFD, 0x01]), [0xFF, 0xFF, 0xFD, 0x01]);
+        assert_eq!(unstuff(&[0xFF, 0xFF, 0xFD, 0x01, 0x02]), [0xFF, 0xFF, 0xFD, 0x01, 0x02]);
+        let body = [0x55, 0xFF, 0xFF, 0xFD, 0xFD, 0xFF, 0xFF, 0xFD];
+        assert_eq!(unstuff(&stuff(&body)), body);
+    }
 
     /// The packets of ROBOTIS's Protocol 2.0 manual: a ping of ID 1 (CRC 0x4E19) and a write of
     /// 512 to Goal Position (116) of ID 1 (CRC 0x89CA).
