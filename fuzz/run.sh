@@ -5,7 +5,7 @@
 #   fuzz/run.sh RUNS [TARGET...]      e.g. fuzz/run.sh 1000000
 #
 # Targets: pgn move_list fen setup_toml urdf numbers bus_feetech bus_dynamixel bus_simulator
-# occupancy typed_move, and uci_line unless FUZZ_UCI=0 (it needs the
+# occupancy typed_move live_request, and uci_line unless FUZZ_UCI=0 (it needs the
 # crate's `uci` feature, see README.md). Builds on the stable toolchain with `--sanitizer none`
 # (release build with debug assertions, cargo-fuzz's default). Prints a summary table and
 # writes it to fuzz/last-run.txt. Exits non-zero if any target crashed (crash inputs are in
@@ -30,7 +30,7 @@ features=()
 if [[ $# -gt 0 ]]; then
     targets=("$@")
 else
-    targets=(pgn move_list fen setup_toml urdf numbers bus_feetech bus_dynamixel bus_simulator occupancy typed_move)
+    targets=(pgn move_list fen setup_toml urdf numbers bus_feetech bus_dynamixel bus_simulator occupancy typed_move live_request)
     if [[ ${FUZZ_UCI:-1} == 1 ]]; then
         targets+=(uci_line)
     fi

@@ -1,5 +1,5 @@
 //! URDF import: the report's arm as `chessarm urdf` writes it, and the same arm with 10 000 and
-//! 100 000 fixed marker links after the tool (issue 34: the import was quadratic in them, 109 s
+//! 100 000 fixed marker links after the tool (the import was once quadratic in them, 109 s
 //! for 100 000; linear, the two sizes differ by ten times).
 
 use chessarm::config::Setup;

@@ -1,4 +1,4 @@
-//! The batch simulator of issue 15: eight runs of the 13 s seed scenario at 1 kHz (PD,
+//! The batch simulator: eight runs of the 13 s seed scenario at 1 kHz (PD,
 //! computed torque, the default integrator, no time series) at 1, 4 and 8 lanes and at every
 //! SIMD level this CPU has; the throughput is in run-steps, so its inverse is the cost of one
 //! run's step at that lane count and level.

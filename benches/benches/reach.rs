@@ -1,4 +1,4 @@
-//! What a game asks of the arm's reach (issue 35): the pre-flight check of the report's board
+//! What a game asks of the arm's reach: the pre-flight check of the report's board
 //! (every location at every height, every traverse between two of them), and `board --fit` for
 //! a maker's arm from its official URDF (the OpenManipulator-X, as published).
 

@@ -1,4 +1,4 @@
-//! Monte Carlo of issue 11: trials of the 13 s seed scenario (queens-gambit) at 1 kHz with the
+//! The robustness study's Monte Carlo: trials of the 13 s seed scenario (queens-gambit) at 1 kHz with the
 //! `hobby` sensors (12-bit encoders, σ 0.5 count, 1 sample delay) and the Kalman filter, PD
 //! control, unknown pawn. The target is 1000 trials in ≤ 3 s on the 2-core machine; the bench
 //! runs 100 trials on all cores and reports the time per 100 (× 10 for 1000), and one trial on

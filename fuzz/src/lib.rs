@@ -7,7 +7,7 @@
 
 mod checks;
 pub use checks::{
-    check_bus_dynamixel, check_bus_feetech, check_bus_simulator, check_fen, check_move_list, check_numbers,
+    check_bus_dynamixel, check_bus_feetech, check_bus_simulator, check_fen, check_live_request, check_move_list, check_numbers,
     check_occupancy, check_pgn, check_setup_toml, check_typed_move, check_urdf,
 };
 

@@ -116,7 +116,7 @@ fn limits_far_too_low_or_fine_are_refused_before_the_planner_allocates() {
 #[test]
 fn a_torque_limit_near_the_largest_number_plots_instead_of_hanging() {
     // The torque plot's limit lines at ±1e308 made its axis span infinite, and its ticks never
-    // ended (issue 34); now they lie off the axis.
+    // ended; now they lie off the axis.
     let dir = tempfile::tempdir().unwrap();
     let setup = dir.path().join("strong.toml");
     std::fs::write(&setup, "[[links]]\ntorque_limit = 1e308\n[[links]]\n[[links]]\n[[links]]\n").unwrap();
@@ -637,7 +637,7 @@ fn a_best_pick_on_the_edge_of_the_sweep_is_called_out() {
 
 #[test]
 fn values_that_would_fail_later_are_refused_at_load_naming_their_field() {
-    // Issue 34, item 12: each was accepted and failed seconds later as "NaN", "not positive
+    // Each was accepted and failed seconds later as "NaN", "not positive
     // definite" or a Kalman filter's complaint, without naming what the user wrote.
     let links = |field: &str| format!("[[links]]\n{field}\n[[links]]\n[[links]]\n[[links]]\n");
     for (file, needles) in [
@@ -678,7 +678,7 @@ fn a_pgn_variation_left_open_or_closed_twice_is_refused() {
 
 #[test]
 fn input_files_are_read_with_a_size_bound() {
-    // Issue 34, item 7: `--urdf /dev/zero` ate a gigabyte and a 400 MB URDF aborted the XML
+    // `--urdf /dev/zero` ate a gigabyte and a 400 MB URDF aborted the XML
     // parser; every input file is now read up to a bound and refused beyond it.
     let dir = tempfile::tempdir().unwrap();
     let big_setup = dir.path().join("big.toml");
@@ -704,7 +704,7 @@ fn input_files_are_read_with_a_size_bound() {
 
 #[test]
 fn a_second_run_into_a_folder_in_use_stops_naming_the_first() {
-    // Issue 34, item 9: two runs into one --out both exited 0 and mixed their files.
+    // Two runs into one --out both exited 0 and mixed their files.
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("game");
     let out_text = out.to_str().unwrap();

@@ -26,7 +26,7 @@ fn game_json(dir: &Path, args: &[&str]) -> Value {
 fn lspb_timing_reproduces_the_timings_and_placements_from_before_the_optimal_planner() {
     // lspb_timings.json was written by chessarm a12c6b4, the commit before the time-optimal
     // planner: the report's LSPB timing must give those durations to the bit. The placements
-    // were bit-exact too until the structured dynamics (issue 15) replaced the general
+    // were bit-exact too until the structured dynamics replaced the general
     // recursions for this arm: the two agree to 1e-12 relative, and the closed loop carries
     // that rounding into the placements at ≤ 1e-12 mm (measured 6·10⁻¹³); 1e-9 mm (a
     // picometre) leaves room for that and still catches any change of the planner or loop.

@@ -458,7 +458,7 @@ fn urdf_outside_the_supported_shape_is_an_error_naming_the_element() {
 
 #[test]
 fn fixed_links_after_the_tool_are_followed_to_the_chain_s_end() {
-    // Marker links chained after the tool (the case that was quadratic, issue 34): the tool is
+    // Marker links chained after the tool (the case that was quadratic): the tool is
     // the chain's last link, here at the same place as the tool, so FK is the default arm's.
     // (Their import time is measured by `cargo bench --bench import`: linear, 0.4 s for 100 000.)
     let dir = tempfile::tempdir().unwrap();

@@ -92,6 +92,11 @@ fn typed_move_corpus() {
 }
 
 #[test]
+fn live_request_corpus() {
+    run_corpus("live_request", checks::check_live_request);
+}
+
+#[test]
 fn uci_line_corpus() {
     run_corpus("uci_line", uci_check::check_uci_line);
 }

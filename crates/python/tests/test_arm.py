@@ -157,7 +157,7 @@ def test_setup_files_and_urdf_round_trip(tmp_path):
 
 
 def test_what_the_cli_refuses_raises_and_never_returns_inf_or_nan():
-    # Issue 34, item 10: these returned inf or NaN where `chessarm dynamics` says "overflows".
+    # These returned inf or NaN where `chessarm dynamics` says "overflows".
     arm = chessarm.Arm.default()
     zero = [0.0, 0.0, 0.0, 0.0]
     for call, needle in [

@@ -1,7 +1,7 @@
 """The README's Python examples, run as written (each ```python block in order, in one
 namespace, in a fresh folder with the repository's examples/; the Dask one, which needs a
 cluster, aside), so that none of them fails the way the first one did (`NameError: name 'q'
-is not defined`, issue 34)."""
+is not defined`)."""
 
 import os
 import shutil
