@@ -4,8 +4,9 @@
 //! a few minutes.
 
 use chessarm::cli::{Cli, Command};
-use chessarm::commands::tune::{CandidateOptions, Setting, candidate_gains, shard_range, study, sweep, tracking_from};
+use chessarm::commands::tune::{CandidateOptions, Setting, candidate_gains, study, sweep, tracking_from};
 use chessarm::config::Setup;
+use chessarm::resources::shard_range;
 use clap::Parser;
 use criterion::{Criterion, criterion_group, criterion_main};
 

@@ -42,3 +42,15 @@ pub fn read_text(what: &str, path: &Path, max_bytes: u64) -> Result<String> {
         anyhow::anyhow!("{what} {}: not UTF-8 text (from byte offset {})", path.display(), e.utf8_error().valid_up_to())
     })
 }
+
+/// Game `number` (1-based) of the PGN file at `path`, read as a stream: the file is read only
+/// up to the end of that game, and one game may hold at most
+/// [`chessarm_chess::notation::MAX_PGN_GAME_BYTES`].
+///
+/// # Errors
+///
+/// The file cannot be read, or holds no such game, or the game is not valid.
+pub fn read_pgn_game(path: &Path, number: usize) -> Result<chessarm_chess::notation::GameRecord> {
+    let file = std::fs::File::open(path).with_context(|| format!("cannot read PGN file {}", path.display()))?;
+    chessarm_chess::notation::read_game(file, number).with_context(|| format!("PGN file {}", path.display()))
+}

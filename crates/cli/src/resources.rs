@@ -142,3 +142,11 @@ pub fn batching() -> Result<(chessarm_core::sim::batch::LaneCount, chessarm_core
 pub fn per_task(runs: usize, threads: usize, lanes: chessarm_core::sim::batch::LaneCount) -> usize {
     lanes.get().min(runs.div_ceil(threads.max(1))).max(1)
 }
+
+/// The indices of shard `k` of `n` (1-based) of `total` runs or candidates: contiguous blocks.
+pub fn shard_range(total: usize, shard: Option<(usize, usize)>) -> std::ops::Range<usize> {
+    match shard {
+        None => 0..total,
+        Some((k, n)) => (total * (k - 1) / n)..(total * k / n),
+    }
+}

@@ -9,7 +9,7 @@ use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, rem
 use crate::plots::{Corner, Level, Panel, Series, Style, plot_panels, tick};
 use crate::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
 use anyhow::{Context, Result, bail};
-use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list, read_game};
+use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list};
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
 use chessarm_chess::outcome::OutcomeReason;
 use chessarm_chess::play::{Game, MoveReport, Mover, PlaySettings};
@@ -110,7 +110,7 @@ fn source(args: &PlayArgs) -> Result<Source> {
         if args.fen.is_some() {
             bail!("--fen goes with --moves or an engine game; a PGN file sets its own start ([FEN] tag)");
         }
-        return Ok(Source::Record(read_pgn_game(path, args.game)?));
+        return Ok(Source::Record(crate::input::read_pgn_game(path, args.game)?));
     }
     if let Some(moves) = &args.moves {
         return Ok(Source::Record(parse_move_list(moves, start_position(args)?)?));
@@ -199,14 +199,6 @@ fn pgn_date(time: std::time::SystemTime) -> String {
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + i64::from(month <= 2);
     format!("{year:04}.{month:02}.{day:02}")
-}
-
-/// Game `number` (1-based) of the PGN file at `path`, read as a stream: the file is read only
-/// up to the end of that game, and one game may hold at most
-/// [`chessarm_chess::notation::MAX_PGN_GAME_BYTES`].
-pub fn read_pgn_game(path: &Path, number: usize) -> Result<GameRecord> {
-    let file = std::fs::File::open(path).with_context(|| format!("cannot read PGN file {}", path.display()))?;
-    read_game(file, number).with_context(|| format!("PGN file {}", path.display()))
 }
 
 fn robot_moves(side: RobotSide, turn: Color) -> bool {

@@ -8,7 +8,6 @@
 use crate::cli::RobustnessArgs;
 use crate::commands::plan::{Plan, plan_scenario};
 use crate::commands::simulate::{DefaultGains, controller_specs, pawn_events, placement_error};
-use crate::commands::tune::shard_range;
 use crate::conditions::{Study, Trial};
 use crate::config::Setup;
 use crate::output::{ensure_dir, remove_stale, write_atomic, write_json};
@@ -511,7 +510,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
             if args.payload_mass.is_some() {
                 anyhow::bail!("--payload-mass goes with a scenario; a game grips its real pieces");
             }
-            Work::Game(crate::commands::play::read_pgn_game(path, args.game)?)
+            Work::Game(crate::input::read_pgn_game(path, args.game)?)
         }
         None => {
             let plan = plan_scenario(setup, &args.scenario, 1e-3, "the trials")?;
@@ -527,7 +526,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         }
         return frontier(setup, args, &work, &specs, &study, paces);
     }
-    let range = shard_range(args.trials, args.shard);
+    let range = crate::resources::shard_range(args.trials, args.shard);
     // Every row (with its drawn parameters' names and values) is held until the CSV is written.
     crate::resources::ensure_fits(
         &format!("--trials {} with {} controllers", args.trials, specs.len()),

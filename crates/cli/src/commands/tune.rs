@@ -466,7 +466,7 @@ pub fn study(setup: &Setup, args: &TuneArgs, trial: Option<&Trial>) -> Result<St
         if args.payload_mass > 0.0 || args.q0.is_some() {
             bail!("--payload-mass and --q0 go with a scenario; a game grips real pieces from its home position");
         }
-        return Ok(Study::Game(crate::commands::play::read_pgn_game(path, args.game)?));
+        return Ok(Study::Game(crate::input::read_pgn_game(path, args.game)?));
     }
     scenario_study(setup, args, trial).map(Study::Scenario)
 }
@@ -482,14 +482,6 @@ fn scenario_study(setup: &Setup, args: &TuneArgs, trial: Option<&Trial>) -> Resu
     }
     let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(setup.convention.user(q))));
     Ok(ScenarioStudy { trajectory: plan.joint, events, marks, initial })
-}
-
-/// The candidate indices of slice `k` of `n` (1-based): contiguous blocks.
-pub fn shard_range(total: usize, shard: Option<(usize, usize)>) -> std::ops::Range<usize> {
-    match shard {
-        None => 0..total,
-        Some((k, n)) => (total * (k - 1) / n)..(total * k / n),
-    }
 }
 
 /// Runs the candidates `range` on `threads` worker threads (all cores when `None`).
@@ -559,7 +551,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         }
         candidate_gains(args)?.into_iter().map(Setting::Torque).collect()
     };
-    let range = shard_range(settings.len(), args.shard);
+    let range = crate::resources::shard_range(settings.len(), args.shard);
     let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;
     let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
     let study = study(setup, args, trial.as_ref())?;

@@ -28,7 +28,7 @@ impl PgnGame {
         if !path.is_file() {
             anyhow::bail!("--resume: there is no {} to go on with", path.display());
         }
-        let record = crate::commands::play::read_pgn_game(path, 1)?;
+        let record = crate::input::read_pgn_game(path, 1)?;
         if let Some(result) = record.header("Result").filter(|r| *r != "*") {
             anyhow::bail!(
                 "--resume: the game in {} is over ({result}); start a new one without --resume",
