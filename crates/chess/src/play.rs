@@ -980,13 +980,7 @@ pub fn gripper_events(settings: &PlaySettings, table: &Table, planned: &[Planned
     events
 }
 
-/// Where the tool rests before the first move: above the middle of rank 1 at the highest
-/// traverse height any task can need, m.
-pub fn home_tool(board: &BoardGeometry, pieces: &PieceSet, limits: &MotionLimits) -> Vector3<f64> {
-    // Above the middle of rank 1, between d1 and e1.
-    let home = board.on_table(0.0, -3.5);
-    Vector3::new(home.x, home.y, board.surface_height + limits.highest_traverse(pieces))
-}
+pub use crate::tasks::home_tool;
 
 /// The joint angles the arm rests at before the first move (rad): the tool down at
 /// [`home_tool`]. A driver of the real arm starts from here, and the simulated servo bus too.

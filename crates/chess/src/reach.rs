@@ -92,7 +92,7 @@ fn places(geometry: &BoardGeometry, pieces: &PieceSet, limits: &MotionLimits) ->
         .chain(Location::off_board())
         .map(|location| (location.to_string(), table.nominal_position(location)))
         .collect();
-    let home = crate::play::home_tool(geometry, pieces, limits);
+    let home = crate::tasks::home_tool(geometry, pieces, limits);
     all.push(("the home point".to_string(), home.xy()));
     all
 }

@@ -565,6 +565,14 @@ impl MotionLimits {
     }
 }
 
+/// Where the tool rests before the first move: above the middle of rank 1 at the highest
+/// traverse height any task can need, m.
+pub fn home_tool(board: &crate::board::BoardGeometry, pieces: &PieceSet, limits: &MotionLimits) -> Vector3<f64> {
+    // Above the middle of rank 1, between d1 and e1.
+    let home = board.on_table(0.0, -3.5);
+    Vector3::new(home.x, home.y, board.surface_height + limits.highest_traverse(pieces))
+}
+
 /// Timing and heights of one planned task.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TaskPlan {

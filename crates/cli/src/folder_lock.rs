@@ -21,6 +21,11 @@ use std::sync::{Mutex, MutexGuard, PoisonError};
 /// The lock file's name in a locked folder.
 pub const LOCK_FILE: &str = ".chessarm-lock";
 
+/// The list, in every folder chessarm writes results into, of the files it wrote there (one
+/// name a line). A file is only ever replaced or removed when this list names it
+/// ([`crate::output`] keeps it; a run that ends having written nothing leaves no lock).
+pub const WRITTEN_LIST: &str = ".chessarm-written";
+
 /// Attempts at a lock that another run's brief check may hold for an instant.
 const ATTEMPTS: u32 = 5;
 
@@ -207,7 +212,7 @@ impl RunFolder {
     /// of written files there), removes its lock file (only if this run holds it) and the folders
     /// it created; then releases every lock it took.
     pub fn end(self, ok: bool) {
-        let wrote = self.dir.join(crate::output::WRITTEN_LIST).exists();
+        let wrote = self.dir.join(WRITTEN_LIST).exists();
         if !ok && !wrote {
             let holds = self
                 .dir

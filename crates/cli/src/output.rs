@@ -182,9 +182,7 @@ fn readable_by_all() -> std::fs::Permissions {
     std::fs::Permissions::from_mode(0o644)
 }
 
-/// The list, in every folder chessarm writes results into, of the files it wrote there (one
-/// name a line). A file is only ever replaced or removed when this list names it.
-pub const WRITTEN_LIST: &str = ".chessarm-written";
+pub use crate::folder_lock::WRITTEN_LIST;
 
 /// The names listed in each folder, as read or written by this process.
 static LISTED: Mutex<Option<HashMap<PathBuf, HashSet<String>>>> = Mutex::new(None);
