@@ -20,13 +20,7 @@ use super::trajectory::{PlanError, ToolMotion, joint_motion_at};
 use crate::arm::dynamics::{friction_torques, inverse_dynamics};
 use crate::arm::model::ArmModel;
 
-/// Share of every limit the planner keeps back for what happens between grid points: the rows
-/// hold at the grid points only, and in between the limits drift by O(step²). Measured on the
-/// report's arm with 5 mm steps everywhere: up to 0.33 % over within a stage on a 4 cm blend
-/// against the grid points' values, 0.11 % over the limit; with the blends at half the step
-/// ([`GeometricPath::grid`]) and 0.2 % kept back, the largest share used is 99.9 % (tests at
-/// 10× the grid). [`check_motion`] checks the full limits.
-pub const GRID_SLACK: f64 = 0.002;
+pub use super::constraints::GRID_SLACK;
 
 /// Why a leg cannot be timed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
