@@ -595,8 +595,8 @@ pub fn check_typed_move(data: &[u8]) {
 
 /// The live page's request reader and gate: whatever the bytes, no panic; a head read is
 /// within the bounds (head, body length), its path absolute; and the gate lets through only a
-/// request for the page's own address that carries the token (but the page itself and its
-/// icon), and a POST only when it names its origin — the page's own.
+/// request for the page's own address that carries the token (but the icon), and a POST only
+/// when it names its origin — the page's own.
 pub fn check_live_request(data: &[u8]) {
     use chessarm::live::page::{MAX_BODY, MAX_HEAD, authorize, head_end, parse_head};
     const TOKEN: &str = "0123456789abcdef0123456789abcdef";
@@ -609,7 +609,7 @@ pub fn check_live_request(data: &[u8]) {
     }
     let host = request.header("host").map(str::to_ascii_lowercase);
     assert!(matches!(host.as_deref(), Some("127.0.0.1:8080" | "localhost:8080")), "{request:?}");
-    let open = request.method == "GET" && matches!(request.path.as_str(), "/" | "/favicon.ico");
+    let open = request.method == "GET" && request.path == "/favicon.ico";
     let carried = request.header("x-chessarm-token") == Some(TOKEN) || request.query.contains(TOKEN);
     assert!(open || carried, "{request:?}");
     if let Some(origin) = request.header("origin") {

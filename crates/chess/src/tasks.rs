@@ -311,8 +311,9 @@ pub fn move_tasks(position: &Chess, mv: &Move, table: &Table) -> Result<Vec<Task
 /// The finest planning grid step, m: a 0.5 m leg then has 5 000 points (40 000 after the
 /// planner's refinements), tens of MB of rows at most.
 pub const MIN_GRID_STEP: f64 = 1e-4;
-/// The longest grip or release dwell, s (see [`MotionLimits::validated`]).
-pub const MAX_DWELL: f64 = 60.0;
+/// The longest grip or release dwell and pause between moves, s (see
+/// [`MotionLimits::validated`]).
+pub const MAX_WAIT: f64 = 60.0;
 
 /// The most control periods a move's trajectory may have: 10⁷ (2.8 h at 1 kHz), 1.3 GB of
 /// samples; a move that would last longer has a limit set far too low.
@@ -529,14 +530,17 @@ impl MotionLimits {
                 return Err(TaskError::Limits { field, value, reason: "must be finite and >= 0" });
             }
         }
-        // The dwells are simulated step by step: a gripper that takes longer than a minute
-        // to close or open is no gripper, and would size a move's simulation by the hour.
-        for (field, value) in [("grip_dwell", self.grip_dwell), ("release_dwell", self.release_dwell)] {
-            if value > MAX_DWELL {
+        // The dwells and pauses are simulated step by step (and exported sample by sample): a
+        // gripper that takes longer than a minute to close or open is no gripper, a pause of
+        // more than a minute between a move's parts is no chess move, and either would size a
+        // move's simulation and its files by the hour.
+        let waits = [("grip_dwell", self.grip_dwell), ("release_dwell", self.release_dwell), ("pause", self.pause)];
+        for (field, value) in waits {
+            if value > MAX_WAIT {
                 return Err(TaskError::Limits {
                     field,
                     value,
-                    reason: "must be at most 60 s: a gripper closes or opens in well under a second",
+                    reason: "must be at most 60 s: a gripper closes or opens, and the arm rests, in well under a second",
                 });
             }
         }

@@ -96,6 +96,28 @@ fn bus_rate_unescaped(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A wait for the arm to be in position, s: in (0, 60] (each of a move's fine points may wait
+/// this long, simulated step by step; an arm that has not settled in a minute will not).
+fn wait_unescaped(text: &str) -> Result<f64, String> {
+    let value = positive_unescaped(text)?;
+    if value > 60.0 {
+        Err(format!("{value} s is longer than a minute, the longest wait for a fine point"))
+    } else {
+        Ok(value)
+    }
+}
+
+/// A calibration's largest residual, mm: in (0, 20] (a board off by more than 20 mm cannot
+/// place a piece within any square's tolerance).
+fn residual_mm_unescaped(text: &str) -> Result<f64, String> {
+    let value = positive_unescaped(text)?;
+    if value > 20.0 {
+        Err(format!("{value} mm is above 20 mm: touches that disagree by more cannot place a piece on its square"))
+    } else {
+        Ok(value)
+    }
+}
+
 /// A finite number.
 fn finite_unescaped(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
@@ -221,6 +243,8 @@ escaped! {
     positive => positive_unescaped -> f64;
     export_rate => export_rate_unescaped -> f64;
     bus_rate => bus_rate_unescaped -> f64;
+    wait => wait_unescaped -> f64;
+    residual_mm => residual_mm_unescaped -> f64;
     finite => finite_unescaped -> f64;
     gain => gain_unescaped -> [f64; 4];
     range => range_unescaped -> GainRange;

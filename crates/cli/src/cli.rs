@@ -136,7 +136,7 @@ pub struct CalibrateArgs {
     #[arg(
         long,
         default_value_t = chessarm_core::arm::calibration::MAX_RESIDUAL * 1e3,
-        value_parser = args::positive,
+        value_parser = args::residual_mm,
         allow_hyphen_values = true
     )]
     pub max_residual_mm: f64,
@@ -393,8 +393,8 @@ pub struct PlacementArgs {
     #[arg(long, value_name = "MM_PER_S", value_parser = args::positive, allow_hyphen_values = true)]
     pub in_position_speed_mm_s: Option<f64>,
     /// Longest wait for the arm to be in position, s; the gripper then goes ahead and the
-    /// wait is reported as timed out (default 1).
-    #[arg(long, value_name = "S", value_parser = args::positive, allow_hyphen_values = true)]
+    /// wait is reported as timed out (default 1; at most 60).
+    #[arg(long, value_name = "S", value_parser = args::wait, allow_hyphen_values = true)]
     pub in_position_timeout: Option<f64>,
     /// Do not tell the controller the nominal mass of the piece kind it grips (the default
     /// feeds it forward; --controller-knows-payload tells it the true mass instead).

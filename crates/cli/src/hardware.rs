@@ -117,16 +117,9 @@ pub fn write_move(
         "trajectory": {
             "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": base_link},
             "joint_names": names,
-            "points": points.iter().map(|p| {
-                let [q, qd, qdd] = whole(p);
-                json!({
-                    "positions": q,
-                    "velocities": qd,
-                    "accelerations": qdd,
-                    "effort": [],
-                    "time_from_start": ros_duration(p.t),
-                })
-            }).collect::<Vec<_>>(),
+            // Written point by point below: a long move at a high rate is millions of points,
+            // gigabytes as one JSON tree.
+            "points": [],
         },
         "gripper": gripper,
         "finger_opening_m": label.finger_opening,
@@ -134,9 +127,27 @@ pub fn write_move(
         "rate_hz": rate,
         "units": {"positions": "rad", "velocities": "rad/s", "accelerations": "rad/s^2", "t": "s"},
     });
-    // One line: a game's moves at 100 Hz would be megabytes of indentation.
+    // One line: a game's moves at 100 Hz would be megabytes of indentation. The points go in
+    // where the empty list stands, one at a time, the bytes as the whole tree would print them.
+    let text = serde_json::to_string(&value)?;
+    let (before, after) = text.split_once("\"points\":[]").ok_or_else(|| anyhow::anyhow!("the trajectory's points"))?;
     write_atomic(&json_path, |out| {
-        serde_json::to_writer(&mut *out, &value)?;
+        write!(out, "{before}\"points\":[")?;
+        for (k, p) in points.iter().enumerate() {
+            if k > 0 {
+                write!(out, ",")?;
+            }
+            let [q, qd, qdd] = whole(p);
+            let point = json!({
+                "positions": q,
+                "velocities": qd,
+                "accelerations": qdd,
+                "effort": [],
+                "time_from_start": ros_duration(p.t),
+            });
+            serde_json::to_writer(&mut *out, &point)?;
+        }
+        write!(out, "]{after}")?;
         writeln!(out)?;
         Ok(())
     })?;

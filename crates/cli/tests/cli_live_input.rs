@@ -227,6 +227,10 @@ fn a_take_back_leaves_one_true_record() {
         game["human"]["taken_back"].as_array().unwrap().iter().map(|t| t["san"].as_str().unwrap()).collect();
     assert_eq!(taken.len(), 2);
     assert_eq!(taken[0], "e4");
+    // The arm's timings: its one reply in the game (ply 2), not the taken-back one.
+    let timed: Vec<u64> =
+        game["human"]["robot_moves"].as_array().unwrap().iter().map(|m| m["ply"].as_u64().unwrap()).collect();
+    assert_eq!(timed, [2]);
     let csvs: Vec<String> = std::fs::read_dir(out.join("moves"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -266,6 +270,46 @@ fn the_input_socket_is_removed_on_a_signal() {
         assert_eq!(output.status.code(), Some(130), "{}", String::from_utf8_lossy(&output.stderr));
         assert!(!socket.exists(), "SIG{signal} left the socket behind");
     }
+    // A socket left by a run that SIGKILL ended (no program can catch it): nobody listens on
+    // it, so the next run replaces it; a socket somebody listens on, or a file, stays refused.
+    let stale = dir.path().join("stale.sock");
+    drop(std::os::unix::net::UnixListener::bind(&stale).unwrap());
+    assert!(stale.exists());
+    let out = dir.path().join("out-stale");
+    let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(["play", "--human", "white", "--input-socket", stale.to_str().unwrap(), "--out"])
+        .arg(&out)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    // The board connects once chessarm listens on its new socket.
+    let mut board = loop {
+        if let Ok(stream) = std::os::unix::net::UnixStream::connect(&stale) {
+            break stream;
+        }
+        assert!(started.elapsed() < Duration::from_secs(60), "no socket");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    board.write_all(b"quit\n").unwrap();
+    let output = wait_within(child, Duration::from_secs(60));
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("replacing a socket nobody listens on"));
+    assert!(!stale.exists());
+    let live = dir.path().join("live.sock");
+    let _listening = std::os::unix::net::UnixListener::bind(&live).unwrap();
+    let output = chessarm(&[
+        "play",
+        "--human",
+        "white",
+        "--input-socket",
+        live.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    common::assert_one_line_error(&output, &["--input-socket", "a file is there"]);
 }
 
 /// Input flags without `--human` are refused, naming the flag (they were ignored before, and
@@ -317,12 +361,14 @@ fn only_the_live_page_plays_and_only_in_turn() {
         .spawn()
         .unwrap();
     let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
-    let port: u16 = loop {
+    // The address chessarm prints, with the run's token.
+    let (port, token): (u16, String) = loop {
         let mut line = String::new();
         assert!(std::io::BufRead::read_line(&mut stderr, &mut line).unwrap() > 0, "no live page");
         if let Some(at) = line.find("http://127.0.0.1:") {
             let address = line[at..].split_whitespace().next().unwrap();
-            break address.trim_end_matches('/').rsplit(':').next().unwrap().parse().unwrap();
+            let (origin, token) = address.split_once("/?token=").unwrap();
+            break (origin.rsplit(':').next().unwrap().parse().unwrap(), token.to_string());
         }
     };
     let rest = std::thread::spawn(move || {
@@ -347,10 +393,12 @@ fn only_the_live_page_plays_and_only_in_turn() {
         assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
         serde_json::from_str(answer.split("\r\n\r\n").nth(1).unwrap()).unwrap()
     };
-    // The page, and the token it carries.
-    let page = exchange(port, &format!("GET / HTTP/1.1\r\nHost: {host}\r\n\r\n"));
+    // The page: not without the token (another user of the machine cannot read it off the
+    // page), and with it the page carries it.
+    assert!(exchange(port, &format!("GET / HTTP/1.1\r\nHost: {host}\r\n\r\n")).starts_with("HTTP/1.1 403"));
+    let page = exchange(port, &format!("GET /?token={token} HTTP/1.1\r\nHost: {host}\r\n\r\n"));
     assert!(page.starts_with("HTTP/1.1 200"));
-    let token = page.split("name=\"chessarm-token\" content=\"").nth(1).unwrap().split('"').next().unwrap().to_string();
+    assert!(page.contains(&format!("name=\"chessarm-token\" content=\"{token}\"")));
     assert_eq!(token.len(), 32, "{token}");
     let started = Instant::now();
     while plies(&token)["plies"].is_null() {

@@ -723,6 +723,8 @@ fn play_human(
                     crate::tell(&format!("taken back {plies} plies: put back {}\n", put.join(", ")));
                     kept.replay.take_back(&handled, plies);
                     kept.take_back(keep_moves, out)?;
+                    // The arm's taken-back replies leave its timings too.
+                    human.timings.retain(|t| t.ply <= keep_moves);
                     human.relocations.truncate(keep_moves);
                     human.pgn.moves.truncate(keep_moves);
                 }

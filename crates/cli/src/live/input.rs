@@ -240,6 +240,13 @@ pub fn lines_from(
     let Some(path) = socket else {
         return Ok((Box::new(std::io::BufReader::new(std::io::stdin())), None));
     };
+    if stale_socket(path) {
+        // Left by a run that a signal no program can catch ended (SIGKILL, SIGQUIT): a socket
+        // nobody listens on is nobody's, and is replaced.
+        crate::tell(&format!("--input-socket {}: replacing a socket nobody listens on\n", path.display()));
+        std::fs::remove_file(path)
+            .with_context(|| format!("--input-socket {}: cannot remove the old socket", path.display()))?;
+    }
     if path.exists() || path.is_symlink() {
         anyhow::bail!(
             "--input-socket {}: a file is there; give a path where chessarm may create its socket",
@@ -253,6 +260,15 @@ pub fn lines_from(
     crate::tell(&format!("waiting for the board's reader to connect to {}\n", path.display()));
     let (stream, _) = listener.accept().with_context(|| format!("--input-socket {}", path.display()))?;
     Ok((Box::new(std::io::BufReader::new(stream)), Some(file)))
+}
+
+/// Whether `path` is a Unix socket (not a link, not a file) that no program listens on.
+fn stale_socket(path: &std::path::Path) -> bool {
+    use std::os::unix::fs::FileTypeExt;
+    let is_socket = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_socket());
+    is_socket
+        && std::os::unix::net::UnixStream::connect(path)
+            .is_err_and(|e| e.kind() == std::io::ErrorKind::ConnectionRefused)
 }
 
 /// The socket file chessarm made; removed when dropped (and by the signal handler on Ctrl-C

@@ -13,7 +13,9 @@
 //! request must name this server in its `Host` (127.0.0.1 or localhost, with the port); a
 //! request a browser marks with another site's `Origin` (or, for a POST without one, `Referer`)
 //! is refused; and every route but the page carries the run's token, a random number the page
-//! holds and no other site can read. Refused requests get 403 and change nothing.
+//! holds and no other site can read (the page itself is served only at the address chessarm
+//! prints, which carries the token, so another user of the machine cannot read it off the
+//! page). Refused requests get 403 and change nothing.
 //!
 //! Each connection is served by a thread of its own (at most [`MAX_CONNECTIONS`] at once) and
 //! must deliver its whole request within [`REQUEST_DEADLINE`]: a slow or idle client holds
@@ -72,7 +74,7 @@ impl Shared {
     }
 }
 
-/// The page's server: its address and what it shows.
+/// The page's server: its address (with the run's token) and what it shows.
 #[derive(Debug)]
 pub struct LivePage {
     pub url: String,
@@ -106,7 +108,8 @@ impl LivePage {
             }
         });
         let lines = PageLines { receiver, shared: Arc::clone(&shared), pending: Vec::new(), at: 0 };
-        Ok((Self { url: format!("http://{address}/"), shared }, lines))
+        let url = format!("http://{address}/?token={}", shared.token);
+        Ok((Self { url, shared }, lines))
     }
 
     /// Shows `state` and the replay page `replay`.
@@ -304,7 +307,9 @@ pub fn authorize(request: &Request, port: u16, token: &str) -> Result<(), &'stat
     if request.method == "POST" && request.header("origin").is_none() && referer_origin.is_none() {
         return Err("a move or command must come from the page (no Origin)");
     }
-    let open = request.method == "GET" && matches!(request.path.as_str(), "/" | "/favicon.ico");
+    // Only the icon is open: the page itself is served with the token in its address (as
+    // chessarm prints it), so that another user of this machine cannot read the token off it.
+    let open = request.method == "GET" && request.path == "/favicon.ico";
     let given = request.header("x-chessarm-token").or_else(|| request.query_value("token"));
     if !open && given != Some(token) {
         return Err("the request does not carry this game's token (reload the page chessarm printed)");
@@ -432,6 +437,14 @@ fn route(request: &Request, shared: &Shared) -> Answer {
                     "not now: the arm is moving (or your last move is being played); wait until the page says it is your move",
                 );
             }
+            // What the game would refuse is answered now, with why (the page shows it).
+            if let Err(why) = check_line(request.path.as_str(), &line, &shown.state) {
+                return Answer {
+                    status: "422 Unprocessable Content",
+                    kind: "text/plain; charset=utf-8",
+                    body: why.into_bytes(),
+                };
+            }
             // Taken: the next line waits until the game asks for the person's move again.
             shown.awaiting = false;
             let sent = shared.person.lock().unwrap_or_else(PoisonError::into_inner).send(line);
@@ -445,6 +458,23 @@ fn route(request: &Request, shared: &Shared) -> Answer {
         ("GET" | "POST", _) => Answer::text("404 Not Found", "not found"),
         _ => Answer::text("405 Method Not Allowed", "only GET and POST"),
     }
+}
+
+/// Whether `line` sent to `path` is one the game takes in the shown `state`: a legal move (UCI
+/// or SAN) in the position shown, or one of the commands; `Err` with why not.
+fn check_line(path: &str, line: &str, state: &serde_json::Value) -> Result<(), String> {
+    let shown = crate::escape_controls(line);
+    if path == "/command" {
+        return match line.to_ascii_lowercase().as_str() {
+            "undo" | "resign" | "draw" | "quit" => Ok(()),
+            _ => Err(format!("'{shown}' is not a command (undo, resign, draw or quit)")),
+        };
+    }
+    let position = state["fen"].as_str().and_then(|fen| chessarm_chess::notation::parse_fen(fen).ok());
+    let Some(position) = position else { return Err("the game has no position to move in yet".to_string()) };
+    chessarm_chess::notation::parse_move(line, &position)
+        .map(drop)
+        .map_err(|problem| format!("'{shown}' {problem} in this position (click a piece, then its square)"))
 }
 
 /// The person's lines from the page, as a line reader for [`super::input::Person`]: while it
@@ -534,8 +564,10 @@ mod tests {
         // A Referer from another site.
         let referred = "Host: 127.0.0.1:8080\r\nReferer: http://127.0.0.1.evil.example/x\r\nX-Chessarm-Token: 0123456789abcdef0123456789abcdef\r\n";
         assert!(authorize(&post(referred), 8080, TOKEN).is_err());
-        // The page itself needs only its host; its state the token, in a header or the query.
-        assert_eq!(authorize(&request("GET / HTTP/1.1\r\nHost: localhost:8080\r\n\r\n"), 8080, TOKEN), Ok(()));
+        // The page itself and its state need the token, in a header or the query.
+        assert!(authorize(&request("GET / HTTP/1.1\r\nHost: localhost:8080\r\n\r\n"), 8080, TOKEN).is_err());
+        let page = request("GET /?token=0123456789abcdef0123456789abcdef HTTP/1.1\r\nHost: localhost:8080\r\n\r\n");
+        assert_eq!(authorize(&page, 8080, TOKEN), Ok(()));
         assert!(authorize(&request("GET /state HTTP/1.1\r\nHost: 127.0.0.1:8080\r\n\r\n"), 8080, TOKEN).is_err());
         let replay =
             request("GET /replay?v=3&token=0123456789abcdef0123456789abcdef HTTP/1.1\r\nHost: 127.0.0.1:8080\r\n\r\n");
@@ -627,7 +659,8 @@ mod tests {
         let (page, mut lines) = LivePage::serve(0).unwrap();
         let port = page.shared.port;
         let token = page.shared.token.clone();
-        page.show(serde_json::json!({"over": false}), Vec::new());
+        let start = "rnbqkbnr/pppppppp/8/8/8/8/PPPPPPPP/RNBQKBNR w KQkq - 0 1";
+        page.show(serde_json::json!({"over": false, "fen": start}), Vec::new());
         let post = |body: &str| {
             exchange(
                 port,
@@ -654,10 +687,29 @@ mod tests {
             std::thread::sleep(Duration::from_millis(20));
         };
         assert!(accepted.ends_with("ok"));
+        // (Taken: what follows is refused as out of turn, whatever it is.)
         let refused = post("g1f3");
         assert!(refused.starts_with("HTTP/1.1 409") && refused.contains("not now"), "{refused}");
-        let (line, _lines) = reader.join().unwrap();
+        let (line, mut lines) = reader.join().unwrap();
         assert_eq!(line, "d2d4\n");
+        // The game asks again: a move that is not legal, or not a move, is answered with why
+        // (422) and the game goes on waiting.
+        let reader = std::thread::spawn(move || {
+            let mut line = String::new();
+            lines.read_line(&mut line).unwrap();
+            line
+        });
+        let illegal = loop {
+            let answer = post("e2e5");
+            if !answer.contains("not now") {
+                break answer;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        assert!(illegal.starts_with("HTTP/1.1 422") && illegal.contains("'e2e5'"), "{illegal}");
+        assert!(post("xx\u{1b}").starts_with("HTTP/1.1 422"));
+        assert!(post("Nf3").starts_with("HTTP/1.1 202"));
+        assert_eq!(reader.join().unwrap(), "Nf3\n");
         // Another site's request changes nothing.
         let evil = exchange(
             port,
