@@ -17,9 +17,9 @@
 //! prints, which carries the token, so another user of the machine cannot read it off the
 //! page). Refused requests get 403 and change nothing.
 //!
-//! Each connection is served by a thread of its own (at most [`MAX_CONNECTIONS`] at once) and
-//! must deliver its whole request within [`REQUEST_DEADLINE`]: a slow or idle client holds
-//! only its own connection, for a bounded time. A move or command is taken only while the game
+//! Each connection is served by a thread of its own (at most [`MAX_CONNECTIONS`] at once, the
+//! oldest silent one closed to make room) and must deliver its whole request within
+//! [`REQUEST_DEADLINE`]: a slow or idle client holds only its own connection, for a bounded time. A move or command is taken only while the game
 //! waits for the person: one sent while the arm moves (or a second click before the first is
 //! played) is refused with 409 and the reason, never queued for later.
 
@@ -66,6 +66,11 @@ struct Shared {
     port: u16,
     person: Mutex<Sender<String>>,
     connections: AtomicUsize,
+    /// The connections that have not yet sent their request's head, oldest first: when every
+    /// place is taken, the oldest of them gives its place to a new one (idle connections
+    /// cannot keep the page from its own requests).
+    waiting: Mutex<Vec<(u64, TcpStream)>>,
+    next_id: std::sync::atomic::AtomicU64,
 }
 
 impl Shared {
@@ -100,6 +105,8 @@ impl LivePage {
             port: address.port(),
             person: Mutex::new(sender),
             connections: AtomicUsize::new(0),
+            waiting: Mutex::new(Vec::new()),
+            next_id: std::sync::atomic::AtomicU64::new(0),
         });
         let serving = Arc::clone(&shared);
         std::thread::spawn(move || {
@@ -143,10 +150,24 @@ fn new_token() -> String {
 /// are being served.
 fn accept(mut stream: TcpStream, shared: &Arc<Shared>) {
     if shared.connections.fetch_add(1, Ordering::SeqCst) >= MAX_CONNECTIONS {
-        shared.connections.fetch_sub(1, Ordering::SeqCst);
-        let _ = stream.set_write_timeout(Some(Duration::from_millis(100)));
-        let _ = respond(&mut stream, &Answer::text("503 Service Unavailable", "busy: too many connections"));
-        return;
+        // Every place is taken: the oldest connection still silent is closed for this one
+        // (its thread ends at once, a read on a closed socket returning nothing); when all are
+        // busy with requests, this one is turned away.
+        let oldest = {
+            let mut waiting = shared.waiting.lock().unwrap_or_else(PoisonError::into_inner);
+            (!waiting.is_empty()).then(|| waiting.remove(0))
+        };
+        match oldest {
+            Some((_, idle)) => {
+                let _ = idle.shutdown(std::net::Shutdown::Both);
+            }
+            None => {
+                shared.connections.fetch_sub(1, Ordering::SeqCst);
+                let _ = stream.set_write_timeout(Some(Duration::from_millis(100)));
+                let _ = respond(&mut stream, &Answer::text("503 Service Unavailable", "busy: too many connections"));
+                return;
+            }
+        }
     }
     let shared_count = Arc::clone(shared);
     let shared = Arc::clone(shared);
@@ -398,7 +419,13 @@ fn read_request(stream: &mut TcpStream) -> std::io::Result<Option<Result<Request
 
 /// One connection: its request, read within the deadline, and the answer.
 fn handle(mut stream: TcpStream, shared: &Shared) -> std::io::Result<()> {
-    let answer = match read_request(&mut stream)? {
+    let id = shared.next_id.fetch_add(1, Ordering::SeqCst);
+    if let Ok(clone) = stream.try_clone() {
+        shared.waiting.lock().unwrap_or_else(PoisonError::into_inner).push((id, clone));
+    }
+    let read = read_request(&mut stream);
+    shared.waiting.lock().unwrap_or_else(PoisonError::into_inner).retain(|(waiting, _)| *waiting != id);
+    let answer = match read? {
         None => return Ok(()),
         Some(Err(malformed)) => malformed.answer(),
         Some(Ok(request)) => match authorize(&request, shared.port, &shared.token) {
@@ -634,8 +661,9 @@ mod tests {
             }
             started.elapsed()
         });
-        // Five idle connections as well.
-        let idle: Vec<TcpStream> = (0..5).map(|_| TcpStream::connect(("127.0.0.1", port)).unwrap()).collect();
+        // Every place taken by idle connections as well: the oldest give way.
+        let idle: Vec<TcpStream> =
+            (0..MAX_CONNECTIONS + 4).map(|_| TcpStream::connect(("127.0.0.1", port)).unwrap()).collect();
         std::thread::sleep(Duration::from_millis(200));
         for _ in 0..5 {
             let answer = exchange(
