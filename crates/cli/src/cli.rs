@@ -464,7 +464,7 @@ pub struct PlayArgs {
     /// A PGN file to replay (comments and variations are ignored).
     pub game_file: Option<PathBuf>,
     /// Which game of the PGN file, 1-based.
-    #[arg(long, default_value_t = 1, value_parser = args::game_number)]
+    #[arg(long, default_value_t = 1, value_parser = args::game_number, conflicts_with_all = ["moves", "human"])]
     pub game: usize,
     /// Moves in SAN or UCI, e.g. "e4 e5 Nf3" (instead of a PGN file).
     #[arg(long, conflicts_with = "game_file")]
@@ -476,7 +476,7 @@ pub struct PlayArgs {
     #[arg(long, default_value = "builtin")]
     pub engine: String,
     /// Half-moves to play against the engine (the game may end sooner).
-    #[arg(long, default_value_t = 120)]
+    #[arg(long, default_value_t = 120, conflicts_with = "human")]
     pub plies: usize,
     /// Thinking time per move of a UCI engine (--engine PATH), ms: its moves then depend on
     /// the machine's speed, and game.json says so.

@@ -46,6 +46,13 @@ pub fn package_path() -> Vec<PathBuf> {
 /// small for the clearance check, which scans the hull's vertices at every step.
 pub const MAX_HULL_INPUT: usize = 40_000;
 
+/// The most hull corners of all an arm's collision shapes together: the clearance check's
+/// support searches go through a hull's corners, for every pose of every move, so the game's
+/// check grows with their sum (two links of a 39 000-corner sphere: 2.7 s a move in a debug
+/// build; forty of them, 19.5 s). The makers' arms here have 745 (PincherX-100), 1 468
+/// (OpenManipulator-X) and 31 641 (SO-101).
+pub const MAX_ARM_HULL_CORNERS: usize = 100_000;
+
 /// Columns across the grid that stands in for a larger mesh: at most `2 (COLUMNS + 1)²` points
 /// (8450) go to the hull.
 pub const COLUMNS: usize = 64;

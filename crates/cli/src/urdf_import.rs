@@ -1261,6 +1261,18 @@ fn collision_bodies(
         ));
         return Ok(Bodies::Drawn);
     }
+    // The clearance check's work grows with the corners of every hull it is given, for every
+    // pose of every move: a bound on their sum keeps a game's check in seconds a move.
+    let corners: usize =
+        shapes.iter().map(|s| if let Shape::Hull { points } = &s.shape { points.len() } else { 8 }).sum();
+    if corners > crate::meshes::MAX_ARM_HULL_CORNERS {
+        bail!(
+            "its {} <collision> shapes have {corners} hull corners in all, more than the clearance check takes in \
+             reasonable time ({}): give fewer or simpler shapes (a link's mesh once, decimated meshes, boxes)",
+            shapes.len(),
+            crate::meshes::MAX_ARM_HULL_CORNERS
+        );
+    }
     let bare: Vec<String> = arm
         .iter()
         .enumerate()

@@ -334,6 +334,15 @@ fn input_flags_without_a_person_are_refused() {
         common::assert_one_line_error(&output, &[flags[0], "--human"]);
         assert!(!Path::new(out).join("game.json").exists(), "{flags:?} wrote game.json");
     }
+    // And the flags of other games with a person's: refused, not ignored.
+    for flags in [["--plies", "1"], ["--game", "3"]] {
+        let mut args = vec!["play", "--human", "white", "--out", out];
+        args.extend(flags);
+        let output = chessarm(&args);
+        assert_eq!(output.status.code(), Some(2), "{flags:?}");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains(flags[0]) && stderr.contains("--human"), "{stderr}");
+    }
 }
 
 /// Raw HTTP to the live page.

@@ -219,3 +219,21 @@ fn a_flat_mesh_is_said_to_span_no_volume() {
     assert_one_line_error(&output, &["forearm.stl", "span no volume"]);
     in_users_words(&output);
 }
+
+/// Many shapes of many corners: refused at import, naming the sum and the bound (forty copies
+/// of a 39 000-corner sphere took 19.5 s a move in the clearance check, unannounced).
+#[test]
+fn collision_shapes_of_too_many_corners_in_all_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    // 99 rings of 200 segments: about 19 600 distinct vertices, all on the hull.
+    let sphere = binary_stl(&uv_sphere(99, 200, [0.02, 0.02, 0.02]));
+    let (urdf, _) = arm_with_mesh(dir.path(), &sphere, "1 1 1");
+    // One copy imports; six on the forearm (six times ~19 600) are too many.
+    assert!(fk(&urdf).status.success(), "{}", String::from_utf8_lossy(&fk(&urdf).stderr));
+    let shape = r#"<collision><geometry><mesh filename="forearm.stl" scale="1 1 1"/></geometry></collision>"#;
+    let text = std::fs::read_to_string(&urdf).unwrap().replace(shape, &shape.repeat(6));
+    std::fs::write(&urdf, text).unwrap();
+    let output = fk(&urdf);
+    common::assert_one_line_error(&output, &["hull corners in all", "100000", "fewer or simpler shapes"]);
+    in_users_words(&output);
+}
