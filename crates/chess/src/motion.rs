@@ -20,8 +20,8 @@
 use crate::pieces::PieceSet;
 use crate::table::{PhysicalPiece, Table};
 use crate::tasks::{
-    MAX_MOVE_SAMPLES, MotionLimits, PlannedTask, Task, TaskError, TaskGeometry, TaskPlan, append_move_path,
-    check_segment, describe_move, move_tasks, task_geometry,
+    MAX_MOVE_DURATION, MAX_MOVE_SAMPLES, MotionLimits, PlannedTask, Task, TaskError, TaskGeometry, TaskPlan,
+    append_move_path, check_segment, describe_move, move_tasks, task_geometry,
 };
 use chessarm_core::arm::model::ArmModel;
 use chessarm_core::arm::task::TOOL_DOWN;
@@ -407,13 +407,15 @@ fn plan_optimal(
 }
 
 /// Refuses a move of `duration` s whose trajectory at `period` would have more than
-/// [`MAX_MOVE_SAMPLES`] samples, naming what binds (`binding`).
+/// [`MAX_MOVE_SAMPLES`] samples, or that would last longer than [`MAX_MOVE_DURATION`], naming
+/// what binds (`binding`).
 fn fits(duration: f64, period: f64, binding: impl Fn() -> String) -> Result<(), TaskError> {
     let samples = duration / period;
-    if samples.is_finite() && samples <= MAX_MOVE_SAMPLES {
+    let max = MAX_MOVE_SAMPLES.min((MAX_MOVE_DURATION / period).floor());
+    if samples.is_finite() && samples <= max {
         return Ok(());
     }
-    Err(TaskError::TooLong { duration, samples, max: MAX_MOVE_SAMPLES, binding: binding() })
+    Err(TaskError::TooLong { duration, samples, max, binding: binding() })
 }
 
 /// What to blame for a motion too long: the limit that was binding longest in `limit_times`

@@ -319,6 +319,11 @@ pub const MAX_WAIT: f64 = 60.0;
 /// samples; a move that would last longer has a limit set far too low.
 pub const MAX_MOVE_SAMPLES: f64 = 1e7;
 
+/// The longest a move may last, s: ten minutes for one chess move means a limit set far too
+/// low, and the move's simulation, records and hardware export grow with it (at the highest
+/// export rate, 10 kHz, gigabytes a move).
+pub const MAX_MOVE_DURATION: f64 = 600.0;
+
 /// Speed, acceleration and timing limits of the pick-and-place motions.
 ///
 /// The LSPB planner (the report's) uses the traverse and vertical limits and the pauses; the

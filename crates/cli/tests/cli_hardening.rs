@@ -101,7 +101,9 @@ fn limits_far_too_low_or_fine_are_refused_before_the_planner_allocates() {
     // What makes it long is named, in short numbers.
     assert_one_line_error(&play(&["--grip-dwell", "1e8"]), &["grip_dwell = 1e8", "at most 60 s"]);
     assert_one_line_error(&play(&["--jerk", "1e-12"]), &["jerk limit is far too low"]);
-    assert_one_line_error(&play(&["--timing", "lspb", "--pause", "1e8"]), &["would last 4e8 s", "pause"]);
+    assert_one_line_error(&play(&["--timing", "lspb", "--pause", "1e8"]), &["pause = 1e8", "at most 60 s"]);
+    // A move of over ten minutes (here 1.5 h): refused by the estimate too.
+    assert_one_line_error(&play(&["--tool-speed", "1e-4"]), &["move e4", "would last", "tool speed limit"]);
     assert_one_line_error(&play(&["--tool-speed", "1e-100"]), &["would last 2.086e99 s", "tool speed limit"]);
     let setup = dir.path().join("fine.toml");
     std::fs::write(&setup, "[motion]\ngrid_step = 1e-9\n").unwrap();

@@ -116,16 +116,27 @@ fn input_that_never_ends_a_line_stops_with_exit_2() {
     let output =
         play_with_input(&["play", "--human", "white", "--out", out.to_str().unwrap()], &long, Duration::from_secs(120));
     assert_error_last(&output, &["line of over 4096 bytes"]);
+    // A line of exactly 4096 bytes is a line (refused as no move, the game goes on).
+    let out = dir.path().join("exact");
+    let exact = format!("{}\nquit\n", "e".repeat(4096));
+    let output = play_with_input(
+        &["play", "--human", "white", "--out", out.to_str().unwrap()],
+        exact.as_bytes(),
+        Duration::from_secs(120),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
 }
 
-/// 2 000 refused lines of 4 000 bytes each: the record keeps the first 100, cut short, and
+/// 900 refused lines of 4 000 bytes each: the record keeps the first 100, cut short, and
 /// counts them all; game.json stays small (it held every line, 162 MB for 20 000, before).
+/// Lines that never give a move end the game after 1 000 in a row (random bytes wrote 500 MB
+/// of refusals to the terminal in 10 s).
 #[test]
 fn refused_input_is_kept_within_bounds() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let line = format!("{}\n", "z".repeat(3999));
-    let input = line.repeat(2000) + "quit\n";
+    let input = line.repeat(900) + "quit\n";
     let output = play_with_input(
         &["play", "--human", "white", "--out", out.to_str().unwrap()],
         input.as_bytes(),
@@ -134,13 +145,22 @@ fn refused_input_is_kept_within_bounds() {
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let game = json_file(&out.join("game.json"));
     let human = &game["human"];
-    assert_eq!(human["refused_lines"], 2000);
-    assert_eq!(human["refused_bytes"], 2000 * 3999);
+    assert_eq!(human["refused_lines"], 900);
+    assert_eq!(human["refused_bytes"], 900 * 3999);
     let kept = human["refused_input"].as_array().unwrap();
     assert_eq!(kept.len(), 100);
     assert!(kept.iter().all(|k| k.as_str().unwrap().chars().count() <= 200));
     let size = std::fs::metadata(out.join("game.json")).unwrap().len();
     assert!(size < 200_000, "game.json is {size} bytes");
+    let endless = dir.path().join("endless");
+    let output = play_with_input(
+        &["play", "--human", "white", "--out", endless.to_str().unwrap()],
+        "zz\n".repeat(5000).as_bytes(),
+        Duration::from_secs(300),
+    );
+    assert_error_last(&output, &["no move in 1000 lines in a row", "'zz'"]);
+    let said = String::from_utf8_lossy(&output.stderr).lines().filter(|l| l.starts_with("not played")).count();
+    assert_eq!(said, 1000);
 }
 
 /// Escape sequences, a bell and NULs typed are shown escaped, never sent to the terminal.
@@ -299,7 +319,7 @@ fn the_input_socket_is_removed_on_a_signal() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("replacing a socket nobody listens on"));
     assert!(!stale.exists());
     let live = dir.path().join("live.sock");
-    let _listening = std::os::unix::net::UnixListener::bind(&live).unwrap();
+    let listening = std::os::unix::net::UnixListener::bind(&live).unwrap();
     let output = chessarm(&[
         "play",
         "--human",
@@ -310,6 +330,10 @@ fn the_input_socket_is_removed_on_a_signal() {
         out.to_str().unwrap(),
     ]);
     common::assert_one_line_error(&output, &["--input-socket", "a file is there"]);
+    // Told apart without connecting: a connection would have been taken by the run that
+    // listens as its board's reader (and ended its game).
+    listening.set_nonblocking(true).unwrap();
+    assert!(listening.accept().is_err_and(|e| e.kind() == std::io::ErrorKind::WouldBlock));
 }
 
 /// Input flags without `--human` are refused, naming the flag (they were ignored before, and
@@ -429,6 +453,10 @@ fn only_the_live_page_plays_and_only_in_turn() {
     assert!(
         exchange(port, &format!("GET / HTTP/1.1\r\nHost: evil.example:{port}\r\n\r\n")).starts_with("HTTP/1.1 403")
     );
+    // The page's own undo before the person has moved: nothing to take back (422), nothing done.
+    let own_early = format!("Host: {host}\r\nOrigin: {origin}\r\nX-Chessarm-Token: {token}\r\n");
+    let undo = post("/command", "undo", &own_early);
+    assert!(undo.starts_with("HTTP/1.1 422") && undo.contains("nothing to take back"), "{undo}");
     // Without the token, even naming the page's own origin.
     let tokenless = format!("Host: {host}\r\nOrigin: {origin}\r\n");
     assert!(post("/move", "e2e4", &tokenless).starts_with("HTTP/1.1 403"));

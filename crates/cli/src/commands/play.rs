@@ -504,7 +504,14 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     );
     human.push_str(&format!("final position (FEN): {}\n", game.fen_physical()));
     human.push_str(&format!("Watch it: {} (open in a browser)\n", replay_path.display()));
-    let mut written = vec![game_json_path, replay_path, plot, placement_plot, moves_dir];
+    let mut written = vec![game_json_path, replay_path, plot, placement_plot];
+    if matches!(source, Source::Human(_)) {
+        written.push(args.out.join("game.pgn"));
+    }
+    // The folders only when there is something in them (a person's game may have no arm's move).
+    if moves_dir.is_dir() {
+        written.push(moves_dir);
+    }
     if hardware_dir.is_dir() {
         written.push(hardware_dir);
     }

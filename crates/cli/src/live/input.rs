@@ -21,6 +21,10 @@ pub const MAX_LINE: usize = 4096;
 /// Refused lines kept for the game's record (the first ones), and characters kept of each;
 /// the rest are only counted.
 pub const REFUSED_KEPT: usize = 100;
+/// Lines refused in a row after which the input is taken for something else than a person's
+/// moves or a board's readings (random bytes, a log): the game ends, saved. A person mistypes a
+/// few times; a board's sensors, read after each move, a few more.
+pub const REFUSED_IN_A_ROW: usize = 1000;
 const REFUSED_CHARS: usize = 200;
 
 /// How the person's moves arrive.
@@ -72,6 +76,8 @@ pub struct Person {
     reader: MoveReader,
     /// What was refused (for the game's record).
     pub refused: Refused,
+    /// Lines refused since the person's last action.
+    in_a_row: usize,
 }
 
 impl std::fmt::Debug for Person {
@@ -82,7 +88,7 @@ impl std::fmt::Debug for Person {
 
 impl Person {
     pub fn new(kind: HumanInput, lines: Box<dyn BufRead + Send>) -> Self {
-        Self { kind, lines, reader: MoveReader::default(), refused: Refused::default() }
+        Self { kind, lines, reader: MoveReader::default(), refused: Refused::default(), in_a_row: 0 }
     }
 
     /// The next line (trimmed), `None` at the end of the input.
@@ -99,7 +105,7 @@ impl Person {
         if n == 0 {
             return Ok(None);
         }
-        if n > MAX_LINE {
+        if n > MAX_LINE && buffer.last() != Some(&b'\n') {
             anyhow::bail!(
                 "the person's input has a line of over {MAX_LINE} bytes without a line end (it starts '{}'): it is not moves typed or a board's readings; the game is saved",
                 crate::escape_controls(&String::from_utf8_lossy(&buffer[..buffer.len().min(40)]))
@@ -110,7 +116,18 @@ impl Person {
 
     /// Refuses `line` (said on standard error with why, control characters escaped) and keeps
     /// it for the record, within bounds.
-    fn refuse(&mut self, line: &str, why: &str) {
+    ///
+    /// # Errors
+    ///
+    /// [`REFUSED_IN_A_ROW`] lines in a row were refused.
+    fn refuse(&mut self, line: &str, why: &str) -> Result<()> {
+        self.in_a_row += 1;
+        if self.in_a_row > REFUSED_IN_A_ROW {
+            anyhow::bail!(
+                "the person's input gave no move in {REFUSED_IN_A_ROW} lines in a row (the last: '{}'): it is not moves typed or a board's readings; the game is saved",
+                crate::escape_controls(&line.chars().take(40).collect::<String>())
+            );
+        }
         let why = crate::escape_controls(why);
         crate::tell(&format!("not played: {why}\n"));
         self.refused.lines += 1;
@@ -119,6 +136,7 @@ impl Person {
             let entry = format!("{}: {why}", crate::escape_controls(line));
             self.refused.kept.push(entry.chars().take(REFUSED_CHARS).collect());
         }
+        Ok(())
     }
 
     /// The person's next action in `position`; lines that give none are refused (said on
@@ -130,6 +148,7 @@ impl Person {
     pub fn next(&mut self, position: &Chess) -> Result<Action> {
         // A new move: what the sensors saw before (the arm's own move) is not part of it.
         self.reader.reset();
+        self.in_a_row = 0;
         loop {
             let Some(line) = self.line()? else { return Ok(Action::Quit) };
             // Blank lines and comments (a recorded session's notes).
@@ -147,7 +166,7 @@ impl Person {
                         let why = format!(
                             "'{shown}' {problem} in this position (type a move in SAN or UCI, undo, resign, draw or quit)"
                         );
-                        self.refuse(&line, &why);
+                        self.refuse(&line, &why)?;
                     }
                 },
                 HumanInput::Occupancy => {
@@ -158,7 +177,7 @@ impl Person {
                         Ok(Resolved::Promotion(choices)) => self.promotion(&choices)?,
                         Ok(Resolved::Choice(choices)) => self.which(position, &choices)?,
                         Err(error) => {
-                            self.refuse(&line, &error.to_string());
+                            self.refuse(&line, &error.to_string())?;
                             continue;
                         }
                     };
@@ -187,7 +206,7 @@ impl Person {
                 Ok(m) if choices.contains(&m) => return Ok(Action::Move(m)),
                 _ => {
                     let why = format!("'{}' is not one of {}", crate::escape_controls(&line), names.join(", "));
-                    self.refuse(&line, &why);
+                    self.refuse(&line, &why)?;
                 }
             }
         }
@@ -213,7 +232,7 @@ impl Person {
                 Some(m) => return Ok(Action::Move(*m)),
                 None => {
                     let why = format!("'{}' is not q, r, b or n", crate::escape_controls(&line));
-                    self.refuse(&line, &why);
+                    self.refuse(&line, &why)?;
                 }
             }
         }
@@ -262,13 +281,28 @@ pub fn lines_from(
     Ok((Box::new(std::io::BufReader::new(stream)), Some(file)))
 }
 
-/// Whether `path` is a Unix socket (not a link, not a file) that no program listens on.
+/// Whether `path` is a Unix socket (not a link, not a file) that no program has open: the
+/// kernel's list of bound sockets (`/proc/net/unix`) does not name it. (Connecting to find out
+/// would be taken by a live run as its board's reader.) Unknown, when the list cannot be read:
+/// not stale.
 fn stale_socket(path: &std::path::Path) -> bool {
     use std::os::unix::fs::FileTypeExt;
     let is_socket = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_socket());
-    is_socket
-        && std::os::unix::net::UnixStream::connect(path)
-            .is_err_and(|e| e.kind() == std::io::ErrorKind::ConnectionRefused)
+    if !is_socket {
+        return false;
+    }
+    let (Ok(bound), Ok(absolute)) = (std::fs::read_to_string("/proc/net/unix"), std::path::absolute(path)) else {
+        return false;
+    };
+    let canonical = std::fs::canonicalize(path).unwrap_or_else(|_| absolute.clone());
+    let names = [absolute.to_string_lossy().into_owned(), canonical.to_string_lossy().into_owned()];
+    // Each line ends with the socket's path, when it has one; a path bound relative to a
+    // process's folder is listed as given, so any line ending in the file's name counts as live.
+    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    !bound.lines().skip(1).any(|line| {
+        let listed = line.split_whitespace().nth(7).unwrap_or("");
+        names.iter().any(|n| n == listed) || (!file_name.is_empty() && listed.ends_with(file_name.as_str()))
+    })
 }
 
 /// The socket file chessarm made; removed when dropped (and by the signal handler on Ctrl-C

@@ -493,6 +493,10 @@ fn check_line(path: &str, line: &str, state: &serde_json::Value) -> Result<(), S
     let shown = crate::escape_controls(line);
     if path == "/command" {
         return match line.to_ascii_lowercase().as_str() {
+            // An undo takes back the person's last move and the arm's reply.
+            "undo" if state["plies"].as_u64().unwrap_or(0) < 2 => {
+                Err("nothing to take back: you have not moved yet".to_string())
+            }
             "undo" | "resign" | "draw" | "quit" => Ok(()),
             _ => Err(format!("'{shown}' is not a command (undo, resign, draw or quit)")),
         };

@@ -18,8 +18,8 @@
 //! lane count is 1.
 
 use super::closed_loop::{PlantView, ReferenceNow, Run, SimConfig, SimError, SimSummary, diverged_lanes, limit_torque};
+use super::integrator::Integrator;
 use super::lane_law::LaneLaw;
-use super::plant::Integrator;
 use super::structured::{self, Failures, Start, State};
 use super::{NoObserver, PayloadEvent, Plant, ReferenceSource};
 use crate::arm::dynamics::{DynamicsError, DynamicsTerms, MassMatrix};

@@ -19,7 +19,8 @@ use crate::plan::fine_point::{InPosition, Wait};
 use crate::plan::trajectory::JointTrajectory;
 use crate::sense::{Estimator, Feedback, JointKalman, Measurement};
 use crate::sim::actuator::{Actuators, PositionBank, ServoRecord};
-use crate::sim::plant::{Integrator, Plant};
+use crate::sim::integrator::Integrator;
+use crate::sim::plant::Plant;
 use nalgebra::Vector3;
 
 /// The running error and torque metrics of one run (`S = f64`) or of `L` side by side

@@ -4,6 +4,7 @@
 pub mod actuator;
 pub mod batch;
 pub mod closed_loop;
+pub mod integrator;
 mod lane_law;
 pub mod metrics;
 pub mod plant;
@@ -13,4 +14,5 @@ pub use closed_loop::{
     NoObserver, Observer, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary, StepRecord, Told, simulate,
     simulate_fine_points, simulate_sensed,
 };
-pub use plant::{Integrator, Plant, StateDynamics};
+pub use integrator::Integrator;
+pub use plant::{Plant, StateDynamics};

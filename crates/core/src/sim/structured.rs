@@ -5,7 +5,7 @@
 
 use crate::arm::yaw_pitch::{Angles, Configuration, YawPitch};
 use crate::lanes::{Real, array4};
-use crate::sim::plant::Integrator;
+use crate::sim::integrator::Integrator;
 
 /// A joint state of one run or of `L`: angles (rad) and rates (rad/s).
 #[derive(Debug, Clone, Copy, PartialEq)]
