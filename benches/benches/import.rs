@@ -2,14 +2,14 @@
 //! 100 000 fixed marker links after the tool (the import was once quadratic in them, 109 s
 //! for 100 000; linear, the two sizes differ by ten times).
 
-use chessarm::config::Setup;
+use chessarm::app::setup::file::Setup;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
 /// The report's arm as URDF with `extra` fixed links chained after its tool link.
 fn with_fixed_links(extra: usize) -> String {
     let setup = Setup::default();
-    let text = chessarm::urdf::to_urdf(
+    let text = chessarm::app::formats::urdf::to_urdf(
         &setup.arm,
         "chessarm",
         &setup.joint_names,
@@ -32,9 +32,9 @@ fn import(c: &mut Criterion) {
     group.sample_size(10);
     for extra in [0, 10_000, 100_000] {
         let text = with_fixed_links(extra);
-        chessarm::urdf_import::from_urdf(&text, &Default::default()).expect("the arm loads");
+        chessarm::app::setup::urdf_import::from_urdf(&text, &Default::default()).expect("the arm loads");
         group.bench_function(format!("{extra} fixed links after the tool ({} kB)", text.len() / 1000), |b| {
-            b.iter(|| chessarm::urdf_import::from_urdf(black_box(&text), &Default::default()))
+            b.iter(|| chessarm::app::setup::urdf_import::from_urdf(black_box(&text), &Default::default()))
         });
     }
     group.finish();

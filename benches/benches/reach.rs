@@ -2,7 +2,7 @@
 //! (every location at every height, every traverse between two of them), and `board --fit` for
 //! a maker's arm from its official URDF (the OpenManipulator-X, as published).
 
-use chessarm::config::Setup;
+use chessarm::app::setup::file::Setup;
 use chessarm_chess::reach::{check_table, fit_board};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
@@ -15,7 +15,8 @@ fn reach(c: &mut Criterion) {
         b.iter(|| check_table(black_box(&setup.arm), &setup.board, &setup.pieces, &setup.motion))
     });
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../crates/cli/tests/fixtures/real-arms/open_manipulator_x.urdf");
-    let arm = chessarm::urdf_import::load(std::path::Path::new(path), &Default::default()).expect("the arm loads");
+    let arm = chessarm::app::setup::urdf_import::load(std::path::Path::new(path), &Default::default())
+        .expect("the arm loads");
     group.bench_function("board --fit, OpenManipulator-X", |b| {
         b.iter(|| {
             fit_board(black_box(&arm.model), &setup.pieces, setup.board.square_size, &setup.motion, (0.0, 0.05))

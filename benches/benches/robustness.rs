@@ -6,12 +6,12 @@
 //! link masses, the ERRATA inertia rotation, ±50 % piece masses), where the controller's model
 //! differs from the plant's and computes its own dynamics terms.
 
+use chessarm::app::setup::conditions::Study;
+use chessarm::app::setup::file::Setup;
 use chessarm::cli::{Cli, Command};
 use chessarm::commands::plan::plan_scenario;
 use chessarm::commands::robustness::{TrialOptions, Work, run_trials};
 use chessarm::commands::simulate::{DefaultGains, controller_specs};
-use chessarm::conditions::Study;
-use chessarm::config::Setup;
 use clap::Parser;
 use criterion::{Criterion, criterion_group, criterion_main};
 

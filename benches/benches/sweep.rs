@@ -3,10 +3,10 @@
 //! About 8 s and 16 s per sweep on the 2-core development machine: `--bench sweep` alone takes
 //! a few minutes.
 
+use chessarm::app::resources::shard_range;
+use chessarm::app::setup::file::Setup;
 use chessarm::cli::{Cli, Command};
 use chessarm::commands::tune::{CandidateOptions, Setting, candidate_gains, study, sweep, tracking_from};
-use chessarm::config::Setup;
-use chessarm::resources::shard_range;
 use clap::Parser;
 use criterion::{Criterion, criterion_group, criterion_main};
 
@@ -26,7 +26,7 @@ fn sweeps(c: &mut Criterion) {
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(&args),
         mass_error: [0.0; 6],
-        resolution: chessarm::conditions::Resolution::default(),
+        resolution: chessarm::app::setup::conditions::Resolution::default(),
         p_conversions: [None; 4],
     };
     let mut group = c.benchmark_group("tune 40x40 PD sweep, 13 s scenario at 1 kHz");

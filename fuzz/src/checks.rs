@@ -13,8 +13,8 @@
 
 use std::borrow::Cow;
 
+use chessarm::app::setup::file::Setup;
 use chessarm::args;
-use chessarm::config::Setup;
 use chessarm_chess::notation::{self, GameRecord};
 use chessarm_chess::shakmaty::fen::Fen;
 use chessarm_chess::shakmaty::{CastlingMode, Chess, EnPassantMode};
@@ -168,13 +168,24 @@ pub fn check_setup_toml(data: &[u8]) {
 /// errors (with their context chain) are one line.
 pub fn check_urdf(data: &[u8]) {
     let input = text(data);
-    match chessarm::urdf_import::from_urdf(&input, &chessarm::urdf_import::ImportOptions::default()) {
+    match chessarm::app::setup::urdf_import::from_urdf(
+        &input,
+        &chessarm::app::setup::urdf_import::ImportOptions::default(),
+    ) {
         Ok(imported) => {
             let palm = chessarm_core::arm::bodies::Gripper::default().palm_depth();
-            let printed =
-                chessarm::urdf::to_urdf(&imported.model, "chessarm", &imported.joint_names, &imported.signs, palm);
-            let again = chessarm::urdf_import::from_urdf(&printed, &chessarm::urdf_import::ImportOptions::default())
-                .unwrap_or_else(|e| panic!("the export of {input:?} does not import: {e:#}\n{printed}"));
+            let printed = chessarm::app::formats::urdf::to_urdf(
+                &imported.model,
+                "chessarm",
+                &imported.joint_names,
+                &imported.signs,
+                palm,
+            );
+            let again = chessarm::app::setup::urdf_import::from_urdf(
+                &printed,
+                &chessarm::app::setup::urdf_import::ImportOptions::default(),
+            )
+            .unwrap_or_else(|e| panic!("the export of {input:?} does not import: {e:#}\n{printed}"));
             assert_eq!(again.joint_names, imported.joint_names, "joint names of the export of {input:?}");
             assert_eq!(again.signs, imported.signs, "joint senses of the export of {input:?}");
             let close = |what: &str, a: &[f64], b: &[f64]| {
@@ -310,8 +321,8 @@ pub fn check_numbers(data: &[u8]) {
 
 /// The common properties of a packet read from the front of `data` by one protocol's parser:
 /// where it starts and ends lies inside `data`; an error says why with figures that fit.
-fn check_packet_bounds(data: &[u8], parsed: &Result<chessarm::bus::Status, chessarm::bus::PacketError>) {
-    use chessarm::bus::PacketError;
+fn check_packet_bounds(data: &[u8], parsed: &Result<chessarm::app::bus::Status, chessarm::app::bus::PacketError>) {
+    use chessarm::app::bus::PacketError;
     match parsed {
         Ok(packet) => assert!(packet.start < packet.consumed && packet.consumed <= data.len(), "{packet:?}"),
         Err(PacketError::NoHeader(n)) => assert_eq!(*n, data.len()),
@@ -329,7 +340,7 @@ fn check_packet_bounds(data: &[u8], parsed: &Result<chessarm::bus::Status, chess
 /// byte and parameters; a packet built from the input's first bytes (ID, instruction, up to 253
 /// parameters) reads back whole.
 pub fn check_bus_feetech(data: &[u8]) {
-    use chessarm::bus::feetech;
+    use chessarm::app::bus::feetech;
     let parsed = feetech::parse_packet(data);
     check_packet_bounds(data, &parsed);
     if let Ok(packet) = &parsed {
@@ -360,7 +371,7 @@ pub fn check_bus_feetech(data: &[u8]) {
 /// read too, as the vendor's own SDK sends); a status read is rebuilt the same way; a packet
 /// built from the input's first bytes (ID, instruction, parameters) reads back whole.
 pub fn check_bus_dynamixel(data: &[u8]) {
-    use chessarm::bus::dynamixel;
+    use chessarm::app::bus::dynamixel;
     let stuffed = dynamixel::stuff(data);
     assert_eq!(dynamixel::unstuff(&stuffed), data, "stuffing round trip");
     for (i, w) in stuffed.windows(3).enumerate() {
@@ -401,17 +412,18 @@ pub fn check_bus_dynamixel(data: &[u8]) {
 struct SimulatedArm {
     arm: chessarm_core::arm::model::ArmModel<4>,
     actuators: chessarm_core::sim::actuator::Actuators<4>,
-    bus: chessarm::actuators::ServoBus,
+    bus: chessarm::app::setup::actuators::ServoBus,
     signs: [f64; 4],
     q: chessarm_core::arm::model::JointVector<4>,
 }
 
 fn simulated_arm(actuator: &str) -> SimulatedArm {
     let mut setup = Setup::load(None).expect("the default setup");
-    setup.actuators = chessarm::actuators::resolve(&[actuator.to_string()], &setup.actuator_tables, "--actuator")
-        .expect("a built-in servo");
+    setup.actuators =
+        chessarm::app::setup::actuators::resolve(&[actuator.to_string()], &setup.actuator_tables, "--actuator")
+            .expect("a built-in servo");
     setup.actuator_names = std::array::from_fn(|_| actuator.to_string());
-    let bus = chessarm::actuators::ServoBus::of(&setup).expect("the default bus");
+    let bus = chessarm::app::setup::actuators::ServoBus::of(&setup).expect("the default bus");
     let motion = setup.motion.validated().expect("the default motion");
     let q = chessarm_chess::play::home_pose(&setup.arm, &setup.board, &setup.pieces, &motion).expect("a home pose");
     SimulatedArm { arm: setup.arm, actuators: setup.actuators, bus, signs: setup.convention.signs, q }
@@ -426,8 +438,8 @@ fn simulated_arm(actuator: &str) -> SimulatedArm {
 /// servos on the bus, each carrying at most 250 bytes of data, at most one per servo per
 /// packet received (so at most 5 per 6 bytes received, a Feetech packet's least).
 pub fn check_bus_simulator(data: &[u8]) {
-    use chessarm::bus::Protocol;
-    use chessarm::bus::simulator::{Fault, Faults, SimulatedBus};
+    use chessarm::app::bus::Protocol;
+    use chessarm::app::bus::simulator::{Fault, Faults, SimulatedBus};
     use std::sync::OnceLock;
     static STS: OnceLock<SimulatedArm> = OnceLock::new();
     static XM: OnceLock<SimulatedArm> = OnceLock::new();

@@ -85,7 +85,7 @@ fn bus_rate_unescaped(text: &str) -> Result<f64, String> {
         Err(format!(
             "{value} Hz is below {MIN_BUS_RATE} Hz: goals that far apart do not follow a plan (a move's \
              simulation would wait {} s for each goal); servo buses send 50-1000 goals a second",
-            crate::resources::show(1.0 / value)
+            crate::app::resources::show(1.0 / value)
         ))
     } else if value > MAX_BUS_RATE {
         Err(format!(
@@ -256,11 +256,11 @@ escaped! {
     mass => mass_unescaped -> f64;
     locks => locks_unescaped -> Locks;
     servo_command => servo_command_unescaped -> chessarm_core::control::servo_host::ServoCommand;
-    fault => fault_unescaped -> crate::bus::simulator::Fault;
+    fault => fault_unescaped -> crate::app::bus::simulator::Fault;
 }
 
 /// `ID@N`: servo `ID` (0–252) misbehaves from the `N`-th goal packet on (N ≥ 1).
-fn fault_unescaped(text: &str) -> Result<crate::bus::simulator::Fault, String> {
+fn fault_unescaped(text: &str) -> Result<crate::app::bus::simulator::Fault, String> {
     let (id, after) = text
         .split_once('@')
         .ok_or_else(|| format!("'{text}' is not ID@N (a servo ID and the goal packet it fails from, e.g. 3@120)"))?;
@@ -276,7 +276,7 @@ fn fault_unescaped(text: &str) -> Result<crate::bus::simulator::Fault, String> {
         .ok()
         .filter(|n| *n >= 1)
         .ok_or_else(|| format!("'{after}' is not a packet count >= 1 (in '{text}')"))?;
-    Ok(crate::bus::simulator::Fault { id, after })
+    Ok(crate::app::bus::simulator::Fault { id, after })
 }
 
 /// `plain`, `sag` or `feedforward`.

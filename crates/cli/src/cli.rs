@@ -1,7 +1,7 @@
 //! The command line.
 
+use crate::app::setup::conditions::ConditionArgs;
 use crate::args;
-use crate::conditions::ConditionArgs;
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -150,16 +150,16 @@ pub struct CalibrateArgs {
 pub struct BusSimArgs {
     /// The protocol (default: the setup's servos', or `[servo_bus] protocol`).
     #[arg(long, value_enum)]
-    pub protocol: Option<crate::bus::Protocol>,
+    pub protocol: Option<crate::app::bus::Protocol>,
     /// Log every instruction received to this file, one JSON line each (`t` s, `packet` hex).
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
     /// Servo ID@N stops answering from the N-th goal packet on (a lost reply).
     #[arg(long, value_name = "ID@N", value_parser = args::fault)]
-    pub lose_reply: Option<crate::bus::simulator::Fault>,
+    pub lose_reply: Option<crate::app::bus::simulator::Fault>,
     /// Servo ID@N reports an overload (and turns its torque off) from the N-th goal packet on.
     #[arg(long, value_name = "ID@N", value_parser = args::fault)]
-    pub overload: Option<crate::bus::simulator::Fault>,
+    pub overload: Option<crate::app::bus::simulator::Fault>,
     /// The joints' angles at the start, rad (the setup's sense; default: the pose `play`
     /// starts a game from).
     #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
@@ -333,7 +333,7 @@ pub struct MotionArgs {
 
 impl MotionArgs {
     /// `setup` with its motion limits overridden by the flags given and the timing set.
-    pub fn apply(&self, setup: &crate::config::Setup) -> anyhow::Result<crate::config::Setup> {
+    pub fn apply(&self, setup: &crate::app::setup::file::Setup) -> anyhow::Result<crate::app::setup::file::Setup> {
         let mut limits = setup.motion;
         let set = |target: &mut f64, given: Option<f64>| {
             if let Some(value) = given {
@@ -364,10 +364,10 @@ impl MotionArgs {
             };
         }
         let mut setup = setup.clone();
-        setup.motion = crate::config::checked_limits(limits, "motion", "gripper")?;
+        setup.motion = crate::app::setup::file::checked_limits(limits, "motion", "gripper")?;
         if let Some(pace) = self.pace {
-            setup.motion = crate::config::checked_limits(limits.at_pace(pace), "motion", "gripper")
-                .map_err(|error| anyhow::anyhow!("--pace {}: {error}", crate::resources::show(pace)))?;
+            setup.motion = crate::app::setup::file::checked_limits(limits.at_pace(pace), "motion", "gripper")
+                .map_err(|error| anyhow::anyhow!("--pace {}: {error}", crate::app::resources::show(pace)))?;
         }
         setup.timing = match self.timing {
             TimingChoice::Optimal => chessarm_chess::motion::TimingMode::Optimal,
@@ -408,7 +408,7 @@ impl PlacementArgs {
     pub fn in_position(
         &self,
         tolerance: f64,
-        resolution: crate::conditions::Resolution,
+        resolution: crate::app::setup::conditions::Resolution,
     ) -> Option<chessarm_core::plan::fine_point::InPosition> {
         if self.release_by_clock {
             return None;
@@ -432,12 +432,12 @@ impl PlacementArgs {
     }
 
     /// Sets a game's fine points and payload feed-forward; `tolerance` in m, `resolution` the
-    /// sensors' and actuators' ([`crate::conditions::Study::resolution`]).
+    /// sensors' and actuators' ([`crate::app::setup::conditions::Study::resolution`]).
     pub fn apply(
         &self,
         settings: &mut chessarm_chess::play::PlaySettings,
         tolerance: f64,
-        resolution: crate::conditions::Resolution,
+        resolution: crate::app::setup::conditions::Resolution,
     ) {
         settings.in_position = self.in_position(tolerance, resolution);
         settings.payload_feedforward = !self.no_payload_feedforward;

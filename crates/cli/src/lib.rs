@@ -1,30 +1,16 @@
 //! The `chessarm` command-line program: commands, reports (CSV, JSON, plots) and progress.
 //! This crate is the only place that touches files and the terminal.
 
-pub mod actuators;
+pub mod app;
 pub mod args;
-pub mod bus;
 pub mod cli;
 pub mod commands;
-pub mod conditions;
-pub mod config;
-pub mod folder_lock;
-pub mod hardware;
-pub mod input;
 pub mod live;
-pub mod meshes;
-pub mod output;
-pub mod plots;
 pub mod progress;
-pub mod replay;
-pub mod resources;
-pub mod urdf;
-pub mod urdf_import;
 
 use anyhow::Result;
-use chessarm_core::nalgebra::Vector3;
+use app::setup::file::Setup;
 use cli::{Cli, Command};
-use config::Setup;
 
 /// Whether `--json` was given: results as JSON on stdout instead of a summary for people.
 static JSON_OUTPUT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
@@ -111,7 +97,7 @@ pub fn run_captured(args: &[String], id: u64) -> Result<Captured, RunError> {
     CURRENT_RUN.store(id, std::sync::atomic::Ordering::SeqCst);
     // The folders' lists are read afresh: between two runs in one process the user may have
     // removed or changed a folder.
-    output::forget_listed();
+    app::output::forget_listed();
     let result = run(cli);
     CURRENT_RUN.store(0, std::sync::atomic::Ordering::SeqCst);
     let kept = CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take().unwrap_or_default();
@@ -167,96 +153,38 @@ pub fn files_text(files: &[String]) -> String {
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     JSON_OUTPUT.store(cli.json, std::sync::atomic::Ordering::Relaxed);
-    let mut setup = Setup::load(cli.arm.as_deref())?;
-    if cli.urdf.is_none() && setup.urdf.is_some() {
-        anyhow::bail!(
-            "{}: its [urdf] table is for the arm of a URDF: give --urdf FILE with it",
-            cli.arm.as_ref().map_or(String::new(), |p| p.display().to_string())
-        );
-    }
-    if let Some(path) = &cli.urdf {
-        // The setup file's [urdf], then the flags over it.
-        let mut urdf = setup.urdf.clone().unwrap_or_default();
-        for (name, value) in cli.lock.clone().map(|locks| locks.0).unwrap_or_default() {
-            urdf.lock.insert(name, value);
-        }
-        if let Some(tool) = &cli.tool {
-            // The file's offset is a point of the file's tool link, not of another one.
-            if urdf.tool.as_ref() != Some(tool) {
-                urdf.tool_offset = None;
-            }
-            urdf.tool = Some(tool.clone());
-        }
-        if let Some(offset) = cli.tool_offset {
-            urdf.tool_offset = Some(offset.to_vec());
-        }
-        let offset = urdf.tool_offset.as_deref().unwrap_or(&[0.0; 3]);
-        let options = urdf_import::ImportOptions {
-            locks: urdf.lock.iter().map(|(name, value)| (name.clone(), *value)).collect(),
-            tool: urdf.tool.clone(),
-            tool_offset: Vector3::new(offset[0], offset[1], offset[2]),
-        };
-        setup.urdf = Some(urdf);
-        let imported = urdf_import::load(path, &options)?;
-        for note in &imported.notes {
-            eprintln!("{}: {note}", path.display());
-        }
-        // Servos' stall torques replace the file's efforts (below): a placeholder effort is then
-        // not the limit.
-        let servos = cli.actuator.as_ref().map_or(setup.actuators.take_positions(), |names| {
-            names.iter().any(|name| name != crate::actuators::TORQUE)
-        });
-        let efforts = if servos { &[][..] } else { &imported.effort_warnings[..] };
-        for warning in efforts.iter().chain(&imported.warnings) {
-            eprintln!("warning: {}: {warning}", path.display());
-        }
-        setup.urdf_path = Some(path.clone());
-        setup.take_urdf_arm(imported);
-    }
-    if let Some(names) = &cli.actuator {
-        setup.actuators = actuators::resolve(names, &setup.actuator_tables, "--actuator")?;
-        setup.actuator_names = std::array::from_fn(|j| names.get(j).unwrap_or(&names[0]).clone());
-    }
-    if !setup.actuators.take_positions() && (cli.servo_command.is_some() || cli.bus_rate.is_some()) {
-        anyhow::bail!(
-            "--servo-command and --bus-rate are for servos; the joints have torque motors (give --actuator NAME)"
-        );
-    }
-    if setup.actuators.take_positions() {
-        let not_yet = match &cli.command {
-            Some(Command::Demo(_)) | None => Some("the report's study (demo)"),
-            _ => None,
-        };
-        if let Some(command) = not_yet {
-            anyhow::bail!(
-                "{command} runs torque motors only so far; servos and steppers (--actuator {}) work with simulate, play, tune, robustness and board",
-                setup.actuator_names.join(",")
-            );
-        }
-    }
-    if setup.actuators.take_positions() {
-        // The servos' stall torques (steppers' holding torques) are the limits the planner, the
-        // reach check and the plots use (not the file's efforts).
-        let mut links = *setup.arm.links();
-        for (link, stall) in links.iter_mut().zip(setup.actuators.torque_limits()) {
-            link.limits.torque = stall;
-        }
-        setup.arm = setup.arm.with_links(links)?;
-    }
-    setup.servo_commands = match (&cli.servo_command, &cli.command) {
-        (Some(commands), _) => commands.clone(),
-        // A sweep compares every host strategy unless told which.
-        (None, Some(Command::Tune(_))) => chessarm_core::control::servo_host::ServoCommand::ALL.to_vec(),
-        (None, _) => vec![Default::default()],
+    let options = app::setup::SetupOptions {
+        arm: cli.arm.clone(),
+        urdf: cli.urdf.clone(),
+        lock: cli.lock.clone().map(|locks| locks.0).unwrap_or_default(),
+        tool: cli.tool.clone(),
+        tool_offset: cli.tool_offset,
+        actuator: cli.actuator.clone(),
+        servo_command: cli.servo_command.clone(),
+        bus_rate: cli.bus_rate,
     };
-    setup.bus_rate = cli.bus_rate.unwrap_or(config::DEFAULT_BUS_RATE);
+    let resolved = app::setup::resolve(&options)?;
+    for note in &resolved.notes {
+        tell(&format!("{note}\n"));
+    }
+    let mut setup = resolved.setup;
+    if cli.servo_command.is_none() && matches!(cli.command, Some(Command::Tune(_))) {
+        // A sweep compares every host strategy unless told which.
+        setup.servo_commands = chessarm_core::control::servo_host::ServoCommand::ALL.to_vec();
+    }
+    if setup.actuators.take_positions() && matches!(cli.command, Some(Command::Demo(_)) | None) {
+        anyhow::bail!(
+            "the report's study (demo) runs torque motors only so far; servos and steppers (--actuator {}) work with simulate, play, tune, robustness and board",
+            setup.actuator_names.join(",")
+        );
+    }
     // The bus's period against the simulation's time step, before any work.
     let (dt, dt_flag) = match &cli.command {
         Some(Command::Play(args)) => (args.dt, " --dt"),
         Some(Command::Simulate(args)) => (args.dt, " --dt"),
         _ => (chessarm_chess::play::PlaySettings::DEFAULT_DT, ""),
     };
-    actuators::check_bus_period(&setup, dt, dt_flag)?;
+    app::setup::actuators::check_bus_period(&setup, dt, dt_flag)?;
     let default_out = std::path::PathBuf::from("out");
     let out = match &cli.command {
         None => Some(&default_out),
@@ -278,8 +206,8 @@ pub fn run(cli: Cli) -> Result<()> {
             | Command::BusSim(_),
         ) => None,
     };
-    let folder = out.map(|dir| folder_lock::RunFolder::take(dir)).transpose()?;
-    let result = out.map_or(Ok(()), |dir| output::check_list(dir)).and_then(|()| dispatch(&setup, cli.command));
+    let folder = out.map(|dir| app::output::folder_lock::RunFolder::take(dir)).transpose()?;
+    let result = out.map_or(Ok(()), |dir| app::output::check_list(dir)).and_then(|()| dispatch(&setup, cli.command));
     if let Some(folder) = folder {
         folder.end(result.is_ok());
     }
@@ -322,7 +250,7 @@ fn dispatch(setup: &Setup, command: Option<Command>) -> Result<()> {
         }
         Some(Command::Fk(args)) => commands::kinematics::fk(setup, &args),
         Some(Command::Ik(args)) => commands::kinematics::ik(setup, &args),
-        Some(Command::Urdf) => print_text(&urdf::to_urdf(
+        Some(Command::Urdf) => print_text(&app::formats::urdf::to_urdf(
             &setup.arm,
             "chessarm",
             &setup.joint_names,

@@ -24,11 +24,11 @@ fn main() -> ExitCode {
             };
         }
     };
-    if let Err(error) = chessarm::output::remove_temporaries_on_signal() {
+    if let Err(error) = chessarm::app::output::remove_temporaries_on_signal() {
         chessarm::tell(&format!("warning: {}\n", chessarm::one_line(&error)));
     }
     let result = chessarm::run(cli);
-    chessarm::output::await_signal_handler();
+    chessarm::app::output::await_signal_handler();
     match result {
         Ok(()) => ExitCode::SUCCESS,
         // The reader of our standard output has gone (`| head`): nothing more to say to anyone.

@@ -5,8 +5,8 @@
 
 mod common;
 
-use chessarm::bus::Protocol;
-use chessarm::bus::port::SerialLine;
+use chessarm::app::bus::Protocol;
+use chessarm::app::bus::port::SerialLine;
 use std::time::Duration;
 
 /// A fault for a servo the bus does not have would never fire: refused before the bus starts

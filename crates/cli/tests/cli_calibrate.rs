@@ -5,7 +5,7 @@
 
 mod common;
 
-use chessarm::config::Setup;
+use chessarm::app::setup::file::Setup;
 use chessarm_core::nalgebra::{Rotation2, Vector2};
 use common::chessarm;
 use serde_json::Value;

@@ -8,7 +8,7 @@
 
 mod common;
 
-use chessarm::bus::Protocol;
+use chessarm::app::bus::Protocol;
 use chessarm_chess::shakmaty::{Chess, Position};
 use common::{BusSim, chessarm};
 use serde_json::Value;
@@ -181,7 +181,7 @@ fn check_goals_within_limits(arm: &Arm, out: &Path, goals: &[(f64, [i64; 4])]) -
                 // the time is at least the period: the simulated bus logs a goal when it reads
                 // it, some milliseconds late on a busy machine, which shortens the next gap.
                 let dt = (t - goals[k - 1].0).max(period);
-                let allowed = chessarm::live::arm::GOAL_SPEED_ALLOWANCE * velocity * dt + count;
+                let allowed = chessarm::app::bus::arm::GOAL_SPEED_ALLOWANCE * velocity * dt + count;
                 assert!(change <= allowed, "{}: {change} rad in {dt} s (limit {velocity} rad/s)", names[j]);
                 fastest[j] = fastest[j].max((change - count).max(0.0) / dt / velocity);
             }

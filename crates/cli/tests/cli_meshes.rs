@@ -92,16 +92,17 @@ fn a_large_mesh_is_hulled_over_a_bounded_grid_that_holds_it() {
     let dir = tempfile::tempdir().unwrap();
     let mesh = binary_stl(&uv_sphere(250, 200, [90.0, 20.0, 16.0]));
     let (urdf, stl) = arm_with_mesh(dir.path(), &mesh, "0.001 0.001 0.001");
-    let read = chessarm::meshes::read_stl(&stl, [0.001; 3], "0.001 0.001 0.001").unwrap();
+    let read = chessarm::app::setup::meshes::read_stl(&stl, [0.001; 3], "0.001 0.001 0.001").unwrap();
     let (vertices, kept, within) = read.decimated.expect("decimated");
-    let raw: Vec<Vector3<f64>> = chessarm::meshes::parse_stl(&mesh).unwrap().iter().map(|p| p * 0.001).collect();
+    let raw: Vec<Vector3<f64>> =
+        chessarm::app::setup::meshes::parse_stl(&mesh).unwrap().iter().map(|p| p * 0.001).collect();
     let mut distinct: Vec<[u64; 3]> = raw.iter().map(|p| p.map(|c| (c + 0.0).to_bits()).into()).collect();
     distinct.sort_unstable();
     distinct.dedup();
     assert_eq!(vertices, distinct.len());
-    assert!(vertices > chessarm::meshes::MAX_HULL_INPUT, "{vertices}");
+    assert!(vertices > chessarm::app::setup::meshes::MAX_HULL_INPUT, "{vertices}");
     assert_eq!(kept, read.points.len());
-    let bound = 2 * (chessarm::meshes::COLUMNS + 1).pow(2);
+    let bound = 2 * (chessarm::app::setup::meshes::COLUMNS + 1).pow(2);
     assert!(kept <= bound, "{kept} points handed to the hull, more than {bound}");
     // The columns run along the 0.18 m axis, 64 of them across the 0.04 m one: 0.625 mm
     // square, so a point is at most 0.88 mm from the vertex whose height it took. Tolerance
@@ -134,9 +135,9 @@ fn a_small_mesh_is_hulled_over_its_own_vertices() {
     let dir = tempfile::tempdir().unwrap();
     let mesh = binary_stl(&uv_sphere(60, 80, [90.0, 20.0, 16.0]));
     let (_, stl) = arm_with_mesh(dir.path(), &mesh, "-0.001 0.001 0.001");
-    let read = chessarm::meshes::read_stl(&stl, [-0.001, 0.001, 0.001], "-0.001 0.001 0.001").unwrap();
+    let read = chessarm::app::setup::meshes::read_stl(&stl, [-0.001, 0.001, 0.001], "-0.001 0.001 0.001").unwrap();
     assert!(read.decimated.is_none());
-    let raw: Vec<Vector3<f64>> = chessarm::meshes::parse_stl(&mesh)
+    let raw: Vec<Vector3<f64>> = chessarm::app::setup::meshes::parse_stl(&mesh)
         .unwrap()
         .iter()
         .map(|p| Vector3::new(p.x * -0.001, p.y * 0.001, p.z * 0.001))

@@ -671,7 +671,7 @@ fn collision_shapes_land_where_the_urdf_frames_put_them() {
     use chessarm_core::arm::bodies::{Bodies, Gripper, Hand, Part, Shape, Solid, solids_into};
     let dir = tempfile::tempdir().unwrap();
     let path = fixture_with_collisions(dir.path());
-    let imported = chessarm::urdf_import::load(&path, &Default::default()).unwrap();
+    let imported = chessarm::app::setup::urdf_import::load(&path, &Default::default()).unwrap();
     let Bodies::Described(shapes) = &imported.bodies else { panic!("{:?}", imported.notes) };
     assert_eq!(shapes.len(), 6);
     assert!(
@@ -750,7 +750,7 @@ fn a_missing_mesh_is_said_and_a_bad_shape_refused() {
     let dir = tempfile::tempdir().unwrap();
     let path = fixture_with_collisions(dir.path());
     std::fs::remove_file(dir.path().join("offset_arm/meshes/forearm.stl")).unwrap();
-    let imported = chessarm::urdf_import::load(&path, &Default::default()).unwrap();
+    let imported = chessarm::app::setup::urdf_import::load(&path, &Default::default()).unwrap();
     assert_eq!(imported.bodies, Bodies::Drawn);
     let warning = imported.warnings.iter().find(|w| w.contains("not found")).unwrap();
     assert!(warning.contains("'package://offset_arm/meshes/forearm.stl'"), "{warning}");
@@ -761,14 +761,14 @@ fn a_missing_mesh_is_said_and_a_bad_shape_refused() {
     let turret = text.lines().find(|l| l.contains("<cylinder radius=\"0.03\"")).unwrap().to_string();
     let partial = dir.path().join("offset_arm/urdf/partial.urdf");
     std::fs::write(&partial, text.replace(&turret, "")).unwrap();
-    let imported = chessarm::urdf_import::load(&partial, &Default::default()).unwrap();
+    let imported = chessarm::app::setup::urdf_import::load(&partial, &Default::default()).unwrap();
     assert!(matches!(imported.bodies, Bodies::Described(_)));
     let warning = imported.warnings.iter().find(|w| w.contains("no <collision> shapes")).unwrap();
     assert!(warning.contains("'turret'") && !warning.contains("'forearm'"), "{warning}");
     // A mesh drawn in mm without its scale reaches 90 m: refused, saying how to scale it.
     let unscaled = dir.path().join("offset_arm/urdf/unscaled.urdf");
     std::fs::write(&unscaled, text.replace(r#" scale="0.001 0.001 0.001""#, "")).unwrap();
-    let error = format!("{:#}", chessarm::urdf_import::load(&unscaled, &Default::default()).unwrap_err());
+    let error = format!("{:#}", chessarm::app::setup::urdf_import::load(&unscaled, &Default::default()).unwrap_err());
     assert!(error.contains("link 'forearm'") && error.contains("scale=\"0.001 0.001 0.001\""), "{error}");
     for (from, to, needle) in [
         (r#"<sphere radius="0.02"/>"#, r#"<sphere radius="-0.02"/>"#, r#"radius="-0.02" must be > 0"#),
@@ -792,8 +792,8 @@ fn the_export_imports_back_to_chessarms_own_solids() {
     let arm = chessarm_core::arm::preset::report_arm();
     let gripper = Gripper::default();
     let names: [String; 4] = std::array::from_fn(|i| format!("joint{}", i + 1));
-    let text = chessarm::urdf::to_urdf(&arm, "chessarm", &names, &[1.0; 4], gripper.palm_depth());
-    let imported = chessarm::urdf_import::from_urdf(&text, &Default::default()).unwrap();
+    let text = chessarm::app::formats::urdf::to_urdf(&arm, "chessarm", &names, &[1.0; 4], gripper.palm_depth());
+    let imported = chessarm::app::setup::urdf_import::from_urdf(&text, &Default::default()).unwrap();
     assert!(matches!(imported.bodies, Bodies::Described(_)), "{:?}", imported.notes);
     let hand = Hand { gripper, gap: 0.04, held: None };
     let (mut drawn, mut described) = (Vec::new(), Vec::new());

@@ -6,7 +6,7 @@
 //! `(4,)`) or many (shape `(n, 4)`, one per row); many states are computed in Rust with the
 //! GIL released.
 
-use chessarm::config::Setup;
+use chessarm::app::setup::file::Setup;
 use chessarm_core::arm::dynamics::{
     forward_dynamics, friction_torques, gravity_torques, inverse_dynamics, mass_matrix,
 };
@@ -224,7 +224,7 @@ impl Arm {
             && let [rows, 4] = first.shape()
         {
             let numbers = (4 * arguments.len() + K) as f64;
-            chessarm::resources::ensure_fits(
+            chessarm::app::resources::ensure_fits(
                 &format!("{name} of shape ({rows}, 4)"),
                 "numbers",
                 *rows as f64 * numbers,
@@ -314,7 +314,7 @@ impl Arm {
         tool: Option<String>,
         tool_offset: Option<[f64; 3]>,
     ) -> PyResult<Self> {
-        let options = chessarm::urdf_import::ImportOptions {
+        let options = chessarm::app::setup::urdf_import::ImportOptions {
             locks: lock.unwrap_or_default().into_iter().collect(),
             tool,
             tool_offset: Vector3::from(tool_offset.unwrap_or([0.0; 3])),
@@ -325,7 +325,8 @@ impl Arm {
         if options.tool_offset.iter().any(|v| !v.is_finite()) {
             return Err(PyValueError::new_err(format!("tool_offset = {tool_offset:?} is not finite")));
         }
-        let imported = chessarm::urdf_import::load(&path, &options).map_err(|e| ModelError::new_err(message(&e)))?;
+        let imported =
+            chessarm::app::setup::urdf_import::load(&path, &options).map_err(|e| ModelError::new_err(message(&e)))?;
         Ok(Self { model: imported.model, joint_names: imported.joint_names, signs: imported.signs })
     }
 
@@ -344,7 +345,7 @@ impl Arm {
 
     /// The arm as URDF text (as `chessarm urdf`).
     fn to_urdf(&self) -> String {
-        chessarm::urdf::to_urdf(
+        chessarm::app::formats::urdf::to_urdf(
             &self.model,
             "chessarm",
             &self.joint_names,

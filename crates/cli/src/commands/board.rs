@@ -1,8 +1,8 @@
 //! `board`: whether the arm serves the setup's board (every square, slot and traverse a game can
 //! ask for), and with `--fit` the largest board it serves, printed as a setup file.
 
+use crate::app::setup::file::Setup;
 use crate::cli::BoardArgs;
-use crate::config::Setup;
 use anyhow::{Context, Result, anyhow};
 use chessarm_chess::reach::{check_table, fit_board, square_margins};
 use chessarm_chess::sag::{SquareHold, sag_map};
@@ -20,13 +20,13 @@ fn check_outputs(args: &BoardArgs) -> Result<()> {
                 path.display()
             );
         }
-        crate::output::refuse_if_not_ours(path, flag).with_context(|| format!("{flag} {}", path.display()))?;
+        crate::app::output::refuse_if_not_ours(path, flag).with_context(|| format!("{flag} {}", path.display()))?;
     }
     if let Some(path) = &args.save {
         if path.is_dir() {
             anyhow::bail!("--save {}: a folder; give the setup file's name (FILE.toml)", path.display());
         }
-        crate::output::refuse_if_not_ours(path, "--save").with_context(|| format!("--save {}", path.display()))?;
+        crate::app::output::refuse_if_not_ours(path, "--save").with_context(|| format!("--save {}", path.display()))?;
     }
     Ok(())
 }
@@ -134,7 +134,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         match &args.save {
             // The setup in its file, the summary on stdout.
             Some(path) => {
-                crate::output::write_atomic(path, |out| Ok(out.write_all(text.as_bytes())?))
+                crate::app::output::write_atomic(path, |out| Ok(out.write_all(text.as_bytes())?))
                     .with_context(|| format!("--save {}", path.display()))?;
                 crate::emit(&format!("{summary}setup file: {}\n", path.display()), &value)?;
             }
@@ -173,7 +173,7 @@ fn plot_reach_map(
     );
     let values =
         margins.iter().map(|(square, margin)| (*square, margin.as_ref().map(|m| m * 1e3).map_err(Clone::clone)));
-    crate::plots::plot_squares(path, &title, "radial margin (mm)", values, "not served")
+    crate::app::formats::plots::plot_squares(path, &title, "radial margin (mm)", values, "not served")
 }
 
 /// The sag table for people: per rank (8 at the top), the largest horizontal tool-tip error of
@@ -253,7 +253,7 @@ fn plot_sag_map(path: &std::path::Path, sag: &[SquareHold]) -> Result<()> {
         };
         (hold.square, value)
     });
-    crate::plots::plot_squares(path, &title, "tool-tip error (mm)", values, "not reached")
+    crate::app::formats::plots::plot_squares(path, &title, "tool-tip error (mm)", values, "not reached")
 }
 
 /// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they

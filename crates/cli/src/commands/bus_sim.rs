@@ -1,12 +1,12 @@
-//! `bus-sim`: the setup's servos on a simulated bus ([`crate::bus::simulator`]) on a
+//! `bus-sim`: the setup's servos on a simulated bus ([`crate::app::bus::simulator`]) on a
 //! pseudo-terminal, for a driver (`play --port`, `calibrate --port`) or a vendor's SDK to talk
 //! to. A line `pose Q1,Q2,Q3,Q4` on its standard input (rad, the setup's sense) moves the arm by
 //! hand while its torque is off.
 
-use crate::bus::port::PseudoTerminal;
-use crate::bus::simulator::{Faults, SimulatedBus};
+use crate::app::bus::port::PseudoTerminal;
+use crate::app::bus::simulator::{Faults, SimulatedBus};
+use crate::app::setup::file::Setup;
 use crate::cli::BusSimArgs;
-use crate::config::Setup;
 use anyhow::{Context, Result, bail};
 use chessarm_core::arm::model::JointVector;
 
@@ -16,7 +16,7 @@ pub fn run(setup: &Setup, args: &BusSimArgs) -> Result<()> {
             "bus-sim simulates servos: give them with --actuator (e.g. --actuator sts3215) or the setup's [actuators]"
         );
     }
-    let bus = crate::actuators::ServoBus::of(setup)?;
+    let bus = crate::app::setup::actuators::ServoBus::of(setup)?;
     // A fault for a servo not on the bus would never fire: refused before the bus starts.
     let on_bus: Vec<u8> = bus.ids.iter().copied().chain(bus.gripper.map(|g| g.id)).collect();
     for (flag, fault) in [("--lose-reply", args.lose_reply), ("--overload", args.overload)] {

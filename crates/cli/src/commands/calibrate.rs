@@ -6,9 +6,9 @@
 //! cannot tell where the board is, residuals above `--max-residual-mm`, and a fitted board the
 //! arm does not serve are refused, naming the touches, before anything is written.
 
+use crate::app::output::{ensure_dir, write_json};
+use crate::app::setup::file::Setup;
 use crate::cli::CalibrateArgs;
-use crate::config::Setup;
-use crate::output::{ensure_dir, write_json};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::board::parse_square;
 use chessarm_chess::shakmaty::Square;
@@ -43,9 +43,9 @@ fn read_over_bus(setup: &Setup, args: &CalibrateArgs, port: &std::path::Path) ->
         .iter()
         .map(|name| parse_square(name).map_err(|e| anyhow::anyhow!("--squares {}: {e}", args.squares.join(","))))
         .collect::<Result<_>>()?;
-    let mut arm = crate::live::arm::RealArm::open(
+    let mut arm = crate::app::bus::arm::RealArm::open(
         setup,
-        &crate::live::arm::ArmOptions {
+        &crate::app::bus::arm::ArmOptions {
             port: Some(port),
             dry_run: false,
             max_step: std::f64::consts::PI,
@@ -103,7 +103,7 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
     let zero_errors: [f64; 4] = std::array::from_fn(|j| signs[j] * fitted.zero_errors[j] + 0.0);
     let mut zero_ticks = None;
     if args.zeros && setup.actuators.take_positions() {
-        let bus = crate::actuators::ServoBus::of(setup)?;
+        let bus = crate::app::setup::actuators::ServoBus::of(setup)?;
         // ticks = zero + direction · q / count with q the true angle = read + δ: the zero moves
         // by −direction · δ / count.
         let ticks: Vec<f64> = (0..4)
@@ -115,7 +115,7 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
         let mut file = calibrated.servo_bus.clone().unwrap_or_default();
         file.zero_ticks = Some(ticks.clone());
         calibrated.servo_bus = Some(file);
-        crate::actuators::ServoBus::of(&calibrated)?;
+        crate::app::setup::actuators::ServoBus::of(&calibrated)?;
         zero_ticks = Some(ticks);
     }
     // The fitted board must be one the setup's own check (`board`, `play`) accepts.
@@ -132,11 +132,11 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
     ensure_dir(&args.out)?;
     let setup_path = args.out.join("setup.toml");
     let text = calibrated.to_toml_beside_urdf()?;
-    crate::output::write_atomic(&setup_path, |out| Ok(out.write_all(text.as_bytes())?))?;
+    crate::app::output::write_atomic(&setup_path, |out| Ok(out.write_all(text.as_bytes())?))?;
     let plot = args.out.join("residuals.png");
     let residual_of: Vec<(Square, f64)> =
         touched.iter().zip(&fitted.residuals).map(|((square, _), r)| (*square, r.norm() * 1e3)).collect();
-    crate::plots::plot_squares(
+    crate::app::formats::plots::plot_squares(
         &plot,
         &format!("calibration: each touch's residual (mm), {} touches", touches.len()),
         "residual (mm)",

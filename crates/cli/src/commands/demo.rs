@@ -1,12 +1,12 @@
 //! `demo` (and `chessarm` with no command): the report's study end to end.
 
+use crate::app::setup::file::Setup;
 use crate::cli::{ControllerName, DemoArgs, GainArgs};
 use crate::commands::plan::{plan_scenario, write_plan};
 use crate::commands::simulate::{
     ControllerRun, DefaultGains, RunOptions, TRANSIENT_S, comparison_table, controller_specs, max_tip_error_from,
     run_study, study_steps,
 };
-use crate::config::Setup;
 use anyhow::Result;
 use chessarm_core::sim::Integrator;
 use serde_json::json;

@@ -1,12 +1,12 @@
 //! `gains`: outer-loop gains from response specs, verified by simulating the scenario.
 
+use crate::app::resources::show;
+use crate::app::setup::conditions::Study;
+use crate::app::setup::file::Setup;
 use crate::cli::{ControllerChoice, GainsArgs};
 use crate::commands::plan::plan_scenario;
 use crate::commands::simulate::{RunOptions, run_controller};
-use crate::conditions::Study;
-use crate::config::Setup;
 use crate::one_line;
-use crate::resources::show;
 use anyhow::{Result, bail};
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::{Gains, ResponseShape, design_from_specs};
@@ -174,7 +174,7 @@ fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Valu
         conditions: conditions.clone(),
     };
     let run = run_controller(setup, &plan, spec, &options, None)?;
-    let trial_json = options.trial.as_ref().map(crate::conditions::Trial::describe);
+    let trial_json = options.trial.as_ref().map(crate::app::setup::conditions::Trial::describe);
     let forced = run_controller(setup, &plan, spec, &RunOptions { q0: None, ..options }, None)?;
     let mut settling = Vec::new();
     let mut overshoot = Vec::new();

@@ -1,7 +1,7 @@
 //! `fk` and `ik`.
 
+use crate::app::setup::file::Setup;
 use crate::cli::{FkArgs, IkArgs};
-use crate::config::Setup;
 use anyhow::{Result, bail};
 use chessarm_chess::board::parse_square;
 use chessarm_core::arm::kinematics::FrameChain;
@@ -20,8 +20,8 @@ pub fn warn_outside_limits(setup: &Setup, flag: &str, q: &[f64; 4]) {
                 "warning: {flag} joint {} = {} rad is outside its limits [{lower:.4}, {upper:.4}] rad; angles are \
                  read in radians (if {} was meant in degrees, that is {:.4} rad)\n",
                 j + 1,
-                crate::resources::show(*value),
-                crate::resources::show(*value),
+                crate::app::resources::show(*value),
+                crate::app::resources::show(*value),
                 value.to_radians()
             ));
         }

@@ -1,12 +1,12 @@
 //! `plan`: a scenario's Cartesian path and joint trajectory, as CSV, plots and XLSX.
 
+use crate::app::formats::hardware::MoveLabel;
+use crate::app::formats::plots::{Panel, Series, Style, plot_panels};
+use crate::app::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, write_csv};
+use crate::app::setup::file::JointConvention;
+use crate::app::setup::file::Setup;
+use crate::app::setup::file::checked_limits;
 use crate::cli::PlanArgs;
-use crate::config::JointConvention;
-use crate::config::Setup;
-use crate::config::checked_limits;
-use crate::hardware::MoveLabel;
-use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, write_csv};
-use crate::plots::{Panel, Series, Style, plot_panels};
 use anyhow::{Result, anyhow, bail};
 use chessarm_chess::motion::{PlannedMove, TimingMode, plan_move};
 use chessarm_chess::notation::{parse_fen, parse_move_list};
@@ -56,12 +56,12 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<
     if dt > path.duration() {
         bail!(
             "{cause}: a sample every {} s is longer than the {:.0} s scenario",
-            crate::resources::show(dt),
+            crate::app::resources::show(dt),
             path.duration()
         );
     }
     let samples = (path.duration() / dt).ceil() + 1.0;
-    crate::resources::ensure_fits(
+    crate::app::resources::ensure_fits(
         cause,
         &format!("samples of the {:.0} s scenario", path.duration()),
         samples,
@@ -85,7 +85,7 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
         }
         return run_moves(&setup, args, moves);
     }
-    let cause = format!("--dt {}", crate::resources::show(args.dt));
+    let cause = format!("--dt {}", crate::app::resources::show(args.dt));
     let plan = plan_scenario(setup, &args.scenario, args.dt, &cause)?;
     let mut files = write_plan(&plan, &args.out, args.xlsx, &setup.convention)?;
     let hardware = hardware_dir(&args.out)?;
@@ -113,7 +113,7 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
         plan.name,
         plan.path.duration(),
         samples.len(),
-        crate::resources::show(args.dt),
+        crate::app::resources::show(args.dt),
         peaks(&peak(|s| s.qd.into())),
         peaks(&peak(|s| s.qdd.into())),
         crate::files_text(&files)
@@ -188,7 +188,7 @@ fn write_samples(plan: &Samples<'_>, out: &Path, xlsx: bool) -> Result<Vec<Strin
         files.push(joint_xlsx);
     } else {
         // An earlier run's spreadsheet would no longer match joint.csv.
-        crate::output::remove_stale(&[joint_xlsx])?;
+        crate::app::output::remove_stale(&[joint_xlsx])?;
     }
     Ok(files.iter().map(|p| p.display().to_string()).collect())
 }
@@ -282,7 +282,7 @@ fn write_xlsx(path: &Path, plan: &Samples<'_>) -> Result<()> {
         }
     }
     let bytes = workbook.save_to_buffer()?;
-    crate::output::write_atomic(path, |writer| Ok(writer.write_all(&bytes)?))
+    crate::app::output::write_atomic(path, |writer| Ok(writer.write_all(&bytes)?))
 }
 
 #[cfg(not(feature = "xlsx"))]
@@ -317,7 +317,7 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
             p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("phase-") && n.ends_with(".png"))
         })
         .collect();
-    crate::output::remove_stale(&earlier)?;
+    crate::app::output::remove_stale(&earlier)?;
     let mut cartesian = Vec::new();
     let mut joint = Vec::new();
     let mut offset = 0.0;
@@ -451,7 +451,7 @@ fn write_hardware(
     let points = hardware_points(&setup.arm, motion, commands, TOOL_DOWN, rate).map_err(|e| {
         anyhow!("{}: the hardware trajectory: {e}", if label.uci.is_empty() { label.san } else { label.uci })
     })?;
-    crate::hardware::write_move(
+    crate::app::formats::hardware::write_move(
         dir,
         stem,
         (&setup.base_link, &setup.joint_names, &setup.convention),

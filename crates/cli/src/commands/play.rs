@@ -1,13 +1,15 @@
 //! `play`: a game of chess with the simulated arm, every piece checked on its square.
 
+use crate::app::formats::hardware::MoveLabel;
+use crate::app::formats::plots::{Corner, Level, Panel, Series, Style, plot_panels, tick};
+use crate::app::formats::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
+use crate::app::output::{
+    ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json,
+};
+use crate::app::setup::conditions::Study;
+use crate::app::setup::file::Setup;
 use crate::cli::{PlayArgs, RobotSide};
 use crate::commands::simulate::{DefaultGains, controller_specs};
-use crate::conditions::Study;
-use crate::config::Setup;
-use crate::hardware::MoveLabel;
-use crate::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json};
-use crate::plots::{Corner, Level, Panel, Series, Style, plot_panels, tick};
-use crate::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list};
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
@@ -110,7 +112,7 @@ fn source(args: &PlayArgs) -> Result<Source> {
         if args.fen.is_some() {
             bail!("--fen goes with --moves or an engine game; a PGN file sets its own start ([FEN] tag)");
         }
-        return Ok(Source::Record(crate::input::read_pgn_game(path, args.game)?));
+        return Ok(Source::Record(crate::app::formats::pgn::read_pgn_game(path, args.game)?));
     }
     if let Some(moves) = &args.moves {
         return Ok(Source::Record(parse_move_list(moves, start_position(args)?)?));
@@ -136,7 +138,7 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         let path = args.out.join("game.pgn");
         // Saved over after every move: a game.pgn chessarm did not write is refused now, not
         // after the resumed moves have been replayed.
-        crate::output::refuse_if_not_ours(&path, "--out").context("--resume")?;
+        crate::app::output::refuse_if_not_ours(&path, "--out").context("--resume")?;
         crate::live::PgnGame::resume(&path, person)?
     } else {
         crate::live::PgnGame { headers: Vec::new(), start: start_position(args)?, moves: Vec::new() }
@@ -227,7 +229,7 @@ fn refuse_person_flags_without_a_person(args: &PlayArgs) -> Result<()> {
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     refuse_person_flags_without_a_person(args)?;
     let setup = &args.motion.apply(setup)?;
-    let hosts = crate::actuators::servo_hosts(setup);
+    let hosts = crate::app::setup::actuators::servo_hosts(setup);
     if hosts.as_ref().is_some_and(|h| h.len() > 1) {
         anyhow::bail!("--servo-command: play sends one kind of goal; give one of plain, sag, feedforward");
     }
@@ -239,7 +241,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     let settings_name = spec.name.clone();
     settings.controller = spec;
-    crate::actuators::drive(setup, &mut settings);
+    crate::app::setup::actuators::drive(setup, &mut settings);
     let study = Study::new(setup, &args.conditions, settings.control_period)?;
     let trial = study.trial(args.conditions.run_seed())?;
     let ideal = study.is_ideal(setup);
@@ -265,7 +267,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     settings.limits.tracking = study.tracking(
         setup,
         &settings.controller.gains,
-        settings.payload_feedforward && crate::actuators::cancels_inertia(&settings.controller.kind),
+        settings.payload_feedforward && crate::app::setup::actuators::cancels_inertia(&settings.controller.kind),
         settings.controller_knows_payload,
     );
     let mut source = source(args)?;
@@ -293,7 +295,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         // A person's game is bounded as an engine game is; its plies are kept as they come.
         Source::Human(_) => ("--human".to_owned(), 0.0),
     };
-    crate::resources::ensure_fits(&cause, "plies", plies, BYTES_PER_PLY)?;
+    crate::app::resources::ensure_fits(&cause, "plies", plies, BYTES_PER_PLY)?;
     ensure_dir(&args.out)?;
     let moves_dir = args.out.join("moves");
     let hardware_dir = args.out.join("hardware");
@@ -316,7 +318,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     // An earlier game's stopped part-way trajectories do not belong to this one.
     remove_listed_in(&args.out.join("hardware-incomplete"))?;
     // The servos' bus, checked before anything runs: their goals go out in its ticks.
-    let servo_bus = setup.actuators.take_positions().then(|| crate::actuators::ServoBus::of(setup)).transpose()?;
+    let servo_bus =
+        setup.actuators.take_positions().then(|| crate::app::setup::actuators::ServoBus::of(setup)).transpose()?;
     let started = Instant::now();
     let first_number = (start.fullmoves().get(), start.turn());
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
@@ -348,9 +351,9 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     // The real arm (or a dry run), opened before anything moves.
     let mut real_arm = (args.port.is_some() || args.dry_run)
         .then(|| {
-            crate::live::arm::RealArm::open(
+            crate::app::bus::arm::RealArm::open(
                 setup,
-                &crate::live::arm::ArmOptions {
+                &crate::app::bus::arm::ArmOptions {
                     port: args.port.as_deref(),
                     dry_run: args.dry_run,
                     max_step: args.max_step_deg.to_radians(),
@@ -420,8 +423,8 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             if incomplete.is_dir() {
                 // An earlier stopped game's: its files, then chessarm's own list and lock.
                 remove_listed_in(&incomplete)?;
-                for own in [crate::output::WRITTEN_LIST, crate::folder_lock::LOCK_FILE] {
-                    crate::output::remove_file_if_there(&incomplete.join(own))?;
+                for own in [crate::app::output::WRITTEN_LIST, crate::app::output::folder_lock::LOCK_FILE] {
+                    crate::app::output::remove_file_if_there(&incomplete.join(own))?;
                 }
                 std::fs::remove_dir(&incomplete).with_context(|| {
                     format!("cannot replace {}: it holds files chessarm did not write", incomplete.display())
@@ -540,7 +543,7 @@ struct Outputs<'a> {
     controller: &'a str,
     moves_dir: &'a Path,
     hardware_dir: &'a Path,
-    servo_bus: Option<&'a crate::actuators::ServoBus>,
+    servo_bus: Option<&'a crate::app::setup::actuators::ServoBus>,
     args: &'a PlayArgs,
 }
 
@@ -579,7 +582,7 @@ impl Kept {
                 in_position: hardware.in_position,
                 finger_opening: report.opening,
             };
-            crate::hardware::write_move(
+            crate::app::formats::hardware::write_move(
                 out.hardware_dir,
                 &format!("{:03}-{}", report.ply, report.uci),
                 (&setup.base_link, &setup.joint_names, &setup.convention),
@@ -590,9 +593,9 @@ impl Kept {
             )?;
             if let Some(bus) = out.servo_bus {
                 if !out.hardware_dir.join("servo_bus.json").is_file() {
-                    crate::hardware::write_servo_bus(out.hardware_dir, setup, bus)?;
+                    crate::app::formats::hardware::write_servo_bus(out.hardware_dir, setup, bus)?;
                 }
-                crate::hardware::write_servo_goals(
+                crate::app::formats::hardware::write_servo_goals(
                     out.hardware_dir,
                     &format!("{:03}-{}", report.ply, report.uci),
                     &setup.convention,
@@ -621,9 +624,9 @@ impl Kept {
     fn take_back(&mut self, keep: usize, out: &Outputs<'_>) -> Result<()> {
         for report in self.reports.drain(keep.min(self.reports.len())..) {
             let stem = format!("{:03}-{}", report.ply, report.uci);
-            crate::output::remove_file_if_there(&out.moves_dir.join(format!("{stem}.csv")))?;
+            crate::app::output::remove_file_if_there(&out.moves_dir.join(format!("{stem}.csv")))?;
             for suffix in [".csv", ".json", "-goals.csv"] {
-                crate::output::remove_file_if_there(&out.hardware_dir.join(format!("{stem}{suffix}")))?;
+                crate::app::output::remove_file_if_there(&out.hardware_dir.join(format!("{stem}{suffix}")))?;
             }
             self.taken_back.push(json!({"ply": report.ply, "san": report.san, "by": if report.mover == Mover::Robot { "robot" } else { "hand" }}));
         }
@@ -633,7 +636,7 @@ impl Kept {
 
 /// Sends a robot move to the real arm, only if the simulation proved it: no piece misplaced
 /// and no contact in the simulated motion (else nothing is sent and the game stops, saved).
-fn send_to_arm(arm: &mut crate::live::arm::RealArm, report: &MoveReport) -> Result<()> {
+fn send_to_arm(arm: &mut crate::app::bus::arm::RealArm, report: &MoveReport) -> Result<()> {
     let Some(hardware) = report.hardware.as_ref() else { return Ok(()) };
     if let Some(misplaced) = report.new_misplaced.first() {
         bail!(
@@ -677,7 +680,7 @@ fn play_human(
     kept: &mut Kept,
     out: &Outputs<'_>,
     bar: &indicatif::ProgressBar,
-    mut real_arm: Option<&mut crate::live::arm::RealArm>,
+    mut real_arm: Option<&mut crate::app::bus::arm::RealArm>,
 ) -> Result<()> {
     let pgn_path = out.args.out.join("game.pgn");
     // The resumed moves: the board shows them, so they are played by hand.
@@ -845,7 +848,7 @@ fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, statu
         runs: vec![kept.replay.clone().finish(out.controller)],
     };
     let mut html = Vec::new();
-    crate::replay::write_replay_html(&mut html, &replay)?;
+    crate::app::formats::replay::write_replay_html(&mut html, &replay)?;
     page.show(state, html);
     Ok(())
 }
@@ -879,7 +882,7 @@ fn human_json(human: &HumanGame, args: &PlayArgs, taken_back: &[Value]) -> Value
 /// The real arm's record in game.json: packets sent and, over the moves, the largest lead of
 /// a goal over the present position and change between goals (ticks), and how far a move's
 /// stream slid behind its clock when the machine was late (s).
-fn real_arm_json(arm: &crate::live::arm::RealArm) -> Value {
+fn real_arm_json(arm: &crate::app::bus::arm::RealArm) -> Value {
     let lead: [i64; 4] = std::array::from_fn(|j| arm.followed.iter().map(|f| f.largest_lead[j]).max().unwrap_or(0));
     let change: [i64; 4] = std::array::from_fn(|j| arm.followed.iter().map(|f| f.largest_change[j]).max().unwrap_or(0));
     json!({
@@ -1001,14 +1004,14 @@ fn waits_text(fine_points: bool, totals: &chessarm_chess::play::WaitTotals) -> S
 
 /// The move's closest pair for the replay: the simulated motion's where it was measured, else
 /// the plan's, at the run's time.
-fn replay_closest(report: &chessarm_chess::play::MoveReport) -> Option<crate::replay::ReplayClosest> {
+fn replay_closest(report: &chessarm_chess::play::MoveReport) -> Option<crate::app::formats::replay::ReplayClosest> {
     use chessarm_chess::play::Executed;
     let (clearance, simulated) = match (&report.executed_clearance, &report.clearance) {
         (Some(Executed::Measured(m)), _) => (m, true),
         (_, Some(planned)) => (planned, false),
         _ => return None,
     };
-    Some(crate::replay::ReplayClosest {
+    Some(crate::app::formats::replay::ReplayClosest {
         t: report.start_time + clearance.time,
         distance: clearance.distance,
         part: clearance.part.to_string(),
@@ -1313,12 +1316,16 @@ impl ReplayBuilder {
     }
 }
 
-fn write_move_csv(dir: &Path, report: &MoveReport, convention: &crate::config::JointConvention) -> Result<()> {
+fn write_move_csv(
+    dir: &Path,
+    report: &MoveReport,
+    convention: &crate::app::setup::file::JointConvention,
+) -> Result<()> {
     let mut header = vec!["t".to_string()];
     header.extend(numbered("q", 4).chain(numbered("q_des", 4)));
     header.extend(["x", "y", "z", "x_des", "y_des", "z_des", "tip_error_mm"].map(String::from));
     if report.records.first().is_some_and(|r| r.servo.is_some()) {
-        header.extend(crate::actuators::servo_columns());
+        header.extend(crate::app::setup::actuators::servo_columns());
     }
     let path = dir.join(format!("{:03}-{}.csv", report.ply, report.uci));
     write_csv(
@@ -1329,7 +1336,7 @@ fn write_move_csv(dir: &Path, report: &MoveReport, convention: &crate::config::J
             row.extend(convention.user(r.state.q).into_iter().chain(convention.user(r.reference.q)));
             row.extend(r.tip.iter().chain(r.tip_desired.iter()));
             row.push((r.tip - r.tip_desired).norm() * 1e3);
-            crate::actuators::push_servo_values(&mut row, r, convention);
+            crate::app::setup::actuators::push_servo_values(&mut row, r, convention);
             row
         }),
     )

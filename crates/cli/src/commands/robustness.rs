@@ -5,13 +5,13 @@
 //! CSV row per trial and controller; the rows come out in trial order whatever the number of
 //! threads, and `--shard K/N` slices concatenate to the whole study.
 
+use crate::app::formats::plots::{Panel, Series, Style, plot_panels};
+use crate::app::output::{ensure_dir, remove_stale, write_atomic, write_json};
+use crate::app::setup::conditions::{Study, Trial};
+use crate::app::setup::file::Setup;
 use crate::cli::RobustnessArgs;
 use crate::commands::plan::{Plan, plan_scenario};
 use crate::commands::simulate::{DefaultGains, controller_specs, pawn_events, placement_error};
-use crate::conditions::{Study, Trial};
-use crate::config::Setup;
-use crate::output::{ensure_dir, remove_stale, write_atomic, write_json};
-use crate::plots::{Panel, Series, Style, plot_panels};
 use anyhow::{Context, Result};
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
@@ -119,14 +119,14 @@ fn run_trial(
     let outcome: Result<()> = (|| {
         let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
         settings.controller = spec.clone();
-        crate::actuators::drive(setup, &mut settings);
+        crate::app::setup::actuators::drive(setup, &mut settings);
         settings.pieces = setup.pieces;
         settings.clearance = Some(setup.clearance.clone());
         settings.limits = setup.motion;
         settings.limits.tracking = study.tracking(
             setup,
             &spec.gains,
-            options.payload_feedforward && crate::actuators::cancels_inertia(&spec.kind),
+            options.payload_feedforward && crate::app::setup::actuators::cancels_inertia(&spec.kind),
             options.controller_knows_payload,
         );
         settings.timing = setup.timing;
@@ -282,7 +282,7 @@ fn statistics(rows: &[TrialRow], name: &str, replay: &str, selector: &str, out: 
         "worst_trial_seed": worst.map(|r| r.trial_seed),
         "replay_worst_trial": worst.map(|r| {
             let folder = out.join(format!("worst-{name}"));
-            let folder = crate::output::shell_word(&folder.display().to_string());
+            let folder = crate::app::output::shell_word(&folder.display().to_string());
             format!("chessarm {replay} {selector} {name} --trial-seed {} --out {folder}", r.trial_seed)
         }),
     })
@@ -305,7 +305,7 @@ pub struct TrialOptions {
 
 /// Runs trials `range` of every controller on the current rayon pool, in trial order. A
 /// scenario's trials run on the batch simulator, a batch of trials per task (their runs side
-/// by side, see [`crate::resources::batching`]); a game's trial by trial.
+/// by side, see [`crate::app::resources::batching`]); a game's trial by trial.
 ///
 /// # Errors
 ///
@@ -320,10 +320,12 @@ pub fn run_trials(
     range: std::ops::Range<usize>,
     progress: Option<&indicatif::ProgressBar>,
 ) -> Result<Vec<TrialRow>> {
-    let batching = crate::resources::batching()?;
+    let batching = crate::app::resources::batching()?;
     let indices: Vec<usize> = range.collect();
     let per_task = match work {
-        Work::Scenario { .. } => crate::resources::per_task(indices.len(), rayon::current_num_threads(), batching.0),
+        Work::Scenario { .. } => {
+            crate::app::resources::per_task(indices.len(), rayon::current_num_threads(), batching.0)
+        }
         Work::Game(_) => 1,
     };
     let rows: Result<Vec<Vec<TrialRow>>> = indices
@@ -410,7 +412,7 @@ fn scenario_run<'a>(
     let controller = spec.build_for(setup.arm, &setup.actuators)?;
     // Servos' gears are part of the true plant; their host samples at the bus rate.
     let plant = trial.actuators.plant_model(&trial.plant)?;
-    let control_period = crate::actuators::control_period(setup, 1e-3);
+    let control_period = crate::app::setup::actuators::control_period(setup, 1e-3);
     let feedback = trial.conditions.feedback(control_period)?;
     let config = SimConfig {
         integrator,
@@ -489,10 +491,10 @@ fn scenario_rows(
 }
 
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
-    crate::resources::batching()?;
+    crate::app::resources::batching()?;
     let setup = &args.motion.apply(setup)?;
     let defaults = if args.game_file.is_some() { DefaultGains::Game } else { DefaultGains::Report };
-    let mut specs = match crate::actuators::servo_hosts(setup) {
+    let mut specs = match crate::app::setup::actuators::servo_hosts(setup) {
         Some(hosts) => hosts,
         None => controller_specs(&args.controller, &args.gains, defaults)?,
     };
@@ -510,7 +512,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
             if args.payload_mass.is_some() {
                 anyhow::bail!("--payload-mass goes with a scenario; a game grips its real pieces");
             }
-            Work::Game(crate::input::read_pgn_game(path, args.game)?)
+            Work::Game(crate::app::formats::pgn::read_pgn_game(path, args.game)?)
         }
         None => {
             let plan = plan_scenario(setup, &args.scenario, 1e-3, "the trials")?;
@@ -526,15 +528,15 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         }
         return frontier(setup, args, &work, &specs, &study, paces);
     }
-    let range = crate::resources::shard_range(args.trials, args.shard);
+    let range = crate::app::resources::shard_range(args.trials, args.shard);
     // Every row (with its drawn parameters' names and values) is held until the CSV is written.
-    crate::resources::ensure_fits(
+    crate::app::resources::ensure_fits(
         &format!("--trials {} with {} controllers", args.trials, specs.len()),
         "trial rows",
         range.len() as f64 * specs.len() as f64,
         (std::mem::size_of::<TrialRow>() + 46 * 64) as f64,
     )?;
-    let threads = crate::resources::worker_threads(args.threads)?;
+    let threads = crate::app::resources::worker_threads(args.threads)?;
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
     ensure_dir(&args.out)?;
@@ -575,21 +577,21 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let knows = if args.controller_knows_payload { " --controller-knows-payload" } else { "" };
     // The replay names the setup file, and takes the model errors from its [uncertainty] table
     // when they came from there.
-    let word = |path: &std::path::Path| crate::output::shell_word(&path.display().to_string());
+    let word = |path: &std::path::Path| crate::app::output::shell_word(&path.display().to_string());
     let mut arm = setup.path.as_ref().map_or(String::new(), |p| format!("--arm {} ", word(p)));
     if let Some(path) = &setup.urdf_path {
         arm.push_str(&format!("--urdf {} ", word(path)));
         let locks: Vec<String> =
             setup.urdf.as_ref().map(|u| &u.lock).into_iter().flatten().map(|(j, v)| format!("{j}={v}")).collect();
         if !locks.is_empty() {
-            arm.push_str(&format!("--lock {} ", crate::output::shell_word(&locks.join(","))));
+            arm.push_str(&format!("--lock {} ", crate::app::output::shell_word(&locks.join(","))));
         }
     }
     if setup.actuators.take_positions() {
-        let names: Vec<String> = setup.actuator_names.iter().map(|n| crate::output::shell_word(n)).collect();
+        let names: Vec<String> = setup.actuator_names.iter().map(|n| crate::app::output::shell_word(n)).collect();
         let same = names.iter().all(|n| *n == names[0]);
         arm.push_str(&format!("--actuator {} ", if same { names[0].clone() } else { names.join(",") }));
-        if setup.bus_rate != crate::config::DEFAULT_BUS_RATE {
+        if setup.bus_rate != crate::app::setup::file::DEFAULT_BUS_RATE {
             arm.push_str(&format!("--bus-rate {} ", setup.bus_rate));
         }
     }
@@ -647,7 +649,7 @@ fn selector(setup: &Setup) -> &'static str {
     if setup.actuators.take_positions() { "--servo-command" } else { "--controller" }
 }
 
-fn trial_options(args: &RobustnessArgs, resolution: crate::conditions::Resolution) -> TrialOptions {
+fn trial_options(args: &RobustnessArgs, resolution: crate::app::setup::conditions::Resolution) -> TrialOptions {
     let tolerance = args.tolerance_mm / 1e3;
     TrialOptions {
         seed: args.conditions.seed,
@@ -688,17 +690,17 @@ fn frontier(
     let mut setups = Vec::with_capacity(paces.len());
     for &pace in paces {
         let mut paced = setup.clone();
-        paced.motion = crate::config::checked_limits(setup.motion.at_pace(pace), "motion", "gripper")
-            .with_context(|| format!("--paces {}", crate::resources::show(pace)))?;
+        paced.motion = crate::app::setup::file::checked_limits(setup.motion.at_pace(pace), "motion", "gripper")
+            .with_context(|| format!("--paces {}", crate::app::resources::show(pace)))?;
         setups.push(paced);
     }
-    crate::resources::ensure_fits(
+    crate::app::resources::ensure_fits(
         &format!("--trials {} with {} controllers at {} paces", args.trials, specs.len(), paces.len()),
         "trial rows",
         args.trials as f64 * specs.len() as f64,
         (std::mem::size_of::<TrialRow>() + 46 * 64) as f64,
     )?;
-    let threads = crate::resources::worker_threads(args.threads)?;
+    let threads = crate::app::resources::worker_threads(args.threads)?;
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
     ensure_dir(out)?;
@@ -806,14 +808,14 @@ fn draw_frontier(
         title: "trials with every piece within the tolerance".into(),
         y_label: "success (%)".into(),
         series: series_of(&|s| 100.0 * number(&s["success_rate"])),
-        legend: crate::plots::Corner::LowerRight,
+        legend: crate::app::formats::plots::Corner::LowerRight,
         ..Panel::default()
     };
     let p95 = Panel {
         title: "p95 of the largest placement error per trial".into(),
         y_label: "p95 placement error (mm)".into(),
         series: series_of(&|s| number(&s["place_error_mm"]["p95"])),
-        levels: vec![crate::plots::Level {
+        levels: vec![crate::app::formats::plots::Level {
             value: tolerance_mm,
             label: format!("tolerance {tolerance_mm} mm"),
             color: specs.len(),

@@ -1,14 +1,14 @@
 //! `simulate` and `dynamics`: the report's closed-loop study and the dynamics terms.
 
+use crate::app::formats::plots::{Corner, Level, Mark, Panel, Series, Style, plot_panels, tick};
+use crate::app::formats::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
+use crate::app::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
+use crate::app::resources::{show, show_list};
+use crate::app::setup::conditions::{Study, Trial};
+use crate::app::setup::file::JointConvention;
+use crate::app::setup::file::Setup;
 use crate::cli::{ControllerName, DynamicsArgs, GainArgs, SimulateArgs};
 use crate::commands::plan::{Plan, plan_scenario};
-use crate::conditions::{Study, Trial};
-use crate::config::JointConvention;
-use crate::config::Setup;
-use crate::output::{ensure_dir, numbered, remove_stale, write_csv, write_json};
-use crate::plots::{Corner, Level, Mark, Panel, Series, Style, plot_panels, tick};
-use crate::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
-use crate::resources::{show, show_list};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::pieces::PieceDimensions;
 use chessarm_chess::play::{DEFAULT_TOLERANCE, Handling, placed_position};
@@ -182,7 +182,7 @@ pub fn run_controller(
         spec.build_for(setup.arm, &setup.actuators).with_context(|| format!("controller {}", spec.name))?;
     let conditions = trial.map_or_else(chessarm_core::sense::Conditions::ideal, |t| t.conditions.clone());
     // A servo host samples at the bus rate.
-    let control_period = crate::actuators::control_period(setup, options.control_period);
+    let control_period = crate::app::setup::actuators::control_period(setup, options.control_period);
     let mut feedback = conditions.feedback(control_period)?;
     let config = SimConfig {
         dt: options.dt,
@@ -323,14 +323,14 @@ pub fn write_run(
     let servos = run.records.first().is_some_and(|r| r.servo.is_some());
     let mut header = run_header();
     if servos {
-        header.extend(crate::actuators::servo_columns());
+        header.extend(crate::app::setup::actuators::servo_columns());
     }
     write_csv(
         &csv,
         &header,
         run.records.iter().map(|r| {
             let mut row = run_row(r, convention);
-            crate::actuators::push_servo_values(&mut row, r, convention);
+            crate::app::setup::actuators::push_servo_values(&mut row, r, convention);
             row
         }),
     )?;
@@ -595,7 +595,7 @@ pub fn run_study(
     ensure_tracked(options.tracking_from, &plan)?;
     // Every step of every controller is kept, with the points of its plots.
     let steps = (plan.path.duration() / options.dt).ceil() + 1.0;
-    crate::resources::ensure_fits(
+    crate::app::resources::ensure_fits(
         cause,
         "recorded steps",
         steps * specs.len() as f64,
@@ -626,7 +626,7 @@ pub fn run_study(
         "dt_s": options.dt,
         "integrator": options.integrator.name(),
         // A servo host's period is its bus's.
-        "control_period_s": crate::actuators::control_period(setup, options.control_period),
+        "control_period_s": crate::app::setup::actuators::control_period(setup, options.control_period),
         "actuators": setup.actuator_names,
         "payload_mass_kg": options.payload_mass,
         "true_payload_mass_kg": true_pawn_mass(setup, options.trial.as_ref(), options.payload_mass),
@@ -797,7 +797,7 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     if let Some(q0) = &args.q0 {
         crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
     }
-    let mut specs = match crate::actuators::servo_hosts(setup) {
+    let mut specs = match crate::app::setup::actuators::servo_hosts(setup) {
         Some(hosts) => hosts,
         None => controller_specs(&args.controller, &args.gains, DefaultGains::Report)?,
     };

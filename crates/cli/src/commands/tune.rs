@@ -4,14 +4,14 @@
 //! come out in candidate order whatever the number of threads, so a sweep is reproducible and
 //! `--shard K/N` slices concatenate (`cat`) to the full sweep: only slice 1 carries the header.
 
+use crate::app::formats::plots::{HeatMap, plot_heat_map, tick};
+use crate::app::output::{ensure_dir, write_atomic};
+use crate::app::setup::conditions::Trial;
+use crate::app::setup::file::Setup;
 use crate::cli::{ControllerName, GainArgs, Metric, OneController, TuneArgs};
 use crate::commands::plan::plan_scenario;
 use crate::commands::simulate::{DefaultGains, controller_specs};
 use crate::commands::simulate::{TRANSIENT_S, pawn_events};
-use crate::conditions::Trial;
-use crate::config::Setup;
-use crate::output::{ensure_dir, write_atomic};
-use crate::plots::{HeatMap, plot_heat_map, tick};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
@@ -219,8 +219,10 @@ fn game_candidate(
     settings.record_every = 0;
     settings.controller_knows_payload = options.controller_knows_payload;
     // The fine points' band with this candidate's servos (their stiffness is swept).
-    let resolution =
-        crate::conditions::Resolution { holding_band: drive.actuators.holding_band(&setup.arm), ..options.resolution };
+    let resolution = crate::app::setup::conditions::Resolution {
+        holding_band: drive.actuators.holding_band(&setup.arm),
+        ..options.resolution
+    };
     options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE, resolution);
     settings.integrator = options.integrator;
     let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
@@ -345,11 +347,11 @@ pub struct CandidateOptions {
     /// Start of the tracking metrics, s (see [`SimConfig::tracking_from`]).
     pub tracking_from: f64,
     /// A game's pieces' largest mass errors for the tracking budget, per kind (see
-    /// [`crate::conditions::Study::tracking`]), kg.
+    /// [`crate::app::setup::conditions::Study::tracking`]), kg.
     pub mass_error: [f64; 6],
     /// What the fine points' band can resolve: the sensors' and the servos' counts.
-    pub resolution: crate::conditions::Resolution,
-    /// Each joint's servo's P register conversion ([`crate::actuators::p_register_conversions`]).
+    pub resolution: crate::app::setup::conditions::Resolution,
+    /// Each joint's servo's P register conversion ([`crate::app::setup::actuators::p_register_conversions`]).
     pub p_conversions: [Option<f64>; 4],
 }
 
@@ -375,7 +377,7 @@ impl Drive {
                 control_period: 1e-3,
             },
             Setting::Servo { command, p_gain } => {
-                let with_p = |a| crate::actuators::with_p_register(a, &options.p_conversions, *p_gain);
+                let with_p = |a| crate::app::setup::actuators::with_p_register(a, &options.p_conversions, *p_gain);
                 Self {
                     kind: ControllerKind::ServoHost(*command),
                     // A host has no gains; the number is not used.
@@ -442,7 +444,7 @@ pub fn candidate_gains(args: &TuneArgs) -> Result<Vec<Gains<4>>> {
     if let Some(ki) = &args.ki {
         cause.push_str(&format!(" {}", ranges("--ki", ki)));
     }
-    crate::resources::ensure_fits(
+    crate::app::resources::ensure_fits(
         &cause,
         "candidates",
         count,
@@ -466,7 +468,7 @@ pub fn study(setup: &Setup, args: &TuneArgs, trial: Option<&Trial>) -> Result<St
         if args.payload_mass > 0.0 || args.q0.is_some() {
             bail!("--payload-mass and --q0 go with a scenario; a game grips real pieces from its home position");
         }
-        return Ok(Study::Game(crate::input::read_pgn_game(path, args.game)?));
+        return Ok(Study::Game(crate::app::formats::pgn::read_pgn_game(path, args.game)?));
     }
     scenario_study(setup, args, trial).map(Study::Scenario)
 }
@@ -495,8 +497,8 @@ pub fn sweep(
     threads: Option<usize>,
     progress: Option<&indicatif::ProgressBar>,
 ) -> Result<Vec<Candidate>> {
-    let threads = crate::resources::worker_threads(threads)?;
-    let batching = crate::resources::batching()?;
+    let threads = crate::app::resources::worker_threads(threads)?;
+    let batching = crate::app::resources::batching()?;
     let pool =
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
     let record = match study {
@@ -506,7 +508,7 @@ pub fn sweep(
             let indices: Vec<usize> = range.collect();
             let batches: Result<Vec<Vec<Candidate>>> = pool.install(|| {
                 indices
-                    .par_chunks(crate::resources::per_task(indices.len(), threads, batching.0))
+                    .par_chunks(crate::app::resources::per_task(indices.len(), threads, batching.0))
                     .map(|chunk| {
                         if crate::cancelled() {
                             return Err(crate::interrupted());
@@ -540,7 +542,7 @@ pub fn sweep(
 }
 
 pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
-    crate::resources::batching()?;
+    crate::app::resources::batching()?;
     let setup = &args.motion.apply(setup)?;
     let servos = setup.actuators.take_positions();
     let settings: Vec<Setting> = if servos {
@@ -551,14 +553,14 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         }
         candidate_gains(args)?.into_iter().map(Setting::Torque).collect()
     };
-    let range = crate::resources::shard_range(settings.len(), args.shard);
-    let conditions = crate::conditions::Study::new(setup, &args.conditions, 1e-3)?;
+    let range = crate::app::resources::shard_range(settings.len(), args.shard);
+    let conditions = crate::app::setup::conditions::Study::new(setup, &args.conditions, 1e-3)?;
     let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
     let study = study(setup, args, trial.as_ref())?;
     let kind = controller_specs(&[args.controller.into()], &GainArgs::default(), DefaultGains::Report)?.remove(0).kind;
     if servos {
         // The host strategies replace the torque controllers (said once on the terminal).
-        crate::actuators::servo_hosts(setup);
+        crate::app::setup::actuators::servo_hosts(setup);
     }
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
@@ -574,14 +576,14 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
             args.controller_knows_payload,
         ),
         resolution: conditions.resolution(setup),
-        p_conversions: crate::actuators::p_register_conversions(setup),
+        p_conversions: crate::app::setup::actuators::p_register_conversions(setup),
     };
     if args.game_file.is_some() && args.tracking_from.is_some() {
         bail!("--tracking-from goes with a scenario; a game starts every move on its trajectory");
     }
     ensure_dir(&args.out)?;
     // An earlier sweep's files must not pass for this one's (a failed heat map, a changed range).
-    crate::output::remove_stale(&[args.out.join("tune.csv"), args.out.join("tune.png")])?;
+    crate::app::output::remove_stale(&[args.out.join("tune.csv"), args.out.join("tune.png")])?;
     let bar = crate::progress::bar(range.len() as u64, "tuning");
     let started = Instant::now();
     let candidates = sweep(setup, &study, &options, &settings, range.clone(), args.threads, Some(&bar))?;
@@ -613,7 +615,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         crate::tell(&format!(
             "tracking metrics from t = {} s on (the default after --q0; --tracking-from S changes it): the start \
              from rest off the trajectory is left out\n",
-            crate::resources::show(options.tracking_from)
+            crate::app::resources::show(options.tracking_from)
         ));
     }
     let mut human = String::new();
@@ -721,7 +723,7 @@ fn draw_heat_map(args: &TuneArgs, candidates: &[Candidate], path: &std::path::Pa
     let mut title = format!("{} sweep: {}", if per_cell > 1 { "PID" } else { "PD" }, metric_label(args.metric));
     let from = tracking_from(args);
     if from > 0.0 && matches!(args.metric, Metric::MaxTipError | Metric::RmsJointError) {
-        title.push_str(&format!(" from t = {} s", crate::resources::show(from)));
+        title.push_str(&format!(" from t = {} s", crate::app::resources::show(from)));
     }
     plot_heat_map(
         path,
@@ -790,7 +792,7 @@ fn servo_settings(setup: &Setup, args: &TuneArgs) -> Result<Vec<Setting>> {
     if range.from <= 0.0 {
         bail!("--p-gain range starts at {}: the P register must be > 0", range.from);
     }
-    let conversions = crate::actuators::p_register_conversions(setup);
+    let conversions = crate::app::setup::actuators::p_register_conversions(setup);
     if let Some(j) = conversions.iter().position(Option::is_none) {
         bail!(
             "--p-gain: joint {}'s actuator {} has no P register to sweep (a stepper, or an [actuators] table without `base`)",

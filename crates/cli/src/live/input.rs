@@ -274,7 +274,7 @@ pub fn lines_from(
     }
     let listener = std::os::unix::net::UnixListener::bind(path)
         .with_context(|| format!("--input-socket {}: cannot create the socket", path.display()))?;
-    crate::output::remove_at_exit(path);
+    crate::app::output::remove_at_exit(path);
     let file = SocketFile(path.to_path_buf());
     crate::tell(&format!("waiting for the board's reader to connect to {}\n", path.display()));
     let (stream, _) = listener.accept().with_context(|| format!("--input-socket {}", path.display()))?;
@@ -312,6 +312,6 @@ pub struct SocketFile(std::path::PathBuf);
 
 impl Drop for SocketFile {
     fn drop(&mut self) {
-        crate::output::remove_now(&self.0);
+        crate::app::output::remove_now(&self.0);
     }
 }

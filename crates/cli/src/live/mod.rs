@@ -1,7 +1,6 @@
 //! The live loop's pieces (`play --human`): the person's input ([`input`]), the live page
 //! ([`page`]), the real arm ([`arm`]), and the game's PGN record kept as it is played.
 
-pub mod arm;
 pub mod input;
 pub mod page;
 
@@ -28,7 +27,7 @@ impl PgnGame {
         if !path.is_file() {
             anyhow::bail!("--resume: there is no {} to go on with", path.display());
         }
-        let record = crate::input::read_pgn_game(path, 1)?;
+        let record = crate::app::formats::pgn::read_pgn_game(path, 1)?;
         if let Some(result) = record.header("Result").filter(|r| *r != "*") {
             anyhow::bail!(
                 "--resume: the game in {} is over ({result}); start a new one without --resume",
@@ -60,7 +59,7 @@ impl PgnGame {
         headers.retain(|(k, _)| k != "PlyCount");
         headers.push(("PlyCount".to_string(), self.moves.len().to_string()));
         let text = write_pgn(&headers, &self.start, &self.moves, result);
-        crate::output::write_atomic(path, |out| out.write_all(text.as_bytes()).context("writing the PGN"))
+        crate::app::output::write_atomic(path, |out| out.write_all(text.as_bytes()).context("writing the PGN"))
     }
 
     /// The position after the moves.

@@ -67,7 +67,7 @@ pub struct ImportedArm {
 /// The file cannot be read, is not XML, or describes something chessarm cannot model; the
 /// message names the file, the element and its line.
 pub fn load(path: &Path, options: &ImportOptions) -> Result<ImportedArm> {
-    let text = crate::input::read_text("URDF file", path, crate::input::MAX_URDF_BYTES)?;
+    let text = crate::app::formats::pgn::read_text("URDF file", path, crate::app::formats::pgn::MAX_URDF_BYTES)?;
     let folder = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
     from_urdf_in(&text, options, folder).with_context(|| format!("URDF file {}", path.display()))
 }
@@ -1120,7 +1120,7 @@ fn collision_bodies(
         .filter(|(_, j)| locked.iter().any(|l| l.name == j.name && l.gripper.is_some()))
         .map(|(k, _)| k)
         .collect();
-    let package_path = crate::meshes::package_path();
+    let package_path = crate::app::setup::meshes::package_path();
     let mut shapes = Vec::new();
     let mut fingers = Vec::new();
     let mut missing: Vec<(String, Vec<std::path::PathBuf>)> = Vec::new();
@@ -1181,7 +1181,7 @@ fn collision_bodies(
                             .attribute("filename")
                             .ok_or_else(|| anyhow!("{}: <mesh> needs filename=\"…\"", at(&node)))?;
                         let scale = triple(&geometry, "scale", [1.0; 3])?;
-                        let looked = crate::meshes::candidates(filename, folder, &package_path);
+                        let looked = crate::app::setup::meshes::candidates(filename, folder, &package_path);
                         let Some(path) = looked.iter().find(|p| p.is_file()) else {
                             missing.push((filename.to_string(), looked));
                             return Ok(None);
@@ -1191,7 +1191,7 @@ fn collision_bodies(
                             Some(points) => std::sync::Arc::clone(points),
                             None => {
                                 let scale_text = geometry.attribute("scale").unwrap_or("1 1 1");
-                                let mesh = crate::meshes::read_stl(path, scale, scale_text)
+                                let mesh = crate::app::setup::meshes::read_stl(path, scale, scale_text)
                                     .with_context(|| format!("{}: <mesh filename=\"{filename}\">", at(&node)))?;
                                 if let Some((vertices, kept, within)) = mesh.decimated {
                                     warnings.push(format!(
@@ -1199,7 +1199,7 @@ fn collision_bodies(
                                          ({}): the hull of {kept} points around them stands in, at most {} mm outside \
                                          the mesh's own hull and never inside it",
                                         path.display(),
-                                        crate::meshes::MAX_HULL_INPUT,
+                                        crate::app::setup::meshes::MAX_HULL_INPUT,
                                         chessarm_core::short_number((within * 1e4).ceil() / 10.0)
                                     ));
                                 }
@@ -1265,12 +1265,12 @@ fn collision_bodies(
     // pose of every move: a bound on their sum keeps a game's check in seconds a move.
     let corners: usize =
         shapes.iter().map(|s| if let Shape::Hull { points } = &s.shape { points.len() } else { 8 }).sum();
-    if corners > crate::meshes::MAX_ARM_HULL_CORNERS {
+    if corners > crate::app::setup::meshes::MAX_ARM_HULL_CORNERS {
         bail!(
             "its {} <collision> shapes have {corners} hull corners in all, more than the clearance check takes in \
              reasonable time ({}): give fewer or simpler shapes (a link's mesh once, decimated meshes, boxes)",
             shapes.len(),
-            crate::meshes::MAX_ARM_HULL_CORNERS
+            crate::app::setup::meshes::MAX_ARM_HULL_CORNERS
         );
     }
     let bare: Vec<String> = arm

@@ -23,7 +23,7 @@ pub const LOCK_FILE: &str = ".chessarm-lock";
 
 /// The list, in every folder chessarm writes results into, of the files it wrote there (one
 /// name a line). A file is only ever replaced or removed when this list names it
-/// ([`crate::output`] keeps it; a run that ends having written nothing leaves no lock).
+/// ([`crate::app::output`] keeps it; a run that ends having written nothing leaves no lock).
 pub const WRITTEN_LIST: &str = ".chessarm-written";
 
 /// Attempts at a lock that another run's brief check may hold for an instant.

@@ -7,6 +7,8 @@
 //! is never truncated), and the first write into a folder deletes the temporary files that
 //! earlier runs, no longer alive, left there (a `kill -9` cannot be caught).
 
+pub mod folder_lock;
+
 use anyhow::{Context, Result, anyhow, bail};
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
@@ -58,7 +60,7 @@ pub fn remove_temporaries_on_signal() -> Result<()> {
         // which sees the engines die, waits in `await_signal_handler` instead of exiting first
         // with an error of its own.
         // The arm first: torque off on a driven arm's servos, nothing sent after it.
-        crate::bus::driver::torque_off_before_exit();
+        crate::app::bus::driver::torque_off_before_exit();
         let files = pending();
         // Engines run in process groups of their own, which the terminal's Ctrl-C misses.
         chessarm_chess::opponent::kill_all_engines();
@@ -182,7 +184,7 @@ fn readable_by_all() -> std::fs::Permissions {
     std::fs::Permissions::from_mode(0o644)
 }
 
-pub use crate::folder_lock::WRITTEN_LIST;
+pub use crate::app::output::folder_lock::WRITTEN_LIST;
 
 /// The names listed in each folder, as read or written by this process.
 static LISTED: Mutex<Option<HashMap<PathBuf, HashSet<String>>>> = Mutex::new(None);
@@ -242,7 +244,7 @@ fn is_plain_name(name: &str) -> bool {
         && name != "."
         && name != ".."
         && name != WRITTEN_LIST
-        && name != crate::folder_lock::LOCK_FILE
+        && name != crate::app::output::folder_lock::LOCK_FILE
         && !name.contains(['/', '\\', '\0'])
 }
 
@@ -288,7 +290,7 @@ fn not_ours_for(path: &Path, flag: &str) -> anyhow::Error {
 pub fn claim(path: &Path) -> Result<()> {
     let (dir, name) = split(path)?;
     ensure_dir(&dir)?;
-    crate::folder_lock::lock(&dir)?;
+    crate::app::output::folder_lock::lock(&dir)?;
     let mut guard = listed();
     let names = match guard.get_or_insert_with(HashMap::new).entry(dir.clone()) {
         Entry::Occupied(entry) => entry.into_mut(),
@@ -401,7 +403,7 @@ pub fn remove_stale(paths: &[PathBuf]) -> Result<()> {
             continue;
         }
         let (dir, name) = split(path)?;
-        crate::folder_lock::lock(&dir)?;
+        crate::app::output::folder_lock::lock(&dir)?;
         if !read_list(&dir)?.contains(&name) {
             return Err(not_ours(path));
         }
@@ -417,7 +419,7 @@ pub fn remove_stale(paths: &[PathBuf]) -> Result<()> {
 /// A list or a file that cannot be read or removed.
 pub fn remove_listed_in(dir: &Path) -> Result<()> {
     if dir.is_dir() {
-        crate::folder_lock::lock(dir)?;
+        crate::app::output::folder_lock::lock(dir)?;
     }
     for name in read_list(dir)? {
         remove_file_if_there(&dir.join(name))?;

@@ -3,8 +3,8 @@
 //! (`--uncertainty FILE` or the setup's `[uncertainty]` table), with the seeds that make a run
 //! reproducible. Shared by `simulate`, `play`, `tune`, `gains` and `robustness`.
 
+use crate::app::setup::file::Setup;
 use crate::args;
-use crate::config::Setup;
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::pieces::{PieceSet, role_name};
 use chessarm_chess::shakmaty::Role;
@@ -374,15 +374,16 @@ pub struct Trial {
 }
 
 fn read_toml<T: serde::de::DeserializeOwned>(flag: &str, path: &Path) -> Result<T> {
-    let text = crate::input::read_text(flag, path, crate::input::MAX_SETUP_BYTES)?;
-    toml::from_str(&text).map_err(|e| anyhow!("{flag} {}: {}", path.display(), crate::config::toml_error(&text, &e)))
+    let text = crate::app::formats::pgn::read_text(flag, path, crate::app::formats::pgn::MAX_SETUP_BYTES)?;
+    toml::from_str(&text)
+        .map_err(|e| anyhow!("{flag} {}: {}", path.display(), crate::app::setup::file::toml_error(&text, &e)))
 }
 
 /// An uncertainty file: the fields at its top level, or a setup file's `[uncertainty]` table.
 fn read_uncertainty(path: &Path) -> Result<UncertaintyFile> {
-    let text = crate::input::read_text("--uncertainty", path, crate::input::MAX_SETUP_BYTES)?;
+    let text = crate::app::formats::pgn::read_text("--uncertainty", path, crate::app::formats::pgn::MAX_SETUP_BYTES)?;
     let value: toml::Value = toml::from_str(&text)
-        .map_err(|e| anyhow!("--uncertainty {}: {}", path.display(), crate::config::toml_error(&text, &e)))?;
+        .map_err(|e| anyhow!("--uncertainty {}: {}", path.display(), crate::app::setup::file::toml_error(&text, &e)))?;
     let table = match value.get("uncertainty") {
         Some(table) => table.clone(),
         None => value,
@@ -752,7 +753,7 @@ impl ConditionArgs {
         let mut flags = String::new();
         let mut add = |flag: &str, value: String| flags.push_str(&format!(" --{flag} {value}"));
         if let Some(sensors) = &self.sensors {
-            add("sensors", crate::output::shell_word(sensors));
+            add("sensors", crate::app::output::shell_word(sensors));
         }
         if let Some(estimator) = self.estimator {
             let name = match estimator {
@@ -773,11 +774,11 @@ impl ConditionArgs {
             add("torque-lag", lag.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","));
         }
         if let Some(plant) = &self.plant {
-            add("plant", crate::output::shell_word(&plant.display().to_string()));
+            add("plant", crate::app::output::shell_word(&plant.display().to_string()));
         }
 
         if let Some(uncertainty) = &self.uncertainty {
-            add("uncertainty", crate::output::shell_word(&uncertainty.display().to_string()));
+            add("uncertainty", crate::app::output::shell_word(&uncertainty.display().to_string()));
         }
         if self.controller_knows_friction {
             flags.push_str(" --controller-knows-friction");

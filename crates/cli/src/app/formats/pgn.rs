@@ -35,7 +35,7 @@ pub fn read_text(what: &str, path: &Path, max_bytes: u64) -> Result<String> {
         bail!(
             "{what} {}: longer than {} (the most chessarm reads of such a file); is it the right file?",
             path.display(),
-            crate::resources::show_bytes(max_bytes as f64)
+            crate::app::resources::show_bytes(max_bytes as f64)
         );
     }
     String::from_utf8(bytes).map_err(|e| {

@@ -3,7 +3,7 @@
 //! Every section and field is optional and defaults to the report's setup, so a file may say
 //! only what differs. Units are SI: m, rad, kg, kg·m², N·m, s.
 
-use crate::conditions::{SensorFile, UncertaintyFile};
+use crate::app::setup::conditions::{SensorFile, UncertaintyFile};
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::clearance::moves::ClearanceCheck;
@@ -352,10 +352,10 @@ pub struct SetupFile {
     pub actuator: Option<ActuatorNames>,
     /// The user's own servos, `[actuators.NAME]`.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub actuators: BTreeMap<String, crate::actuators::ActuatorFile>,
+    pub actuators: BTreeMap<String, crate::app::setup::actuators::ActuatorFile>,
     /// `[servo_bus]`: the servos' IDs, directions and zero ticks (for the goals in ticks).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub servo_bus: Option<crate::actuators::ServoBusFile>,
+    pub servo_bus: Option<crate::app::setup::actuators::ServoBusFile>,
 }
 
 /// `actuator = "NAME"` or `actuator = ["NAME", …]` (one per joint).
@@ -413,10 +413,10 @@ pub struct Setup {
     pub actuators: Actuators<4>,
     pub actuator_names: [String; 4],
     /// The user's own servos (`[actuators.NAME]`), checked.
-    pub actuator_tables: BTreeMap<String, crate::actuators::ActuatorFile>,
+    pub actuator_tables: BTreeMap<String, crate::app::setup::actuators::ActuatorFile>,
     /// The `[servo_bus]` table as given (checked against the actuators when the goals are
     /// written in ticks).
-    pub servo_bus: Option<crate::actuators::ServoBusFile>,
+    pub servo_bus: Option<crate::app::setup::actuators::ServoBusFile>,
     /// With servos: the host's strategies (`--servo-command`; `simulate` compares them) and its
     /// bus rate, Hz (`--bus-rate`).
     pub servo_commands: Vec<chessarm_core::control::servo_host::ServoCommand>,
@@ -445,7 +445,7 @@ impl Default for Setup {
             convention: JointConvention::default(),
             urdf: None,
             actuators: Actuators::torque(),
-            actuator_names: std::array::from_fn(|_| crate::actuators::TORQUE.to_string()),
+            actuator_names: std::array::from_fn(|_| crate::app::setup::actuators::TORQUE.to_string()),
             actuator_tables: BTreeMap::new(),
             servo_bus: None,
             servo_commands: vec![Default::default()],
@@ -462,7 +462,7 @@ impl Default for Setup {
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointConvention {
     pub signs: [f64; 4],
-    pub locked: Vec<crate::urdf_import::LockedJoint>,
+    pub locked: Vec<crate::app::setup::urdf_import::LockedJoint>,
 }
 
 impl Default for JointConvention {
@@ -489,7 +489,7 @@ impl Setup {
     }
 
     /// The arm of a URDF in place of the setup's.
-    pub fn take_urdf_arm(&mut self, imported: crate::urdf_import::ImportedArm) {
+    pub fn take_urdf_arm(&mut self, imported: crate::app::setup::urdf_import::ImportedArm) {
         self.arm = imported.model;
         self.joint_names = imported.joint_names;
         self.base_link = imported.base_link;
@@ -509,7 +509,8 @@ impl Setup {
         match path {
             None => Ok(Self::default()),
             Some(path) => {
-                let text = crate::input::read_text("arm file", path, crate::input::MAX_SETUP_BYTES)?;
+                let text =
+                    crate::app::formats::pgn::read_text("arm file", path, crate::app::formats::pgn::MAX_SETUP_BYTES)?;
                 let setup = Self::parse(&text).with_context(|| format!("arm file {}", path.display()))?;
                 Ok(Self { path: Some(path.to_path_buf()), ..setup })
             }
@@ -680,19 +681,22 @@ impl SetupFile {
         if let Some(uncertainty) = &self.uncertainty {
             uncertainty.to_uncertainty()?;
         }
-        crate::actuators::check_tables(&self.actuators)?;
+        crate::app::setup::actuators::check_tables(&self.actuators)?;
         let per_link: Vec<Option<&String>> = self.links.iter().map(|l| l.actuator.as_ref()).collect();
         let (names, what): (Vec<String>, &str) = match (&self.actuator, per_link.iter().any(Option::is_some)) {
             (Some(_), true) => bail!("actuator is given both at the top and in [[links]]: give it in one place"),
             (Some(ActuatorNames::One(name)), false) => (vec![name.clone()], "actuator"),
             (Some(ActuatorNames::Each(names)), false) => (names.clone(), "actuator"),
             (None, true) => (
-                per_link.iter().map(|n| n.cloned().unwrap_or_else(|| crate::actuators::TORQUE.into())).collect(),
+                per_link
+                    .iter()
+                    .map(|n| n.cloned().unwrap_or_else(|| crate::app::setup::actuators::TORQUE.into()))
+                    .collect(),
                 "[[links]] actuator",
             ),
-            (None, false) => (vec![crate::actuators::TORQUE.into()], "actuator"),
+            (None, false) => (vec![crate::app::setup::actuators::TORQUE.into()], "actuator"),
         };
-        let actuators = crate::actuators::resolve(&names, &self.actuators, what)?;
+        let actuators = crate::app::setup::actuators::resolve(&names, &self.actuators, what)?;
         let actuator_names: [String; 4] = std::array::from_fn(|j| names.get(j).unwrap_or(&names[0]).clone());
         Ok(Setup {
             arm,
@@ -823,7 +827,7 @@ impl From<&Setup> for SetupFile {
         SetupFile {
             base: (base != Vector3::zeros()).then(|| base.iter().copied().collect()),
             urdf: None,
-            actuator: setup.actuator_names.iter().any(|n| n != crate::actuators::TORQUE).then(|| {
+            actuator: setup.actuator_names.iter().any(|n| n != crate::app::setup::actuators::TORQUE).then(|| {
                 if setup.actuator_names.iter().all(|n| *n == setup.actuator_names[0]) {
                     ActuatorNames::One(setup.actuator_names[0].clone())
                 } else {

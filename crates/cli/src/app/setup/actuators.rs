@@ -5,7 +5,7 @@
 //! here by the built-in servo it is `base`d on. With servos, the hosts that replace the torque
 //! controllers and the bus's period are also decided here, for every command.
 
-use crate::config::Setup;
+use crate::app::setup::file::Setup;
 use anyhow::{Result, bail};
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::sim::actuator::{Actuator, Actuators, ServoSpec, profiles};
@@ -359,7 +359,7 @@ pub fn check_bus_period(setup: &Setup, dt: f64, dt_flag: &str) -> anyhow::Result
     let period = 1.0 / setup.bus_rate;
     let ratio = period / dt;
     if ratio.round() < 1.0 || (ratio - ratio.round()).abs() > 1e-9 * ratio {
-        let show = crate::resources::show;
+        let show = crate::app::resources::show;
         anyhow::bail!(
             "--bus-rate {} Hz (a goal every {} s) must be a whole multiple of the simulation's time step{dt_flag} {} s: \
              e.g. --bus-rate {}, or a smaller time step",
@@ -423,7 +423,7 @@ pub struct ServoBusFile {
     pub zero_ticks: Option<Vec<f64>>,
     /// `feetech` or `dynamixel` (default: the servos' own: STS → Feetech, XL/XM → Dynamixel).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub protocol: Option<crate::bus::Protocol>,
+    pub protocol: Option<crate::app::bus::Protocol>,
     /// The gripper's servo, driven to `gripper_open_ticks` and `gripper_closed_ticks` as the
     /// plan opens and closes it (none: the gripper is not driven).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -444,8 +444,8 @@ pub struct ServoBus {
     pub counts_per_revolution: [f64; 4],
     /// The bus's protocol (`None`: the servos speak neither, e.g. a hobby PWM servo or a
     /// stepper; the goals are then only exported).
-    pub protocol: Option<crate::bus::Protocol>,
-    pub gripper: Option<crate::bus::driver::GripperServo>,
+    pub protocol: Option<crate::app::bus::Protocol>,
+    pub gripper: Option<crate::app::bus::driver::GripperServo>,
 }
 
 impl ServoBus {
@@ -493,15 +493,15 @@ impl ServoBus {
         };
         let protocol = file.protocol.or_else(|| {
             let of = |name: &String| {
-                crate::bus::Protocol::of_servo(name).or_else(|| {
+                crate::app::bus::Protocol::of_servo(name).or_else(|| {
                     setup
                         .actuator_tables
                         .get(name)
                         .and_then(|t| t.base.as_deref())
-                        .and_then(crate::bus::Protocol::of_servo)
+                        .and_then(crate::app::bus::Protocol::of_servo)
                 })
             };
-            let each: Vec<Option<crate::bus::Protocol>> = setup.actuator_names.iter().map(of).collect();
+            let each: Vec<Option<crate::app::bus::Protocol>> = setup.actuator_names.iter().map(of).collect();
             each[0].filter(|p| each.iter().all(|e| *e == Some(*p)))
         });
         let gripper = match (file.gripper_id, file.gripper_open_ticks, file.gripper_closed_ticks) {
@@ -516,7 +516,7 @@ impl ServoBus {
                         bail!("servo_bus.{field} = {tick}: a gripper servo's goal is a tick 0–4095");
                     }
                 }
-                Some(crate::bus::driver::GripperServo { id, open, closed })
+                Some(crate::app::bus::driver::GripperServo { id, open, closed })
             }
             _ => bail!("servo_bus: give gripper_id, gripper_open_ticks and gripper_closed_ticks together (or none)"),
         };
@@ -556,14 +556,14 @@ impl ServoBus {
 /// The servo columns of a run's CSV (simulate's and play's): the goals and internal targets
 /// (rad), duties (−1…1) and backlash gaps (rad) per joint.
 pub fn servo_columns() -> impl Iterator<Item = String> {
-    ["goal", "target", "duty", "gap"].into_iter().flat_map(|prefix| crate::output::numbered(prefix, 4))
+    ["goal", "target", "duty", "gap"].into_iter().flat_map(|prefix| crate::app::output::numbered(prefix, 4))
 }
 
 /// Appends a record's [`servo_columns`] values (in the setup's sense), if servos drive it.
 pub fn push_servo_values(
     row: &mut Vec<f64>,
     record: &chessarm_core::sim::StepRecord<4>,
-    convention: &crate::config::JointConvention,
+    convention: &crate::app::setup::file::JointConvention,
 ) {
     if let Some(servo) = &record.servo {
         for part in [servo.goal, servo.target, servo.duty, servo.gap] {

@@ -1,7 +1,7 @@
 //! Line plots and heat maps as PNG (plotters, bitmap backend, embedded DejaVu Sans font).
 //! Callers convert units for display and say so in the axis labels.
 
-use crate::output::render_atomic;
+use crate::app::output::render_atomic;
 use anyhow::{Result, anyhow};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -9,7 +9,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 use std::sync::Once;
 
-static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
 fn register_font() {

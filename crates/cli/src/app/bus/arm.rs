@@ -2,10 +2,10 @@
 //! proved, at the bus rate, fine points' waits included — converted to the servos' ticks
 //! (`[servo_bus]`) and sent by the [`Driver`], every goal checked on the wire.
 
-use crate::actuators::ServoBus;
-use crate::bus::driver::{Driver, DriverError, Followed, TickGoal, Wire, WireLimits};
-use crate::bus::port::{BAUD_RATE, SerialLine};
-use crate::config::Setup;
+use crate::app::bus::driver::{Driver, DriverError, Followed, TickGoal, Wire, WireLimits};
+use crate::app::bus::port::{BAUD_RATE, SerialLine};
+use crate::app::setup::actuators::ServoBus;
+use crate::app::setup::file::Setup;
 use anyhow::{Result, bail};
 use chessarm_chess::play::{Handling, ServoGoal};
 use std::path::Path;
@@ -89,7 +89,7 @@ impl RealArm {
             (Some(port), false) => Wire::Serial(SerialLine::open(port, BAUD_RATE)?),
             (None, false) => bail!("give --port DEVICE or --dry-run"),
         };
-        let log = crate::output::create_log(options.log, options.append_log)?;
+        let log = crate::app::output::create_log(options.log, options.append_log)?;
         let driver = Driver::new(
             wire,
             protocol,

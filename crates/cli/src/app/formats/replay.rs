@@ -10,7 +10,7 @@
 //! rigidly with the tool (its base at `standing + tip(t) − tip(grip)`), a released one stays
 //! where the simulation put it down.
 
-use crate::output::write_atomic;
+use crate::app::output::write_atomic;
 use anyhow::Result;
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::pieces::{PieceSet, role_name};
@@ -27,9 +27,9 @@ use std::path::Path;
 
 /// The vendored three.js release (see `assets/three/README.md`).
 pub const THREE_VERSION: &str = "0.185.1";
-const THREE_CORE: &str = include_str!("../assets/three/three.core.min.js");
-const THREE_MODULE: &str = include_str!("../assets/three/three.module.min.js");
-const VIEWER: &str = include_str!("../assets/replay.html");
+const THREE_CORE: &str = include_str!("../../../assets/three/three.core.min.js");
+const THREE_MODULE: &str = include_str!("../../../assets/three/three.module.min.js");
+const VIEWER: &str = include_str!("../../../assets/replay.html");
 
 /// Time between displayed frames, s (50 Hz: every second record of `play`, every twentieth
 /// of `simulate`).

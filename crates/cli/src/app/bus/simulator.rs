@@ -20,7 +20,7 @@
 //! ([`SimulatedBus::expire`]), so the next whole packet is answered.
 
 use super::Protocol;
-use crate::actuators::ServoBus;
+use crate::app::setup::actuators::ServoBus;
 use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::control::JointState;
 use chessarm_core::sim::actuator::{Actuators, PositionBank};
@@ -624,9 +624,10 @@ mod tests {
     /// The default setup's arm on STS3215 servos, its bus resting at the pose a game starts
     /// from (as `bus-sim --actuator sts3215` starts).
     fn sts_bus() -> SimulatedBus {
-        let mut setup = crate::config::Setup::load(None).unwrap();
+        let mut setup = crate::app::setup::file::Setup::load(None).unwrap();
         setup.actuators =
-            crate::actuators::resolve(&["sts3215".to_string()], &setup.actuator_tables, "--actuator").unwrap();
+            crate::app::setup::actuators::resolve(&["sts3215".to_string()], &setup.actuator_tables, "--actuator")
+                .unwrap();
         setup.actuator_names = std::array::from_fn(|_| "sts3215".to_string());
         let bus = ServoBus::of(&setup).unwrap();
         let q = chessarm_chess::play::home_pose(

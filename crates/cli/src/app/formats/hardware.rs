@@ -22,7 +22,7 @@
 //!
 //! Times are from the move's start; each move starts where the previous one ended, at rest.
 
-use crate::output::{numbered, write_atomic};
+use crate::app::output::{numbered, write_atomic};
 use anyhow::{Context, Result};
 use chessarm_core::plan::hardware::{GripperCommand, HardwarePoint};
 use chessarm_core::plan::path::GripperAction;
@@ -60,7 +60,7 @@ pub struct MoveLabel<'a> {
 pub fn write_move(
     dir: &Path,
     stem: &str,
-    (base_link, joint_names, convention): (&str, &[String; 4], &crate::config::JointConvention),
+    (base_link, joint_names, convention): (&str, &[String; 4], &crate::app::setup::file::JointConvention),
     points: &[HardwarePoint],
     commands: &[GripperCommand],
     label: &MoveLabel<'_>,
@@ -73,7 +73,7 @@ pub fn write_move(
     let names: Vec<&str> =
         joint_names.iter().map(String::as_str).chain(convention.locked.iter().map(|j| j.name.as_str())).collect();
     let whole = |p: &HardwarePoint| -> [Vec<f64>; 3] {
-        let held = |value: fn(&crate::urdf_import::LockedJoint, bool) -> f64| {
+        let held = |value: fn(&crate::app::setup::urdf_import::LockedJoint, bool) -> f64| {
             convention.locked.iter().map(move |j| plain(value(j, p.gripper_closed)))
         };
         [
@@ -181,8 +181,8 @@ pub fn write_move(
 pub fn write_servo_goals(
     dir: &Path,
     stem: &str,
-    convention: &crate::config::JointConvention,
-    bus: &crate::actuators::ServoBus,
+    convention: &crate::app::setup::file::JointConvention,
+    bus: &crate::app::setup::actuators::ServoBus,
     goals: &[chessarm_chess::play::ServoGoal],
 ) -> Result<String> {
     let path = dir.join(format!("{stem}-goals.csv"));
@@ -228,7 +228,11 @@ pub fn write_servo_goals(
 
 /// Writes `<dir>/servo_bus.json`: what the goal files' ticks mean (each joint's name, servo,
 /// ID, direction, zero tick and counts per turn; the bus rate) for a driver of the real arm.
-pub fn write_servo_bus(dir: &Path, setup: &crate::config::Setup, bus: &crate::actuators::ServoBus) -> Result<String> {
+pub fn write_servo_bus(
+    dir: &Path,
+    setup: &crate::app::setup::file::Setup,
+    bus: &crate::app::setup::actuators::ServoBus,
+) -> Result<String> {
     let path = dir.join("servo_bus.json");
     let joints: Vec<Value> = (0..4)
         .map(|j| {
@@ -242,7 +246,7 @@ pub fn write_servo_bus(dir: &Path, setup: &crate::config::Setup, bus: &crate::ac
             })
         })
         .collect();
-    crate::output::write_json(
+    crate::app::output::write_json(
         &path,
         &json!({
             "joints": joints,

@@ -10,6 +10,7 @@
 //! Both read a status packet back from a byte stream that may hold noise before it; a packet
 //! cut short, with a bad checksum or from another servo is an error that says so.
 
+pub mod arm;
 pub mod driver;
 pub mod dynamixel;
 pub mod feetech;

@@ -1,0 +1,1 @@
+//! The studies: each a library call with typed options and a typed result, nothing written.
