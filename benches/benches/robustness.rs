@@ -8,10 +8,10 @@
 
 use chessarm::app::setup::conditions::Study;
 use chessarm::app::setup::file::Setup;
+use chessarm::app::studies::plan::plan_scenario;
+use chessarm::app::studies::simulate::{DefaultGains, controller_specs};
 use chessarm::cli::{Cli, Command};
-use chessarm::commands::plan::plan_scenario;
 use chessarm::commands::robustness::{TrialOptions, Work, run_trials};
-use chessarm::commands::simulate::{DefaultGains, controller_specs};
 use clap::Parser;
 use criterion::{Criterion, criterion_group, criterion_main};
 
@@ -41,7 +41,7 @@ fn trials(c: &mut Criterion) {
         }
         let cli = Cli::parse_from(line);
         let Some(Command::Robustness(args)) = cli.command else { unreachable!("a robustness command line") };
-        let specs = controller_specs(&args.controller, &args.gains, DefaultGains::Report).expect("specs");
+        let specs = controller_specs(&args.controller, &args.gains.given(), DefaultGains::Report).expect("specs");
         let study = Study::for_trials(&setup, &args.conditions, 1e-3).expect("conditions");
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("pool");
         group.bench_function(format!("{name}: 100 trials, 2 threads"), |b| {

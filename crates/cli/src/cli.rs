@@ -1,6 +1,7 @@
 //! The command line.
 
 use crate::app::setup::conditions::ConditionArgs;
+use crate::app::studies::simulate::ControllerName;
 use crate::args;
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -164,36 +165,6 @@ pub struct BusSimArgs {
     /// starts a game from).
     #[arg(long, value_name = "Q1,Q2,Q3,Q4", value_parser = args::angles, allow_hyphen_values = true)]
     pub start: Option<[f64; 4]>,
-}
-
-/// A controller of `simulate` and `robustness`, in a comma-separated list.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ControllerName {
-    /// Computed torque with a PD outer loop (report: kp = 400, kd = 20).
-    Pd,
-    /// Computed torque with a PID outer loop and anti-windup (report: kp = 600, kd = 25, ki = 75).
-    Pid,
-    /// The report's PID as it was, without anti-windup (its start-up wind-up spoils the grip).
-    PidPlain,
-    /// Computed torque that estimates the gripped piece's mass online (PD gains).
-    Adaptive,
-    /// Computed torque with a disturbance observer (PD gains).
-    Dob,
-    /// pd and pid.
-    Both,
-}
-
-impl ControllerName {
-    pub fn name(self) -> &'static str {
-        match self {
-            ControllerName::Pd => "pd",
-            ControllerName::Pid => "pid",
-            ControllerName::PidPlain => "pid-plain",
-            ControllerName::Adaptive => "adaptive",
-            ControllerName::Dob => "dob",
-            ControllerName::Both => "both",
-        }
-    }
 }
 
 #[derive(Debug, Args, Clone)]
@@ -705,6 +676,13 @@ pub struct GainArgs {
     /// Integral gain (PID), 1/s³: one value or one per joint.
     #[arg(long, value_parser = args::gain, allow_hyphen_values = true)]
     pub ki: Option<[f64; 4]>,
+}
+
+impl GainArgs {
+    /// The gains as given, for the studies.
+    pub fn given(&self) -> crate::app::studies::simulate::GivenGains {
+        crate::app::studies::simulate::GivenGains { kp: self.kp, kd: self.kd, ki: self.ki }
+    }
 }
 
 /// How the plant is integrated over each time step (all fixed-step, torque held per step).

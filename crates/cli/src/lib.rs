@@ -150,6 +150,24 @@ pub fn files_text(files: &[String]) -> String {
     text
 }
 
+/// Warns (on stderr) about each angle of `flag` outside its joint's limits: most often an
+/// angle typed in degrees where radians are read.
+pub fn warn_outside_limits(setup: &Setup, flag: &str, q: &[f64; 4]) {
+    for (j, value) in q.iter().enumerate() {
+        let (lower, upper) = setup.user_limits(j);
+        if !(lower..=upper).contains(value) {
+            crate::tell(&format!(
+                "warning: {flag} joint {} = {} rad is outside its limits [{lower:.4}, {upper:.4}] rad; angles are \
+                 read in radians (if {} was meant in degrees, that is {:.4} rad)\n",
+                j + 1,
+                crate::app::resources::show(*value),
+                crate::app::resources::show(*value),
+                value.to_radians()
+            ));
+        }
+    }
+}
+
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     JSON_OUTPUT.store(cli.json, std::sync::atomic::Ordering::Relaxed);

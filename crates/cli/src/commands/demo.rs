@@ -1,12 +1,14 @@
 //! `demo` (and `chessarm` with no command): the report's study end to end.
 
+use crate::app::formats::plan::write_plan;
+use crate::app::formats::simulation::{comparison_table, write_study};
 use crate::app::setup::file::Setup;
-use crate::cli::{ControllerName, DemoArgs, GainArgs};
-use crate::commands::plan::{plan_scenario, write_plan};
-use crate::commands::simulate::{
-    ControllerRun, DefaultGains, RunOptions, TRANSIENT_S, comparison_table, controller_specs, max_tip_error_from,
-    run_study, study_steps,
+use crate::app::studies::plan::plan_scenario;
+use crate::app::studies::simulate::{
+    ControllerName, ControllerRun, DefaultGains, GivenGains, RunOptions, TRANSIENT_S, controller_specs,
+    max_tip_error_from, simulate_scenario, study_steps,
 };
+use crate::cli::DemoArgs;
 use anyhow::Result;
 use chessarm_core::sim::Integrator;
 use serde_json::json;
@@ -31,7 +33,7 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     // The report's two controllers, and its PID with anti-windup.
     let specs = controller_specs(
         &[ControllerName::Pd, ControllerName::PidPlain, ControllerName::Pid],
-        &GainArgs::default(),
+        &GivenGains::default(),
         DefaultGains::Report,
     )?;
     let steps = study_steps(setup, SCENARIO, &options)?;
@@ -41,8 +43,10 @@ pub fn run(setup: &Setup, args: &DemoArgs) -> Result<()> {
     let plan_files = write_plan(&plan, &args.out.join("plan"), cfg!(feature = "xlsx"), &setup.convention)?;
     bar.inc(steps / 10);
     bar.set_message("simulating");
-    let (runs, study) = run_study(setup, SCENARIO, &specs, &options, &args.out.join("simulate"), Some(&bar))?;
+    let simulated = simulate_scenario(setup, SCENARIO, &specs, &options, Some(&|n| bar.inc(n)))?;
+    let study = write_study(setup, SCENARIO, &simulated, &options, &args.out.join("simulate"))?;
     bar.finish_and_clear();
+    let runs = simulated.runs;
     let heading = format!(
         "The report's study: {SCENARIO} (d2→d4), computed torque, plant = model, 1 kHz, start at rest at q = 0.\n"
     );

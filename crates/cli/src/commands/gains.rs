@@ -3,9 +3,9 @@
 use crate::app::resources::show;
 use crate::app::setup::conditions::Study;
 use crate::app::setup::file::Setup;
+use crate::app::studies::plan::plan_scenario;
+use crate::app::studies::simulate::{RunOptions, run_controller};
 use crate::cli::{ControllerChoice, GainsArgs};
-use crate::commands::plan::plan_scenario;
-use crate::commands::simulate::{RunOptions, run_controller};
 use crate::one_line;
 use anyhow::{Result, bail};
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};

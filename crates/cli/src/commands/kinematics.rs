@@ -10,26 +10,8 @@ use chessarm_core::arm::task::{inverse_kinematics, tool_point};
 use chessarm_core::nalgebra::Vector3;
 use serde_json::json;
 
-/// Warns (on stderr) about each angle of `flag` outside its joint's limits: most often an
-/// angle typed in degrees where radians are read.
-pub fn warn_outside_limits(setup: &Setup, flag: &str, q: &[f64; 4]) {
-    for (j, value) in q.iter().enumerate() {
-        let (lower, upper) = setup.user_limits(j);
-        if !(lower..=upper).contains(value) {
-            crate::tell(&format!(
-                "warning: {flag} joint {} = {} rad is outside its limits [{lower:.4}, {upper:.4}] rad; angles are \
-                 read in radians (if {} was meant in degrees, that is {:.4} rad)\n",
-                j + 1,
-                crate::app::resources::show(*value),
-                crate::app::resources::show(*value),
-                value.to_radians()
-            ));
-        }
-    }
-}
-
 pub fn fk(setup: &Setup, args: &FkArgs) -> Result<()> {
-    warn_outside_limits(setup, "--q", &args.q);
+    crate::warn_outside_limits(setup, "--q", &args.q);
     let q = JointVector::<4>::from(setup.convention.user(args.q));
     let chain = FrameChain::new(&setup.arm, &q);
     let task = tool_point(&setup.arm, &q);

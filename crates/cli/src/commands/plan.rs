@@ -1,78 +1,21 @@
 //! `plan`: a scenario's Cartesian path and joint trajectory, as CSV, plots and XLSX.
 
 use crate::app::formats::hardware::MoveLabel;
+use crate::app::formats::plan::{Samples, write_plan, write_samples};
 use crate::app::formats::plots::{Panel, Series, Style, plot_panels};
-use crate::app::output::{ensure_dir, numbered, refuse_unlisted, remove_listed_in, write_csv};
-use crate::app::setup::file::JointConvention;
+use crate::app::output::{ensure_dir, refuse_unlisted, remove_listed_in};
 use crate::app::setup::file::Setup;
-use crate::app::setup::file::checked_limits;
+use crate::app::studies::plan::{plan_moves, plan_scenario};
 use crate::cli::PlanArgs;
-use anyhow::{Result, anyhow, bail};
-use chessarm_chess::motion::{PlannedMove, TimingMode, plan_move};
-use chessarm_chess::notation::{parse_fen, parse_move_list};
-use chessarm_chess::play::home_tool;
-use chessarm_chess::scenario::{SCENARIOS, scenario};
-use chessarm_chess::shakmaty::san::SanPlus;
-use chessarm_chess::shakmaty::uci::UciMove;
-use chessarm_chess::shakmaty::{CastlingMode, Chess, Position};
-use chessarm_chess::table::Table;
-use chessarm_chess::tasks::classify;
+use anyhow::{Result, anyhow};
+use chessarm_chess::motion::{PlannedMove, TimingMode};
 use chessarm_core::arm::task::TOOL_DOWN;
-use chessarm_core::nalgebra::Vector2;
 use chessarm_core::plan::hardware::{GripperCommand, hardware_points};
-use chessarm_core::plan::path::sample_times;
-use chessarm_core::plan::path::{CartesianPath, CartesianSample};
 use chessarm_core::plan::topp::limit_curve;
+use chessarm_core::plan::trajectory::JointSample;
 use chessarm_core::plan::trajectory::ToolMotion;
-use chessarm_core::plan::trajectory::{JointSample, JointTrajectory};
 use serde_json::json;
 use std::path::Path;
-
-/// A planned scenario: its path, samples and joint trajectory.
-#[derive(Debug)]
-pub struct Plan {
-    pub name: String,
-    pub path: CartesianPath,
-    pub cartesian: Vec<CartesianSample>,
-    pub joint: JointTrajectory,
-    /// Where the scenario's piece stands and the centre of its target square (board plane, m).
-    pub placement: Option<(Vector2<f64>, Vector2<f64>)>,
-    /// Where the arm's base axis stands (x, y, m): a gripped piece turns about it.
-    pub base: Vector2<f64>,
-}
-
-/// Bytes one planned sample takes in memory: the Cartesian and joint samples and the points of
-/// the plots drawn from them (3 × 3 Cartesian and 3 × 4 joint series of (t, value) pairs).
-const BYTES_PER_PLAN_SAMPLE: usize = std::mem::size_of::<CartesianSample>()
-    + std::mem::size_of::<JointSample>()
-    + 21 * std::mem::size_of::<(f64, f64)>();
-
-/// Plans a built-in scenario sampled every `dt` s. `cause` names the flags that set `dt` (as
-/// typed), for the error when the samples would not fit in memory.
-pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<Plan> {
-    let scenario = scenario(name, &setup.board)
-        .ok_or_else(|| anyhow!("unknown scenario '{name}' (known: {})", SCENARIOS.join(", ")))?;
-    let path = scenario.path(&setup.board)?;
-    if dt > path.duration() {
-        bail!(
-            "{cause}: a sample every {} s is longer than the {:.0} s scenario",
-            crate::app::resources::show(dt),
-            path.duration()
-        );
-    }
-    let samples = (path.duration() / dt).ceil() + 1.0;
-    crate::app::resources::ensure_fits(
-        cause,
-        &format!("samples of the {:.0} s scenario", path.duration()),
-        samples,
-        BYTES_PER_PLAN_SAMPLE as f64,
-    )?;
-    let cartesian = path.sample_uniform(dt)?;
-    let joint = JointTrajectory::from_path(&setup.arm, &path, dt, TOOL_DOWN)
-        .map_err(|e| anyhow!("scenario '{name}' cannot be followed: {e}"))?;
-    let placement = Some((setup.board.square_center(scenario.from).xy(), setup.board.square_center(scenario.to).xy()));
-    Ok(Plan { name: name.to_string(), path, cartesian, joint, placement, base: setup.arm.base().xy() })
-}
 
 pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
     if let Some(moves) = &args.moves {
@@ -133,181 +76,12 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
     Ok(())
 }
 
-/// Rows of an Excel worksheet (the header takes one).
-const XLSX_ROWS: usize = 1_048_576;
-
-/// Writes cartesian.csv, joint.csv, the two plots and (with `xlsx`) joint.xlsx into `out`.
-pub fn write_plan(plan: &Plan, out: &Path, xlsx: bool, convention: &JointConvention) -> Result<Vec<String>> {
-    let samples = Samples { name: &plan.name, cartesian: &plan.cartesian, joint: plan.joint.samples(), convention };
-    write_samples(&samples, out, xlsx)
-}
-
-/// What [`write_samples`] writes: a name for the plots and the samples.
-struct Samples<'a> {
-    name: &'a str,
-    cartesian: &'a [CartesianSample],
-    joint: &'a [JointSample],
-    /// The joints' convention of the files (a URDF's own sense).
-    convention: &'a JointConvention,
-}
-
-fn write_samples(plan: &Samples<'_>, out: &Path, xlsx: bool) -> Result<Vec<String>> {
-    if xlsx && plan.joint.len() >= XLSX_ROWS {
-        bail!(
-            "--xlsx with {} samples: a worksheet holds at most {} rows of samples; use a larger --dt or leave out --xlsx",
-            plan.joint.len(),
-            XLSX_ROWS - 1
-        );
-    }
-    ensure_dir(out)?;
-    let mut files = Vec::new();
-    let cartesian_csv = out.join("cartesian.csv");
-    let header: Vec<String> = ["t", "x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az"].map(String::from).to_vec();
-    write_csv(
-        &cartesian_csv,
-        &header,
-        plan.cartesian.iter().map(|s| {
-            let mut row = vec![s.t];
-            row.extend(s.position.iter().chain(s.velocity.iter()).chain(s.acceleration.iter()));
-            row
-        }),
-    )?;
-    files.push(cartesian_csv);
-    let joint_csv = out.join("joint.csv");
-    write_csv(&joint_csv, &joint_header(), plan.joint.iter().map(|s| joint_row(s, plan.convention)))?;
-    files.push(joint_csv);
-    let cartesian_png = out.join("cartesian.png");
-    plot_cartesian(&cartesian_png, plan)?;
-    files.push(cartesian_png);
-    let joint_png = out.join("joint.png");
-    plot_joint(&joint_png, plan)?;
-    files.push(joint_png);
-    let joint_xlsx = out.join("joint.xlsx");
-    if xlsx {
-        write_xlsx(&joint_xlsx, plan)?;
-        files.push(joint_xlsx);
-    } else {
-        // An earlier run's spreadsheet would no longer match joint.csv.
-        crate::app::output::remove_stale(&[joint_xlsx])?;
-    }
-    Ok(files.iter().map(|p| p.display().to_string()).collect())
-}
-
-fn joint_header() -> Vec<String> {
-    let mut header = vec!["t".to_string()];
-    // The planned trajectory is what the controller will be asked to follow: the desired values.
-    header.extend(numbered("q_des", 4).chain(numbered("qd_des", 4)).chain(numbered("qdd_des", 4)));
-    header
-}
-
-/// A sample's row, the joints in the user's convention (a URDF's own sense).
-fn joint_row(sample: &JointSample, convention: &JointConvention) -> Vec<f64> {
-    let mut row = vec![sample.t];
-    for values in [sample.q, sample.qd, sample.qdd] {
-        row.extend(convention.user(values));
-    }
-    row
-}
-
-fn plot_cartesian(path: &Path, plan: &Samples<'_>) -> Result<()> {
-    // Shown in cm like the report's Figure 2; the CSV stays in m.
-    let axis_names = ["x", "y", "z"];
-    let panel = |title: &str, unit: &str, pick: fn(&CartesianSample) -> [f64; 3]| Panel {
-        title: format!("{title} of the tool tip"),
-        y_label: unit.to_string(),
-        series: (0..3)
-            .map(|axis| Series {
-                label: format!("{} {}", axis_names[axis], title),
-                points: plan.cartesian.iter().map(|s| (s.t, 100.0 * pick(s)[axis])).collect(),
-                color: axis,
-                style: Style::Line,
-            })
-            .collect(),
-        ..Panel::default()
-    };
-    plot_panels(
-        path,
-        &format!("Cartesian path: {}", plan.name),
-        "time (s)",
-        &[
-            panel("position", "position (cm)", |s| s.position.into()),
-            panel("velocity", "velocity (cm/s)", |s| s.velocity.into()),
-            panel("acceleration", "acceleration (cm/s²)", |s| s.acceleration.into()),
-        ],
-    )
-}
-
-fn plot_joint(path: &Path, plan: &Samples<'_>) -> Result<()> {
-    let panel = |title: &str, unit: &str, pick: fn(&JointSample) -> [f64; 4]| Panel {
-        title: title.to_string(),
-        y_label: unit.to_string(),
-        series: (0..4)
-            .map(|j| Series {
-                label: format!("θ{}", j + 1),
-                // In the user's convention, as joint.csv (a URDF's own sense).
-                points: plan.joint.iter().map(|s| (s.t, plan.convention.signs[j] * pick(s)[j])).collect(),
-                color: j,
-                style: Style::Line,
-            })
-            .collect(),
-        ..Panel::default()
-    };
-    plot_panels(
-        path,
-        &format!("Joint-space trajectory: {}", plan.name),
-        "time (s)",
-        &[
-            panel("joint angles", "angle (rad)", |s| s.q.into()),
-            panel("joint velocities", "velocity (rad/s)", |s| s.qd.into()),
-            panel("joint accelerations", "acceleration (rad/s²)", |s| s.qdd.into()),
-        ],
-    )
-}
-
-#[cfg(feature = "xlsx")]
-fn write_xlsx(path: &Path, plan: &Samples<'_>) -> Result<()> {
-    use rust_xlsxwriter::{DocProperties, ExcelDateTime, Workbook};
-    let mut workbook = Workbook::new();
-    // A fixed creation time (the Unix epoch) instead of the clock's: the same plan gives the
-    // same bytes on every run.
-    workbook.set_properties(&DocProperties::new().set_creation_datetime(&ExcelDateTime::from_timestamp(0)?));
-    let sheet = workbook.add_worksheet();
-    sheet.set_name("joint trajectory")?;
-    for (column, name) in joint_header().iter().enumerate() {
-        sheet.write_string(0, column as u16, name)?;
-    }
-    for (row, sample) in plan.joint.iter().enumerate() {
-        for (column, value) in joint_row(sample, plan.convention).iter().enumerate() {
-            sheet.write_number(row as u32 + 1, column as u16, *value)?;
-        }
-    }
-    let bytes = workbook.save_to_buffer()?;
-    crate::app::output::write_atomic(path, |writer| Ok(writer.write_all(&bytes)?))
-}
-
-#[cfg(not(feature = "xlsx"))]
-fn write_xlsx(_path: &Path, _plan: &Samples<'_>) -> Result<()> {
-    anyhow::bail!("this chessarm was built without the 'xlsx' feature; rebuild with --features xlsx")
-}
-
 /// `plan --moves`: plans each move by the robot from the start position (pieces put exactly on
 /// their targets), writes the whole sequence's path and joint trajectory sampled every `--dt`
 /// and, for time-optimal timing, one phase-plane plot per move (`phase-NNN-UCI.png`: ṡ against
 /// s of every leg with each family of limits' own speed limit curve and the controllable set).
 fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
-    let start = match &args.fen {
-        Some(fen) => parse_fen(fen)?,
-        None => Chess::default(),
-    };
-    let record = parse_move_list(moves, start)?;
-    let limits = checked_limits(setup.motion, "motion", "gripper")?;
-    let mut table = Table::from_position(setup.board, &record.start);
-    // The same check as `play`'s before its first move.
-    chessarm_chess::reach::check_table(&setup.arm, &setup.board, &setup.pieces, &limits).map_err(|e| {
-        anyhow!("the table cannot be served by this arm: {e}; `chessarm board --fit` finds a board it serves")
-    })?;
-    let mut tool = home_tool(&setup.board, &setup.pieces, &limits);
-    let mut position = record.start.clone();
+    let plan = plan_moves(setup, args.fen.as_deref(), moves, args.dt)?;
     ensure_dir(&args.out)?;
     // An earlier run's phase planes of other moves would pass for this run's: those chessarm
     // wrote are removed (a file of that name it did not write is an error, and stays).
@@ -318,34 +92,22 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         })
         .collect();
     crate::app::output::remove_stale(&earlier)?;
-    let mut cartesian = Vec::new();
-    let mut joint = Vec::new();
-    let mut offset = 0.0;
     let mut summaries = Vec::new();
     let mut files = Vec::new();
     let mut phase_files = Vec::new();
     let hardware = hardware_dir(&args.out)?;
-    for (index, mv) in record.moves.iter().enumerate() {
-        let san = SanPlus::from_move(position.clone(), *mv).to_string();
-        let uci = UciMove::from_move(*mv, CastlingMode::Standard).to_string();
-        let planned =
-            plan_move(tool, &position, mv, &table, &setup.pieces, &limits, &setup.arm, setup.timing, CONTROL_PERIOD)?;
+    for ply in &plan.plies {
+        let (planned, san, uci, duration) = (&ply.planned, &ply.san, &ply.uci, ply.planned.motion.duration());
         let motion = &planned.motion;
-        let duration = motion.duration();
-        let sampled = JointTrajectory::from_path(&setup.arm, motion, args.dt, TOOL_DOWN)
-            .map_err(|e| anyhow!("move {san}: {e}"))?;
-        cartesian
-            .extend(sample_times(duration, args.dt)?.map(|t| CartesianSample { t: t + offset, ..motion.sample(t) }));
-        joint.extend(sampled.samples().iter().map(|s| JointSample { t: s.t + offset, ..*s }));
-        let name = format!("{:03}-{uci}", index + 1);
+        let name = format!("{:03}-{uci}", ply.ply);
         let grips = planned.tasks.iter().map(|t| t.task.to_string()).collect();
         let commands = planned.gripper_commands();
         // The fine points at `play`'s default tolerance for sensors of unknown resolution (the
         // coarsest default band, a tenth of the tolerance; plan has no --sensors).
         let label = MoveLabel {
-            ply: index + 1,
-            san: &san,
-            uci: &uci,
+            ply: ply.ply,
+            san,
+            uci,
             grips,
             fine_points: commands.iter().map(|c| motion.sample(c.time).position).collect(),
             in_position: Some(chessarm_core::plan::fine_point::InPosition::for_tolerance(
@@ -356,15 +118,15 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         files.extend(write_hardware(setup, &hardware, &name, motion, &commands, &label, args.export_rate)?);
         if !planned.legs.is_empty() {
             let png = args.out.join(format!("phase-{name}.png"));
-            plot_phase_plane(&png, &format!("Phase plane of {san} ({uci}): why it takes {duration:.2} s"), &planned)?;
+            plot_phase_plane(&png, &format!("Phase plane of {san} ({uci}): why it takes {duration:.2} s"), planned)?;
             phase_files.push(png.display().to_string());
         }
         summaries.push(json!({
-            "ply": index + 1,
+            "ply": ply.ply,
             "san": san,
             "uci": uci,
-            "kind": classify(&position, mv).name(),
-            "start_s": offset,
+            "kind": ply.kind,
+            "start_s": ply.start,
             "duration_s": duration,
             "phases_s": {
                 "travel": planned.phases.travel,
@@ -385,17 +147,11 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
                     .collect::<serde_json::Map<_, _>>(),
             })).collect::<Vec<_>>(),
         }));
-        for task in &planned.tasks {
-            let target = table.nominal_position(task.task.to);
-            table.relocate(task.task.from, task.task.to, target).map_err(|e| anyhow!("move {san}: {e}"))?;
-        }
-        tool = motion.end();
-        position.play_unchecked(*mv);
-        offset += duration;
     }
+    let (cartesian, joint, offset) = (&plan.cartesian, &plan.joint, plan.duration);
     let name = format!("moves {moves}");
     files.extend(write_samples(
-        &Samples { name: &name, cartesian: &cartesian, joint: &joint, convention: &setup.convention },
+        &Samples { name: &name, cartesian, joint, convention: &setup.convention },
         &args.out,
         args.xlsx,
     )?);
@@ -461,9 +217,6 @@ fn write_hardware(
         rate,
     )
 }
-
-/// The control period moves are planned for, s (as `play` simulates them).
-const CONTROL_PERIOD: f64 = 1e-3;
 
 /// One panel per leg: the planned ṡ(s), the bound of the controllable set, and for each family
 /// of limits (joint speed, joint acceleration, joint torque, tool speed, carry acceleration,

@@ -8,8 +8,8 @@ use crate::app::output::{
 };
 use crate::app::setup::conditions::Study;
 use crate::app::setup::file::Setup;
+use crate::app::studies::simulate::{DefaultGains, controller_specs};
 use crate::cli::{PlayArgs, RobotSide};
-use crate::commands::simulate::{DefaultGains, controller_specs};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list};
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
@@ -235,7 +235,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     }
     let mut spec = match hosts {
         Some(mut hosts) => hosts.remove(0),
-        None => controller_specs(&[args.controller.into()], &args.gains, DefaultGains::Game)?.remove(0),
+        None => controller_specs(&[args.controller.into()], &args.gains.given(), DefaultGains::Game)?.remove(0),
     };
     spec.knows_friction = args.conditions.knows_friction(setup);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);

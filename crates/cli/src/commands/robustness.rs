@@ -9,9 +9,9 @@ use crate::app::formats::plots::{Panel, Series, Style, plot_panels};
 use crate::app::output::{ensure_dir, remove_stale, write_atomic, write_json};
 use crate::app::setup::conditions::{Study, Trial};
 use crate::app::setup::file::Setup;
+use crate::app::studies::plan::{Plan, plan_scenario};
+use crate::app::studies::simulate::{DefaultGains, controller_specs, pawn_events, placement_error};
 use crate::cli::RobustnessArgs;
-use crate::commands::plan::{Plan, plan_scenario};
-use crate::commands::simulate::{DefaultGains, controller_specs, pawn_events, placement_error};
 use anyhow::{Context, Result};
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
@@ -496,7 +496,7 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let defaults = if args.game_file.is_some() { DefaultGains::Game } else { DefaultGains::Report };
     let mut specs = match crate::app::setup::actuators::servo_hosts(setup) {
         Some(hosts) => hosts,
-        None => controller_specs(&args.controller, &args.gains, defaults)?,
+        None => controller_specs(&args.controller, &args.gains.given(), defaults)?,
     };
     for spec in &mut specs {
         spec.knows_friction = args.conditions.knows_friction(setup);

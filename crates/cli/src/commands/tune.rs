@@ -8,10 +8,11 @@ use crate::app::formats::plots::{HeatMap, plot_heat_map, tick};
 use crate::app::output::{ensure_dir, write_atomic};
 use crate::app::setup::conditions::Trial;
 use crate::app::setup::file::Setup;
-use crate::cli::{ControllerName, GainArgs, Metric, OneController, TuneArgs};
-use crate::commands::plan::plan_scenario;
-use crate::commands::simulate::{DefaultGains, controller_specs};
-use crate::commands::simulate::{TRANSIENT_S, pawn_events};
+use crate::app::studies::plan::plan_scenario;
+use crate::app::studies::simulate::{
+    ControllerName, DefaultGains, GivenGains, TRANSIENT_S, controller_specs, ensure_tracked, pawn_events,
+};
+use crate::cli::{Metric, OneController, TuneArgs};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
@@ -476,11 +477,11 @@ pub fn study(setup: &Setup, args: &TuneArgs, trial: Option<&Trial>) -> Result<St
 /// The scenario study for the tune command.
 fn scenario_study(setup: &Setup, args: &TuneArgs, trial: Option<&Trial>) -> Result<ScenarioStudy> {
     let plan = plan_scenario(setup, &args.scenario, 1e-3, "the sweep")?;
-    crate::commands::simulate::ensure_tracked(tracking_from(args), &plan)?;
+    ensure_tracked(tracking_from(args), &plan)?;
     let events = pawn_events(setup, trial, &plan.path, args.payload_mass, args.controller_knows_payload);
     let marks = plan.path.events().iter().map(|e| e.time).collect();
     if let Some(q0) = &args.q0 {
-        crate::commands::kinematics::warn_outside_limits(setup, "--q0", q0);
+        crate::warn_outside_limits(setup, "--q0", q0);
     }
     let initial = args.q0.map(|q| JointState::at_rest(JointVector::from(setup.convention.user(q))));
     Ok(ScenarioStudy { trajectory: plan.joint, events, marks, initial })
@@ -557,7 +558,8 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let conditions = crate::app::setup::conditions::Study::new(setup, &args.conditions, 1e-3)?;
     let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
     let study = study(setup, args, trial.as_ref())?;
-    let kind = controller_specs(&[args.controller.into()], &GainArgs::default(), DefaultGains::Report)?.remove(0).kind;
+    let kind =
+        controller_specs(&[args.controller.into()], &GivenGains::default(), DefaultGains::Report)?.remove(0).kind;
     if servos {
         // The host strategies replace the torque controllers (said once on the terminal).
         crate::app::setup::actuators::servo_hosts(setup);

@@ -4,6 +4,8 @@
 
 pub mod hardware;
 pub mod pgn;
+pub mod plan;
 pub mod plots;
 pub mod replay;
+pub mod simulation;
 pub mod urdf;
