@@ -24,7 +24,12 @@ fn main() -> ExitCode {
             };
         }
     };
-    if let Err(error) = chessarm::app::output::remove_temporaries_on_signal() {
+    // What a signal must undo, stage by stage: the servos' torque, the files, the engines.
+    use chessarm::app::shutdown::{Stage, register};
+    register(Stage::Hardware, chessarm::app::bus::driver::torque_off_before_exit);
+    register(Stage::Files, chessarm::app::output::remove_on_signal);
+    register(Stage::Processes, chessarm_chess::opponent::kill_all_engines);
+    if let Err(error) = chessarm::app::shutdown::install() {
         chessarm::tell(&format!("warning: {}\n", chessarm::app::text::one_line(&error)));
     }
     let result = chessarm::run(cli);
