@@ -254,7 +254,15 @@ fn a_signal_during_a_write_leaves_no_temporary_and_no_partial_file() {
         let temporaries = || {
             std::fs::read_dir(dir.path())
                 .map(|entries| {
-                    entries.flatten().filter(|e| e.file_name().to_string_lossy().starts_with(".chessarm-")).count()
+                    // A temporary being written (`.chessarm-<pid>-….part`), not the folder's lock,
+                    // which is taken before any write.
+                    entries
+                        .flatten()
+                        .filter(|e| {
+                            let name = e.file_name().to_string_lossy().into_owned();
+                            name.starts_with(".chessarm-") && name.contains(".part")
+                        })
+                        .count()
                 })
                 .unwrap_or(0)
         };

@@ -21,11 +21,18 @@ const context = await chromium.launchPersistentContext(profile, {
     '--disable-sync', '--no-first-run', '--disable-quic'],
 });
 const errors = [];
+let quitting = false;
 const requests = [];
 const report = { clicked: [], plies: [], scenes: [] };
 try {
   const page = await context.newPage();
-  page.on('console', (m) => { if (m.type() === 'error') errors.push(`${m.type()}: ${m.text()}`); });
+  // Once the page has ended the game the server is gone by design: a poll of it refused then is
+  // not an error of the page.
+  page.on('console', (m) => {
+    if (m.type() !== 'error') return;
+    if (quitting && m.text().includes('ERR_CONNECTION_REFUSED')) return;
+    errors.push(`${m.type()}: ${m.text()}`);
+  });
   page.on('pageerror', (e) => errors.push(`pageerror: ${e.message}`));
   page.on('request', (r) => requests.push(r.url()));
   page.on('dialog', (d) => d.accept('q'));
@@ -53,6 +60,7 @@ try {
   report.evaluation_text = await page.evaluate(() => document.getElementById('evaluation').textContent);
   await page.screenshot({ path: screenshot });
   // Stop the game from the page.
+  quitting = true;
   await page.click('#quit');
 } catch (e) {
   errors.push(`probe: ${e.message}`);
