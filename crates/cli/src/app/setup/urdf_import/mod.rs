@@ -19,12 +19,17 @@
 //! less than [`MARKER_MASS`] after fixed joints are frame markers and are left out (so
 //! `chessarm urdf`'s tool marker does not add its trace of mass).
 
+mod read;
+
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_core::arm::bodies::{Bodies, BodyShape, Shape};
-use chessarm_core::arm::chain::{ChainError, ChainJoint, SerialChain, isometry_from_xyz_rpy, model_from_chain};
+use chessarm_core::arm::chain::{ChainError, ChainJoint, SerialChain, model_from_chain};
 use chessarm_core::arm::kinematics::Pose;
 use chessarm_core::arm::model::{ArmModel, Friction, Inertial, JointLimits, REPORT_GRAVITY};
-use chessarm_core::nalgebra::{Matrix3, Vector3};
+use chessarm_core::nalgebra::Vector3;
+use read::{
+    JointElement, at, axis_of, child, friction, gravity, inertial, limits, lock_range, mimic, origin, required, triple,
+};
 use roxmltree::{Document, Node};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -72,70 +77,6 @@ pub fn load(path: &Path, options: &ImportOptions) -> Result<ImportedArm> {
     from_urdf_in(&text, options, folder).with_context(|| format!("URDF file {}", path.display()))
 }
 
-/// Where a node is, for messages: `line L: <joint name="x">`.
-fn at(node: &Node<'_, '_>) -> String {
-    let position = node.document().text_pos_at(node.range().start);
-    match node.attribute("name") {
-        Some(name) => format!("line {}: <{} name=\"{name}\">", position.row, node.tag_name().name()),
-        None => format!("line {}: <{}>", position.row, node.tag_name().name()),
-    }
-}
-
-fn child<'a, 'input>(node: &Node<'a, 'input>, tag: &str) -> Option<Node<'a, 'input>> {
-    node.children().find(|n| n.has_tag_name(tag))
-}
-
-/// Attribute `name` of `node` as a finite number.
-fn number(node: &Node<'_, '_>, name: &str) -> Result<Option<f64>> {
-    let Some(text) = node.attribute(name) else { return Ok(None) };
-    match text.trim().parse::<f64>() {
-        Ok(value) if value.is_finite() => Ok(Some(value)),
-        _ => bail!("{}: {name}=\"{text}\" is not a finite number", at(node)),
-    }
-}
-
-fn required(node: &Node<'_, '_>, name: &str, meaning: &str) -> Result<f64> {
-    number(node, name)?.ok_or_else(|| anyhow!("{}: needs {name}=\"…\" ({meaning})", at(node)))
-}
-
-/// Attribute `name` as exactly three finite numbers, or `default` when absent.
-fn triple(node: &Node<'_, '_>, name: &str, default: [f64; 3]) -> Result<[f64; 3]> {
-    let Some(text) = node.attribute(name) else { return Ok(default) };
-    let values: Vec<f64> = text.split_whitespace().filter_map(|v| v.parse().ok()).collect();
-    if values.len() != 3 || text.split_whitespace().count() != 3 || values.iter().any(|v| !v.is_finite()) {
-        bail!("{}: {name}=\"{text}\" needs three finite numbers", at(node));
-    }
-    Ok([values[0], values[1], values[2]])
-}
-
-/// The `<origin>` child of `node` (identity when absent).
-fn origin(node: &Node<'_, '_>) -> Result<Pose> {
-    match child(node, "origin") {
-        None => Ok(Pose::identity()),
-        Some(origin) => Ok(isometry_from_xyz_rpy(triple(&origin, "xyz", [0.0; 3])?, triple(&origin, "rpy", [0.0; 3])?)),
-    }
-}
-
-/// A link's `<inertial>` in the link frame (`None` when it has none).
-fn inertial(link: &Node<'_, '_>) -> Result<Option<Inertial>> {
-    let Some(element) = child(link, "inertial") else { return Ok(None) };
-    let mass =
-        child(&element, "mass").ok_or_else(|| anyhow!("{}: <inertial> needs a <mass value=\"…\"/>", at(link)))?;
-    let mass = required(&mass, "value", "kg")?;
-    if mass < 0.0 {
-        bail!("{}: <mass value=\"{mass}\"> is negative", at(link));
-    }
-    let tensor = child(&element, "inertia")
-        .ok_or_else(|| anyhow!("{}: <inertial> needs an <inertia ixx=… iyy=… izz=… ixy=… ixz=… iyz=…/>", at(link)))?;
-    let get = |name: &str| -> Result<f64> { Ok(number(&tensor, name)?.unwrap_or(0.0)) };
-    let (ixx, iyy, izz) =
-        (required(&tensor, "ixx", "kg·m²")?, required(&tensor, "iyy", "kg·m²")?, required(&tensor, "izz", "kg·m²")?);
-    let (ixy, ixz, iyz) = (get("ixy")?, get("ixz")?, get("iyz")?);
-    let body =
-        Inertial { mass, com: Vector3::zeros(), inertia: Matrix3::new(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz) };
-    Ok(Some(body.transformed(&origin(&element)?)))
-}
-
 /// How a URDF becomes chessarm's arm: joints to lock and the tool frame (`--lock`, `--tool`,
 /// `--tool-offset`).
 #[derive(Debug, Clone, Default)]
@@ -169,29 +110,6 @@ fn motion(kind: &str, axis: &Vector3<f64>, value: f64) -> Pose {
     }
 }
 
-/// A joint's `<axis xyz>` (URDF's default `1 0 0`), refused when it has no direction.
-fn axis_of(joint: &Node<'_, '_>) -> Result<Vector3<f64>> {
-    let axis = match child(joint, "axis") {
-        Some(axis) => Vector3::from(triple(&axis, "xyz", [1.0, 0.0, 0.0])?),
-        None => Vector3::x(),
-    };
-    if axis.norm() == 0.0 {
-        bail!("{}: <axis xyz=\"0 0 0\"> has no direction", at(joint));
-    }
-    Ok(axis)
-}
-
-/// `<mimic joint multiplier offset>`: this joint's value is `multiplier·leader + offset`.
-fn mimic(joint: &Node<'_, '_>) -> Result<Option<(String, f64, f64)>> {
-    let Some(element) = child(joint, "mimic") else { return Ok(None) };
-    let leader = element.attribute("joint").ok_or_else(|| anyhow!("{}: <mimic> needs joint=\"…\"", at(joint)))?;
-    Ok(Some((
-        leader.to_string(),
-        number(&element, "multiplier")?.unwrap_or(1.0),
-        number(&element, "offset")?.unwrap_or(0.0),
-    )))
-}
-
 /// A joint held at one value: locked by the user, a gripper joint at its default, or a joint
 /// that follows another (`<mimic>`).
 #[derive(Debug, Clone, PartialEq)]
@@ -221,15 +139,6 @@ impl LockedJoint {
             None => self.value,
         }
     }
-}
-
-/// One joint of the file.
-struct JointElement<'a, 'input> {
-    node: Node<'a, 'input>,
-    name: String,
-    kind: String,
-    parent: String,
-    child: String,
 }
 
 /// What a link is carried by: the base (0) or arm joint `k`'s link (`k`, 1-based), and its
@@ -777,22 +686,6 @@ fn default_hold(range: Option<(f64, f64)>) -> f64 {
     }
 }
 
-/// A held joint's range: `<limit lower upper>` of a revolute or prismatic joint (`None` for a
-/// continuous one or one without a limit).
-fn lock_range(joint: &Node<'_, '_>, kind: &str) -> Result<Option<(f64, f64)>> {
-    if kind == "continuous" {
-        return Ok(None);
-    }
-    let Some(element) = child(joint, "limit") else { return Ok(None) };
-    match (number(&element, "lower")?, number(&element, "upper")?) {
-        (Some(lower), Some(upper)) if lower <= upper => Ok(Some((lower, upper))),
-        (Some(lower), Some(upper)) => {
-            bail!("{}: <limit lower=\"{lower}\" upper=\"{upper}\">: lower above upper", at(joint))
-        }
-        _ => Ok(None),
-    }
-}
-
 /// Why the way to the tool does not have four moving joints, with the `--lock` that fixes it
 /// when one exists.
 fn wrong_count(
@@ -992,81 +885,6 @@ fn gravity_need(model: &ArmModel<4>) -> [f64; 4] {
         }
     }
     need
-}
-
-/// A joint's `<limit>`: lower, upper (rad), effort (N·m), velocity (rad/s).
-/// A continuous joint without `<limit>` has the range ±π and no speed or torque limit of its
-/// own (0: the caller takes the other arm joints'); a speed or torque limit of 0 means the same
-/// (CAD exporters write 0 for "not given").
-fn limits(joint: &Node<'_, '_>, kind: &str) -> Result<JointLimits> {
-    let Some(element) = child(joint, "limit") else {
-        if kind == "continuous" {
-            return Ok(JointLimits { lower: -PI, upper: PI, velocity: 0.0, torque: 0.0 });
-        }
-        bail!(
-            "{}: has no <limit>; chessarm needs {}effort (N·m) and velocity (rad/s): add <limit {}effort=\"…\" \
-             velocity=\"…\"/> with the servo's stall torque and top speed",
-            at(joint),
-            if kind == "continuous" { "" } else { "lower, upper (rad), " },
-            if kind == "continuous" { "" } else { "lower=\"…\" upper=\"…\" " }
-        )
-    };
-    let range = |name: &str, default: f64| -> Result<f64> {
-        match (kind, number(&element, name)?) {
-            ("continuous", _) => Ok(default),
-            (_, Some(value)) => Ok(value),
-            (_, None) => bail!("{}: <limit> of a revolute joint needs {name}=\"…\" (rad)", at(joint)),
-        }
-    };
-    let limits = JointLimits {
-        lower: range("lower", -PI)?,
-        upper: range("upper", PI)?,
-        velocity: required(&element, "velocity", "rad/s")?,
-        torque: required(&element, "effort", "N·m")?,
-    };
-    if limits.lower >= limits.upper {
-        bail!(
-            "{}: <limit lower=\"{}\" upper=\"{}\">: lower must be below upper",
-            at(joint),
-            limits.lower,
-            limits.upper
-        );
-    }
-    for (name, value) in [("velocity", limits.velocity), ("effort", limits.torque)] {
-        if value < 0.0 {
-            bail!("{}: <limit {name}=\"{value}\">: must be >= 0 (0: not given)", at(joint));
-        }
-    }
-    Ok(limits)
-}
-
-/// A joint's `<dynamics damping friction>` (0 when absent).
-fn friction(joint: &Node<'_, '_>) -> Result<Friction> {
-    let Some(element) = child(joint, "dynamics") else { return Ok(Friction::default()) };
-    let friction = Friction {
-        viscous: number(&element, "damping")?.unwrap_or(0.0),
-        coulomb: number(&element, "friction")?.unwrap_or(0.0),
-    };
-    if friction.viscous < 0.0 || friction.coulomb < 0.0 {
-        bail!("{}: <dynamics> damping and friction must be >= 0", at(joint));
-    }
-    Ok(friction)
-}
-
-/// Gravity from chessarm's `<mujoco><option gravity>` extension, else the report's.
-fn gravity(robot: &Node<'_, '_>) -> Result<Vector3<f64>> {
-    let option = child(robot, "mujoco").and_then(|m| child(&m, "option"));
-    match option {
-        Some(option) if option.attribute("gravity").is_some() => {
-            let gravity = Vector3::from(triple(&option, "gravity", [0.0; 3])?);
-            // The base yaw turns about z, the board lies in the xy plane: gravity is along −z.
-            if !(gravity.z < 0.0 && gravity.xy().norm() <= 1e-9 * gravity.norm()) {
-                bail!("{}: gravity must point along −z (the base yaw's axis is +z)", at(&option));
-            }
-            Ok(gravity)
-        }
-        _ => Ok(Vector3::new(0.0, 0.0, -REPORT_GRAVITY)),
-    }
 }
 
 /// The file's tree, as [`from_urdf_in`] reads it.
