@@ -1,11 +1,12 @@
 //! The arm's bodies: the links' masses and inertias gathered on the body that carries them
 //! (composite rigid bodies), and the collision bodies the clearance check takes the links to be.
 
-use super::read::{JointElement, at, child, origin, required, triple};
+use super::read::{FileTree, JointElement, at, child, inertial, origin, required, triple};
 use super::reduce::{Carried, LockedJoint};
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_core::arm::bodies::{Bodies, BodyShape, Shape};
 use chessarm_core::arm::kinematics::Pose;
+use chessarm_core::arm::model::Inertial;
 use chessarm_core::nalgebra::Vector3;
 use roxmltree::Node;
 use std::collections::BTreeMap;
@@ -13,6 +14,56 @@ use std::path::Path;
 
 /// Bodies lighter than this (kg) fixed to a moving link are markers, not mass.
 pub const MARKER_MASS: f64 = 1e-6;
+
+/// Each arm link's body: the link's own inertial and those of the links it carries (fixed and
+/// held joints), combined in its frame, bodies lighter than [`MARKER_MASS`] left out as markers.
+/// A moving link without mass, or an inertial that is not a body's, is told in `problems`.
+pub(super) fn composite(
+    file: &FileTree<'_, '_>,
+    carried: &BTreeMap<String, Carried>,
+    arm: &[usize],
+    problems: &mut Vec<String>,
+) -> [Inertial; 4] {
+    let FileTree { links, bad_inertial, joints, parent_joint, order, .. } = file;
+    let mut bodies = [Inertial::zero(); 4];
+    let mut own_inertial = [false; 4];
+    for link in order {
+        let (carrier, pose) = carried[link];
+        if carrier == 0 {
+            continue;
+        }
+        let node = links[link];
+        let moved_link = parent_joint.get(link).is_some_and(|j| arm.get(carrier - 1) == Some(j));
+        // (A link whose <inertial> is wrong is among the problems already.)
+        let Ok(Some(body)) = inertial(&node) else { continue };
+        if moved_link {
+            own_inertial[carrier - 1] = true;
+        } else if body.mass < MARKER_MASS {
+            continue;
+        }
+        if let Err(e) = chessarm_core::arm::model::validate_inertial("its <inertial>", &body, true) {
+            problems.push(format!("{}: {e}", at(&node)));
+            continue;
+        }
+        bodies[carrier - 1] = bodies[carrier - 1].combine(&body.transformed(&pose));
+    }
+    for (k, &j) in arm.iter().enumerate() {
+        let moved = &joints[j].child;
+        if bodies[k].mass <= 0.0 && !bad_inertial.contains(moved) {
+            problems.push(if own_inertial[k] {
+                format!("{}: <mass value=\"0\">: a moving link needs a mass > 0", at(&links[moved.as_str()]))
+            } else {
+                format!(
+                    "{}: has no <inertial>; chessarm needs the mass, centre of mass and inertia of every link a joint \
+                     moves (this one is moved by joint '{}')",
+                    at(&links[moved.as_str()]),
+                    joints[j].name
+                )
+            });
+        }
+    }
+    bodies
+}
 
 /// The file's tree, as [`from_urdf_in`](super::from_urdf_in) reads it.
 pub(super) struct Tree<'t, 'a, 'input> {

@@ -1,13 +1,52 @@
-//! The arm's limits and efforts checked against its physics: torque limits far above what
-//! gravity asks of the joints, and inertias beyond the arm's reach, told as placeholders.
+//! The arm's limits and efforts: speed and torque limits the file does not give, taken as the
+//! other arm joints' smallest; and values checked against the arm's physics (torque limits far
+//! above what gravity asks of the joints, inertias beyond the arm's reach), told as placeholders.
 
 use super::read::{JointElement, at, inertial};
-use chessarm_core::arm::model::ArmModel;
+use chessarm_core::arm::chain::ChainJoint;
+use chessarm_core::arm::model::{ArmModel, JointLimits};
 use roxmltree::Node;
 use std::collections::BTreeMap;
 
 /// A torque limit more than this many times the largest gravity torque is a placeholder.
 pub const PLACEHOLDER_TORQUE_RATIO: f64 = 20.0;
+
+/// Speed and torque limits not given (a continuous joint without <limit>, or 0): the other
+/// arm joints' smallest, said as a warning (returned); none given at all is a problem.
+pub(super) fn fill_missing_limits(
+    chain_joints: &mut [ChainJoint],
+    joints: &[JointElement<'_, '_>],
+    arm: &[usize],
+    problems: &mut Vec<String>,
+) -> Vec<String> {
+    let mut filled = Vec::new();
+    for k in 0..chain_joints.len() {
+        for (name, pick) in [("velocity", 0), ("effort", 1)] {
+            let get = |l: &JointLimits| if pick == 0 { l.velocity } else { l.torque };
+            if get(&chain_joints[k].limits) > 0.0 {
+                continue;
+            }
+            let others = chain_joints.iter().map(|j| get(&j.limits)).filter(|v| *v > 0.0).fold(f64::INFINITY, f64::min);
+            let node = at(&joints[arm[k]].node);
+            if others.is_finite() {
+                let limits = &mut chain_joints[k].limits;
+                if pick == 0 {
+                    limits.velocity = others
+                } else {
+                    limits.torque = others
+                }
+                filled.push(format!(
+                    "{node}: no {name} limit given (missing or 0): taken as {} {}, the smallest of the other arm joints'",
+                    chessarm_core::short_number(others),
+                    if pick == 0 { "rad/s" } else { "N·m" }
+                ));
+            } else {
+                problems.push(format!("{node}: no arm joint gives a {name} limit: add <limit {name}=\"…\"/>"));
+            }
+        }
+    }
+    filled
+}
 
 /// Values that look like a URDF's placeholders rather than the arm's physics: torque limits
 /// far above what holding the arm against gravity needs (more than [`PLACEHOLDER_TORQUE_RATIO`]

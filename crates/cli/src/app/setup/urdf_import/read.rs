@@ -7,8 +7,205 @@ use chessarm_core::arm::chain::isometry_from_xyz_rpy;
 use chessarm_core::arm::kinematics::Pose;
 use chessarm_core::arm::model::{Friction, Inertial, JointLimits, REPORT_GRAVITY};
 use chessarm_core::nalgebra::{Matrix3, Vector3};
-use roxmltree::Node;
+use roxmltree::{Document, Node};
+use std::collections::{BTreeMap, HashSet};
 use std::f64::consts::PI;
+
+/// The XML document of URDF `text`, refused when it is not XML or is xacro (a template of URDF).
+pub(super) fn document(text: &str) -> Result<Document<'_>> {
+    // A xacro element, or a `${…}` / `$(…)` substitution left in an attribute (an expanded
+    // file may keep the namespace declaration: that alone is no sign).
+    let xacro = || {
+        anyhow!(
+            "this is a xacro file (a template of URDF), not URDF: expand it first, e.g. `xacro FILE.urdf.xacro > \
+             arm.urdf` (pip install xacro, or ROS 2: `ros2 run xacro xacro FILE.urdf.xacro > arm.urdf`)"
+        )
+    };
+    let document = Document::parse(text).map_err(|e| {
+        // A xacro element whose prefix is not declared is not XML either; it is still xacro.
+        if text.contains("<xacro:") {
+            xacro()
+        } else {
+            anyhow!("not valid XML: {}", crate::escape_controls(&e.to_string()))
+        }
+    })?;
+    // A xacro element, or a `${…}` or `$(…)` substitution left in an attribute (an expanded file
+    // may keep the namespace declaration, and xacro in its comments: those alone are no sign).
+    let is_xacro = |n: &Node<'_, '_>| {
+        n.tag_name().namespace().is_some_and(|ns| ns.contains("xacro"))
+            || n.attributes().any(|a| a.value().contains("${") || a.value().contains("$("))
+    };
+    if document.descendants().any(|n| n.is_element() && is_xacro(&n)) {
+        return Err(xacro());
+    }
+    Ok(document)
+}
+
+/// The file's tree as written: its links and joints, and how they hang together.
+pub(super) struct FileTree<'a, 'input> {
+    /// The `<robot>` element.
+    pub(super) robot: Node<'a, 'input>,
+    /// Every link, by name.
+    pub(super) links: BTreeMap<String, Node<'a, 'input>>,
+    /// The links whose `<inertial>` is wrong (among the problems already).
+    pub(super) bad_inertial: HashSet<String>,
+    /// Every joint, in the file's order.
+    pub(super) joints: Vec<JointElement<'a, 'input>>,
+    /// Each joint's index by name.
+    pub(super) by_name: BTreeMap<String, usize>,
+    /// Each link's parent joint.
+    pub(super) parent_joint: BTreeMap<String, usize>,
+    /// Each link's child joints.
+    pub(super) children: BTreeMap<String, Vec<usize>>,
+    /// The root link, the base.
+    pub(super) root: String,
+    /// Links from the root, parents first.
+    pub(super) order: Vec<String>,
+}
+
+/// The tree of `document`'s `<robot>`: links and joints named once, each joint of a kind
+/// chessarm takes and between links of the file, one root that reaches every link. Every
+/// link's `<inertial>` is checked, a wrong one told in `problems`.
+pub(super) fn tree<'a, 'input>(
+    document: &'a Document<'input>,
+    problems: &mut Vec<String>,
+) -> Result<FileTree<'a, 'input>> {
+    let robot = document.root_element();
+    if !robot.has_tag_name("robot") {
+        bail!("{}: the root element must be <robot>", at(&robot));
+    }
+    let (links, bad_inertial) = links(&robot, problems)?;
+    let Joints { joints, by_name, parent_joint, children } = joints(&robot, &links)?;
+    let root = root(&robot, &links, &parent_joint)?;
+    let order = order(&root, &links, &joints, &children)?;
+    Ok(FileTree { robot, links, bad_inertial, joints, by_name, parent_joint, children, root, order })
+}
+
+/// The links of `robot` by name, and those whose `<inertial>` is wrong (each told in `problems`).
+fn links<'a, 'input>(
+    robot: &Node<'a, 'input>,
+    problems: &mut Vec<String>,
+) -> Result<(BTreeMap<String, Node<'a, 'input>>, HashSet<String>)> {
+    let mut links = BTreeMap::new();
+    let mut bad_inertial = HashSet::new();
+    for link in robot.children().filter(|n| n.has_tag_name("link")) {
+        let name = link.attribute("name").ok_or_else(|| anyhow!("{}: a link needs a name", at(&link)))?;
+        if name.trim().is_empty() {
+            bail!("{}: a link's name must not be empty", at(&link));
+        }
+        // Every link's inertial is checked, the base's too, though it does not move.
+        if let Err(e) = inertial(&link) {
+            problems.push(e.to_string());
+            bad_inertial.insert(name.to_string());
+        }
+        if links.insert(name.to_string(), link).is_some() {
+            bail!("{}: a second link named '{name}'", at(&link));
+        }
+    }
+    Ok((links, bad_inertial))
+}
+
+/// The joints of the file, and how they join its links.
+struct Joints<'a, 'input> {
+    joints: Vec<JointElement<'a, 'input>>,
+    by_name: BTreeMap<String, usize>,
+    parent_joint: BTreeMap<String, usize>,
+    children: BTreeMap<String, Vec<usize>>,
+}
+
+/// The joints of `robot`, each named once, of a kind chessarm takes, between two of `links`,
+/// and no link the child of two joints.
+fn joints<'a, 'input>(
+    robot: &Node<'a, 'input>,
+    links: &BTreeMap<String, Node<'a, 'input>>,
+) -> Result<Joints<'a, 'input>> {
+    let mut joints: Vec<JointElement<'_, '_>> = Vec::new();
+    // Each joint's index by name; each link's parent joint; each link's child joints.
+    let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
+    let mut parent_joint: BTreeMap<String, usize> = BTreeMap::new();
+    let mut children: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for joint in robot.children().filter(|n| n.has_tag_name("joint")) {
+        let name = joint.attribute("name").ok_or_else(|| anyhow!("{}: a joint needs a name", at(&joint)))?.to_string();
+        // The names become the exported trajectories' joint_names (ROS), which must be unique.
+        if name.trim().is_empty() {
+            bail!("{}: a joint's name must not be empty", at(&joint));
+        }
+        if let Some(first) = by_name.get(&name) {
+            bail!("{}: a second joint named '{name}' (the first at {})", at(&joint), at(&joints[*first].node));
+        }
+        let kind = joint.attribute("type").ok_or_else(|| anyhow!("{}: a joint needs a type", at(&joint)))?.to_string();
+        if !matches!(kind.as_str(), "fixed" | "revolute" | "continuous" | "prismatic") {
+            bail!(
+                "{}: type=\"{kind}\": chessarm takes revolute, continuous, prismatic (locked) and fixed joints; a \
+                 {kind} joint cannot be modelled",
+                at(&joint)
+            );
+        }
+        let link_of = |tag: &str| -> Result<String> {
+            let element = child(&joint, tag).ok_or_else(|| anyhow!("{}: needs a <{tag} link=\"…\"/>", at(&joint)))?;
+            let link = element.attribute("link").ok_or_else(|| anyhow!("{}: <{tag}> needs link=\"…\"", at(&joint)))?;
+            if !links.contains_key(link) {
+                bail!("{}: <{tag} link=\"{link}\"> names no link of the file", at(&joint));
+            }
+            Ok(link.to_string())
+        };
+        let (parent, child_link) = (link_of("parent")?, link_of("child")?);
+        let index = joints.len();
+        if let Some(other) = parent_joint.insert(child_link.clone(), index) {
+            bail!("{}: link '{child_link}' is already the child of joint '{}'", at(&joint), joints[other].name);
+        }
+        by_name.insert(name.clone(), index);
+        children.entry(parent.clone()).or_default().push(index);
+        joints.push(JointElement { node: joint, name, kind, parent, child: child_link });
+    }
+    Ok(Joints { joints, by_name, parent_joint, children })
+}
+
+/// The one link that is no joint's child: the base.
+fn root(
+    robot: &Node<'_, '_>,
+    links: &BTreeMap<String, Node<'_, '_>>,
+    parent_joint: &BTreeMap<String, usize>,
+) -> Result<String> {
+    let roots: Vec<&String> = links.keys().filter(|name| !parent_joint.contains_key(*name)).collect();
+    Ok(match roots.as_slice() {
+        [root] => (*root).clone(),
+        [] if links.is_empty() => bail!("{}: the robot has no links", at(robot)),
+        [] => bail!("every link is some joint's child: the joints form a loop, not a tree from a base"),
+        many => bail!(
+            "links {} have no parent joint: the file must describe one tree from a single base link",
+            many.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+        ),
+    })
+}
+
+/// The links from `root`, parents first, refused when a link is not reached (a loop).
+fn order(
+    root: &str,
+    links: &BTreeMap<String, Node<'_, '_>>,
+    joints: &[JointElement<'_, '_>],
+    children: &BTreeMap<String, Vec<usize>>,
+) -> Result<Vec<String>> {
+    // Every link is reached from the root (no loop hides behind a second root).
+    let mut order: Vec<String> = Vec::with_capacity(links.len());
+    let mut stack = vec![root.to_string()];
+    while let Some(link) = stack.pop() {
+        for &j in children.get(&link).map_or(&[][..], Vec::as_slice).iter().rev() {
+            stack.push(joints[j].child.clone());
+        }
+        order.push(link);
+    }
+    if order.len() != links.len() {
+        let reached: HashSet<&String> = order.iter().collect();
+        let (name, node) =
+            links.iter().find(|(name, _)| !reached.contains(name)).map_or(("", None), |(n, l)| (n, Some(l)));
+        bail!(
+            "{}: link '{name}' is not reached from '{root}': its joints form a loop",
+            node.map_or_else(String::new, at)
+        );
+    }
+    Ok(order)
+}
 
 /// Where a node is, for messages: `line L: <joint name="x">`.
 pub(super) fn at(node: &Node<'_, '_>) -> String {
