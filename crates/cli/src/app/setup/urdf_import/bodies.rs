@@ -9,7 +9,7 @@ use chessarm_core::arm::kinematics::Pose;
 use chessarm_core::arm::model::Inertial;
 use chessarm_core::nalgebra::Vector3;
 use roxmltree::Node;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 /// Bodies lighter than this (kg) fixed to a moving link are markers, not mass.
@@ -109,152 +109,18 @@ pub(super) fn collision_bodies(
     notes: &mut Vec<String>,
     warnings: &mut Vec<String>,
 ) -> Result<Bodies> {
-    let gripper_joints: std::collections::HashSet<usize> = tree
-        .joints
-        .iter()
-        .enumerate()
-        .filter(|(_, j)| locked.iter().any(|l| l.name == j.name && l.gripper.is_some()))
-        .map(|(k, _)| k)
-        .collect();
-    let package_path = crate::app::setup::meshes::package_path();
-    let mut shapes = Vec::new();
-    let mut fingers = Vec::new();
-    let mut missing: Vec<(String, Vec<std::path::PathBuf>)> = Vec::new();
-    // Each mesh file's hull at each scale, read once (an arm repeats its servo's mesh).
-    let mut hulls: BTreeMap<(std::path::PathBuf, [u64; 3]), Points> = BTreeMap::new();
-    let mut meshes = 0;
-    // The bodies (0 the base, k arm link k) that have shapes.
-    let mut with_shapes = std::collections::BTreeSet::new();
-    for link in tree.order {
-        let node = tree.links[link.as_str()];
-        let elements: Vec<Node<'_, '_>> = node.children().filter(|n| n.has_tag_name("collision")).collect();
-        if elements.is_empty() {
-            continue;
-        }
-        // Behind a gripper's joint (before reaching an arm joint): a finger.
-        let mut up = link;
-        let mut finger = false;
-        while let Some(&j) = tree.parent_joint.get(up) {
-            if gripper_joints.contains(&j) {
-                finger = true;
-                break;
-            }
-            if arm.contains(&j) {
-                break;
-            }
-            up = &tree.joints[j].parent;
-        }
-        if finger {
-            fingers.push(format!("'{link}'"));
-            continue;
-        }
-        let (carrier, pose) = tree.carried[link];
-        let frame = if carrier == 0 { pose } else { frames.in_dh[carrier - 1] * pose };
-        for element in elements {
-            let placed = frame * origin(&element)?;
-            let geometry = child(&element, "geometry")
-                .and_then(|g| g.children().find(Node::is_element))
-                .ok_or_else(|| anyhow!("{}: <collision> needs a <geometry> with a shape", at(&node)))?;
-            let shape = (|| -> Result<Option<Shape>> {
-                Ok(Some(match geometry.tag_name().name() {
-                    "box" => {
-                        let [x, y, z] = triple(&geometry, "size", [f64::NAN; 3])?;
-                        if !(x > 0.0 && y > 0.0 && z > 0.0) {
-                            bail!(
-                                "{}: size=\"{}\" needs three sizes, each > 0 (m)",
-                                at(&geometry),
-                                geometry.attribute("size").unwrap_or_default()
-                            );
-                        }
-                        Shape::Cuboid { half: Vector3::new(x, y, z) * 0.5 }
-                    }
-                    "cylinder" => {
-                        Shape::Cylinder { radius: size(&geometry, "radius")?, length: size(&geometry, "length")? }
-                    }
-                    "sphere" => Shape::Sphere { radius: size(&geometry, "radius")? },
-                    "mesh" => {
-                        let filename = geometry
-                            .attribute("filename")
-                            .ok_or_else(|| anyhow!("{}: <mesh> needs filename=\"…\"", at(&node)))?;
-                        let scale = triple(&geometry, "scale", [1.0; 3])?;
-                        let looked = crate::app::setup::meshes::candidates(filename, folder, &package_path);
-                        let Some(path) = looked.iter().find(|p| p.is_file()) else {
-                            missing.push((filename.to_string(), looked));
-                            return Ok(None);
-                        };
-                        let key = (path.clone(), scale.map(f64::to_bits));
-                        let points = match hulls.get(&key) {
-                            Some(points) => std::sync::Arc::clone(points),
-                            None => {
-                                let scale_text = geometry.attribute("scale").unwrap_or("1 1 1");
-                                let mesh = crate::app::setup::meshes::read_stl(path, scale, scale_text)
-                                    .with_context(|| format!("{}: <mesh filename=\"{filename}\">", at(&node)))?;
-                                if let Some((vertices, kept, within)) = mesh.decimated {
-                                    warnings.push(format!(
-                                        "mesh {} has {vertices} distinct vertices, more than chessarm takes a hull of \
-                                         ({}): the hull of {kept} points around them stands in, at most {} mm outside \
-                                         the mesh's own hull and never inside it",
-                                        path.display(),
-                                        crate::app::setup::meshes::MAX_HULL_INPUT,
-                                        chessarm_core::short_number((within * 1e4).ceil() / 10.0)
-                                    ));
-                                }
-                                let hull = chessarm_chess::clearance::hull_of(&mesh.points).map_err(|why| {
-                                    anyhow!("{}: <mesh filename=\"{filename}\"> ({}): {why}", at(&node), path.display())
-                                })?;
-                                let points: std::sync::Arc<[Vector3<f64>]> = hull.into();
-                                hulls.insert(key, std::sync::Arc::clone(&points));
-                                points
-                            }
-                        };
-                        meshes += 1;
-                        Shape::Hull { points }
-                    }
-                    other => bail!(
-                        "{}: <collision> with a <{other}>: chessarm takes <box>, <cylinder>, <sphere> and <mesh>",
-                        at(&node)
-                    ),
-                }))
-            })()
-            .map_err(|e| anyhow!("link '{link}': {e:#}"))?;
-            if let Some(shape) = shape {
-                let reach = chessarm_core::arm::bodies::place(&shape, &(pose * origin(&element)?))
-                    .farthest_from(&Vector3::zeros());
-                if reach.is_nan() || reach > frames.farthest {
-                    bail!(
-                        "link '{link}': its <collision> <{}> reaches {} m from the arm's frame it rides in, more than \
-                         twice the whole arm is long ({} m): a mesh drawn in mm needs scale=\"0.001 0.001 0.001\"",
-                        geometry.tag_name().name(),
-                        chessarm_core::short_number(reach),
-                        chessarm_core::short_number(frames.farthest)
-                    );
-                }
-                with_shapes.insert(carrier);
-                shapes.push(BodyShape { body: carrier, pose: placed, shape });
-            }
-        }
-    }
+    let mut meshes = Meshes {
+        folder,
+        package_path: crate::app::setup::meshes::package_path(),
+        hulls: BTreeMap::new(),
+        missing: Vec::new(),
+        count: 0,
+    };
+    let Found { shapes, fingers, with_shapes } = find_shapes(tree, arm, locked, frames, &mut meshes, warnings)?;
     let stand_in = "chessarm's own solids from the kinematic chain (a pedestal, a housing per joint, a cylinder per \
                     link) stand in for the links in the clearance check";
-    if !missing.is_empty() {
-        let mut names: Vec<String> = Vec::new();
-        for (name, _) in &missing {
-            if !names.contains(name) {
-                names.push(name.clone());
-            }
-        }
-        let shown: Vec<String> = names.iter().take(4).map(|n| format!("'{n}'")).collect();
-        let more = if names.len() > 4 { format!(" and {} more", names.len() - 4) } else { String::new() };
-        let (first, looked) = &missing[0];
-        let places: Vec<String> = looked.iter().take(4).map(|p| p.display().to_string()).collect();
-        warnings.push(format!(
-            "{} collision mesh file{} not found: {}{more} ('{first}' was looked for at {}); {stand_in} (put the \
-             meshes where the file names them, or their package's folder on ROS_PACKAGE_PATH)",
-            names.len(),
-            if names.len() == 1 { "" } else { "s" },
-            shown.join(", "),
-            places.join(", ")
-        ));
+    if !meshes.missing.is_empty() {
+        warnings.push(not_found(&meshes.missing, stand_in));
         return Ok(Bodies::Drawn);
     }
     // The clearance check's work grows with the corners of every hull it is given, for every
@@ -286,10 +152,11 @@ pub(super) fn collision_bodies(
         return Ok(Bodies::Drawn);
     }
     let mut said = format!(
-        "clearance checked against the file's {} <collision> shape{} ({meshes} mesh{} as convex hulls)",
+        "clearance checked against the file's {} <collision> shape{} ({} mesh{} as convex hulls)",
         shapes.len(),
         if shapes.len() == 1 { "" } else { "s" },
-        if meshes == 1 { "" } else { "es" }
+        meshes.count,
+        if meshes.count == 1 { "" } else { "es" }
     );
     if !fingers.is_empty() {
         said.push_str(&format!(
@@ -299,4 +166,205 @@ pub(super) fn collision_bodies(
     }
     notes.push(said);
     Ok(Bodies::Described(shapes.into()))
+}
+
+/// The shapes of the links' `<collision>` elements, the fingers left out, and the bodies that
+/// have shapes.
+struct Found {
+    shapes: Vec<BodyShape>,
+    /// The links behind a gripper's joint, quoted.
+    fingers: Vec<String>,
+    /// The bodies (0 the base, k arm link k) that have shapes.
+    with_shapes: BTreeSet<usize>,
+}
+
+/// The shapes of the links' `<collision>` elements, each placed on the body that carries its
+/// link, but those of the links behind a gripper's joint (its fingers); a mesh not found is
+/// noted in `meshes` and gives no shape.
+fn find_shapes(
+    tree: &Tree<'_, '_, '_>,
+    arm: &[usize],
+    locked: &[LockedJoint],
+    frames: &Frames<'_>,
+    meshes: &mut Meshes<'_>,
+    warnings: &mut Vec<String>,
+) -> Result<Found> {
+    let gripper_joints: std::collections::HashSet<usize> = tree
+        .joints
+        .iter()
+        .enumerate()
+        .filter(|(_, j)| locked.iter().any(|l| l.name == j.name && l.gripper.is_some()))
+        .map(|(k, _)| k)
+        .collect();
+    let mut shapes = Vec::new();
+    let mut fingers = Vec::new();
+    // The bodies (0 the base, k arm link k) that have shapes.
+    let mut with_shapes = BTreeSet::new();
+    for link in tree.order {
+        let node = tree.links[link.as_str()];
+        let elements: Vec<Node<'_, '_>> = node.children().filter(|n| n.has_tag_name("collision")).collect();
+        if elements.is_empty() {
+            continue;
+        }
+        // Behind a gripper's joint (before reaching an arm joint): a finger.
+        let mut up = link;
+        let mut finger = false;
+        while let Some(&j) = tree.parent_joint.get(up) {
+            if gripper_joints.contains(&j) {
+                finger = true;
+                break;
+            }
+            if arm.contains(&j) {
+                break;
+            }
+            up = &tree.joints[j].parent;
+        }
+        if finger {
+            fingers.push(format!("'{link}'"));
+            continue;
+        }
+        let (carrier, pose) = tree.carried[link];
+        let frame = if carrier == 0 { pose } else { frames.in_dh[carrier - 1] * pose };
+        for element in elements {
+            let placed = frame * origin(&element)?;
+            let geometry = child(&element, "geometry")
+                .and_then(|g| g.children().find(Node::is_element))
+                .ok_or_else(|| anyhow!("{}: <collision> needs a <geometry> with a shape", at(&node)))?;
+            let shape = meshes.shape(&geometry, &node, warnings).map_err(|e| anyhow!("link '{link}': {e:#}"))?;
+            if let Some(shape) = shape {
+                let reach = chessarm_core::arm::bodies::place(&shape, &(pose * origin(&element)?))
+                    .farthest_from(&Vector3::zeros());
+                if reach.is_nan() || reach > frames.farthest {
+                    bail!(
+                        "link '{link}': its <collision> <{}> reaches {} m from the arm's frame it rides in, more than \
+                         twice the whole arm is long ({} m): a mesh drawn in mm needs scale=\"0.001 0.001 0.001\"",
+                        geometry.tag_name().name(),
+                        chessarm_core::short_number(reach),
+                        chessarm_core::short_number(frames.farthest)
+                    );
+                }
+                with_shapes.insert(carrier);
+                shapes.push(BodyShape { body: carrier, pose: placed, shape });
+            }
+        }
+    }
+    Ok(Found { shapes, fingers, with_shapes })
+}
+
+/// The meshes of the file's `<collision>` elements: where they are looked for, their hulls,
+/// and the files not found.
+struct Meshes<'f> {
+    /// The URDF file's folder, where relative mesh names start.
+    folder: Option<&'f Path>,
+    /// `ROS_PACKAGE_PATH`'s folders, for `package://` names.
+    package_path: Vec<std::path::PathBuf>,
+    /// Each mesh file's hull at each scale, read once (an arm repeats its servo's mesh).
+    hulls: BTreeMap<(std::path::PathBuf, [u64; 3]), Points>,
+    /// Each mesh file not found, with the places it was looked for.
+    missing: Vec<(String, Vec<std::path::PathBuf>)>,
+    /// The meshes taken, as convex hulls.
+    count: usize,
+}
+
+impl Meshes<'_> {
+    /// The shape of a `<geometry>`'s element (of the `<collision>` of link `node`); `None`
+    /// when its mesh file is not found (noted in `missing`).
+    fn shape(
+        &mut self,
+        geometry: &Node<'_, '_>,
+        node: &Node<'_, '_>,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<Shape>> {
+        Ok(Some(match geometry.tag_name().name() {
+            "box" => {
+                let [x, y, z] = triple(geometry, "size", [f64::NAN; 3])?;
+                if !(x > 0.0 && y > 0.0 && z > 0.0) {
+                    bail!(
+                        "{}: size=\"{}\" needs three sizes, each > 0 (m)",
+                        at(geometry),
+                        geometry.attribute("size").unwrap_or_default()
+                    );
+                }
+                Shape::Cuboid { half: Vector3::new(x, y, z) * 0.5 }
+            }
+            "cylinder" => Shape::Cylinder { radius: size(geometry, "radius")?, length: size(geometry, "length")? },
+            "sphere" => Shape::Sphere { radius: size(geometry, "radius")? },
+            "mesh" => match self.hull(geometry, node, warnings)? {
+                Some(points) => Shape::Hull { points },
+                None => return Ok(None),
+            },
+            other => bail!(
+                "{}: <collision> with a <{other}>: chessarm takes <box>, <cylinder>, <sphere> and <mesh>",
+                at(node)
+            ),
+        }))
+    }
+
+    /// The convex hull of a `<mesh>`'s file at its scale (the same file at the same scale read
+    /// once), a mesh of too many vertices said in `warnings`; `None` when the file is not found.
+    fn hull(
+        &mut self,
+        geometry: &Node<'_, '_>,
+        node: &Node<'_, '_>,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<Points>> {
+        let filename =
+            geometry.attribute("filename").ok_or_else(|| anyhow!("{}: <mesh> needs filename=\"…\"", at(node)))?;
+        let scale = triple(geometry, "scale", [1.0; 3])?;
+        let looked = crate::app::setup::meshes::candidates(filename, self.folder, &self.package_path);
+        let Some(path) = looked.iter().find(|p| p.is_file()) else {
+            self.missing.push((filename.to_string(), looked));
+            return Ok(None);
+        };
+        let key = (path.clone(), scale.map(f64::to_bits));
+        let points = match self.hulls.get(&key) {
+            Some(points) => std::sync::Arc::clone(points),
+            None => {
+                let scale_text = geometry.attribute("scale").unwrap_or("1 1 1");
+                let mesh = crate::app::setup::meshes::read_stl(path, scale, scale_text)
+                    .with_context(|| format!("{}: <mesh filename=\"{filename}\">", at(node)))?;
+                if let Some((vertices, kept, within)) = mesh.decimated {
+                    warnings.push(format!(
+                        "mesh {} has {vertices} distinct vertices, more than chessarm takes a hull of \
+                         ({}): the hull of {kept} points around them stands in, at most {} mm outside \
+                         the mesh's own hull and never inside it",
+                        path.display(),
+                        crate::app::setup::meshes::MAX_HULL_INPUT,
+                        chessarm_core::short_number((within * 1e4).ceil() / 10.0)
+                    ));
+                }
+                let hull = chessarm_chess::clearance::hull_of(&mesh.points).map_err(|why| {
+                    anyhow!("{}: <mesh filename=\"{filename}\"> ({}): {why}", at(node), path.display())
+                })?;
+                let points: std::sync::Arc<[Vector3<f64>]> = hull.into();
+                self.hulls.insert(key, std::sync::Arc::clone(&points));
+                points
+            }
+        };
+        self.count += 1;
+        Ok(Some(points))
+    }
+}
+
+/// What `warnings` say of the mesh files not found: the first few, where the first was looked
+/// for, and what stands in (`stand_in`).
+fn not_found(missing: &[(String, Vec<std::path::PathBuf>)], stand_in: &str) -> String {
+    let mut names: Vec<String> = Vec::new();
+    for (name, _) in missing {
+        if !names.contains(name) {
+            names.push(name.clone());
+        }
+    }
+    let shown: Vec<String> = names.iter().take(4).map(|n| format!("'{n}'")).collect();
+    let more = if names.len() > 4 { format!(" and {} more", names.len() - 4) } else { String::new() };
+    let (first, looked) = &missing[0];
+    let places: Vec<String> = looked.iter().take(4).map(|p| p.display().to_string()).collect();
+    format!(
+        "{} collision mesh file{} not found: {}{more} ('{first}' was looked for at {}); {stand_in} (put the \
+         meshes where the file names them, or their package's folder on ROS_PACKAGE_PATH)",
+        names.len(),
+        if names.len() == 1 { "" } else { "s" },
+        shown.join(", "),
+        places.join(", ")
+    )
 }
