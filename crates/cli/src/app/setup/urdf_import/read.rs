@@ -1,4 +1,5 @@
-//! The XML of a URDF file, element by element: attributes as numbers and triples, origins,
+//! The XML of a URDF file: the document (xacro refused), the tree of its links and joints
+//! ([`FileTree`]), and element by element, attributes as numbers and triples, origins,
 //! inertials, axes, `<mimic>`, limits, friction and gravity. Every error names the element, its
 //! line, and the value as written.
 
