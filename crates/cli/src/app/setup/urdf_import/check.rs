@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 /// A torque limit more than this many times the largest gravity torque is a placeholder.
 pub const PLACEHOLDER_TORQUE_RATIO: f64 = 20.0;
 
-/// Speed and torque limits not given (a continuous joint without <limit>, or 0): the other
+/// Speed and torque limits not given (a continuous joint without `<limit>`, or 0): the other
 /// arm joints' smallest, said as a warning (returned); none given at all is a problem.
 pub(super) fn fill_missing_limits(
     chain_joints: &mut [ChainJoint],
