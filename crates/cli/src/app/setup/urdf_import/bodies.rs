@@ -1,0 +1,370 @@
+//! The arm's bodies: the links' masses and inertias gathered on the body that carries them
+//! (composite rigid bodies), and the collision bodies the clearance check takes the links to be.
+
+use super::read::{FileTree, JointElement, at, child, inertial, origin, required, triple};
+use super::reduce::{Carried, LockedJoint};
+use anyhow::{Context, Result, anyhow, bail};
+use chessarm_core::arm::bodies::{Bodies, BodyShape, Shape};
+use chessarm_core::arm::kinematics::Pose;
+use chessarm_core::arm::model::Inertial;
+use chessarm_core::nalgebra::Vector3;
+use roxmltree::Node;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// Bodies lighter than this (kg) fixed to a moving link are markers, not mass.
+pub const MARKER_MASS: f64 = 1e-6;
+
+/// Each arm link's body: the link's own inertial and those of the links it carries (fixed and
+/// held joints), combined in its frame, bodies lighter than [`MARKER_MASS`] left out as markers.
+/// A moving link without mass, or an inertial that is not a body's, is told in `problems`.
+pub(super) fn composite(
+    file: &FileTree<'_, '_>,
+    carried: &BTreeMap<String, Carried>,
+    arm: &[usize],
+    problems: &mut Vec<String>,
+) -> [Inertial; 4] {
+    let FileTree { links, bad_inertial, joints, parent_joint, order, .. } = file;
+    let mut bodies = [Inertial::zero(); 4];
+    let mut own_inertial = [false; 4];
+    for link in order {
+        let (carrier, pose) = carried[link];
+        if carrier == 0 {
+            continue;
+        }
+        let node = links[link];
+        let moved_link = parent_joint.get(link).is_some_and(|j| arm.get(carrier - 1) == Some(j));
+        // (A link whose <inertial> is wrong is among the problems already.)
+        let Ok(Some(body)) = inertial(&node) else { continue };
+        if moved_link {
+            own_inertial[carrier - 1] = true;
+        } else if body.mass < MARKER_MASS {
+            continue;
+        }
+        if let Err(e) = chessarm_core::arm::model::validate_inertial("its <inertial>", &body, true) {
+            problems.push(format!("{}: {e}", at(&node)));
+            continue;
+        }
+        bodies[carrier - 1] = bodies[carrier - 1].combine(&body.transformed(&pose));
+    }
+    for (k, &j) in arm.iter().enumerate() {
+        let moved = &joints[j].child;
+        if bodies[k].mass <= 0.0 && !bad_inertial.contains(moved) {
+            problems.push(if own_inertial[k] {
+                format!("{}: <mass value=\"0\">: a moving link needs a mass > 0", at(&links[moved.as_str()]))
+            } else {
+                format!(
+                    "{}: has no <inertial>; chessarm needs the mass, centre of mass and inertia of every link a joint \
+                     moves (this one is moved by joint '{}')",
+                    at(&links[moved.as_str()]),
+                    joints[j].name
+                )
+            });
+        }
+    }
+    bodies
+}
+
+/// The file's tree, as [`from_urdf_in`](super::from_urdf_in) reads it.
+pub(super) struct Tree<'t, 'a, 'input> {
+    /// Links from the root, parents first.
+    pub(super) order: &'t [String],
+    pub(super) carried: &'t BTreeMap<String, Carried>,
+    pub(super) links: &'t BTreeMap<String, Node<'a, 'input>>,
+    pub(super) parent_joint: &'t BTreeMap<String, usize>,
+    pub(super) joints: &'t [JointElement<'a, 'input>],
+}
+
+/// Where the links' shapes go: each arm link's joint frame in its DH frame, and how far from
+/// its frame a shape may reach, m.
+pub(super) struct Frames<'a> {
+    pub(super) in_dh: &'a [Pose; 4],
+    pub(super) farthest: f64,
+}
+
+/// A convex hull's vertices, m.
+type Points = std::sync::Arc<[Vector3<f64>]>;
+
+/// A positive, finite attribute of a `<geometry>` shape.
+fn size(node: &Node<'_, '_>, name: &str) -> Result<f64> {
+    let value = required(node, name, "m")?;
+    if value <= 0.0 {
+        bail!("{}: {name}=\"{value}\" must be > 0", at(node));
+    }
+    Ok(value)
+}
+
+/// The arm's collision bodies from the links' `<collision>` elements (boxes, cylinders,
+/// spheres; STL meshes as their convex hulls), each placed on the body that carries its link
+/// (`in_dh`: each arm link's joint frame in its DH frame). Links behind a gripper's joint
+/// (its fingers) are left to chessarm's `[gripper]`, whose opening follows the commands. A
+/// file without `<collision>`, or with a mesh that is not found, gets chessarm's own solids,
+/// said in `warnings` (with what was missing and where it was looked for) or `notes`.
+pub(super) fn collision_bodies(
+    tree: &Tree<'_, '_, '_>,
+    arm: &[usize],
+    locked: &[LockedJoint],
+    frames: &Frames<'_>,
+    folder: Option<&Path>,
+    notes: &mut Vec<String>,
+    warnings: &mut Vec<String>,
+) -> Result<Bodies> {
+    let mut meshes = Meshes {
+        folder,
+        package_path: crate::app::setup::meshes::package_path(),
+        hulls: BTreeMap::new(),
+        missing: Vec::new(),
+        count: 0,
+    };
+    let Found { shapes, fingers, with_shapes } = find_shapes(tree, arm, locked, frames, &mut meshes, warnings)?;
+    let stand_in = "chessarm's own solids from the kinematic chain (a pedestal, a housing per joint, a cylinder per \
+                    link) stand in for the links in the clearance check";
+    if !meshes.missing.is_empty() {
+        warnings.push(not_found(&meshes.missing, stand_in));
+        return Ok(Bodies::Drawn);
+    }
+    // The clearance check's work grows with the corners of every hull it is given, for every
+    // pose of every move: a bound on their sum keeps a game's check in seconds a move.
+    let corners: usize =
+        shapes.iter().map(|s| if let Shape::Hull { points } = &s.shape { points.len() } else { 8 }).sum();
+    if corners > crate::app::setup::meshes::MAX_ARM_HULL_CORNERS {
+        bail!(
+            "its {} <collision> shapes have {corners} hull corners in all, more than the clearance check takes in \
+             reasonable time ({}): give fewer or simpler shapes (a link's mesh once, decimated meshes, boxes)",
+            shapes.len(),
+            crate::app::setup::meshes::MAX_ARM_HULL_CORNERS
+        );
+    }
+    let bare: Vec<String> = arm
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| !with_shapes.contains(&(k + 1)))
+        .map(|(_, j)| format!("'{}'", tree.joints[*j].child))
+        .collect();
+    if !shapes.is_empty() && !bare.is_empty() {
+        warnings.push(format!(
+            "links {} (and what they carry) have no <collision> shapes: the clearance check does not see them",
+            bare.join(", ")
+        ));
+    }
+    if shapes.is_empty() {
+        notes.push(format!("the file gives no <collision> shapes: {stand_in}"));
+        return Ok(Bodies::Drawn);
+    }
+    let mut said = format!(
+        "clearance checked against the file's {} <collision> shape{} ({} mesh{} as convex hulls)",
+        shapes.len(),
+        if shapes.len() == 1 { "" } else { "s" },
+        meshes.count,
+        if meshes.count == 1 { "" } else { "es" }
+    );
+    if !fingers.is_empty() {
+        said.push_str(&format!(
+            "; the fingers are chessarm's [gripper], whose opening follows the commands (links {} left out)",
+            fingers.join(", ")
+        ));
+    }
+    notes.push(said);
+    Ok(Bodies::Described(shapes.into()))
+}
+
+/// The shapes of the links' `<collision>` elements, the fingers left out, and the bodies that
+/// have shapes.
+struct Found {
+    shapes: Vec<BodyShape>,
+    /// The links behind a gripper's joint, quoted.
+    fingers: Vec<String>,
+    /// The bodies (0 the base, k arm link k) that have shapes.
+    with_shapes: BTreeSet<usize>,
+}
+
+/// The shapes of the links' `<collision>` elements, each placed on the body that carries its
+/// link, but those of the links behind a gripper's joint (its fingers); a mesh not found is
+/// noted in `meshes` and gives no shape.
+fn find_shapes(
+    tree: &Tree<'_, '_, '_>,
+    arm: &[usize],
+    locked: &[LockedJoint],
+    frames: &Frames<'_>,
+    meshes: &mut Meshes<'_>,
+    warnings: &mut Vec<String>,
+) -> Result<Found> {
+    let gripper_joints: std::collections::HashSet<usize> = tree
+        .joints
+        .iter()
+        .enumerate()
+        .filter(|(_, j)| locked.iter().any(|l| l.name == j.name && l.gripper.is_some()))
+        .map(|(k, _)| k)
+        .collect();
+    let mut shapes = Vec::new();
+    let mut fingers = Vec::new();
+    // The bodies (0 the base, k arm link k) that have shapes.
+    let mut with_shapes = BTreeSet::new();
+    for link in tree.order {
+        let node = tree.links[link.as_str()];
+        let elements: Vec<Node<'_, '_>> = node.children().filter(|n| n.has_tag_name("collision")).collect();
+        if elements.is_empty() {
+            continue;
+        }
+        // Behind a gripper's joint (before reaching an arm joint): a finger.
+        let mut up = link;
+        let mut finger = false;
+        while let Some(&j) = tree.parent_joint.get(up) {
+            if gripper_joints.contains(&j) {
+                finger = true;
+                break;
+            }
+            if arm.contains(&j) {
+                break;
+            }
+            up = &tree.joints[j].parent;
+        }
+        if finger {
+            fingers.push(format!("'{link}'"));
+            continue;
+        }
+        let (carrier, pose) = tree.carried[link];
+        let frame = if carrier == 0 { pose } else { frames.in_dh[carrier - 1] * pose };
+        for element in elements {
+            let placed = frame * origin(&element)?;
+            let geometry = child(&element, "geometry")
+                .and_then(|g| g.children().find(Node::is_element))
+                .ok_or_else(|| anyhow!("{}: <collision> needs a <geometry> with a shape", at(&node)))?;
+            let shape = meshes.shape(&geometry, &node, warnings).map_err(|e| anyhow!("link '{link}': {e:#}"))?;
+            if let Some(shape) = shape {
+                let reach = chessarm_core::arm::bodies::place(&shape, &(pose * origin(&element)?))
+                    .farthest_from(&Vector3::zeros());
+                if reach.is_nan() || reach > frames.farthest {
+                    bail!(
+                        "link '{link}': its <collision> <{}> reaches {} m from the arm's frame it rides in, more than \
+                         twice the whole arm is long ({} m): a mesh drawn in mm needs scale=\"0.001 0.001 0.001\"",
+                        geometry.tag_name().name(),
+                        chessarm_core::short_number(reach),
+                        chessarm_core::short_number(frames.farthest)
+                    );
+                }
+                with_shapes.insert(carrier);
+                shapes.push(BodyShape { body: carrier, pose: placed, shape });
+            }
+        }
+    }
+    Ok(Found { shapes, fingers, with_shapes })
+}
+
+/// The meshes of the file's `<collision>` elements: where they are looked for, their hulls,
+/// and the files not found.
+struct Meshes<'f> {
+    /// The URDF file's folder, where relative mesh names start.
+    folder: Option<&'f Path>,
+    /// `ROS_PACKAGE_PATH`'s folders, for `package://` names.
+    package_path: Vec<std::path::PathBuf>,
+    /// Each mesh file's hull at each scale, read once (an arm repeats its servo's mesh).
+    hulls: BTreeMap<(std::path::PathBuf, [u64; 3]), Points>,
+    /// Each mesh file not found, with the places it was looked for.
+    missing: Vec<(String, Vec<std::path::PathBuf>)>,
+    /// The meshes taken, as convex hulls.
+    count: usize,
+}
+
+impl Meshes<'_> {
+    /// The shape of a `<geometry>`'s element (of the `<collision>` of link `node`); `None`
+    /// when its mesh file is not found (noted in `missing`).
+    fn shape(
+        &mut self,
+        geometry: &Node<'_, '_>,
+        node: &Node<'_, '_>,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<Shape>> {
+        Ok(Some(match geometry.tag_name().name() {
+            "box" => {
+                let [x, y, z] = triple(geometry, "size", [f64::NAN; 3])?;
+                if !(x > 0.0 && y > 0.0 && z > 0.0) {
+                    bail!(
+                        "{}: size=\"{}\" needs three sizes, each > 0 (m)",
+                        at(geometry),
+                        geometry.attribute("size").unwrap_or_default()
+                    );
+                }
+                Shape::Cuboid { half: Vector3::new(x, y, z) * 0.5 }
+            }
+            "cylinder" => Shape::Cylinder { radius: size(geometry, "radius")?, length: size(geometry, "length")? },
+            "sphere" => Shape::Sphere { radius: size(geometry, "radius")? },
+            "mesh" => match self.hull(geometry, node, warnings)? {
+                Some(points) => Shape::Hull { points },
+                None => return Ok(None),
+            },
+            other => bail!(
+                "{}: <collision> with a <{other}>: chessarm takes <box>, <cylinder>, <sphere> and <mesh>",
+                at(node)
+            ),
+        }))
+    }
+
+    /// The convex hull of a `<mesh>`'s file at its scale (the same file at the same scale read
+    /// once), a mesh of too many vertices said in `warnings`; `None` when the file is not found.
+    fn hull(
+        &mut self,
+        geometry: &Node<'_, '_>,
+        node: &Node<'_, '_>,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<Points>> {
+        let filename =
+            geometry.attribute("filename").ok_or_else(|| anyhow!("{}: <mesh> needs filename=\"…\"", at(node)))?;
+        let scale = triple(geometry, "scale", [1.0; 3])?;
+        let looked = crate::app::setup::meshes::candidates(filename, self.folder, &self.package_path);
+        let Some(path) = looked.iter().find(|p| p.is_file()) else {
+            self.missing.push((filename.to_string(), looked));
+            return Ok(None);
+        };
+        let key = (path.clone(), scale.map(f64::to_bits));
+        let points = match self.hulls.get(&key) {
+            Some(points) => std::sync::Arc::clone(points),
+            None => {
+                let scale_text = geometry.attribute("scale").unwrap_or("1 1 1");
+                let mesh = crate::app::setup::meshes::read_stl(path, scale, scale_text)
+                    .with_context(|| format!("{}: <mesh filename=\"{filename}\">", at(node)))?;
+                if let Some((vertices, kept, within)) = mesh.decimated {
+                    warnings.push(format!(
+                        "mesh {} has {vertices} distinct vertices, more than chessarm takes a hull of \
+                         ({}): the hull of {kept} points around them stands in, at most {} mm outside \
+                         the mesh's own hull and never inside it",
+                        path.display(),
+                        crate::app::setup::meshes::MAX_HULL_INPUT,
+                        chessarm_core::short_number((within * 1e4).ceil() / 10.0)
+                    ));
+                }
+                let hull = chessarm_chess::clearance::hull_of(&mesh.points).map_err(|why| {
+                    anyhow!("{}: <mesh filename=\"{filename}\"> ({}): {why}", at(node), path.display())
+                })?;
+                let points: std::sync::Arc<[Vector3<f64>]> = hull.into();
+                self.hulls.insert(key, std::sync::Arc::clone(&points));
+                points
+            }
+        };
+        self.count += 1;
+        Ok(Some(points))
+    }
+}
+
+/// What `warnings` say of the mesh files not found: the first few, where the first was looked
+/// for, and what stands in (`stand_in`).
+fn not_found(missing: &[(String, Vec<std::path::PathBuf>)], stand_in: &str) -> String {
+    let mut names: Vec<String> = Vec::new();
+    for (name, _) in missing {
+        if !names.contains(name) {
+            names.push(name.clone());
+        }
+    }
+    let shown: Vec<String> = names.iter().take(4).map(|n| format!("'{n}'")).collect();
+    let more = if names.len() > 4 { format!(" and {} more", names.len() - 4) } else { String::new() };
+    let (first, looked) = &missing[0];
+    let places: Vec<String> = looked.iter().take(4).map(|p| p.display().to_string()).collect();
+    format!(
+        "{} collision mesh file{} not found: {}{more} ('{first}' was looked for at {}); {stand_in} (put the \
+         meshes where the file names them, or their package's folder on ROS_PACKAGE_PATH)",
+        names.len(),
+        if names.len() == 1 { "" } else { "s" },
+        shown.join(", "),
+        places.join(", ")
+    )
+}
