@@ -10,7 +10,8 @@
 //! duty the servo has).
 
 use super::{CommandInterface, Controller, JointState, Reference};
-use crate::arm::dynamics::{COULOMB_SMOOTHING, gravity_torques, inverse_dynamics};
+use crate::arm::dynamics::{gravity_torques, inverse_dynamics};
+use crate::arm::link::COULOMB_SMOOTHING;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 use crate::sim::actuator::{Actuator, Actuators};
 

@@ -9,7 +9,8 @@ pub mod spread;
 pub mod stepper;
 
 use crate::arm::dynamics::gravity_torques;
-use crate::arm::model::{ArmModel, Friction, JointVector, ModelError};
+use crate::arm::link::Friction;
+use crate::arm::model::{ArmModel, JointVector, ModelError};
 use crate::control::CommandInterface;
 pub use servo::{ServoSpec, ServoState};
 pub use spread::{ActuatorSpread, DrawnActuators};
