@@ -2,7 +2,7 @@
 
 use chessarm_core::arm::dynamics::{BodyFrames, ConfigurationDynamics, mass_matrix_with_frames, rnea_with_frames};
 use chessarm_core::arm::kinematics::FrameChain;
-use chessarm_core::arm::mass_factor::MassMatrixFactor;
+use chessarm_core::arm::mass_matrix::MassMatrixFactor;
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::{Cholesky, Const, Vector3};

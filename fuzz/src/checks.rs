@@ -195,7 +195,7 @@ pub fn check_urdf(data: &[u8]) {
             };
             close("base", imported.model.base().as_slice(), again.model.base().as_slice());
             for (k, (one, two)) in imported.model.links().iter().zip(again.model.links()).enumerate() {
-                let angles = |l: &chessarm_core::arm::model::Link| {
+                let angles = |l: &chessarm_core::arm::link::Link| {
                     let (a, t) = (l.dh.alpha, l.dh.theta_offset);
                     [a.sin(), a.cos(), t.sin(), t.cos()]
                 };
@@ -204,7 +204,7 @@ pub fn check_urdf(data: &[u8]) {
                 close(&format!("link {k} mass"), &[one.inertial.mass], &[two.inertial.mass]);
                 close(&format!("link {k} com"), one.inertial.com.as_slice(), two.inertial.com.as_slice());
                 close(&format!("link {k} inertia"), one.inertial.inertia.as_slice(), two.inertial.inertia.as_slice());
-                let limits = |l: &chessarm_core::arm::model::Link| {
+                let limits = |l: &chessarm_core::arm::link::Link| {
                     [
                         l.limits.lower,
                         l.limits.upper,

@@ -8,7 +8,9 @@
 
 use std::io::Write;
 
-use chessarm_core::arm::model::{ArmModel, Friction, JointVector, Payload};
+use chessarm_core::arm::link::Friction;
+
+use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};

@@ -4,7 +4,8 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 use chessarm_core::arm::dynamics::{DynamicsTerms, gravity_torques, inverse_dynamics, mass_matrix};
-use chessarm_core::arm::model::{ArmModel, Inertial, JointVector, Payload};
+use chessarm_core::arm::link::Inertial;
+use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::payload::{payload_regressor, payload_terms};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::control::adaptive::{AdaptiveComputedTorque, AdaptiveSettings};

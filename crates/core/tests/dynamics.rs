@@ -7,8 +7,9 @@ use chessarm_core::arm::dynamics::{
     coriolis_torques, forward_dynamics, gravity_torques, inverse_dynamics, mass_matrix,
 };
 use chessarm_core::arm::lagrange;
-use chessarm_core::arm::mass_factor::MassMatrixFactor;
-use chessarm_core::arm::model::{ArmModel, Inertial, JointVector, Payload};
+use chessarm_core::arm::link::Inertial;
+use chessarm_core::arm::mass_matrix::MassMatrixFactor;
+use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::preset::{REPORT_L2, REPORT_L3, REPORT_L4, report_arm};
 use chessarm_core::nalgebra::{Matrix3, Matrix4, Vector3};
 use proptest::prelude::*;
@@ -267,7 +268,7 @@ fn rotated_inertia_equals_the_full_product_for_diagonal_and_general_tensors() {
 #[test]
 fn friction_enters_forward_dynamics_and_opposes_motion() {
     use chessarm_core::arm::dynamics::friction_torques;
-    use chessarm_core::arm::model::Friction;
+    use chessarm_core::arm::link::Friction;
     let mut links = *report_arm().links();
     for link in &mut links {
         link.friction = Friction { viscous: 0.05, coulomb: 0.02 };

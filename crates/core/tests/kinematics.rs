@@ -3,7 +3,8 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 use chessarm_core::arm::kinematics::FrameChain;
-use chessarm_core::arm::model::{Inertial, JointVector, ModelError};
+use chessarm_core::arm::link::Inertial;
+use chessarm_core::arm::model::{JointVector, ModelError};
 use chessarm_core::arm::preset::{REPORT_L1, REPORT_L4, report_arm};
 use chessarm_core::arm::task::{
     IkError, TOOL_DOWN, inverse_kinematics, task_jacobian, task_jacobian_derivative, tool_point, wrap_angle,
@@ -262,7 +263,8 @@ fn shifted_joint_trig_agrees_with_sin_cos() {
 /// frame 1 up or down, offsets along the pitch axes, reversed pitch axes, angle offsets, a
 /// twisted tool frame, and unlimited joints (the limits are not what is tested here).
 fn offset_arm(seed: &[f64; 12], down: bool, reversed: [bool; 2]) -> chessarm_core::arm::model::ArmModel<4> {
-    use chessarm_core::arm::model::{ArmModel, DhParameters, Friction, JointLimits, Link};
+    use chessarm_core::arm::link::{DhParameters, Friction, JointLimits, Link};
+    use chessarm_core::arm::model::ArmModel;
     use std::f64::consts::{FRAC_PI_2, PI};
     let base = report_arm();
     let alpha = |r: bool| if r { PI } else { 0.0 };
@@ -329,7 +331,7 @@ fn a_target_within_the_sideways_offset_is_refused_by_name() {
 
 /// The report's arm with other joint limits and a base angle offset.
 fn report_arm_with(limits: [(f64, f64); 4], base_offset: f64) -> chessarm_core::arm::model::ArmModel<4> {
-    use chessarm_core::arm::model::{DhParameters, JointLimits, Link};
+    use chessarm_core::arm::link::{DhParameters, JointLimits, Link};
     let base = report_arm();
     let links: [Link; 4] = std::array::from_fn(|i| Link {
         limits: JointLimits { lower: limits[i].0, upper: limits[i].1, ..base.link(i).limits },

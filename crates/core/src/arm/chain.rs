@@ -22,7 +22,8 @@
 //! fixed to link `k`: `X = F_k⁻¹ W_k`, `c' = X·c`, `I' = R_X I R_Xᵀ`.
 
 use super::kinematics::{Pose, dh_transform};
-use super::model::{ArmModel, DhParameters, Friction, Inertial, JointLimits, Link, ModelError};
+use super::link::{DhParameters, Friction, Inertial, JointLimits, Link};
+use super::model::{ArmModel, ModelError};
 use nalgebra::{Matrix3, Rotation3, Translation3, Vector3};
 use std::f64::consts::{FRAC_PI_2, PI};
 

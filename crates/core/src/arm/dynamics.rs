@@ -21,17 +21,12 @@
 //! Jacobian/Christoffel formulation the tests compare against.
 
 use super::kinematics::{JointTrig, compose_frames};
-use super::mass_factor::MassMatrixFactor;
+use super::link::COULOMB_SMOOTHING;
+use super::mass_matrix::{MassMatrix, MassMatrixFactor};
 use super::model::{ArmModel, JointVector};
-use super::yaw_pitch::{self, from_array, from_rows, to_array};
-use nalgebra::{Matrix3, SMatrix, Vector3};
-
-/// `M(q)`, kg·m² (N·m·s²/rad).
-pub type MassMatrix<const N: usize> = SMatrix<f64, N, N>;
-
-/// Smoothing speed of Coulomb friction, rad/s: `τ_c · tanh(q̇ / COULOMB_SMOOTHING)` replaces
-/// `τ_c · sign(q̇)` so the plant's right-hand side stays smooth for RK4.
-pub const COULOMB_SMOOTHING: f64 = 1e-3;
+use super::yaw_pitch::{Angles, Configuration, YawPitch};
+use crate::lanes::SimdLevel;
+use nalgebra::{Matrix3, Vector3};
 
 /// A symmetric 3×3 matrix stored by its six distinct entries: inertia tensors, kg·m².
 /// Products and sums touch each distinct entry once (a full `Matrix3` would do 9).
@@ -287,7 +282,7 @@ pub fn mass_matrix_with_frames<const N: usize>(model: &ArmModel<N>, frames: &Bod
 /// Joint-space mass matrix `M(q)`, symmetric positive definite.
 pub fn mass_matrix<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>) -> MassMatrix<N> {
     match model.yaw_pitch() {
-        Some(fast) => from_rows(&yaw_pitch::at(
+        Some(fast) => from_rows(&yaw_pitch_at(
             fast,
             q,
             #[inline(always)]
@@ -305,7 +300,7 @@ pub fn inverse_dynamics<const N: usize>(
     qdd: &JointVector<N>,
 ) -> JointVector<N> {
     match model.yaw_pitch() {
-        Some(fast) => from_array(yaw_pitch::at(
+        Some(fast) => from_array(yaw_pitch_at(
             fast,
             q,
             #[inline(always)]
@@ -319,7 +314,7 @@ pub fn inverse_dynamics<const N: usize>(
 pub fn gravity_torques<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>) -> JointVector<N> {
     let zero = JointVector::<N>::zeros();
     match model.yaw_pitch() {
-        Some(fast) => from_array(yaw_pitch::at(
+        Some(fast) => from_array(yaw_pitch_at(
             fast,
             q,
             #[inline(always)]
@@ -337,8 +332,8 @@ pub fn coriolis_torques<const N: usize>(
 ) -> JointVector<N> {
     match model.yaw_pitch() {
         Some(fast) => {
-            let weightless = yaw_pitch::YawPitch { gravity_z: 0.0, ..*fast };
-            from_array(yaw_pitch::at(
+            let weightless = YawPitch { gravity_z: 0.0, ..*fast };
+            from_array(yaw_pitch_at(
                 &weightless,
                 q,
                 #[inline(always)]
@@ -352,7 +347,7 @@ pub fn coriolis_torques<const N: usize>(
 /// Bias torques `C(q, q̇) q̇ + g(q)`, N·m (the report's `N`).
 pub fn bias_torques<const N: usize>(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> JointVector<N> {
     match model.yaw_pitch() {
-        Some(fast) => from_array(yaw_pitch::at(
+        Some(fast) => from_array(yaw_pitch_at(
             fast,
             q,
             #[inline(always)]
@@ -391,7 +386,7 @@ impl<const N: usize> DynamicsTerms<N> {
     /// From one forward-kinematics pass at `q`.
     pub fn new(model: &ArmModel<N>, q: &JointVector<N>, qd: &JointVector<N>) -> Self {
         if let Some(fast) = model.yaw_pitch() {
-            let (mass_matrix, bias) = yaw_pitch::at(
+            let (mass_matrix, bias) = yaw_pitch_at(
                 fast,
                 q,
                 #[inline(always)]
@@ -414,7 +409,7 @@ pub fn forward_dynamics<const N: usize>(
 ) -> Result<JointVector<N>, DynamicsError> {
     match model.yaw_pitch() {
         Some(fast) => {
-            let acceleration = yaw_pitch::at(
+            let acceleration = yaw_pitch_at(
                 fast,
                 q,
                 #[inline(always)]
@@ -436,6 +431,40 @@ pub fn forward_dynamics<const N: usize>(
         }
         None => Ok(ConfigurationDynamics::new(model, q)?.acceleration(model, qd, torque)),
     }
+}
+
+/// `f` of the model's configuration at `q` (rad), for the free functions above: both compiled
+/// for the CPU's best SIMD level ([`SimdLevel::detect`]: forward dynamics took 53 ns there
+/// against 59 ns at AVX2 on the 2-vCPU Intel Xeon, measured with the `L D Lᵀ` factor the
+/// inverse replaced, 51 ns with it; the same bits at every level), so `f` must be an
+/// `#[inline(always)]` closure.
+#[inline(always)]
+fn yaw_pitch_at<const N: usize, R>(
+    model: &YawPitch<f64>,
+    q: &JointVector<N>,
+    f: impl FnOnce(&Configuration<f64>) -> R,
+) -> R {
+    SimdLevel::detect().run(
+        #[inline(always)]
+        || f(&Configuration::new(model, Angles::new(model, &to_array(q)))),
+    )
+}
+
+/// The entries of a 4×4 matrix of the closed form as an `N × N` one (`N = 4` whenever the
+/// structured path runs).
+pub(crate) fn from_rows<const N: usize>(rows: &[[f64; 4]; 4]) -> MassMatrix<N> {
+    MassMatrix::<N>::from_fn(|i, j| rows[i][j])
+}
+
+/// A joint vector's four entries, as the closed form takes them (`N = 4` whenever the
+/// structured path runs).
+pub(crate) fn to_array<const N: usize>(v: &JointVector<N>) -> [f64; 4] {
+    std::array::from_fn(|j| v[j])
+}
+
+/// The closed form's four entries as a joint vector.
+pub(crate) fn from_array<const N: usize>(v: [f64; 4]) -> JointVector<N> {
+    JointVector::<N>::from_fn(|j, _| v[j])
 }
 
 /// Everything about one configuration `q` that forward dynamics needs, whatever the joint

@@ -5,7 +5,9 @@
 //! the tool tip. Joint `j` (0-based here) turns about the z axis of frame `j` through the
 //! origin of frame `j`.
 
-use super::model::{ArmModel, DhParameters, JointVector};
+use super::link::DhParameters;
+
+use super::model::{ArmModel, JointVector};
 use crate::lanes::{sin_cos, small_angle_sin_cos};
 use nalgebra::{IsometryMatrix3, Matrix3, Rotation3, SMatrix, Translation3, Vector3};
 

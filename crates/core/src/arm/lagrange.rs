@@ -10,8 +10,8 @@
 //! This is O(N⁴) and meant for verification and for users who want the matrix `C` itself;
 //! simulation uses [`crate::arm::dynamics`].
 
-use super::dynamics::MassMatrix;
 use super::kinematics::{ChainVelocities, FrameChain};
+use super::mass_matrix::MassMatrix;
 use super::model::{ArmModel, JointVector};
 use nalgebra::{Matrix3, SMatrix};
 

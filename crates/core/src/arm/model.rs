@@ -1,13 +1,14 @@
 //! The arm model: an immutable description of a serial chain of revolute joints in standard
-//! Denavit–Hartenberg convention, with the inertial parameters of every link, joint limits,
-//! motors and friction.
+//! Denavit–Hartenberg convention, built from its links ([`super::link`]: DH parameters,
+//! inertial parameters, joint limits, motors and friction) after checking every one, with the
+//! payload and gravity.
 //!
 //! All quantities are SI: metres, radians, kilograms, kg·m², N·m, seconds.
-//! A link's inertial parameters are expressed in its own DH frame `i` (the frame at the distal
-//! joint of link `i`), as in the report.
 
 use nalgebra::{Matrix3, SVector, SymmetricEigen, Vector3};
 
+use super::link::{Friction, Inertial, Link};
+use super::yaw_pitch::YawPitch;
 use crate::short_number as short;
 
 /// A vector with one entry per joint (rad, rad/s, rad/s² or N·m depending on use).
@@ -33,58 +34,6 @@ pub const MAX_CONSTANT_ANGLE: f64 = std::f64::consts::TAU;
 const TOO_LONG: &str = "a length beyond ±100 m (MAX_LENGTH) is a typo in units";
 const TOO_HEAVY: &str = "a mass beyond 10 000 kg (MAX_MASS) is a typo in units";
 const TOO_MUCH_INERTIA: &str = "beyond MAX_MASS·MAX_LENGTH² (1e8 kg·m²)";
-
-/// Standard Denavit–Hartenberg parameters of one joint/link:
-/// `A_i = Rz(θ_i + theta_offset) · Tz(d) · Tx(a) · Rx(alpha)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DhParameters {
-    /// Link length along x_i, m.
-    pub a: f64,
-    /// Link twist about x_i, rad.
-    pub alpha: f64,
-    /// Link offset along z_{i-1}, m.
-    pub d: f64,
-    /// Constant added to the joint angle, rad.
-    pub theta_offset: f64,
-}
-
-/// Mass properties of a rigid body, expressed in a body-fixed frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Inertial {
-    /// Mass, kg.
-    pub mass: f64,
-    /// Centre of mass in the body frame, m.
-    pub com: Vector3<f64>,
-    /// Inertia tensor about the centre of mass, axes of the body frame, kg·m².
-    pub inertia: Matrix3<f64>,
-}
-
-impl Inertial {
-    /// A body with no mass.
-    pub fn zero() -> Self {
-        Self { mass: 0.0, com: Vector3::zeros(), inertia: Matrix3::zeros() }
-    }
-
-    /// A point mass at `position` (body frame).
-    pub fn point(mass: f64, position: Vector3<f64>) -> Self {
-        Self { mass, com: position, inertia: Matrix3::zeros() }
-    }
-
-    /// The rigid union of two bodies expressed in the same frame, by the parallel-axis rule:
-    /// `c = (m₁c₁ + m₂c₂)/(m₁+m₂)`, `I = Σ I_k + m_k (‖d_k‖² E − d_k d_kᵀ)` with `d_k = c_k − c`.
-    pub fn combine(&self, other: &Inertial) -> Inertial {
-        let mass = self.mass + other.mass;
-        if mass <= 0.0 {
-            return Inertial::zero();
-        }
-        let com = (self.com * self.mass + other.com * other.mass) / mass;
-        let shifted = |body: &Inertial| {
-            let d = body.com - com;
-            body.inertia + (Matrix3::identity() * d.norm_squared() - d * d.transpose()) * body.mass
-        };
-        Inertial { mass, com, inertia: shifted(self) + shifted(other) }
-    }
-}
 
 /// A gripped object rigidly attached to the tool frame (the last DH frame, at the tool tip).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -116,44 +65,6 @@ impl Payload {
     }
 }
 
-/// Limits of one joint.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct JointLimits {
-    /// Lowest joint angle, rad.
-    pub lower: f64,
-    /// Highest joint angle, rad.
-    pub upper: f64,
-    /// Largest |joint speed|, rad/s.
-    pub velocity: f64,
-    /// Largest |torque| the motor delivers, N·m. The simulator saturates at this value.
-    pub torque: f64,
-}
-
-/// Joint friction acting in the plant: `τ_f = −(viscous·q̇ + coulomb·tanh(q̇/COULOMB_SMOOTHING))`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Friction {
-    /// Viscous coefficient, N·m·s/rad.
-    pub viscous: f64,
-    /// Coulomb friction torque, N·m.
-    pub coulomb: f64,
-}
-
-/// One link of the chain and the joint that drives it (joint `i` moves link `i`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Link {
-    pub dh: DhParameters,
-    /// Mass properties of the link in its DH frame `i`.
-    pub inertial: Inertial,
-    /// Mass of the motor driving joint `i`, kg, modelled as a point mass on the joint axis at
-    /// the origin of frame `i−1`, carried by link `i−1` (the motor of joint 1 sits on the fixed
-    /// base and does not move). Default 0: the report gives no values (ERRATA item 10).
-    pub motor_mass: f64,
-    /// Rotor inertia reflected through the gearbox, kg·m², added to `M_ii` (armature).
-    pub rotor_inertia: f64,
-    pub limits: JointLimits,
-    pub friction: Friction,
-}
-
 /// Which parameter of a model failed validation, and why.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModelError {
@@ -183,7 +94,7 @@ pub struct ArmModel<const N: usize = 4> {
     has_friction: bool,
     /// The structured constants when the arm is of the yaw–pitch family (and the fast path is
     /// not switched off): the dynamics then take [`super::yaw_pitch`]'s path.
-    yaw_pitch: Option<super::yaw_pitch::YawPitch<f64>>,
+    yaw_pitch: Option<YawPitch<f64>>,
     /// Whether the structured path may be used (see [`ArmModel::with_general_dynamics`]).
     structured: bool,
 }
@@ -217,7 +128,7 @@ impl<const N: usize> ArmModel<N> {
             structured: true,
         };
         model.bodies = model.combined_bodies();
-        model.yaw_pitch = super::yaw_pitch::YawPitch::new(&model).ok();
+        model.yaw_pitch = model.structured_constants();
         Ok(model)
     }
 
@@ -232,7 +143,7 @@ impl<const N: usize> ArmModel<N> {
         model.payload = payload;
         model.bodies = model.combined_bodies();
         if self.structured {
-            model.yaw_pitch = super::yaw_pitch::YawPitch::new(&model).ok();
+            model.yaw_pitch = model.structured_constants();
         }
         Ok(model)
     }
@@ -253,7 +164,7 @@ impl<const N: usize> ArmModel<N> {
         let mut model = *self;
         model.base = base;
         if self.structured {
-            model.yaw_pitch = super::yaw_pitch::YawPitch::new(&model).ok();
+            model.yaw_pitch = model.structured_constants();
         }
         Ok(model)
     }
@@ -264,7 +175,7 @@ impl<const N: usize> ArmModel<N> {
     }
 
     /// The yaw–pitch constants, when the dynamics take the structured path.
-    pub fn yaw_pitch(&self) -> Option<&super::yaw_pitch::YawPitch<f64>> {
+    pub fn yaw_pitch(&self) -> Option<&YawPitch<f64>> {
         self.yaw_pitch.as_ref()
     }
 
@@ -334,6 +245,12 @@ impl<const N: usize> ArmModel<N> {
             let inside = v >= link.limits.lower && v <= link.limits.upper;
             (!inside).then_some((i, v, link.limits.lower, link.limits.upper))
         })
+    }
+
+    /// The yaw–pitch constants of this arm as it stands (links, bodies, gravity, base), if it is
+    /// of the family.
+    fn structured_constants(&self) -> Option<YawPitch<f64>> {
+        YawPitch::new(&self.links, &self.bodies, self.gravity, self.base).ok()
     }
 
     fn combined_bodies(&self) -> [Inertial; N] {

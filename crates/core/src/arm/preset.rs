@@ -1,6 +1,8 @@
 //! The report's arm (ERRATA "Facts to keep"), the built-in default model.
 
-use super::model::{ArmModel, DhParameters, Friction, Inertial, JointLimits, Link, REPORT_GRAVITY};
+use super::link::{DhParameters, Friction, Inertial, JointLimits, Link};
+
+use super::model::{ArmModel, REPORT_GRAVITY};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::{FRAC_PI_2, PI};
 

@@ -9,7 +9,9 @@
 //! is the rotation `R = Rz(π/2)` of those two tensors, which puts their smallest principal
 //! moment about x, the links' long axis.
 
-use crate::arm::model::{ArmModel, Friction, ModelError};
+use crate::arm::link::Friction;
+
+use crate::arm::model::{ArmModel, ModelError};
 use crate::sense::rng::SeededRng;
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 

@@ -48,9 +48,8 @@
 // The kernels index several arrays by joint, as their equations do.
 #![allow(clippy::needless_range_loop)]
 
-use super::dynamics::MassMatrix;
-use super::model::{ArmModel, JointVector};
-use crate::lanes::{Real, SimdLevel};
+use super::link::{COULOMB_SMOOTHING, Inertial, Link};
+use crate::lanes::Real;
 use nalgebra::{Matrix3, Vector3};
 
 /// `|cos β|` (or `|sin β|`) below which a twist counts as exactly ±90° (or 0°/180°), and the
@@ -105,7 +104,7 @@ pub struct YawPitch<S> {
     pub yaw_inertia: S,
     /// The tool tip's `y` in `Y`, m.
     pub tip_y: S,
-    /// Where `Y`'s origin (on the base axis) stands in the base frame, m ([`ArmModel::base`]).
+    /// Where `Y`'s origin (on the base axis) stands in the base frame, m (the model's base).
     pub base: [S; 3],
     /// `(h_j, Î_xz,j)` (j ≥ 1), `h = (Î_xx − Î_zz)/2`: `R_y(2φ_j)` of them is
     /// `(Ī_j − I_zz,j(φ_j), −I_zz,j′(φ_j)/2)`, kg·m².
@@ -134,15 +133,23 @@ fn array(v: Vector3<f64>) -> [f64; 3] {
 }
 
 impl YawPitch<f64> {
-    /// The constants of `model`, or why it is not of the family: joint 1 must turn about the
-    /// vertical with a ±90° twist (`α₁`), `α₂` and `α₃` must be 0 or 180° (parallel pitch axes),
-    /// gravity vertical. The tool's twist `α₄`, the offsets `a`, `d`, `θ`, the inertias, motors,
-    /// payload and friction are free.
-    pub fn new<const N: usize>(model: &ArmModel<N>) -> Result<Self, NotYawPitch> {
+    /// The constants of the arm with these `links`, moving `bodies` (each link with the next
+    /// joint's motor, the last with the payload, in its DH frame), `gravity` (m/s²) and DH frame
+    /// 0 at `base` (m), all in the base frame, or why it is not of the family: joint 1 must turn
+    /// about the vertical with a ±90° twist (`α₁`), `α₂` and `α₃` must be 0 or 180° (parallel
+    /// pitch axes), gravity vertical. The tool's twist `α₄`, the offsets `a`, `d`, `θ`, the
+    /// inertias, motors, payload and friction are free. A model keeps the constants of its own
+    /// arm (`ArmModel::yaw_pitch`).
+    pub fn new<const N: usize>(
+        links: &[Link; N],
+        bodies: &[Inertial; N],
+        gravity: Vector3<f64>,
+        base: Vector3<f64>,
+    ) -> Result<Self, NotYawPitch> {
         if N != 4 {
             return Err(NotYawPitch(format!("{N} joints (the family has 4)")));
         }
-        let g = model.gravity();
+        let g = gravity;
         if g.x.abs().max(g.y.abs()) > STRUCTURE_TOLERANCE * g.norm() {
             return Err(NotYawPitch(format!("gravity ({}, {}, {}) m/s² is not along the base axis", g.x, g.y, g.z)));
         }
@@ -150,7 +157,7 @@ impl YawPitch<f64> {
         let mut beta = [(0.0, 1.0); 4];
         let mut running = (0.0f64, 1.0f64);
         for j in 0..4 {
-            let (sa, ca) = model.twist_trig(j);
+            let (sa, ca) = crate::lanes::sin_cos(links[j].dh.alpha);
             running = (running.0 * ca + running.1 * sa, running.1 * ca - running.0 * sa);
             if j < 3 {
                 if running.1.abs() > STRUCTURE_TOLERANCE {
@@ -159,7 +166,7 @@ impl YawPitch<f64> {
                         "link {} needs {what} (joint {}'s axis horizontal and parallel to the pitch axes), has alpha = {} rad",
                         j + 1,
                         j + 2,
-                        model.link(j).dh.alpha
+                        links[j].dh.alpha
                     )));
                 }
                 running = (running.0.signum(), 0.0);
@@ -171,14 +178,14 @@ impl YawPitch<f64> {
         for j in 1..4 {
             sign[j] = -beta[j - 1].0;
         }
-        let dh = |j: usize| model.link(j).dh;
+        let dh = |j: usize| links[j].dh;
         let shoulder = [dh(0).a, 0.0, dh(0).d];
         let mut link = [[0.0; 3]; 4];
         let mut com = [[0.0; 3]; 4];
         let mut inertia = [sym(&Matrix3::zeros()); 4];
         let (mut inertia_mean, mut spin) = ([0.0; 4], [[0.0; 2]; 4]);
         for j in 0..4 {
-            let body = model.body(j);
+            let body = &bodies[j];
             let rotation = turn(j);
             let turned = rotation * body.inertia * rotation.transpose();
             inertia[j] = sym(&turned);
@@ -192,8 +199,7 @@ impl YawPitch<f64> {
                 spin[j] = [0.5 * (turned[(0, 0)] - turned[(2, 2)]), turned[(0, 2)]];
             }
         }
-        let links = model.links();
-        let mass: [f64; 4] = std::array::from_fn(|j| model.body(j).mass);
+        let mass: [f64; 4] = std::array::from_fn(|j| bodies[j].mass);
         let rotor: [f64; 4] = std::array::from_fn(|j| links[j].rotor_inertia);
         // y_j, the constant y of body j's centre of mass, and the sums over the bodies beyond k.
         let mut height = [0.0; 4];
@@ -227,6 +233,8 @@ impl YawPitch<f64> {
             + mass[0] * (com[0][0] * com[0][0] + com[0][1] * com[0][1])
             + (1..4).map(|j| mass[j] * height[j] * height[j] + inertia_mean[j]).sum::<f64>()
             + rotor[0];
+        let viscous = std::array::from_fn(|j| links[j].friction.viscous);
+        let coulomb = std::array::from_fn(|j| links[j].friction.coulomb);
         Ok(Self {
             offset: std::array::from_fn(|j| dh(j).theta_offset),
             sign,
@@ -239,13 +247,13 @@ impl YawPitch<f64> {
             pitch_base,
             yaw_inertia,
             tip_y: y_so_far,
-            base: array(model.base()),
+            base: array(base),
             spin,
             rotor,
             gravity_z: g.z,
-            viscous: std::array::from_fn(|j| links[j].friction.viscous),
-            coulomb: std::array::from_fn(|j| links[j].friction.coulomb),
-            has_friction: model.has_friction(),
+            viscous,
+            coulomb,
+            has_friction: viscous.iter().chain(&coulomb).any(|v| *v != 0.0),
         })
     }
 }
@@ -591,14 +599,14 @@ impl<S: Real> Configuration<S> {
     }
 }
 
-/// Joint friction `−(b q̇ + τ_c tanh(q̇ / ε))` (ε = [`super::dynamics::COULOMB_SMOOTHING`]), lane
+/// Joint friction `−(b q̇ + τ_c tanh(q̇ / ε))` (ε = [`COULOMB_SMOOTHING`]), lane
 /// by lane as [`super::dynamics::friction_torques`] computes it.
 #[inline(always)]
 fn friction<S: Real>(model: &YawPitch<S>, qd: &[S; 4]) -> [S; 4] {
     crate::lanes::array4(|j| {
         let coulomb = S::from_fn(|i| {
             let coulomb = model.coulomb[j].lane(i);
-            if coulomb == 0.0 { 0.0 } else { coulomb * (qd[j].lane(i) / super::dynamics::COULOMB_SMOOTHING).tanh() }
+            if coulomb == 0.0 { 0.0 } else { coulomb * (qd[j].lane(i) / COULOMB_SMOOTHING).tanh() }
         });
         -(model.viscous[j] * qd[j] + coulomb)
     })
@@ -708,37 +716,6 @@ impl<S: Real> Inverse<S> {
             (p[2] * b[1] + (p[4] * b[2] + p[5] * b[3])) - e[2] * b[0],
         ]
     }
-}
-
-/// `f` of the model's configuration at `q` (rad), for the free functions of
-/// [`super::dynamics`]: both compiled for the CPU's best SIMD level ([`SimdLevel::detect`]: forward
-/// dynamics took 53 ns there against 59 ns at AVX2 on the 2-vCPU Intel Xeon, measured with the
-/// `L D Lᵀ` factor the inverse replaced, 51 ns with it; the same bits at every level), so `f`
-/// must be an `#[inline(always)]` closure.
-#[inline(always)]
-pub(crate) fn at<const N: usize, R>(
-    model: &YawPitch<f64>,
-    q: &JointVector<N>,
-    f: impl FnOnce(&Configuration<f64>) -> R,
-) -> R {
-    SimdLevel::detect().run(
-        #[inline(always)]
-        || f(&Configuration::new(model, Angles::new(model, &to_array(q)))),
-    )
-}
-
-/// The entries of a 4×4 matrix as an `N × N` one (`N = 4` whenever the structured path runs).
-pub(crate) fn from_rows<const N: usize>(rows: &[[f64; 4]; 4]) -> MassMatrix<N> {
-    MassMatrix::<N>::from_fn(|i, j| rows[i][j])
-}
-
-/// A joint vector's four entries (`N = 4` whenever the structured path runs).
-pub(crate) fn to_array<const N: usize>(v: &JointVector<N>) -> [f64; 4] {
-    std::array::from_fn(|j| v[j])
-}
-
-pub(crate) fn from_array<const N: usize>(v: [f64; 4]) -> JointVector<N> {
-    JointVector::<N>::from_fn(|j, _| v[j])
 }
 
 /// The lanes of an inverse with Sylvester's nested `minors` and `reciprocal = 1/(Δ₃ Δ)` that

@@ -1,14 +1,13 @@
 //! Which controller a run uses, built from its settings: the one place the CLI, the game
 //! runner and the Monte-Carlo trials turn a name into a controller.
 
-use super::Controller;
 use super::adaptive::AdaptiveComputedTorque;
 use super::computed_torque::{AntiWindup, ComputedTorque};
 use super::disturbance_observer::DisturbanceObserver;
 use super::gains::{GainError, Gains};
-use super::servo_host::{ServoCommand, ServoHost};
+use super::servo_host::{Drives, ServoCommand, ServoHost};
+use super::{CommandInterface, Controller};
 use crate::arm::model::{ArmModel, ModelError};
-use crate::sim::actuator::Actuators;
 
 /// The controllers behind the [`Controller`] trait.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -88,15 +87,15 @@ impl ControllerSpec {
         })
     }
 
-    /// The controller for joints driven by `actuators`: [`ControllerSpec::build`] for torque
-    /// motors, the [`ServoHost`] of the spec's strategy for servos; refuses a torque controller
-    /// on servos and a host on torque motors.
+    /// The controller for joints driven by `actuators` (the run's actuators beside the plant):
+    /// [`ControllerSpec::build`] for torque motors, the [`ServoHost`] of the spec's strategy for
+    /// servos; refuses a torque controller on servos and a host on torque motors.
     pub fn build_for(
         &self,
         model: ArmModel<4>,
-        actuators: &Actuators<4>,
+        actuators: &impl Drives<4>,
     ) -> Result<Box<dyn Controller<4>>, BuildError> {
-        match (self.kind, actuators.take_positions()) {
+        match (self.kind, actuators.interface() == CommandInterface::Position) {
             (ControllerKind::ServoHost(command), true) => Ok(Box::new(ServoHost::new(command, model, *actuators)?)),
             (ControllerKind::ServoHost(_), false) => Err(BuildError::GoalsToTorqueMotors { name: self.name.clone() }),
             (_, true) => Err(BuildError::TorqueToServos { name: self.name.clone() }),

@@ -35,7 +35,7 @@
 use super::gains::{GainError, Gains, REPORT_PD};
 use super::{Controller, JointState, Reference};
 use crate::arm::dynamics::DynamicsTerms;
-use crate::arm::mass_factor::MassMatrixFactor;
+use crate::arm::mass_matrix::MassMatrixFactor;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
 
 /// Default Q-filter bandwidth `ω_q`, rad/s (see the module documentation).

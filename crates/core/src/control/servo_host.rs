@@ -10,9 +10,9 @@
 //! duty the servo has).
 
 use super::{CommandInterface, Controller, JointState, Reference};
-use crate::arm::dynamics::{COULOMB_SMOOTHING, gravity_torques, inverse_dynamics};
+use crate::arm::dynamics::{gravity_torques, inverse_dynamics};
+use crate::arm::link::COULOMB_SMOOTHING;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
-use crate::sim::actuator::{Actuator, Actuators};
 
 /// The slowest goal rate simulated, Hz: a goal every 0.1 s is already coarse beside a move's
 /// 0.2-1 s phases (hobby servos take 50 Hz pulses; bus servos 100-1000 goals a second), and
@@ -56,54 +56,46 @@ impl ServoCommand {
     }
 }
 
-/// The host computer of a servo arm: a [`Controller`] whose commands are goal angles.
-#[derive(Debug, Clone)]
-pub struct ServoHost<const N: usize> {
-    strategy: ServoCommand,
-    /// The arm as the host knows it (without the servos' gears, which `servos` describe), with
-    /// the payload it is told of.
-    model: ArmModel<N>,
-    actuators: Actuators<N>,
+/// The drives of a servo arm's `N` joints, as the host knows them: which command they take,
+/// the goal offset that has each deliver a torque, and each one's gear. The actuators beside
+/// the plant are such drives; the host needs no more of them than this, so the controllers
+/// stay below the simulation that runs them.
+pub trait Drives<const N: usize>: Copy + std::fmt::Debug + Send + 'static {
+    /// What the drives take: goal positions (servos, steppers) or joint torques (torque motors).
+    fn interface(&self) -> CommandInterface;
+    /// The goal offset (rad) that has joint `j`'s drive deliver `torque` (N·m) at the speed `qd`
+    /// (rad/s); 0 for a torque motor.
+    fn goal_offset(&self, j: usize, torque: f64, qd: f64) -> f64;
+    /// Joint `j`'s gear: armature (kg·m²), viscous (N·m·s/rad) and Coulomb (N·m) friction;
+    /// none for a torque motor.
+    fn gear(&self, j: usize) -> (f64, f64, f64);
 }
 
-impl<const N: usize> ServoHost<N> {
-    /// A host sending goals by `strategy` to the servos and steppers of `actuators`, knowing the
-    /// arm as `model` (its joints' rotor inertia and friction are the actuators': the host takes
-    /// them from `actuators`). A joint with a torque motor is sent its planned angle.
-    pub fn new(strategy: ServoCommand, model: ArmModel<N>, actuators: Actuators<N>) -> Result<Self, ModelError> {
+/// The host computer of a servo arm: a [`Controller`] whose commands are goal angles.
+#[derive(Debug, Clone)]
+pub struct ServoHost<const N: usize, D> {
+    strategy: ServoCommand,
+    /// The arm as the host knows it (without the servos' gears, which `drives` describe), with
+    /// the payload it is told of.
+    model: ArmModel<N>,
+    drives: D,
+}
+
+impl<const N: usize, D: Drives<N>> ServoHost<N, D> {
+    /// A host sending goals by `strategy` to the servos and steppers of `drives`, knowing the
+    /// arm as `model` (its joints' rotor inertia and friction are the drives': the host takes
+    /// them from `drives`). A joint with a torque motor is sent its planned angle.
+    pub fn new(strategy: ServoCommand, model: ArmModel<N>, drives: D) -> Result<Self, ModelError> {
         let mut links = *model.links();
         for link in &mut links {
             link.rotor_inertia = 0.0;
             link.friction = Default::default();
         }
-        Ok(Self { strategy, model: model.with_links(links)?, actuators })
+        Ok(Self { strategy, model: model.with_links(links)?, drives })
     }
 
     pub fn strategy(&self) -> ServoCommand {
         self.strategy
-    }
-
-    /// The goal offset (rad) that has actuator `j` deliver `torque` (N·m) at the speed `qd`
-    /// (rad/s): a servo's `(u(τ, q̇) + kd q̇) / kp`; a stepper's lag `asin(τ / τ_max(q̇)) / n`
-    /// (clamped to its pull-out torque).
-    fn offset(&self, j: usize, torque: f64, qd: f64) -> f64 {
-        match &self.actuators.joints[j] {
-            Actuator::Torque => 0.0,
-            Actuator::Servo(spec) => (spec.duty_for(torque, qd) + spec.kd * qd) / spec.kp,
-            Actuator::Stepper(spec) => {
-                let ratio = (torque / spec.pull_out_torque(qd)).clamp(-1.0, 1.0);
-                ratio.asin() / spec.electrical_per_output()
-            }
-        }
-    }
-
-    /// Joint `j`'s gear: armature (kg·m²), viscous (N·m·s/rad) and Coulomb (N·m) friction.
-    fn gear(&self, j: usize) -> (f64, f64, f64) {
-        match &self.actuators.joints[j] {
-            Actuator::Torque => (0.0, 0.0, 0.0),
-            Actuator::Servo(spec) => (spec.armature, spec.viscous_friction, spec.coulomb_friction),
-            Actuator::Stepper(spec) => (spec.armature, spec.viscous_friction, spec.coulomb_friction),
-        }
     }
 
     /// The goals for `reference`, `period` (s) the bus period.
@@ -112,7 +104,7 @@ impl<const N: usize> ServoHost<N> {
             ServoCommand::Plain => reference.q,
             ServoCommand::Sag => {
                 let g = gravity_torques(&self.model, &reference.q);
-                JointVector::from_fn(|j, _| reference.q[j] + self.offset(j, g[j], 0.0))
+                JointVector::from_fn(|j, _| reference.q[j] + self.drives.goal_offset(j, g[j], 0.0))
             }
             ServoCommand::Feedforward => {
                 // Half a bus period ahead: q + q̇ h + q̈ h²/2, q̇ + q̈ h, h = T/2.
@@ -121,17 +113,17 @@ impl<const N: usize> ServoHost<N> {
                 let qd = reference.qd + reference.qdd * h;
                 let rigid = inverse_dynamics(&self.model, &q, &qd, &reference.qdd);
                 JointVector::from_fn(|j, _| {
-                    let (armature, viscous, coulomb) = self.gear(j);
+                    let (armature, viscous, coulomb) = self.drives.gear(j);
                     let gear =
                         armature * reference.qdd[j] + viscous * qd[j] + coulomb * (qd[j] / COULOMB_SMOOTHING).tanh();
-                    q[j] + self.offset(j, rigid[j] + gear, qd[j])
+                    q[j] + self.drives.goal_offset(j, rigid[j] + gear, qd[j])
                 })
             }
         }
     }
 }
 
-impl<const N: usize> Controller<N> for ServoHost<N> {
+impl<const N: usize, D: Drives<N>> Controller<N> for ServoHost<N, D> {
     fn name(&self) -> &str {
         self.strategy.name()
     }

@@ -1248,7 +1248,7 @@ pub(crate) fn clipped_acceleration<const N: usize>(
     clipped_command: &JointVector<N>,
     terms: &DynamicsTerms<N>,
 ) -> JointVector<N> {
-    crate::arm::mass_factor::MassMatrixFactor::new(&terms.mass_matrix)
+    crate::arm::mass_matrix::MassMatrixFactor::new(&terms.mass_matrix)
         .map_or(commanded, |factor| factor.solve(&(clipped_command - terms.bias)))
 }
 

@@ -3,10 +3,10 @@
 //! default).
 
 use super::integrator::Integrator;
-use crate::arm::dynamics::{ConfigurationDynamics, DynamicsError, DynamicsTerms, MassMatrix};
+use crate::arm::dynamics::{ConfigurationDynamics, DynamicsError, DynamicsTerms, from_array, from_rows, to_array};
 use crate::arm::kinematics::JointTrig;
+use crate::arm::mass_matrix::MassMatrix;
 use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
-use crate::arm::yaw_pitch::{from_array, from_rows, to_array};
 use crate::control::JointState;
 use crate::lanes::SimdLevel;
 use crate::sim::structured::{self, Failures, Start, State};

@@ -20,7 +20,8 @@
 
 use chessarm_core::arm::bodies::{JOINT_LENGTH, JOINT_RADIUS, LINK_RADIUS, TOOL_RADIUS};
 use chessarm_core::arm::kinematics::dh_transform;
-use chessarm_core::arm::model::{ArmModel, DhParameters, JointLimits};
+use chessarm_core::arm::link::{DhParameters, JointLimits};
+use chessarm_core::arm::model::ArmModel;
 use chessarm_core::nalgebra::{Rotation3, Vector3};
 use std::fmt::Write;
 

@@ -9,8 +9,10 @@ pub mod spread;
 pub mod stepper;
 
 use crate::arm::dynamics::gravity_torques;
-use crate::arm::model::{ArmModel, Friction, JointVector, ModelError};
+use crate::arm::link::Friction;
+use crate::arm::model::{ArmModel, JointVector, ModelError};
 use crate::control::CommandInterface;
+use crate::control::servo_host::Drives;
 pub use servo::{ServoSpec, ServoState};
 pub use spread::{ActuatorSpread, DrawnActuators};
 pub use stepper::{StepperSpec, StepperState};
@@ -50,6 +52,30 @@ impl Actuator {
             Actuator::Torque => None,
             Actuator::Servo(spec) => Some(spec.counts_per_revolution),
             Actuator::Stepper(spec) => Some(std::f64::consts::TAU / spec.resolution()),
+        }
+    }
+
+    /// The goal offset (rad) that has this actuator deliver `torque` (N·m) at the speed `qd`
+    /// (rad/s): a servo's `(u(τ, q̇) + kd q̇) / kp`; a stepper's lag `asin(τ / τ_max(q̇)) / n`
+    /// (clamped to its pull-out torque); 0 for a torque motor, which takes no goal.
+    pub fn goal_offset(&self, torque: f64, qd: f64) -> f64 {
+        match self {
+            Actuator::Torque => 0.0,
+            Actuator::Servo(spec) => (spec.duty_for(torque, qd) + spec.kd * qd) / spec.kp,
+            Actuator::Stepper(spec) => {
+                let ratio = (torque / spec.pull_out_torque(qd)).clamp(-1.0, 1.0);
+                ratio.asin() / spec.electrical_per_output()
+            }
+        }
+    }
+
+    /// The gear: armature (kg·m²), viscous (N·m·s/rad) and Coulomb (N·m) friction; none for a
+    /// torque motor.
+    pub fn gear(&self) -> (f64, f64, f64) {
+        match self {
+            Actuator::Torque => (0.0, 0.0, 0.0),
+            Actuator::Servo(spec) => (spec.armature, spec.viscous_friction, spec.coulomb_friction),
+            Actuator::Stepper(spec) => (spec.armature, spec.viscous_friction, spec.coulomb_friction),
         }
     }
 }
@@ -192,6 +218,21 @@ impl<const N: usize> Actuators<N> {
             }
         }
         model.with_links(links)
+    }
+}
+
+/// The servo host sees the actuators through this.
+impl<const N: usize> Drives<N> for Actuators<N> {
+    fn interface(&self) -> CommandInterface {
+        Actuators::interface(self)
+    }
+
+    fn goal_offset(&self, j: usize, torque: f64, qd: f64) -> f64 {
+        self.joints[j].goal_offset(torque, qd)
+    }
+
+    fn gear(&self, j: usize) -> (f64, f64, f64) {
+        self.joints[j].gear()
     }
 }
 

@@ -6,7 +6,7 @@ use super::reduce::{Carried, LockedJoint};
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_core::arm::bodies::{Bodies, BodyShape, Shape};
 use chessarm_core::arm::kinematics::Pose;
-use chessarm_core::arm::model::Inertial;
+use chessarm_core::arm::link::Inertial;
 use chessarm_core::nalgebra::Vector3;
 use roxmltree::Node;
 use std::collections::{BTreeMap, BTreeSet};

@@ -4,7 +4,8 @@
 
 use super::read::{JointElement, at, inertial};
 use chessarm_core::arm::chain::ChainJoint;
-use chessarm_core::arm::model::{ArmModel, JointLimits};
+use chessarm_core::arm::link::JointLimits;
+use chessarm_core::arm::model::ArmModel;
 use roxmltree::Node;
 use std::collections::BTreeMap;
 

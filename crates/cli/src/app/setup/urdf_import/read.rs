@@ -6,7 +6,8 @@
 use anyhow::{Result, anyhow, bail};
 use chessarm_core::arm::chain::isometry_from_xyz_rpy;
 use chessarm_core::arm::kinematics::Pose;
-use chessarm_core::arm::model::{Friction, Inertial, JointLimits, REPORT_GRAVITY};
+use chessarm_core::arm::link::{Friction, Inertial, JointLimits};
+use chessarm_core::arm::model::REPORT_GRAVITY;
 use chessarm_core::nalgebra::{Matrix3, Vector3};
 use roxmltree::{Document, Node};
 use std::collections::{BTreeMap, HashSet};

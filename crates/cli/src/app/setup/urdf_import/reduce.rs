@@ -7,7 +7,8 @@ use super::read::{FileTree, JointElement, at, axis_of, friction, limits, lock_ra
 use anyhow::{Result, bail};
 use chessarm_core::arm::chain::{ChainError, ChainJoint, SerialChain, model_from_chain};
 use chessarm_core::arm::kinematics::Pose;
-use chessarm_core::arm::model::{Friction, Inertial, JointLimits, REPORT_GRAVITY};
+use chessarm_core::arm::link::{Friction, Inertial, JointLimits};
+use chessarm_core::arm::model::REPORT_GRAVITY;
 use chessarm_core::nalgebra::Vector3;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;

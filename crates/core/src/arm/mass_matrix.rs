@@ -1,4 +1,6 @@
-//! `M = L D Lᵀ` factorisation of the mass matrix, kept with the reciprocals of its pivots.
+//! The mass matrix `M(q)` ([`MassMatrix`]), and its `M = L D Lᵀ` factorisation, kept with the
+//! reciprocals of its pivots. The type stands here, below the general dynamics and the
+//! yaw–pitch closed form, which both build it.
 //!
 //! Forward dynamics solves `M q̈ = b` several times per integration step. nalgebra's Cholesky
 //! solve divides by each diagonal entry of `L` in turn, and those divisions form one serial
@@ -15,8 +17,11 @@
 //! ~5.6·10⁻³⁰⁹ (whose reciprocal overflows) is rejected; mass matrices are nowhere near either.
 //! Square-root free, so `L √D` is the Cholesky factor.
 
-use super::dynamics::MassMatrix;
 use super::model::JointVector;
+use nalgebra::SMatrix;
+
+/// `M(q)`, kg·m² (N·m·s²/rad).
+pub type MassMatrix<const N: usize> = SMatrix<f64, N, N>;
 
 /// `L D Lᵀ` factor of a symmetric positive-definite `N × N` matrix, on the stack.
 #[derive(Debug, Clone, Copy, PartialEq)]
