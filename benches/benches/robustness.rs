@@ -42,7 +42,7 @@ fn trials(c: &mut Criterion) {
         let cli = Cli::parse_from(line);
         let Some(Command::Robustness(args)) = cli.command else { unreachable!("a robustness command line") };
         let specs = controller_specs(&args.controller, &args.gains.given(), DefaultGains::Report).expect("specs");
-        let study = Study::for_trials(&setup, &args.conditions, 1e-3).expect("conditions");
+        let study = Study::for_trials(&setup, &args.conditions.options(), 1e-3).expect("conditions");
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("pool");
         group.bench_function(format!("{name}: 100 trials, 2 threads"), |b| {
             b.iter(|| {

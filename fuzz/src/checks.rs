@@ -412,7 +412,7 @@ pub fn check_bus_dynamixel(data: &[u8]) {
 struct SimulatedArm {
     arm: chessarm_core::arm::model::ArmModel<4>,
     actuators: chessarm_core::sim::actuator::Actuators<4>,
-    bus: chessarm::app::setup::actuators::ServoBus,
+    bus: chessarm::app::setup::servos::ServoBus,
     signs: [f64; 4],
     q: chessarm_core::arm::model::JointVector<4>,
 }
@@ -423,7 +423,7 @@ fn simulated_arm(actuator: &str) -> SimulatedArm {
         chessarm::app::setup::actuators::resolve(&[actuator.to_string()], &setup.actuator_tables, "--actuator")
             .expect("a built-in servo");
     setup.actuator_names = std::array::from_fn(|_| actuator.to_string());
-    let bus = chessarm::app::setup::actuators::ServoBus::of(&setup).expect("the default bus");
+    let bus = chessarm::app::setup::servos::ServoBus::of(&setup).expect("the default bus");
     let motion = setup.motion.validated().expect("the default motion");
     let q = chessarm_chess::play::home_pose(&setup.arm, &setup.board, &setup.pieces, &motion).expect("a home pose");
     SimulatedArm { arm: setup.arm, actuators: setup.actuators, bus, signs: setup.convention.signs, q }

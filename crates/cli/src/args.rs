@@ -230,7 +230,7 @@ macro_rules! escaped {
     ($($name:ident => $inner:ident -> $value:ty;)*) => {$(
         #[doc = concat!("See `", stringify!($inner), "`; the message's control characters escaped.")]
         pub fn $name(text: &str) -> Result<$value, String> {
-            $inner(text).map_err(|message| crate::escape_controls(&message))
+            $inner(text).map_err(|message| crate::app::text::escape_controls(&message))
         }
     )*};
 }
@@ -346,11 +346,11 @@ fn share_unescaped(text: &str) -> Result<f64, String> {
 /// variable and the value as set.
 pub fn resolve_shard(
     given: Option<(usize, usize)>,
-    batch: &crate::cli::BatchArgs,
+    (shard_from_env, shards): (bool, Option<usize>),
     env: impl Fn(&str) -> Option<String>,
 ) -> Result<Option<(usize, usize)>, String> {
-    if !batch.shard_from_env {
-        if let Some(n) = batch.shards {
+    if !shard_from_env {
+        if let Some(n) = shards {
             return Err(format!("--shards {n} goes with --shard-from-env"));
         }
         return Ok(given);
@@ -363,7 +363,7 @@ pub fn resolve_shard(
             .map(|text| {
                 text.trim()
                     .parse::<usize>()
-                    .map_err(|_| format!("{name}={} is not a whole number", crate::escape_controls(&text)))
+                    .map_err(|_| format!("{name}={} is not a whole number", crate::app::text::escape_controls(&text)))
             })
             .transpose()
     };
@@ -376,9 +376,7 @@ pub fn resolve_shard(
         }
         (id - min + 1, count, format!("SLURM_ARRAY_TASK_ID={id} (from {min}) of SLURM_ARRAY_TASK_COUNT={count}"))
     } else if let Some(index) = number("JOB_COMPLETION_INDEX")? {
-        let n = batch
-            .shards
-            .ok_or("--shard-from-env with JOB_COMPLETION_INDEX needs --shards N (the Job's completions)")?;
+        let n = shards.ok_or("--shard-from-env with JOB_COMPLETION_INDEX needs --shards N (the Job's completions)")?;
         (index + 1, n, format!("JOB_COMPLETION_INDEX={index} of --shards {n}"))
     } else {
         return Err("--shard-from-env: neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set".into());

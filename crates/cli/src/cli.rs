@@ -1,6 +1,6 @@
 //! The command line.
 
-use crate::app::setup::conditions::ConditionArgs;
+use crate::app::setup::conditions::{ConditionOptions, EstimatorChoice};
 use crate::app::studies::simulate::ControllerName;
 use crate::args;
 use clap::{Args, Parser, Subcommand};
@@ -873,4 +873,67 @@ pub struct PlanArgs {
     /// JointTrajectory JSON and CSV with the gripper's state), Hz.
     #[arg(long, value_name = "HZ", default_value_t = 100.0, value_parser = args::export_rate, allow_hyphen_values = true)]
     pub export_rate: f64,
+}
+
+/// Sensor, actuator and model-error options, the same on every command that simulates.
+#[derive(Debug, Args, Clone, Default)]
+pub struct ConditionArgs {
+    /// Sensors: ideal (the exact state), hobby (12-bit encoders, σ 0.5 count, 1 sample delay),
+    /// servo (17-bit, σ 0.5 count), a profile of the setup file's [sensors.NAME] tables, or a
+    /// TOML FILE of one profile (counts_per_rev, noise_counts, offset, delay_samples, rate_noise).
+    #[arg(long, value_name = "PROFILE|FILE")]
+    pub sensors: Option<String>,
+    /// State estimator. Default: direct with ideal sensors, kalman otherwise.
+    #[arg(long, value_enum)]
+    pub estimator: Option<EstimatorChoice>,
+    /// σ of the acceleration the Kalman filter's motion model does not know, rad/s².
+    #[arg(long, value_name = "RAD_PER_S2", value_parser = args::positive, allow_hyphen_values = true)]
+    pub kalman_acceleration_noise: Option<f64>,
+    /// Time constant of the low-pass of the lowpass estimator, s.
+    #[arg(long, value_name = "S", value_parser = args::non_negative, allow_hyphen_values = true)]
+    pub lowpass_time_constant: Option<f64>,
+    /// Motors' first-order torque lag, s: one value or one per joint (default 0: none).
+    #[arg(long, value_name = "S", value_parser = args::time_constants, allow_hyphen_values = true)]
+    pub torque_lag: Option<[f64; 4]>,
+    /// The controller is told --arm's friction (viscous, coulomb) and compensates it; without
+    /// it, friction acts in the plant only. The default with --urdf (the file's <dynamics> are
+    /// part of its model).
+    #[arg(long, conflicts_with = "controller_ignores_friction")]
+    pub controller_knows_friction: bool,
+    /// With --urdf: the controller does not compensate the file's <dynamics> friction (it acts
+    /// in the plant only), as without --urdf.
+    #[arg(long)]
+    pub controller_ignores_friction: bool,
+    /// The true arm and pieces: a second setup file (the controller keeps --arm's model).
+    #[arg(long, value_name = "FILE")]
+    pub plant: Option<PathBuf>,
+    /// Random model errors: a TOML file with the fields of an [uncertainty] table (default:
+    /// the setup file's [uncertainty] table, if any).
+    #[arg(long, value_name = "FILE")]
+    pub uncertainty: Option<PathBuf>,
+    /// Seed of the sensor noise and the model draws of a run (robustness: of the study).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Run one trial of `robustness` alone: the trial_seed of its row in robustness.csv.
+    #[arg(long, value_name = "SEED", conflicts_with = "seed")]
+    pub trial_seed: Option<u64>,
+}
+
+impl ConditionArgs {
+    /// The options as given, for the studies.
+    pub fn options(&self) -> ConditionOptions {
+        ConditionOptions {
+            sensors: self.sensors.clone(),
+            estimator: self.estimator,
+            kalman_acceleration_noise: self.kalman_acceleration_noise,
+            lowpass_time_constant: self.lowpass_time_constant,
+            torque_lag: self.torque_lag,
+            controller_knows_friction: self.controller_knows_friction,
+            controller_ignores_friction: self.controller_ignores_friction,
+            plant: self.plant.clone(),
+            uncertainty: self.uncertainty.clone(),
+            seed: self.seed,
+            trial_seed: self.trial_seed,
+        }
+    }
 }

@@ -101,7 +101,9 @@ pub fn run_captured(args: &[String], id: u64) -> Result<Captured, RunError> {
     let result = run(cli);
     CURRENT_RUN.store(0, std::sync::atomic::Ordering::SeqCst);
     let kept = CAPTURE.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take().unwrap_or_default();
-    result.map(|()| kept.clone()).map_err(|error| RunError::Failed { message: one_line(&error), stderr: kept.stderr })
+    result
+        .map(|()| kept.clone())
+        .map_err(|error| RunError::Failed { message: app::text::one_line(&error), stderr: kept.stderr })
 }
 
 /// clap's message for bad arguments on one line, without its usage and help hints.
@@ -113,7 +115,7 @@ pub fn usage_message(error: &clap::Error) -> String {
         .map(str::trim)
         .filter(|line| !line.is_empty())
         .collect();
-    shorten_long_words(&escape_controls(&message.join(" ")))
+    app::text::shorten_long_words(&app::text::escape_controls(&message.join(" ")))
 }
 
 /// Whether the result goes out as JSON (`--json`).
@@ -168,6 +170,16 @@ pub fn warn_outside_limits(setup: &Setup, flag: &str, q: &[f64; 4]) {
     }
 }
 
+/// With servos, the hosts that drive them (see [`app::setup::servos::servo_hosts`]), the note
+/// that they replace the torque controllers told to the person (not with `--json`).
+pub fn servo_hosts(setup: &Setup) -> Option<Vec<chessarm_core::control::choice::ControllerSpec>> {
+    let (hosts, note) = app::setup::servos::servo_hosts(setup)?;
+    if !json_output() {
+        tell(&note);
+    }
+    Some(hosts)
+}
+
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     JSON_OUTPUT.store(cli.json, std::sync::atomic::Ordering::Relaxed);
@@ -202,7 +214,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Simulate(args)) => (args.dt, " --dt"),
         _ => (chessarm_chess::play::PlaySettings::DEFAULT_DT, ""),
     };
-    app::setup::actuators::check_bus_period(&setup, dt, dt_flag)?;
+    app::setup::servos::check_bus_period(&setup, dt, dt_flag)?;
     let default_out = std::path::PathBuf::from("out");
     let out = match &cli.command {
         None => Some(&default_out),
@@ -241,16 +253,20 @@ fn dispatch(setup: &Setup, command: Option<Command>) -> Result<()> {
         Some(Command::Simulate(args)) => commands::simulate::run(setup, &args),
         Some(Command::Gains(args)) => commands::gains::run(setup, &args),
         Some(Command::Tune(mut args)) => {
-            args.shard = args::resolve_shard(args.shard, &args.batch, |name| std::env::var(name).ok())
-                .map_err(anyhow::Error::msg)?;
+            args.shard = args::resolve_shard(args.shard, (args.batch.shard_from_env, args.batch.shards), |name| {
+                std::env::var(name).ok()
+            })
+            .map_err(anyhow::Error::msg)?;
             commands::tune::run(setup, &args)
         }
         Some(Command::Play(args)) => commands::play::run(setup, &args),
         Some(Command::BusSim(args)) => commands::bus_sim::run(setup, &args),
         Some(Command::Calibrate(args)) => commands::calibrate::run(setup, &args),
         Some(Command::Robustness(mut args)) => {
-            args.shard = args::resolve_shard(args.shard, &args.batch, |name| std::env::var(name).ok())
-                .map_err(anyhow::Error::msg)?;
+            args.shard = args::resolve_shard(args.shard, (args.batch.shard_from_env, args.batch.shards), |name| {
+                std::env::var(name).ok()
+            })
+            .map_err(anyhow::Error::msg)?;
             commands::robustness::run(setup, &args)
         }
         Some(Command::Arm) => {
@@ -322,68 +338,4 @@ pub fn tell(text: &str) {
         return;
     }
     let _ = write!(std::io::stderr(), "{text}");
-}
-
-/// The error and its causes on one line, each cause only if the message does not already
-/// contain it (several errors quote their cause in their own message). Line breaks become
-/// spaces and other control characters are escaped (see [`escape_controls`]), so that text an
-/// engine or a file sent cannot split or overwrite the line.
-pub fn one_line(error: &anyhow::Error) -> String {
-    let mut message = error.to_string();
-    for cause in error.chain().skip(1) {
-        let text = cause.to_string();
-        if !message.contains(&text) {
-            message.push_str(": ");
-            message.push_str(&text);
-        }
-    }
-    shorten_long_words(&escape_controls(&message))
-}
-
-/// Longest run of non-blank characters an error line shows whole (a path, a FEN, a move).
-const LONGEST_WORD: usize = 200;
-
-/// `text` with each run of non-blank characters longer than [`LONGEST_WORD`] cut to its start
-/// and the count of what was left out, so that a megabyte token quoted by a parser does not
-/// become a megabyte error line.
-pub fn shorten_long_words(text: &str) -> String {
-    if text.len() <= LONGEST_WORD {
-        return text.to_owned();
-    }
-    let mut shown = String::with_capacity(text.len().min(4096));
-    for (i, word) in text.split(' ').enumerate() {
-        if i > 0 {
-            shown.push(' ');
-        }
-        if word.chars().count() <= LONGEST_WORD {
-            shown.push_str(word);
-        } else {
-            let kept: String = word.chars().take(LONGEST_WORD / 2).collect();
-            shown.push_str(&format!("{kept}…({} more bytes)", word.len() - kept.len()));
-        }
-    }
-    shown
-}
-
-/// `text` on one line: `\n` becomes a space, every other control character (CR, VT, NUL, ESC,
-/// DEL, …) is shown escaped (`\r`, `\t`, `\0`, `\u{b}`), everything else as it is.
-pub fn escape_controls(text: &str) -> String {
-    let mut shown = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '\n' => shown.push(' '),
-            '\r' => shown.push_str("\\r"),
-            '\t' => shown.push_str("\\t"),
-            '\0' => shown.push_str("\\0"),
-            // Control characters, and the invisible ones that reorder or hide text (bidi
-            // overrides, zero-width marks), which could make a shown line lie.
-            c if c.is_control()
-                || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' | '\u{feff}') =>
-            {
-                shown.push_str(&format!("\\u{{{:x}}}", u32::from(c)))
-            }
-            c => shown.push(c),
-        }
-    }
-    shown
 }

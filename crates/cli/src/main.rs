@@ -24,8 +24,13 @@ fn main() -> ExitCode {
             };
         }
     };
-    if let Err(error) = chessarm::app::output::remove_temporaries_on_signal() {
-        chessarm::tell(&format!("warning: {}\n", chessarm::one_line(&error)));
+    // What a signal must undo, stage by stage: the servos' torque, the files, the engines.
+    use chessarm::app::shutdown::{Stage, register};
+    register(Stage::Hardware, chessarm::app::bus::driver::torque_off_before_exit);
+    register(Stage::Files, chessarm::app::output::remove_on_signal);
+    register(Stage::Processes, chessarm_chess::opponent::kill_all_engines);
+    if let Err(error) = chessarm::app::shutdown::install() {
+        chessarm::tell(&format!("warning: {}\n", chessarm::app::text::one_line(&error)));
     }
     let result = chessarm::run(cli);
     chessarm::app::output::await_signal_handler();
@@ -34,7 +39,7 @@ fn main() -> ExitCode {
         // The reader of our standard output has gone (`| head`): nothing more to say to anyone.
         Err(error) if chessarm::is_closed_pipe(&error) => ExitCode::SUCCESS,
         Err(error) => {
-            chessarm::tell(&format!("error: {}\n", chessarm::one_line(&error)));
+            chessarm::tell(&format!("error: {}\n", chessarm::app::text::one_line(&error)));
             ExitCode::from(2)
         }
     }

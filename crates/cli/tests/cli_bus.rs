@@ -122,7 +122,7 @@ fn home_ticks(actuator: &str) -> [i64; 4] {
         chessarm::app::setup::actuators::resolve(&[actuator.to_string()], &setup.actuator_tables, "--actuator")
             .unwrap();
     setup.actuator_names = std::array::from_fn(|_| actuator.to_string());
-    let bus = chessarm::app::setup::actuators::ServoBus::of(&setup).unwrap();
+    let bus = chessarm::app::setup::servos::ServoBus::of(&setup).unwrap();
     let q =
         chessarm_chess::play::home_pose(&setup.arm, &setup.board, &setup.pieces, &setup.motion.validated().unwrap())
             .unwrap();

@@ -1,7 +1,8 @@
-//! Every example command of the README, run as written (`cargo run --release -- ARGS` is the
-//! binary with ARGS), in a fresh folder with a small `game.pgn` and the files the README shows
-//! (```toml blocks headed `# NAME.toml`); each must succeed, and the
-//! promises the README makes about some of them are checked.
+//! Every example command of the README and of the manual's pages in `docs/`, run as written
+//! (`cargo run --release -- ARGS` is the binary with ARGS): each page's examples in order, in a
+//! fresh folder of the page's own with a small `game.pgn` and the files the page shows (```toml
+//! blocks headed `# NAME.toml`); each must succeed, and the promises the pages make about some
+//! of them are checked. (The Python page's ```python blocks are run by `python_package.rs`.)
 //!
 //! Not run here: `cargo test` (this is it) and `cargo bench` (minutes of measurement; CI's
 //! `clippy --all-targets` builds the benchmarks).
@@ -9,15 +10,53 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The README's `cargo run --release …` lines of its `sh` blocks, comments removed.
-fn readme_commands() -> Vec<String> {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+/// The repository's root.
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A page whose examples run: `README.md` or a page of `docs/`.
+struct Page {
+    /// The path from the repository's root, as the messages name it.
+    name: String,
+    text: String,
+}
+
+/// The README.
+fn readme() -> Page {
+    Page { name: "README.md".to_owned(), text: std::fs::read_to_string(root().join("README.md")).unwrap() }
+}
+
+/// Every page of `docs/`, by name.
+fn docs_pages() -> Vec<Page> {
+    let mut names: Vec<String> = std::fs::read_dir(root().join("docs"))
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| name.ends_with(".md"))
+        .collect();
+    names.sort();
+    names
+        .into_iter()
+        .map(|name| {
+            let text = std::fs::read_to_string(root().join("docs").join(&name)).unwrap();
+            Page { name: format!("docs/{name}"), text }
+        })
+        .collect()
+}
+
+/// The README and every page of `docs/`.
+fn all_pages() -> Vec<Page> {
+    std::iter::once(readme()).chain(docs_pages()).collect()
+}
+
+/// A page's `cargo run --release …` lines of its `sh` blocks, comments removed.
+fn commands_of(page: &Page) -> Vec<String> {
     let mut commands = Vec::new();
     let mut in_sh = false;
-    for line in readme.lines() {
+    for line in page.text.lines() {
         let trimmed = line.trim();
         if trimmed.starts_with("```") {
             in_sh = trimmed == "```sh";
@@ -31,13 +70,12 @@ fn readme_commands() -> Vec<String> {
     commands
 }
 
-/// The README's ```toml blocks that start with a `# NAME.toml` line: files its examples read.
-fn readme_files() -> Vec<(String, String)> {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+/// A page's ```toml blocks that start with a `# NAME.toml` line: files its examples read.
+fn files_of(page: &Page) -> Vec<(String, String)> {
     let mut files = Vec::new();
     let mut current: Option<(String, String)> = None;
     let mut in_toml = false;
-    for line in readme.lines() {
+    for line in page.text.lines() {
         let trimmed = line.trim();
         if trimmed.starts_with("```") {
             if let Some(file) = current.take() {
@@ -96,24 +134,23 @@ fn engine_of(command: &str) -> Option<String> {
     args.iter().skip_while(|a| *a != "--engine").nth(1).filter(|engine| engine.starts_with('/')).cloned()
 }
 
-/// A folder with what the README's examples read: its files, the game, `examples/`.
-fn example_folder() -> tempfile::TempDir {
+/// A folder with what a page's examples read: its files, the game, `examples/`.
+fn example_folder(page: &Page) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("game.pgn"), GAME_PGN).unwrap();
-    let files = readme_files();
-    assert!(files.iter().any(|(name, _)| name == "examples/uncertainty.toml"), "README files not found: {files:?}");
-    // The files the README shows are shipped in examples/ (a comment line or two above what it
-    // shows); others would be written for the examples that read them.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    for (name, text) in &files {
+    // The files a page shows from examples/ are shipped there (a comment line or two above what
+    // it shows); others are written for the examples of the page that read them.
+    let root = root();
+    for (name, text) in &files_of(page) {
         if name.starts_with("examples/") {
             let shipped = std::fs::read_to_string(root.join(name)).unwrap();
-            assert!(shipped.ends_with(text.as_str()), "{name} differs from the README's:\n{shipped}\n---\n{text}");
+            let page = &page.name;
+            assert!(shipped.ends_with(text.as_str()), "{name} differs from {page}'s:\n{shipped}\n---\n{text}");
         } else {
             std::fs::write(dir.path().join(name), text).unwrap();
         }
     }
-    // The makers' URDFs the README's examples name, at the same path.
+    // The makers' URDFs the examples name, at the same path.
     let real_arms = Path::new("crates/cli/tests/fixtures/real-arms");
     std::fs::create_dir_all(dir.path().join(real_arms)).unwrap();
     for entry in std::fs::read_dir(root.join(real_arms)).unwrap() {
@@ -123,7 +160,7 @@ fn example_folder() -> tempfile::TempDir {
     // The needle fingers the real arms' examples give.
     let needle = Path::new("crates/cli/tests/fixtures/needle_fingers.toml");
     std::fs::copy(root.join(needle), dir.path().join(needle)).unwrap();
-    // The repository's examples/ folder, which the README's examples name.
+    // The repository's examples/ folder, which the examples name.
     let examples = root.join("examples");
     std::fs::create_dir(dir.path().join("examples")).unwrap();
     for entry in std::fs::read_dir(&examples).unwrap() {
@@ -133,12 +170,12 @@ fn example_folder() -> tempfile::TempDir {
     dir
 }
 
-/// Runs one README example in `dir` and checks what the README promises of it.
-fn run_example(dir: &Path, command: &str) {
+/// Runs one example of `page` in `dir` and checks what its page promises of it.
+fn run_example(page: &str, dir: &Path, command: &str) {
     let args: Vec<String> = words(command).into_iter().skip(3).skip_while(|w| w == "--").collect();
     let output = Command::new(env!("CARGO_BIN_EXE_chessarm")).args(&args).current_dir(dir).output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{command}: {stderr}");
+    assert!(output.status.success(), "{page}: {command}: {stderr}");
     let stdout = String::from_utf8_lossy(&output.stdout);
     // With --json the result is one JSON value; without, a summary for people.
     let json = if args.iter().any(|a| a == "--json") {
@@ -151,42 +188,92 @@ fn run_example(dir: &Path, command: &str) {
     check_promises(&args, &json, &format!("{stdout}{stderr}"), dir);
 }
 
+/// Runs a page's examples in order in a folder of its own, but those that play an installed
+/// engine: they have a test of their own, which the harness counts as ignored where the engine
+/// is not installed. Returns how many ran.
+fn run_page(page: &Page) -> usize {
+    let commands: Vec<String> = commands_of(page).into_iter().filter(|c| engine_of(c).is_none()).collect();
+    if commands.is_empty() {
+        return 0;
+    }
+    let dir = example_folder(page);
+    for command in &commands {
+        run_example(&page.name, dir.path(), command);
+    }
+    commands.len()
+}
+
 #[test]
 fn every_readme_example_runs_and_keeps_its_promises() {
-    let commands = readme_commands();
-    assert!(commands.len() >= 9, "README examples not found: {commands:?}");
-    let dir = example_folder();
-    // The examples that play an installed engine have a test of their own, which the harness
-    // counts as ignored where the engine is not installed.
-    for command in commands.iter().filter(|c| engine_of(c).is_none()) {
-        run_example(dir.path(), command);
+    let page = readme();
+    let commands = commands_of(&page);
+    assert!(commands.len() >= 3, "README examples not found: {commands:?}");
+    run_page(&page);
+}
+
+/// The manual's pages (`docs/*.md`) that show example commands; each must still have some.
+const PAGES_WITH_EXAMPLES: [&str; 6] = [
+    "docs/live.md",
+    "docs/playing.md",
+    "docs/real-arms.md",
+    "docs/realistic-robot.md",
+    "docs/replay.md",
+    "docs/study.md",
+];
+
+#[test]
+fn every_docs_page_example_runs_and_keeps_its_promises() {
+    let mut ran = Vec::new();
+    for page in docs_pages() {
+        if run_page(&page) > 0 {
+            ran.push(page.name);
+        }
     }
+    for name in PAGES_WITH_EXAMPLES {
+        assert!(ran.iter().any(|r| r == name), "no examples ran from {name}: {ran:?}");
+    }
+    // The pages' files: the uncertainty file the Monte Carlo examples read among them.
+    let files: Vec<String> = docs_pages().iter().flat_map(files_of).map(|(name, _)| name).collect();
+    assert!(files.iter().any(|name| name == "examples/uncertainty.toml"), "the pages' files not found: {files:?}");
 }
 
 #[test]
 #[cfg_attr(not(tool_stockfish), ignore = "needs Stockfish (apt install stockfish); see docs/testing.md")]
-fn the_readme_s_examples_against_an_installed_engine_run() {
-    let commands: Vec<String> = readme_commands().into_iter().filter(|c| engine_of(c).is_some()).collect();
-    assert!(!commands.is_empty(), "the README has no example against Stockfish");
-    let dir = example_folder();
-    for command in &commands {
-        let engine = engine_of(command).unwrap();
-        // Where this system has the engine, if not where the README (Debian) says.
-        let installed = if Path::new(&engine).exists() {
-            engine.clone()
-        } else {
-            let name = Path::new(&engine).file_name().unwrap();
-            std::env::var_os("PATH")
-                .and_then(|paths| std::env::split_paths(&paths).map(|dir| dir.join(name)).find(|p| p.is_file()))
-                .unwrap_or_else(|| panic!("{engine} is not installed, for: {command}"))
-                .to_string_lossy()
-                .into_owned()
-        };
-        run_example(dir.path(), &command.replace(&engine, &installed));
+fn the_examples_against_an_installed_engine_run() {
+    let mut ran = 0;
+    for page in all_pages() {
+        let commands: Vec<String> = commands_of(&page).into_iter().filter(|c| engine_of(c).is_some()).collect();
+        if commands.is_empty() {
+            continue;
+        }
+        let dir = example_folder(&page);
+        for command in &commands {
+            run_against_installed_engine(&page.name, dir.path(), command);
+            ran += 1;
+        }
     }
+    assert!(ran > 0, "no page has an example against Stockfish");
 }
 
-/// What the README says of particular examples.
+/// Runs an example of `page` that plays the engine it names by its path, with the engine where
+/// this system has it.
+fn run_against_installed_engine(page: &str, dir: &Path, command: &str) {
+    let engine = engine_of(command).unwrap();
+    // Where this system has the engine, if not where the page (Debian) says.
+    let installed = if Path::new(&engine).exists() {
+        engine.clone()
+    } else {
+        let name = Path::new(&engine).file_name().unwrap();
+        std::env::var_os("PATH")
+            .and_then(|paths| std::env::split_paths(&paths).map(|dir| dir.join(name)).find(|p| p.is_file()))
+            .unwrap_or_else(|| panic!("{engine} is not installed, for {page}'s: {command}"))
+            .to_string_lossy()
+            .into_owned()
+    };
+    run_example(page, dir, &command.replace(&engine, &installed));
+}
+
+/// What the pages say of particular examples.
 fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
     let first = args.first().map(String::as_str);
     match first {
@@ -197,16 +284,15 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             assert!(terminal.lines().count() < 20, "not a short summary: {terminal}");
             assert!(dir.join("out/simulate/summary.json").exists() && dir.join("out/plan/joint.csv").exists());
             assert!(dir.join("out/simulate/replay.html").exists());
-            // The files the README's demo section lists, one set per controller it names.
+            // The files the study's page lists for the demo, one set per controller it names.
             for controller in ["pd", "pid-plain", "pid"] {
                 for suffix in [".csv", "_joints.png", "_torques.png"] {
                     let name = format!("{controller}{suffix}");
                     assert!(dir.join("out/simulate").join(&name).exists(), "{name}");
                 }
             }
-            let readme =
-                std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
-            assert!(readme.contains("- `pd.csv`, `pid-plain.csv`, `pid.csv`:"), "the README's demo files");
+            let study = std::fs::read_to_string(root().join("docs/study.md")).unwrap();
+            assert!(study.contains("- `pd.csv`, `pid-plain.csv`, `pid.csv`:"), "docs/study.md's demo files");
         }
         Some("plan") if args.iter().any(|a| a == "--export-rate") => {
             for stem in ["001-e2e4", "002-d7d5", "003-e4d5"] {
@@ -214,7 +300,10 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
                 assert!(dir.join(format!("out/plan/hardware/{stem}.csv")).exists(), "{stem}");
             }
         }
-        Some("plan") => assert!(dir.join("out/plan/joint.xlsx").exists()),
+        Some("plan") if args.iter().any(|a| a == "--xlsx") => {
+            let out = args.iter().skip_while(|a| *a != "--out").nth(1).map_or("out/plan", String::as_str);
+            assert!(dir.join(out).join("joint.xlsx").exists(), "{out}/joint.xlsx");
+        }
         Some("--urdf") if args.get(2).map(String::as_str) == Some("arm") => {
             assert!(terminal.contains("alpha = -1.5707963267948966"), "{terminal}");
         }
@@ -233,8 +322,8 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             assert!(values[0] < 0.1, "best max tip error {} mm", values[0]);
             assert!(terminal.contains("tracking metrics from t = 1 s on"), "{terminal}");
         }
-        // The replay of one trial: the one robustness.json says is PD's worst (the README
-        // says so), to the same placement error.
+        // The replay of one trial: the one robustness.json says is PD's worst (its page says
+        // so), to the same placement error.
         Some("simulate") if args.iter().any(|a| a == "--trial-seed") => {
             let study: Value =
                 serde_json::from_slice(&std::fs::read(dir.join("out/robustness/robustness.json")).unwrap()).unwrap();
@@ -248,7 +337,7 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
             assert!(dir.join("out/play/replay.html").exists());
         }
         Some("calibrate") => {
-            // The README's figures: the board found moved 8 mm and turned 2°.
+            // The page's figures: the board found moved 8 mm and turned 2°.
             let result: Value =
                 serde_json::from_slice(&std::fs::read(dir.join("calibration/calibration.json")).unwrap()).unwrap();
             assert!((result["moved_mm"].as_f64().unwrap() - 8.0).abs() < 0.2, "{result}");
@@ -269,7 +358,7 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
                 assert!(log.lines().count() > 100, "{log}");
             }
             if !args.iter().any(|a| a == "--resume") {
-                assert!(terminal.contains("not played"), "the README's inputs hold a refused line: {terminal}");
+                assert!(terminal.contains("not played"), "the example's inputs hold a refused line: {terminal}");
             }
         }
         Some("play") if args.iter().any(|a| a == "--moves") => {
@@ -282,15 +371,14 @@ fn check_promises(args: &[String], json: &Value, terminal: &str, dir: &Path) {
 /// One `<!-- monte-carlo: ARGS -->` table: its ARGS and, per row, the fixture and its figures.
 type MonteCarloTable = (String, Vec<(String, Vec<f64>)>);
 
-/// The README's Monte Carlo tables: each `<!-- monte-carlo: ARGS -->` line is followed by a
+/// The pages' Monte Carlo tables: each `<!-- monte-carlo: ARGS -->` line is followed by a
 /// table whose rows name a fixture (`` `NAME.pgn` ``) and give the success rate, the median,
 /// p95 and largest placement error and the robot seconds per ply that `chessarm ARGS` (with
 /// `GAME` the fixture) prints for its first controller, to the digits shown.
-fn monte_carlo_tables() -> Vec<MonteCarloTable> {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+fn monte_carlo_tables(page: &Page) -> Vec<MonteCarloTable> {
     let mut tables: Vec<MonteCarloTable> = Vec::new();
     let mut in_table = false;
-    for line in readme.lines() {
+    for line in page.text.lines() {
         if let Some(args) = line.trim().strip_prefix("<!-- monte-carlo:").and_then(|l| l.strip_suffix("-->")) {
             tables.push((args.trim().to_owned(), Vec::new()));
             in_table = true;
@@ -319,9 +407,9 @@ fn monte_carlo_tables() -> Vec<MonteCarloTable> {
 }
 
 #[test]
-fn the_readmes_monte_carlo_figures_are_what_its_command_prints() {
-    let tables = monte_carlo_tables();
-    assert!(tables.len() >= 2 && tables.iter().all(|t| t.1.len() == 2), "README Monte Carlo tables: {tables:?}");
+fn the_pages_monte_carlo_figures_are_what_their_command_prints() {
+    let tables: Vec<MonteCarloTable> = all_pages().iter().flat_map(monte_carlo_tables).collect();
+    assert!(tables.len() >= 2 && tables.iter().all(|t| t.1.len() == 2), "the pages' Monte Carlo tables: {tables:?}");
     let dir = tempfile::tempdir().unwrap();
     let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
     std::fs::create_dir(dir.path().join("examples")).unwrap();
@@ -351,8 +439,8 @@ fn the_readmes_monte_carlo_figures_are_what_its_command_prints() {
                 number(&stats["place_error_mm"]["max"]),
                 number(&stats["seconds_per_ply"]),
             ];
-            // The figures as the README prints them: the rate in whole percent, the rest to
-            // two decimals.
+            // The figures as the page prints them: the rate in whole percent, the rest to two
+            // decimals.
             assert_eq!(figures.len(), 5, "{game}: {figures:?}");
             let shown: Vec<String> = measured
                 .iter()
@@ -364,7 +452,7 @@ fn the_readmes_monte_carlo_figures_are_what_its_command_prints() {
                 .enumerate()
                 .map(|(i, v)| if i == 0 { format!("{v:.0}") } else { format!("{v:.2}") })
                 .collect();
-            assert_eq!(written, shown, "{template} on {game}: README {figures:?}, measured {measured:?}");
+            assert_eq!(written, shown, "{template} on {game}: the page {figures:?}, measured {measured:?}");
         }
     }
 }

@@ -10,7 +10,9 @@
 //! - [`bus`]: the servo bus (packets, driver, simulated bus, the real arm), which depends on the
 //!   physics only;
 //! - [`output`]: result files written whole or not at all, the folder's list, its lock;
-//! - [`resources`]: the bounds on memory and work a run is held to.
+//! - [`resources`]: the bounds on memory and work a run is held to;
+//! - [`shutdown`]: what a termination signal undoes, registered by the rooms that hold it;
+//! - [`text`]: text from a user, a file or an engine shown safely on one line.
 //!
 //! The binary's `commands` and the Python bindings call these rooms; no room here imports the
 //! binary's argument parser or its commands.
@@ -20,4 +22,6 @@ pub mod formats;
 pub mod output;
 pub mod resources;
 pub mod setup;
+pub mod shutdown;
 pub mod studies;
+pub mod text;

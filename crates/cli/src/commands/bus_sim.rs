@@ -16,7 +16,7 @@ pub fn run(setup: &Setup, args: &BusSimArgs) -> Result<()> {
             "bus-sim simulates servos: give them with --actuator (e.g. --actuator sts3215) or the setup's [actuators]"
         );
     }
-    let bus = crate::app::setup::actuators::ServoBus::of(setup)?;
+    let bus = crate::app::setup::servos::ServoBus::of(setup)?;
     // A fault for a servo not on the bus would never fire: refused before the bus starts.
     let on_bus: Vec<u8> = bus.ids.iter().copied().chain(bus.gripper.map(|g| g.id)).collect();
     for (flag, fault) in [("--lose-reply", args.lose_reply), ("--overload", args.overload)] {
@@ -87,5 +87,5 @@ pub fn run(setup: &Setup, args: &BusSimArgs) -> Result<()> {
             }
         }
     });
-    sim.serve(&mut terminal, crate::cancelled, Some(&receiver))
+    sim.serve(&mut terminal, crate::cancelled, Some(&receiver), &|line| crate::tell(line))
 }

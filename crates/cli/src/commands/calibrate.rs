@@ -103,7 +103,7 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
     let zero_errors: [f64; 4] = std::array::from_fn(|j| signs[j] * fitted.zero_errors[j] + 0.0);
     let mut zero_ticks = None;
     if args.zeros && setup.actuators.take_positions() {
-        let bus = crate::app::setup::actuators::ServoBus::of(setup)?;
+        let bus = crate::app::setup::servos::ServoBus::of(setup)?;
         // ticks = zero + direction · q / count with q the true angle = read + δ: the zero moves
         // by −direction · δ / count.
         let ticks: Vec<f64> = (0..4)
@@ -115,7 +115,7 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
         let mut file = calibrated.servo_bus.clone().unwrap_or_default();
         file.zero_ticks = Some(ticks.clone());
         calibrated.servo_bus = Some(file);
-        crate::app::setup::actuators::ServoBus::of(&calibrated)?;
+        crate::app::setup::servos::ServoBus::of(&calibrated)?;
         zero_ticks = Some(ticks);
     }
     // The fitted board must be one the setup's own check (`board`, `play`) accepts.

@@ -5,8 +5,8 @@ use crate::app::setup::conditions::Study;
 use crate::app::setup::file::Setup;
 use crate::app::studies::plan::plan_scenario;
 use crate::app::studies::simulate::{RunOptions, run_controller};
+use crate::app::text::one_line;
 use crate::cli::{ControllerChoice, GainsArgs};
-use crate::one_line;
 use anyhow::{Result, bail};
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::{Gains, ResponseShape, design_from_specs};
@@ -63,7 +63,7 @@ pub fn run(setup: &Setup, args: &GainsArgs) -> Result<()> {
             name: name.into(),
             kind: ControllerKind::ComputedTorque,
             gains,
-            knows_friction: args.conditions.knows_friction(setup),
+            knows_friction: args.conditions.options().knows_friction(setup),
         };
         // What the design promises: the exact response of the error dynamics.
         let shape = ResponseShape::of(zeta, ratio);
@@ -155,11 +155,11 @@ fn verify(setup: &Setup, args: &GainsArgs, spec: &ControllerSpec) -> Result<Valu
     let plan = plan_scenario(setup, &args.scenario, 1e-3, "the verification run")?;
     let start = plan.joint.first().q;
     let q0: [f64; 4] = std::array::from_fn(|j| start[j] - args.initial_error);
-    let study = Study::new(setup, &args.conditions, 1e-3)?;
+    let study = Study::new(setup, &args.conditions.options(), 1e-3)?;
     let (trial, conditions) = if study.is_ideal(setup) {
         (None, Value::Null)
     } else {
-        (Some(study.trial(args.conditions.run_seed())?), study.describe())
+        (Some(study.trial(args.conditions.options().run_seed())?), study.describe())
     };
     let options = RunOptions {
         dt: 1e-3,

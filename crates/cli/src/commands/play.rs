@@ -229,7 +229,7 @@ fn refuse_person_flags_without_a_person(args: &PlayArgs) -> Result<()> {
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     refuse_person_flags_without_a_person(args)?;
     let setup = &args.motion.apply(setup)?;
-    let hosts = crate::app::setup::actuators::servo_hosts(setup);
+    let hosts = crate::servo_hosts(setup);
     if hosts.as_ref().is_some_and(|h| h.len() > 1) {
         anyhow::bail!("--servo-command: play sends one kind of goal; give one of plain, sag, feedforward");
     }
@@ -237,16 +237,16 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         Some(mut hosts) => hosts.remove(0),
         None => controller_specs(&[args.controller.into()], &args.gains.given(), DefaultGains::Game)?.remove(0),
     };
-    spec.knows_friction = args.conditions.knows_friction(setup);
+    spec.knows_friction = args.conditions.options().knows_friction(setup);
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     let settings_name = spec.name.clone();
     settings.controller = spec;
-    crate::app::setup::actuators::drive(setup, &mut settings);
-    let study = Study::new(setup, &args.conditions, settings.control_period)?;
-    let trial = study.trial(args.conditions.run_seed())?;
+    crate::app::setup::servos::drive(setup, &mut settings);
+    let study = Study::new(setup, &args.conditions.options(), settings.control_period)?;
+    let trial = study.trial(args.conditions.options().run_seed())?;
     let ideal = study.is_ideal(setup);
     if !ideal {
-        crate::tell(&study.note(args.conditions.run_seed()));
+        crate::tell(&study.note(args.conditions.options().run_seed()));
     }
     if let Some(note) = study.friction_note() {
         crate::tell(&note);
@@ -267,7 +267,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     settings.limits.tracking = study.tracking(
         setup,
         &settings.controller.gains,
-        settings.payload_feedforward && crate::app::setup::actuators::cancels_inertia(&settings.controller.kind),
+        settings.payload_feedforward && crate::app::setup::servos::cancels_inertia(&settings.controller.kind),
         settings.controller_knows_payload,
     );
     let mut source = source(args)?;
@@ -319,7 +319,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     remove_listed_in(&args.out.join("hardware-incomplete"))?;
     // The servos' bus, checked before anything runs: their goals go out in its ticks.
     let servo_bus =
-        setup.actuators.take_positions().then(|| crate::app::setup::actuators::ServoBus::of(setup)).transpose()?;
+        setup.actuators.take_positions().then(|| crate::app::setup::servos::ServoBus::of(setup)).transpose()?;
     let started = Instant::now();
     let first_number = (start.fullmoves().get(), start.turn());
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
@@ -415,7 +415,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             "complete": false,
             "failed_at_ply": reports.len() + 1,
             "plies_played": reports.len(),
-            "error": crate::one_line(&error),
+            "error": crate::app::text::one_line(&error),
         });
         write_json(&args.out.join("game.json"), &record)?;
         if hardware_dir.is_dir() {
@@ -543,7 +543,7 @@ struct Outputs<'a> {
     controller: &'a str,
     moves_dir: &'a Path,
     hardware_dir: &'a Path,
-    servo_bus: Option<&'a crate::app::setup::actuators::ServoBus>,
+    servo_bus: Option<&'a crate::app::setup::servos::ServoBus>,
     args: &'a PlayArgs,
 }
 
@@ -652,7 +652,7 @@ fn send_to_arm(arm: &mut crate::app::bus::arm::RealArm, report: &MoveReport) -> 
             report.san
         );
     }
-    arm.execute(&hardware.servo_goals, report.start_time, &report.handled)
+    arm.execute(&hardware.servo_goals, report.start_time, &report.handled, &crate::cancelled)
         .with_context(|| format!("ply {} {}: the real arm", report.ply, report.san))?;
     Ok(())
 }
@@ -1325,7 +1325,7 @@ fn write_move_csv(
     header.extend(numbered("q", 4).chain(numbered("q_des", 4)));
     header.extend(["x", "y", "z", "x_des", "y_des", "z_des", "tip_error_mm"].map(String::from));
     if report.records.first().is_some_and(|r| r.servo.is_some()) {
-        header.extend(crate::app::setup::actuators::servo_columns());
+        header.extend(crate::app::setup::servos::servo_columns());
     }
     let path = dir.join(format!("{:03}-{}.csv", report.ply, report.uci));
     write_csv(
@@ -1336,7 +1336,7 @@ fn write_move_csv(
             row.extend(convention.user(r.state.q).into_iter().chain(convention.user(r.reference.q)));
             row.extend(r.tip.iter().chain(r.tip_desired.iter()));
             row.push((r.tip - r.tip_desired).norm() * 1e3);
-            crate::app::setup::actuators::push_servo_values(&mut row, r, convention);
+            crate::app::setup::servos::push_servo_values(&mut row, r, convention);
             row
         }),
     )

@@ -119,14 +119,14 @@ fn run_trial(
     let outcome: Result<()> = (|| {
         let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
         settings.controller = spec.clone();
-        crate::app::setup::actuators::drive(setup, &mut settings);
+        crate::app::setup::servos::drive(setup, &mut settings);
         settings.pieces = setup.pieces;
         settings.clearance = Some(setup.clearance.clone());
         settings.limits = setup.motion;
         settings.limits.tracking = study.tracking(
             setup,
             &spec.gains,
-            options.payload_feedforward && crate::app::setup::actuators::cancels_inertia(&spec.kind),
+            options.payload_feedforward && crate::app::setup::servos::cancels_inertia(&spec.kind),
             options.controller_knows_payload,
         );
         settings.timing = setup.timing;
@@ -153,7 +153,7 @@ fn run_trial(
     })();
     let status = match outcome {
         Ok(()) => "ok".to_string(),
-        Err(error) => format!("failed: {}", crate::one_line(&error)),
+        Err(error) => format!("failed: {}", crate::app::text::one_line(&error)),
     };
     (status, totals)
 }
@@ -381,7 +381,7 @@ fn failed_draw(drawn: &Drawn, error: &anyhow::Error) -> TrialRow {
         trial: drawn.index,
         trial_seed: drawn.seed,
         controller: "-".into(),
-        status: format!("failed: {}", crate::one_line(error)),
+        status: format!("failed: {}", crate::app::text::one_line(error)),
         place_error_mm: f64::NAN,
         pieces: 0,
         misplaced: 0,
@@ -412,7 +412,7 @@ fn scenario_run<'a>(
     let controller = spec.build_for(setup.arm, &setup.actuators)?;
     // Servos' gears are part of the true plant; their host samples at the bus rate.
     let plant = trial.actuators.plant_model(&trial.plant)?;
-    let control_period = crate::app::setup::actuators::control_period(setup, 1e-3);
+    let control_period = crate::app::setup::servos::control_period(setup, 1e-3);
     let feedback = trial.conditions.feedback(control_period)?;
     let config = SimConfig {
         integrator,
@@ -463,7 +463,7 @@ fn scenario_rows(
                     rows.push(None);
                 }
                 Err(error) => {
-                    let status = format!("failed: {}", crate::one_line(&error));
+                    let status = format!("failed: {}", crate::app::text::one_line(&error));
                     rows.push(Some(row(d.index, trial, spec, status, &Totals::default(), options.tolerance)));
                 }
             }
@@ -483,7 +483,7 @@ fn scenario_rows(
                 totals.places.extend(placement_error(plan, &summary));
                 "ok".to_string()
             }
-            Err(error) => format!("failed: {}", crate::one_line(&anyhow::Error::from(error))),
+            Err(error) => format!("failed: {}", crate::app::text::one_line(&anyhow::Error::from(error))),
         };
         rows[slot] = Some(row(index, trial, spec, status, &totals, options.tolerance));
     }
@@ -494,14 +494,14 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     crate::app::resources::batching()?;
     let setup = &args.motion.apply(setup)?;
     let defaults = if args.game_file.is_some() { DefaultGains::Game } else { DefaultGains::Report };
-    let mut specs = match crate::app::setup::actuators::servo_hosts(setup) {
+    let mut specs = match crate::servo_hosts(setup) {
         Some(hosts) => hosts,
         None => controller_specs(&args.controller, &args.gains.given(), defaults)?,
     };
     for spec in &mut specs {
-        spec.knows_friction = args.conditions.knows_friction(setup);
+        spec.knows_friction = args.conditions.options().knows_friction(setup);
     }
-    let study = Study::for_trials(setup, &args.conditions, 1e-3)?;
+    let study = Study::for_trials(setup, &args.conditions.options(), 1e-3)?;
     if args.conditions.trial_seed.is_some() {
         anyhow::bail!(
             "--trial-seed runs one trial: use it with simulate or play; robustness draws --trials trials from --seed"
@@ -603,13 +603,13 @@ pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
         Work::Scenario { payload_mass, .. } => format!(
             "{arm}simulate --scenario {} --payload-mass {payload_mass}{knows}{}{from_setup}",
             args.scenario,
-            args.conditions.flags()
+            args.conditions.options().flags()
         ),
         Work::Game(_) => format!(
             "{arm}play {} --game {}{knows}{}{from_setup}",
             args.game_file.as_ref().map_or(String::new(), |p| word(p)),
             args.game,
-            args.conditions.flags()
+            args.conditions.options().flags()
         ),
     };
     let stats: Vec<serde_json::Value> =

@@ -15,12 +15,12 @@ use serde_json::{Value, json};
 
 pub fn options_from(setup: &Setup, args: &SimulateArgs) -> Result<RunOptions> {
     let control_period = 1.0 / args.control_rate;
-    let study = Study::new(setup, &args.conditions, control_period)?;
+    let study = Study::new(setup, &args.conditions.options(), control_period)?;
     let (trial, conditions) = if study.is_ideal(setup) {
         (None, Value::Null)
     } else {
-        crate::tell(&study.note(args.conditions.run_seed()));
-        (Some(study.trial(args.conditions.run_seed())?), study.describe())
+        crate::tell(&study.note(args.conditions.options().run_seed()));
+        (Some(study.trial(args.conditions.options().run_seed())?), study.describe())
     };
     Ok(RunOptions {
         dt: args.dt,
@@ -60,12 +60,12 @@ pub fn run(setup: &Setup, args: &SimulateArgs) -> Result<()> {
     if let Some(q0) = &args.q0 {
         crate::warn_outside_limits(setup, "--q0", q0);
     }
-    let mut specs = match crate::app::setup::actuators::servo_hosts(setup) {
+    let mut specs = match crate::servo_hosts(setup) {
         Some(hosts) => hosts,
         None => controller_specs(&args.controller, &args.gains.given(), DefaultGains::Report)?,
     };
     for spec in &mut specs {
-        spec.knows_friction = args.conditions.knows_friction(setup);
+        spec.knows_friction = args.conditions.options().knows_friction(setup);
     }
     let options = options_from(setup, args)?;
     let total = study_steps(setup, &args.scenario, &options)?.saturating_mul(specs.len() as u64);

@@ -352,7 +352,7 @@ pub struct CandidateOptions {
     pub mass_error: [f64; 6],
     /// What the fine points' band can resolve: the sensors' and the servos' counts.
     pub resolution: crate::app::setup::conditions::Resolution,
-    /// Each joint's servo's P register conversion ([`crate::app::setup::actuators::p_register_conversions`]).
+    /// Each joint's servo's P register conversion ([`crate::app::setup::servos::p_register_conversions`]).
     pub p_conversions: [Option<f64>; 4],
 }
 
@@ -378,7 +378,7 @@ impl Drive {
                 control_period: 1e-3,
             },
             Setting::Servo { command, p_gain } => {
-                let with_p = |a| crate::app::setup::actuators::with_p_register(a, &options.p_conversions, *p_gain);
+                let with_p = |a| crate::app::setup::servos::with_p_register(a, &options.p_conversions, *p_gain);
                 Self {
                     kind: ControllerKind::ServoHost(*command),
                     // A host has no gains; the number is not used.
@@ -555,20 +555,21 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
         candidate_gains(args)?.into_iter().map(Setting::Torque).collect()
     };
     let range = crate::app::resources::shard_range(settings.len(), args.shard);
-    let conditions = crate::app::setup::conditions::Study::new(setup, &args.conditions, 1e-3)?;
-    let trial = if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.run_seed())?) };
+    let conditions = crate::app::setup::conditions::Study::new(setup, &args.conditions.options(), 1e-3)?;
+    let trial =
+        if conditions.is_ideal(setup) { None } else { Some(conditions.trial(args.conditions.options().run_seed())?) };
     let study = study(setup, args, trial.as_ref())?;
     let kind =
         controller_specs(&[args.controller.into()], &GivenGains::default(), DefaultGains::Report)?.remove(0).kind;
     if servos {
         // The host strategies replace the torque controllers (said once on the terminal).
-        crate::app::setup::actuators::servo_hosts(setup);
+        crate::servo_hosts(setup);
     }
     let options = CandidateOptions {
         controller_knows_payload: args.controller_knows_payload,
         placement: args.placement.clone(),
         kind,
-        knows_friction: args.conditions.knows_friction(setup),
+        knows_friction: args.conditions.options().knows_friction(setup),
         trial,
         integrator: args.integrator.integrator(),
         tracking_from: tracking_from(args),
@@ -578,7 +579,7 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
             args.controller_knows_payload,
         ),
         resolution: conditions.resolution(setup),
-        p_conversions: crate::app::setup::actuators::p_register_conversions(setup),
+        p_conversions: crate::app::setup::servos::p_register_conversions(setup),
     };
     if args.game_file.is_some() && args.tracking_from.is_some() {
         bail!("--tracking-from goes with a scenario; a game starts every move on its trajectory");
@@ -794,7 +795,7 @@ fn servo_settings(setup: &Setup, args: &TuneArgs) -> Result<Vec<Setting>> {
     if range.from <= 0.0 {
         bail!("--p-gain range starts at {}: the P register must be > 0", range.from);
     }
-    let conversions = crate::app::setup::actuators::p_register_conversions(setup);
+    let conversions = crate::app::setup::servos::p_register_conversions(setup);
     if let Some(j) = conversions.iter().position(Option::is_none) {
         bail!(
             "--p-gain: joint {}'s actuator {} has no P register to sweep (a stepper, or an [actuators] table without `base`)",

@@ -108,7 +108,7 @@ impl Person {
         if n > MAX_LINE && buffer.last() != Some(&b'\n') {
             anyhow::bail!(
                 "the person's input has a line of over {MAX_LINE} bytes without a line end (it starts '{}'): it is not moves typed or a board's readings; the game is saved",
-                crate::escape_controls(&String::from_utf8_lossy(&buffer[..buffer.len().min(40)]))
+                crate::app::text::escape_controls(&String::from_utf8_lossy(&buffer[..buffer.len().min(40)]))
             );
         }
         Ok(Some(String::from_utf8_lossy(&buffer).trim().to_string()))
@@ -125,15 +125,15 @@ impl Person {
         if self.in_a_row > REFUSED_IN_A_ROW {
             anyhow::bail!(
                 "the person's input gave no move in {REFUSED_IN_A_ROW} lines in a row (the last: '{}'): it is not moves typed or a board's readings; the game is saved",
-                crate::escape_controls(&line.chars().take(40).collect::<String>())
+                crate::app::text::escape_controls(&line.chars().take(40).collect::<String>())
             );
         }
-        let why = crate::escape_controls(why);
+        let why = crate::app::text::escape_controls(why);
         crate::tell(&format!("not played: {why}\n"));
         self.refused.lines += 1;
         self.refused.bytes += line.len();
         if self.refused.kept.len() < REFUSED_KEPT {
-            let entry = format!("{}: {why}", crate::escape_controls(line));
+            let entry = format!("{}: {why}", crate::app::text::escape_controls(line));
             self.refused.kept.push(entry.chars().take(REFUSED_CHARS).collect());
         }
         Ok(())
@@ -158,7 +158,7 @@ impl Person {
             if let Some(action) = word(&line) {
                 return Ok(action);
             }
-            let shown = crate::escape_controls(&line);
+            let shown = crate::app::text::escape_controls(&line);
             match self.kind {
                 HumanInput::Typed => match parse_move(&line, position) {
                     Ok(m) => return Ok(Action::Move(m)),
@@ -205,7 +205,8 @@ impl Person {
             match parse_move(&line, position) {
                 Ok(m) if choices.contains(&m) => return Ok(Action::Move(m)),
                 _ => {
-                    let why = format!("'{}' is not one of {}", crate::escape_controls(&line), names.join(", "));
+                    let why =
+                        format!("'{}' is not one of {}", crate::app::text::escape_controls(&line), names.join(", "));
                     self.refuse(&line, &why)?;
                 }
             }
@@ -231,7 +232,7 @@ impl Person {
             match role.and_then(|r| choices.iter().find(|m| m.promotion() == Some(r))) {
                 Some(m) => return Ok(Action::Move(*m)),
                 None => {
-                    let why = format!("'{}' is not q, r, b or n", crate::escape_controls(&line));
+                    let why = format!("'{}' is not q, r, b or n", crate::app::text::escape_controls(&line));
                     self.refuse(&line, &why)?;
                 }
             }

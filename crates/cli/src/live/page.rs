@@ -490,7 +490,7 @@ fn route(request: &Request, shared: &Shared) -> Answer {
 /// Whether `line` sent to `path` is one the game takes in the shown `state`: a legal move (UCI
 /// or SAN) in the position shown, or one of the commands; `Err` with why not.
 fn check_line(path: &str, line: &str, state: &serde_json::Value) -> Result<(), String> {
-    let shown = crate::escape_controls(line);
+    let shown = crate::app::text::escape_controls(line);
     if path == "/command" {
         return match line.to_ascii_lowercase().as_str() {
             // An undo takes back the person's last move and the arm's reply.

@@ -4,8 +4,8 @@
 
 use crate::app::bus::driver::{Driver, DriverError, Followed, TickGoal, Wire, WireLimits};
 use crate::app::bus::port::{BAUD_RATE, SerialLine};
-use crate::app::setup::actuators::ServoBus;
 use crate::app::setup::file::Setup;
+use crate::app::setup::servos::ServoBus;
 use anyhow::{Result, bail};
 use chessarm_chess::play::{Handling, ServoGoal};
 use std::path::Path;
@@ -112,12 +112,19 @@ impl RealArm {
     /// Sends a robot move's goal stream (`goals`, s from the move's start, which began at
     /// robot time `start`), the gripper closed between each of `handled`'s grip and release.
     /// The torque goes on before the first move, holding where the joints are, refused unless
-    /// they are within the largest step of the stream's first goal.
+    /// they are within the largest step of the stream's first goal. `stop` is asked between
+    /// goals (a Ctrl-C): when it says yes the torque goes off and the move ends.
     ///
     /// # Errors
     ///
     /// Any [`DriverError`] (the torque is then off).
-    pub fn execute(&mut self, goals: &[ServoGoal], start: f64, handled: &[Handling]) -> Result<Followed, DriverError> {
+    pub fn execute(
+        &mut self,
+        goals: &[ServoGoal],
+        start: f64,
+        handled: &[Handling],
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Followed, DriverError> {
         let Some(first) = goals.first() else { return Ok(Followed::default()) };
         if !self.enabled {
             self.driver.enable(self.ticks(&first.goal))?;
@@ -130,7 +137,7 @@ impl RealArm {
             .iter()
             .map(|g| TickGoal { t: g.t, ticks: self.ticks(&g.goal), gripper_closed: closed(g.t) })
             .collect();
-        let followed = self.driver.follow(&stream, &crate::cancelled)?;
+        let followed = self.driver.follow(&stream, stop)?;
         self.followed.push(followed);
         Ok(followed)
     }

@@ -20,7 +20,7 @@
 //! ([`SimulatedBus::expire`]), so the next whole packet is answered.
 
 use super::Protocol;
-use crate::app::setup::actuators::ServoBus;
+use crate::app::setup::servos::ServoBus;
 use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::control::JointState;
 use chessarm_core::sim::actuator::{Actuators, PositionBank};
@@ -576,6 +576,7 @@ impl SimulatedBus {
         terminal: &mut super::port::PseudoTerminal,
         stop: impl Fn() -> bool,
         hand: Option<&std::sync::mpsc::Receiver<JointVector<4>>>,
+        say: &dyn Fn(&str),
     ) -> anyhow::Result<()> {
         use std::io::Read;
         let mut output = Vec::new();
@@ -584,7 +585,7 @@ impl SimulatedBus {
             while let Some(q) = hand.and_then(|h| h.try_recv().ok()) {
                 self.catch_up()?;
                 if !self.move_by_hand(q) {
-                    crate::tell("bus-sim: not moved: a joint's torque is on\n");
+                    say("bus-sim: not moved: a joint's torque is on\n");
                 }
             }
             // While a packet is cut short, wait no longer than its bytes may stay.
@@ -593,7 +594,7 @@ impl SimulatedBus {
             if !super::port::wait_readable(&terminal.controller, std::time::Duration::from_secs_f64(wait))? {
                 if let Some(dropped) = self.expire(self.now()) {
                     let hex: String = dropped.iter().map(|b| format!("{b:02X}")).collect();
-                    crate::tell(&format!(
+                    say(&format!(
                         "bus-sim: dropped {} bytes of a packet cut short (no byte for {} ms): {hex}\n",
                         dropped.len(),
                         INTER_BYTE_TIMEOUT * 1e3

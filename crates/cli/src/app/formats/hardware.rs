@@ -182,7 +182,7 @@ pub fn write_servo_goals(
     dir: &Path,
     stem: &str,
     convention: &crate::app::setup::file::JointConvention,
-    bus: &crate::app::setup::actuators::ServoBus,
+    bus: &crate::app::setup::servos::ServoBus,
     goals: &[chessarm_chess::play::ServoGoal],
 ) -> Result<String> {
     let path = dir.join(format!("{stem}-goals.csv"));
@@ -231,7 +231,7 @@ pub fn write_servo_goals(
 pub fn write_servo_bus(
     dir: &Path,
     setup: &crate::app::setup::file::Setup,
-    bus: &crate::app::setup::actuators::ServoBus,
+    bus: &crate::app::setup::servos::ServoBus,
 ) -> Result<String> {
     let path = dir.join("servo_bus.json");
     let joints: Vec<Value> = (0..4)

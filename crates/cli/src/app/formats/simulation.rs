@@ -130,14 +130,14 @@ pub fn write_run(
     let servos = run.records.first().is_some_and(|r| r.servo.is_some());
     let mut header = run_header();
     if servos {
-        header.extend(crate::app::setup::actuators::servo_columns());
+        header.extend(crate::app::setup::servos::servo_columns());
     }
     write_csv(
         &csv,
         &header,
         run.records.iter().map(|r| {
             let mut row = run_row(r, convention);
-            crate::app::setup::actuators::push_servo_values(&mut row, r, convention);
+            crate::app::setup::servos::push_servo_values(&mut row, r, convention);
             row
         }),
     )?;
@@ -402,7 +402,7 @@ pub fn write_study(
         "dt_s": options.dt,
         "integrator": options.integrator.name(),
         // A servo host's period is its bus's.
-        "control_period_s": crate::app::setup::actuators::control_period(setup, options.control_period),
+        "control_period_s": crate::app::setup::servos::control_period(setup, options.control_period),
         "actuators": setup.actuator_names,
         "payload_mass_kg": options.payload_mass,
         "true_payload_mass_kg": true_pawn_mass(setup, options.trial.as_ref(), options.payload_mass),

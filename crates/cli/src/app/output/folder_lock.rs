@@ -41,7 +41,7 @@ fn holder(file: &mut File) -> String {
     let mut text = String::new();
     let _ = file.rewind();
     let _ = file.take(4096).read_to_string(&mut text);
-    let text = crate::escape_controls(text.trim());
+    let text = crate::app::text::escape_controls(text.trim());
     if text.is_empty() { "its lock file does not say which".to_string() } else { text }
 }
 

@@ -2,7 +2,7 @@
 //! destination folder and renamed into place only once complete.
 //!
 //! Temporary files are named `.chessarm-<pid>-<random>.part[.ext]` and registered while they
-//! exist: on SIGINT, SIGTERM or SIGHUP the handler installed by [`remove_temporaries_on_signal`]
+//! exist: on SIGINT, SIGTERM or SIGHUP [`remove_on_signal`] (run by the signal handler)
 //! deletes them before the program exits (a rename in progress finishes first, so a final file
 //! is never truncated), and the first write into a folder deletes the temporary files that
 //! earlier runs, no longer alive, left there (a `kill -9` cannot be caught).
@@ -45,36 +45,23 @@ fn pending() -> MutexGuard<'static, Vec<PathBuf>> {
     PENDING.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// Exit code after a termination signal (128 + SIGINT, the shell's convention for Ctrl-C).
-pub const SIGNAL_EXIT_CODE: i32 = 130;
-
-/// Installs the handler that deletes this process's temporary files (and the files registered
-/// with [`remove_at_exit`]) on SIGINT, SIGTERM or SIGHUP and exits with [`SIGNAL_EXIT_CODE`].
+/// What a signal does to this room's files ([`crate::app::shutdown`]'s [`Stage::Files`]): the
+/// temporary files and those registered with [`remove_at_exit`] removed. The lock of the
+/// temporary files is kept until the process exits, so that no rename can start after the
+/// files are gone and the main thread, which may see the engines die, waits in
+/// [`await_signal_handler`] instead of exiting first with an error of its own.
 ///
-/// # Errors
-///
-/// When the handler cannot be installed.
-pub fn remove_temporaries_on_signal() -> Result<()> {
-    ctrlc::set_handler(|| {
-        // Held until exit: no rename can start after the files are gone, and the main thread,
-        // which sees the engines die, waits in `await_signal_handler` instead of exiting first
-        // with an error of its own.
-        // The arm first: torque off on a driven arm's servos, nothing sent after it.
-        crate::app::bus::driver::torque_off_before_exit();
-        let files = pending();
-        // Engines run in process groups of their own, which the terminal's Ctrl-C misses.
-        chessarm_chess::opponent::kill_all_engines();
-        test_pause("CHESSARM_TEST_SLOW_SIGNAL_MS");
-        for file in files.iter().chain(remove_at_exit_list().iter()) {
-            let _ = std::fs::remove_file(file);
-        }
-        std::process::exit(SIGNAL_EXIT_CODE);
-    })
-    .context("cannot install the signal handler")
+/// [`Stage::Files`]: crate::app::shutdown::Stage::Files
+pub fn remove_on_signal() {
+    let files = pending();
+    for file in files.iter().chain(remove_at_exit_list().iter()) {
+        let _ = std::fs::remove_file(file);
+    }
+    std::mem::forget(files);
 }
 
 /// Returns at once unless the signal handler has started, in which case it never returns: the
-/// handler holds the lock of the temporary files until it exits with [`SIGNAL_EXIT_CODE`].
+/// handler holds the lock of the temporary files until it exits.
 /// Called before the program reports its result, so that an error the signal caused (an engine
 /// the handler killed) is not printed and does not replace the signal's exit code.
 pub fn await_signal_handler() {
@@ -117,8 +104,7 @@ fn sweep_stale_temporaries(dir: &Path) {
 
 /// Test hooks: the variable `name` (in ms) makes a step pause that long, so tests can
 /// interrupt it at a known point: `CHESSARM_TEST_SLOW_WRITES_MS` every file write once its
-/// temporary file exists, `CHESSARM_TEST_SLOW_SIGNAL_MS` the signal handler once it has
-/// killed the engines (the main thread then sees them die before the handler exits).
+/// temporary file exists.
 fn test_pause(name: &str) {
     if let Some(ms) = std::env::var(name).ok().and_then(|v| v.parse::<u64>().ok()) {
         std::thread::sleep(std::time::Duration::from_millis(ms));

@@ -3,269 +3,19 @@
 //! (`--uncertainty FILE` or the setup's `[uncertainty]` table), with the seeds that make a run
 //! reproducible. Shared by `simulate`, `play`, `tune`, `gains` and `robustness`.
 
+use crate::app::setup::condition_tables::{SensorFile, UncertaintyFile};
 use crate::app::setup::file::Setup;
-use crate::args;
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::pieces::{PieceSet, role_name};
 use chessarm_chess::shakmaty::Role;
-use chessarm_chess::trial::{DrawnTrial, PieceMassSpread, Uncertainty};
+use chessarm_chess::trial::{DrawnTrial, Uncertainty};
 use chessarm_core::arm::model::{ArmModel, JointVector};
-use chessarm_core::arm::uncertainty::{InertiaRotation, ModelUncertainty, Range};
-use chessarm_core::sense::{Conditions, EncoderSpec, EstimatorSpec, KalmanSettings, SensorProfile};
-use chessarm_core::sim::actuator::{ActuatorSpread, Actuators};
-use clap::Args;
-use serde::{Deserialize, Serialize};
+use chessarm_core::sense::{Conditions, EstimatorSpec, KalmanSettings, SensorProfile};
+use chessarm_core::sim::actuator::Actuators;
+use serde::Serialize;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// One number for every joint, or one per joint.
-#[derive(Debug, Clone, Serialize, PartialEq)]
-#[serde(untagged)]
-pub enum PerJoint {
-    One(f64),
-    Each(Vec<f64>),
-}
-
-impl<'de> Deserialize<'de> for PerJoint {
-    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        struct Visit;
-        impl<'de> serde::de::Visitor<'de> for Visit {
-            type Value = PerJoint;
-            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                f.write_str("a number, or a list of one number per joint")
-            }
-            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<PerJoint, E> {
-                Ok(PerJoint::One(v))
-            }
-            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<PerJoint, E> {
-                Ok(PerJoint::One(v as f64))
-            }
-            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<PerJoint, E> {
-                Ok(PerJoint::One(v as f64))
-            }
-            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<PerJoint, A::Error> {
-                let mut values = Vec::new();
-                while let Some(value) = seq.next_element::<f64>()? {
-                    values.push(value);
-                }
-                Ok(PerJoint::Each(values))
-            }
-        }
-        deserializer.deserialize_any(Visit)
-    }
-}
-
-impl PerJoint {
-    fn values(&self, field: &str) -> Result<[f64; 4]> {
-        let values = match self {
-            PerJoint::One(value) => [*value; 4],
-            PerJoint::Each(values) => <[f64; 4]>::try_from(values.as_slice())
-                .map_err(|_| anyhow!("{field} has {} numbers; give one, or one per joint (4)", values.len()))?,
-        };
-        if let Some(value) = values.iter().find(|v| !v.is_finite()) {
-            bail!("{field} = {value} is not a finite number");
-        }
-        Ok(values)
-    }
-}
-
-/// A sensor profile as a setup file's `[sensors.NAME]` table or a `--sensors FILE` gives it.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
-#[serde(deny_unknown_fields)]
-pub struct SensorFile {
-    /// Encoder counts per revolution (whole numbers); left out: exact angles.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub counts_per_rev: Option<PerJoint>,
-    /// σ of the encoder noise, counts.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub noise_counts: Option<PerJoint>,
-    /// Calibration offset of each encoder, rad.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub offset: Option<PerJoint>,
-    /// Delay of a reading, whole control samples.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub delay_samples: Option<f64>,
-    /// σ of a velocity sensor, rad/s; left out: no velocity sensor.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub rate_noise: Option<PerJoint>,
-}
-
-impl SensorFile {
-    /// The profile named `name`, every number checked (errors name `sensors.NAME.field`).
-    pub fn to_profile(&self, name: &str) -> Result<SensorProfile<4>> {
-        let field = |f: &str| format!("sensors.{name}.{f}");
-        if self.counts_per_rev.is_none()
-            && self.noise_counts.is_none()
-            && self.offset.is_none()
-            && self.delay_samples.is_none()
-            && self.rate_noise.is_none()
-        {
-            bail!(
-                "sensors.{name}: the table is empty; give counts_per_rev, noise_counts, offset, delay_samples or \
-                 rate_noise (exact sensors are --sensors ideal)"
-            );
-        }
-        let counts = self.counts_per_rev.as_ref().map(|c| c.values(&field("counts_per_rev"))).transpose()?;
-        let noise = self.noise_counts.as_ref().map(|c| c.values(&field("noise_counts"))).transpose()?;
-        let offset = self.offset.as_ref().map(|c| c.values(&field("offset"))).transpose()?;
-        let delay = self.delay_samples.unwrap_or(0.0);
-        if !(delay.is_finite() && delay >= 0.0 && delay.fract() == 0.0) {
-            bail!("{} = {delay}: must be a whole number of control samples >= 0", field("delay_samples"));
-        }
-        let most = chessarm_core::sense::sensors::MAX_DELAY_SAMPLES;
-        if delay > most as f64 {
-            bail!("{} = {delay}: must be at most {most} samples", field("delay_samples"));
-        }
-        let rate_noise = self.rate_noise.as_ref().map(|c| c.values(&field("rate_noise"))).transpose()?;
-        let encoders = std::array::from_fn(|j| EncoderSpec {
-            counts_per_rev: counts.map(|c| c[j]),
-            noise_counts: noise.map_or(0.0, |n| n[j]),
-            offset: offset.map_or(0.0, |o| o[j]),
-        });
-        let profile = SensorProfile {
-            name: name.to_string(),
-            encoders,
-            delay_samples: delay as usize,
-            rate_noise: rate_noise.map(JointVector::<4>::from),
-        };
-        // `validate` names fields as `sensors.NAME joint J field`.
-        profile.validate()?;
-        Ok(profile)
-    }
-}
-
-/// How the plant's inertia tensors are turned: `"none"`, `"errata"`, or a largest random
-/// angle in rad.
-#[derive(Debug, Clone, Serialize, PartialEq)]
-#[serde(untagged)]
-pub enum RotationFile {
-    Named(String),
-    MaxAngle(f64),
-}
-
-impl<'de> Deserialize<'de> for RotationFile {
-    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        struct Visit;
-        impl<'de> serde::de::Visitor<'de> for Visit {
-            type Value = RotationFile;
-            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                f.write_str("\"none\", \"errata\" or a largest angle in rad")
-            }
-            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<RotationFile, E> {
-                Ok(RotationFile::Named(v.to_string()))
-            }
-            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<RotationFile, E> {
-                Ok(RotationFile::MaxAngle(v))
-            }
-            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<RotationFile, E> {
-                Ok(RotationFile::MaxAngle(v as f64))
-            }
-        }
-        deserializer.deserialize_any(Visit)
-    }
-}
-
-/// The `[uncertainty]` table (or a `--uncertainty FILE`'s top level).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
-#[serde(deny_unknown_fields)]
-pub struct UncertaintyFile {
-    /// ± relative error of every link's mass (0.1 = ±10 %); the inertia scales with it.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub link_mass: Option<f64>,
-    /// ± error of every link's centre of mass per axis, m.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub com: Option<f64>,
-    /// "none", "errata" (links 2–3 tensors exported with the link along y), or a largest
-    /// random rotation angle of every tensor, rad.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub inertia_rotation: Option<RotationFile>,
-    /// Range [low, high] of every joint's viscous friction, N·m·s/rad.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub viscous: Option<Vec<f64>>,
-    /// Range [low, high] of every joint's Coulomb friction, N·m.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub coulomb: Option<Vec<f64>>,
-    /// ± relative error of every piece kind's mass without its own range.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub piece_mass: Option<f64>,
-    /// Per kind (pawn, knight, bishop, rook, queen, king): a range [low, high] of true masses, kg.
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub piece_mass_kg: BTreeMap<String, Vec<f64>>,
-    /// Servos: ± relative error of each one's torque constant (its back-EMF constant with it).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub torque_constant: Option<f64>,
-    /// Servos: ± relative error of each one's winding resistance.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub winding_resistance: Option<f64>,
-    /// Servos: ± relative error of the supply voltage (one supply for the arm).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub supply_voltage: Option<f64>,
-    /// Servos and steppers: ± relative error of each gear's friction (Coulomb and viscous).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub gear_friction: Option<f64>,
-    /// Servos: range [low, high] of each one's backlash, full width, rad.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub backlash: Option<Vec<f64>>,
-    /// Steppers: ± relative error of each one's holding torque.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub holding_torque: Option<f64>,
-}
-
-fn range(field: &str, given: &[f64]) -> Result<Range> {
-    match given {
-        [low, high] => Ok(Range::new(*low, *high)),
-        _ => bail!("{field} has {} numbers; it needs [low, high]", given.len()),
-    }
-}
-
-impl UncertaintyFile {
-    /// The draws it describes, every number checked (errors name `uncertainty.field`).
-    pub fn to_uncertainty(&self) -> Result<Uncertainty> {
-        let inertia_rotation = match &self.inertia_rotation {
-            None => InertiaRotation::None,
-            Some(RotationFile::Named(name)) => match name.as_str() {
-                "none" => InertiaRotation::None,
-                "errata" => InertiaRotation::Errata,
-                other => bail!(
-                    "uncertainty.inertia_rotation = {other:?}: give \"none\", \"errata\" or a largest angle in rad"
-                ),
-            },
-            Some(RotationFile::MaxAngle(angle)) => InertiaRotation::Random { max_angle: *angle },
-        };
-        let model = ModelUncertainty {
-            link_mass: self.link_mass.unwrap_or(0.0),
-            com: self.com.unwrap_or(0.0),
-            inertia_rotation,
-            viscous: self.viscous.as_deref().map(|r| range("uncertainty.viscous", r)).transpose()?,
-            coulomb: self.coulomb.as_deref().map(|r| range("uncertainty.coulomb", r)).transpose()?,
-        };
-        let mut per_kind = [None; 6];
-        for (kind, given) in &self.piece_mass_kg {
-            let index = Role::ALL.iter().position(|role| role_name(*role) == kind).ok_or_else(|| {
-                anyhow!(
-                    "uncertainty.piece_mass_kg.{kind}: unknown piece kind (pawn, knight, bishop, rook, queen, king)"
-                )
-            })?;
-            per_kind[index] = Some(range(&format!("uncertainty.piece_mass_kg.{kind}"), given)?);
-        }
-        let actuators = ActuatorSpread {
-            torque_constant: self.torque_constant.unwrap_or(0.0),
-            resistance: self.winding_resistance.unwrap_or(0.0),
-            supply_voltage: self.supply_voltage.unwrap_or(0.0),
-            friction: self.gear_friction.unwrap_or(0.0),
-            backlash: self.backlash.as_deref().map(|r| range("uncertainty.backlash", r)).transpose()?,
-            holding_torque: self.holding_torque.unwrap_or(0.0),
-        };
-        let uncertainty = Uncertainty {
-            model,
-            piece_mass: PieceMassSpread { relative: self.piece_mass.unwrap_or(0.0), per_kind },
-            actuators,
-        };
-        uncertainty.validate()?;
-        Ok(uncertainty)
-    }
-}
 
 /// The state estimator between the sensors and the controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
@@ -281,51 +31,41 @@ pub enum EstimatorChoice {
     Direct,
 }
 
-/// Sensor, actuator and model-error options, the same on every command that simulates.
-#[derive(Debug, Args, Clone, Default)]
-pub struct ConditionArgs {
+/// Sensor, actuator and model-error options, the same for every study that simulates (the
+/// command line's flags of these names, Python's keyword arguments).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ConditionOptions {
     /// Sensors: ideal (the exact state), hobby (12-bit encoders, σ 0.5 count, 1 sample delay),
     /// servo (17-bit, σ 0.5 count), a profile of the setup file's [sensors.NAME] tables, or a
     /// TOML FILE of one profile (counts_per_rev, noise_counts, offset, delay_samples, rate_noise).
-    #[arg(long, value_name = "PROFILE|FILE")]
     pub sensors: Option<String>,
     /// State estimator. Default: direct with ideal sensors, kalman otherwise.
-    #[arg(long, value_enum)]
     pub estimator: Option<EstimatorChoice>,
     /// σ of the acceleration the Kalman filter's motion model does not know, rad/s².
-    #[arg(long, value_name = "RAD_PER_S2", value_parser = args::positive, allow_hyphen_values = true)]
     pub kalman_acceleration_noise: Option<f64>,
     /// Time constant of the low-pass of the lowpass estimator, s.
-    #[arg(long, value_name = "S", value_parser = args::non_negative, allow_hyphen_values = true)]
     pub lowpass_time_constant: Option<f64>,
     /// Motors' first-order torque lag, s: one value or one per joint (default 0: none).
-    #[arg(long, value_name = "S", value_parser = args::time_constants, allow_hyphen_values = true)]
     pub torque_lag: Option<[f64; 4]>,
     /// The controller is told --arm's friction (viscous, coulomb) and compensates it; without
     /// it, friction acts in the plant only. The default with --urdf (the file's <dynamics> are
     /// part of its model).
-    #[arg(long, conflicts_with = "controller_ignores_friction")]
     pub controller_knows_friction: bool,
     /// With --urdf: the controller does not compensate the file's <dynamics> friction (it acts
     /// in the plant only), as without --urdf.
-    #[arg(long)]
     pub controller_ignores_friction: bool,
     /// The true arm and pieces: a second setup file (the controller keeps --arm's model).
-    #[arg(long, value_name = "FILE")]
     pub plant: Option<PathBuf>,
     /// Random model errors: a TOML file with the fields of an [uncertainty] table (default:
     /// the setup file's [uncertainty] table, if any).
-    #[arg(long, value_name = "FILE")]
     pub uncertainty: Option<PathBuf>,
     /// Seed of the sensor noise and the model draws of a run (robustness: of the study).
-    #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Run one trial of `robustness` alone: the trial_seed of its row in robustness.csv.
-    #[arg(long, value_name = "SEED", conflicts_with = "seed")]
     pub trial_seed: Option<u64>,
 }
 
-impl ConditionArgs {
+impl ConditionOptions {
     /// Whether the controllers compensate the arm's friction: `--controller-knows-friction`,
     /// or by default with `--urdf` (unless `--controller-ignores-friction`).
     pub fn knows_friction(&self, setup: &Setup) -> bool {
@@ -442,17 +182,17 @@ impl Study {
     /// Parses `args` against `setup` (the controller's arm and pieces). Model errors come
     /// from `--uncertainty` only: a single run is never silently randomised by a table in
     /// the setup file.
-    pub fn new(setup: &Setup, args: &ConditionArgs, control_period: f64) -> Result<Self> {
+    pub fn new(setup: &Setup, args: &ConditionOptions, control_period: f64) -> Result<Self> {
         Self::parse(setup, args, control_period, false)
     }
 
     /// [`Study::new`] for `robustness`, whose model errors may also come from the setup
     /// file's `[uncertainty]` table.
-    pub fn for_trials(setup: &Setup, args: &ConditionArgs, control_period: f64) -> Result<Self> {
+    pub fn for_trials(setup: &Setup, args: &ConditionOptions, control_period: f64) -> Result<Self> {
         Self::parse(setup, args, control_period, true)
     }
 
-    fn parse(setup: &Setup, args: &ConditionArgs, control_period: f64, setup_uncertainty: bool) -> Result<Self> {
+    fn parse(setup: &Setup, args: &ConditionOptions, control_period: f64, setup_uncertainty: bool) -> Result<Self> {
         let sensors = match args.sensors.as_deref() {
             None => SensorProfile::ideal(),
             Some(name) => match SensorProfile::named(name) {
@@ -461,12 +201,13 @@ impl Study {
                     Some(file) => file.to_profile(name).with_context(|| "the setup file's [sensors] table")?,
                     None if Path::new(name).is_file() => {
                         let file: SensorFile = read_toml("--sensors", Path::new(name))?;
-                        file.to_profile(name).with_context(|| format!("--sensors {}", crate::escape_controls(name)))?
+                        file.to_profile(name)
+                            .with_context(|| format!("--sensors {}", crate::app::text::escape_controls(name)))?
                     }
                     None if Path::new(name).is_dir() => {
                         bail!(
                             "--sensors {}: is a folder; give a profile name or a TOML file",
-                            crate::escape_controls(name)
+                            crate::app::text::escape_controls(name)
                         )
                     }
                     None => {
@@ -474,7 +215,7 @@ impl Study {
                         known.extend(setup.sensor_profiles.keys().cloned());
                         bail!(
                             "--sensors {}: no such profile ({}) and no such file",
-                            crate::escape_controls(name),
+                            crate::app::text::escape_controls(name),
                             known.join(", ")
                         );
                     }
@@ -745,7 +486,7 @@ impl Trial {
     }
 }
 
-impl ConditionArgs {
+impl ConditionOptions {
     /// The options as given, as command-line flags (each with a leading space), for a
     /// command that replays a run under the same conditions. `--seed` and `--trial-seed` are
     /// left out (the replay names its trial).

@@ -3,7 +3,7 @@
 //! Every section and field is optional and defaults to the report's setup, so a file may say
 //! only what differs. Units are SI: m, rad, kg, kg·m², N·m, s.
 
-use crate::app::setup::conditions::{SensorFile, UncertaintyFile};
+use crate::app::setup::condition_tables::{SensorFile, UncertaintyFile};
 use anyhow::{Context, Result, anyhow, bail};
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::clearance::moves::ClearanceCheck;

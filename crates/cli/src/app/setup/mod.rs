@@ -3,9 +3,11 @@
 //! study ([`conditions`]), each turned into the core's and the chess crate's types.
 
 pub mod actuators;
+pub mod condition_tables;
 pub mod conditions;
 pub mod file;
 pub mod meshes;
+pub mod servos;
 pub mod urdf_import;
 
 use anyhow::Result;

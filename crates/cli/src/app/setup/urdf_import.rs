@@ -266,7 +266,7 @@ pub fn from_urdf_in(text: &str, options: &ImportOptions, folder: Option<&Path>) 
         if text.contains("<xacro:") {
             xacro()
         } else {
-            anyhow!("not valid XML: {}", crate::escape_controls(&e.to_string()))
+            anyhow!("not valid XML: {}", crate::app::text::escape_controls(&e.to_string()))
         }
     })?;
     // A xacro element, or a `${…}` or `$(…)` substitution left in an attribute (an expanded file

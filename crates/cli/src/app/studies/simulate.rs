@@ -216,7 +216,7 @@ pub fn run_controller(
         spec.build_for(setup.arm, &setup.actuators).with_context(|| format!("controller {}", spec.name))?;
     let conditions = trial.map_or_else(chessarm_core::sense::Conditions::ideal, |t| t.conditions.clone());
     // A servo host samples at the bus rate.
-    let control_period = crate::app::setup::actuators::control_period(setup, options.control_period);
+    let control_period = crate::app::setup::servos::control_period(setup, options.control_period);
     let mut feedback = conditions.feedback(control_period)?;
     let config = SimConfig {
         dt: options.dt,
