@@ -11,7 +11,7 @@ use pyo3::types::PyString;
 /// An error and its causes on one line, with the command line's flags (`--control-rate`) named
 /// as Python's arguments (`control_rate`).
 pub fn pythonic(error: &anyhow::Error) -> String {
-    flags_as_arguments(&chessarm::one_line(error))
+    flags_as_arguments(&chessarm::app::text::one_line(error))
 }
 
 /// `--kebab-case` flags in `text` as `kebab_case` argument names (not inside backquotes, which

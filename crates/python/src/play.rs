@@ -442,7 +442,7 @@ pub fn play(
     let setup = motion_args(timing, motion)?
         .apply(&py_setup.setup)
         .map_err(|e| PyValueError::new_err(format!("motion: {}", pythonic(&e))))?;
-    chessarm::app::setup::actuators::check_bus_period(&setup, dt, " dt")
+    chessarm::app::setup::servos::check_bus_period(&setup, dt, " dt")
         .map_err(|e| PyValueError::new_err(pythonic(&e)))?;
     let default_controller = pyo3::types::PyString::new(py, "pd").into_any();
     let controller = controller.unwrap_or(&default_controller);
@@ -461,12 +461,14 @@ pub fn play(
     if !setup.actuators.take_positions() && common::names("controller", controller)?.len() != 1 {
         return Err(bad_value("controller", controller, "a game has one controller"));
     }
+    let mut notes = Vec::new();
     let mut hosts = specs(
         &setup,
         controller,
         given_gains(kp, kd, ki)?,
         DefaultGains::Game,
         conditions.args.knows_friction(&setup),
+        &mut notes,
     )?;
     if hosts.len() > 1 {
         return Err(PyValueError::new_err(
@@ -477,11 +479,10 @@ pub fn play(
     let controller_name = spec.name.clone();
     let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
     settings.controller = spec;
-    chessarm::app::setup::actuators::drive(&setup, &mut settings);
+    chessarm::app::setup::servos::drive(&setup, &mut settings);
     let study = conditions.study(&setup, settings.control_period)?;
     let trial = study.trial(conditions.args.run_seed()).map_err(|e| GameError::new_err(pythonic(&e)))?;
     let ideal = study.is_ideal(&setup);
-    let mut notes = Vec::new();
     if !ideal {
         notes.push(study.note(conditions.args.run_seed()).trim_end().to_string());
         trial.apply_to(&mut settings);
@@ -509,7 +510,7 @@ pub fn play(
     settings.limits.tracking = study.tracking(
         &setup,
         &settings.controller.gains,
-        settings.payload_feedforward && chessarm::app::setup::actuators::cancels_inertia(&settings.controller.kind),
+        settings.payload_feedforward && chessarm::app::setup::servos::cancels_inertia(&settings.controller.kind),
         settings.controller_knows_payload,
     );
     let (start, total) = match &source {

@@ -6,7 +6,7 @@ use crate::plan::{Plan, Planned, check_scenario};
 use crate::setup::PySetup;
 use crate::{SimulationError, common};
 use chessarm::app::resources::show;
-use chessarm::app::setup::conditions::{ConditionArgs, EstimatorChoice, Study};
+use chessarm::app::setup::conditions::{ConditionOptions, EstimatorChoice, Study};
 use chessarm::app::setup::file::Setup;
 use chessarm::app::studies::plan::{Plan as ScenarioPlan, plan_scenario};
 use chessarm::app::studies::simulate::{
@@ -23,10 +23,10 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 /// The sensors, estimator and model errors of a study as Python gives them, as the command
-/// line's `ConditionArgs`.
+/// line's `ConditionOptions`.
 #[derive(Debug, Default)]
 pub struct Conditions {
-    pub args: ConditionArgs,
+    pub args: ConditionOptions,
 }
 
 impl Conditions {
@@ -52,7 +52,7 @@ impl Conditions {
             non_negative("lowpass_time_constant", time)?;
         }
         Ok(Self {
-            args: ConditionArgs {
+            args: ConditionOptions {
                 sensors: sensors.map(|s| s.to_string_lossy().into_owned()),
                 estimator,
                 kalman_acceleration_noise,
@@ -76,32 +76,28 @@ impl Conditions {
 }
 
 /// The controllers a study asks for: with servos, the setup's host strategies (as the command
-/// line's `servo_hosts`, without its message on the terminal); else the named ones with the
-/// given gains, `defaults` filling the rest.
+/// line's, `servos::servo_hosts`, its note in `notes`); else the named ones with the given
+/// gains, `defaults` filling the rest.
 pub fn specs(
     setup: &Setup,
     controller: &Bound<'_, PyAny>,
     gains: GivenGains,
     defaults: DefaultGains,
     knows_friction: bool,
+    notes: &mut Vec<String>,
 ) -> PyResult<Vec<ControllerSpec>> {
-    let mut specs = if setup.actuators.take_positions() {
-        setup
-            .servo_commands
-            .iter()
-            .map(|command| ControllerSpec {
-                name: command.name().to_string(),
-                kind: ControllerKind::ServoHost(*command),
-                gains: chessarm_core::control::gains::Gains::uniform(1.0, 1.0, 0.0).expect("positive gains"),
-                knows_friction: false,
-            })
-            .collect()
-    } else {
-        let names = common::names("controller", controller)?
-            .iter()
-            .map(|name| common::choice::<ControllerName>("controller", name))
-            .collect::<PyResult<Vec<_>>>()?;
-        controller_specs(&names, &gains, defaults).map_err(|e| PyValueError::new_err(pythonic(&e)))?
+    let mut specs = match chessarm::app::setup::servos::servo_hosts(setup) {
+        Some((hosts, note)) => {
+            notes.push(common::flags_as_arguments(note.trim_end()));
+            hosts
+        }
+        None => {
+            let names = common::names("controller", controller)?
+                .iter()
+                .map(|name| common::choice::<ControllerName>("controller", name))
+                .collect::<PyResult<Vec<_>>>()?;
+            controller_specs(&names, &gains, defaults).map_err(|e| PyValueError::new_err(pythonic(&e)))?
+        }
     };
     for spec in &mut specs {
         spec.knows_friction = knows_friction;
@@ -541,7 +537,7 @@ pub fn simulate(
             show(1.0 / plan_dt)
         )));
     }
-    chessarm::app::setup::actuators::check_bus_period(setup, dt, " dt")
+    chessarm::app::setup::servos::check_bus_period(setup, dt, " dt")
         .map_err(|e| PyValueError::new_err(pythonic(&e)))?;
     non_negative("tracking_from", tracking_from)?;
     non_negative("payload_mass", payload_mass)?;
@@ -567,16 +563,17 @@ pub fn simulate(
     )?;
     let default_controller = pyo3::types::PyString::new(py, "pd").into_any();
     let controller = controller.unwrap_or(&default_controller);
+    let mut notes = Vec::new();
     let specs = specs(
         setup,
         controller,
         given_gains(kp, kd, ki)?,
         DefaultGains::Report,
         conditions.args.knows_friction(setup),
+        &mut notes,
     )?;
     let study = conditions.study(setup, control_period)?;
     let run_seed = conditions.args.run_seed();
-    let mut notes = Vec::new();
     let (trial, described) = if study.is_ideal(setup) {
         (None, serde_json::Value::Null)
     } else {

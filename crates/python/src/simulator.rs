@@ -274,6 +274,7 @@ impl Simulator {
                     given_gains(kp, kd, ki)?,
                     DefaultGains::Report,
                     conditions.args.knows_friction(&setup),
+                    &mut Vec::new(),
                 )?
                 .remove(0);
                 let built = spec
