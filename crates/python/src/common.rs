@@ -159,7 +159,25 @@ pub fn warn(py: Python<'_>, text: &str) -> PyResult<()> {
     let line = line.strip_prefix("warning: ").or_else(|| line.strip_prefix("note: ")).unwrap_or(line);
     let message = std::ffi::CString::new(flags_as_arguments(line).replace('\0', " ")).expect("no NUL left");
     let category = py.get_type::<crate::ChessarmWarning>();
-    PyErr::warn(py, &category, &message, 2)
+    PyErr::warn(py, &category, &message, caller_level(py).unwrap_or(1))
+}
+
+/// The stack level of the first frame outside the chessarm package (1: the innermost Python
+/// frame), so that a warning names the user's line, not the package's wrapper that called Rust.
+fn caller_level(py: Python<'_>) -> PyResult<i32> {
+    let init: String = py.import("chessarm")?.getattr("__file__")?.extract()?;
+    let package = std::path::Path::new(&init).parent().map(|p| p.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut frame = py.import("sys")?.call_method1("_getframe", (0,))?;
+    let mut level = 1;
+    while !frame.is_none() && level < 50 {
+        let file: String = frame.getattr("f_code")?.getattr("co_filename")?.extract()?;
+        if package.is_empty() || !file.starts_with(&package) {
+            break;
+        }
+        level += 1;
+        frame = frame.getattr("f_back")?;
+    }
+    Ok(level)
 }
 
 #[cfg(test)]

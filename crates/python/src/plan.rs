@@ -150,6 +150,29 @@ pub struct PlannedMove {
     pub phases: std::collections::BTreeMap<String, f64>,
 }
 
+impl PlannedMove {
+    fn of(ply: &chessarm::app::studies::plan::PlannedPly, events: Vec<(f64, String)>) -> Self {
+        let phases = &ply.planned.phases;
+        Self {
+            ply: ply.ply,
+            san: ply.san.clone(),
+            uci: ply.uci.clone(),
+            kind: ply.kind.to_string(),
+            start: ply.start,
+            duration: ply.planned.motion.duration(),
+            events,
+            longest_limit: ply.planned.longest_limit().map(|(name, t)| (name.to_string(), t)),
+            phases: [
+                ("travel".to_string(), phases.travel),
+                ("vertical".to_string(), phases.vertical),
+                ("grip".to_string(), phases.grip),
+                ("pause".to_string(), phases.pause),
+            ]
+            .into(),
+        }
+    }
+}
+
 #[pymethods]
 impl PlannedMove {
     fn __repr__(&self) -> String {
@@ -233,60 +256,33 @@ impl Plan {
         dt: f64,
     ) -> PyResult<Self> {
         let user = |values: [f64; 4]| setup.setup.convention.user(values);
-        let (name, kind, duration, joint, cartesian, events, plies): (
-            String,
-            &'static str,
-            f64,
-            &[JointSample],
-            &[CartesianSample],
-            Vec<(f64, String)>,
-            Vec<Py<PlannedMove>>,
-        ) = match &planned {
-            Planned::Scenario(plan) => (
-                plan.name.clone(),
-                "scenario",
-                plan.path.duration(),
-                plan.joint.samples(),
-                &plan.cartesian,
-                plan.path.events().iter().map(|e| (e.time, action_name(e.action))).collect(),
-                Vec::new(),
-            ),
+        let (joint, cartesian): (&[JointSample], &[CartesianSample]) = match &planned {
+            Planned::Scenario(plan) => (plan.joint.samples(), &plan.cartesian),
+            Planned::Moves(plan) => (&plan.joint, &plan.cartesian),
+        };
+        let (name, kind, duration) = match &planned {
+            Planned::Scenario(plan) => (plan.name.clone(), "scenario", plan.path.duration()),
+            Planned::Moves(plan) => (String::new(), "moves", plan.duration),
+        };
+        let mut events = Vec::new();
+        let mut plies = Vec::new();
+        match &planned {
+            Planned::Scenario(plan) => {
+                events.extend(plan.path.events().iter().map(|e| (e.time, action_name(e.action))));
+            }
             Planned::Moves(plan) => {
-                let mut events = Vec::new();
-                let mut plies = Vec::new();
                 for ply in &plan.plies {
-                    let commands: Vec<(f64, String)> = ply
+                    let move_events: Vec<(f64, String)> = ply
                         .planned
                         .gripper_commands()
                         .iter()
                         .map(|c| (ply.start + c.time, action_name(c.action)))
                         .collect();
-                    events.extend(commands.iter().cloned());
-                    let phases = &ply.planned.phases;
-                    plies.push(Py::new(
-                        py,
-                        PlannedMove {
-                            ply: ply.ply,
-                            san: ply.san.clone(),
-                            uci: ply.uci.clone(),
-                            kind: ply.kind.to_string(),
-                            start: ply.start,
-                            duration: ply.planned.motion.duration(),
-                            events: commands,
-                            longest_limit: ply.planned.longest_limit().map(|(name, t)| (name.to_string(), t)),
-                            phases: [
-                                ("travel".to_string(), phases.travel),
-                                ("vertical".to_string(), phases.vertical),
-                                ("grip".to_string(), phases.grip),
-                                ("pause".to_string(), phases.pause),
-                            ]
-                            .into(),
-                        },
-                    )?);
+                    events.extend(move_events.iter().cloned());
+                    plies.push(Py::new(py, PlannedMove::of(ply, move_events))?);
                 }
-                (String::new(), "moves", plan.duration, &plan.joint, &plan.cartesian, events, plies)
             }
-        };
+        }
         Ok(Self {
             arm: setup.setup.arm,
             kind,

@@ -262,8 +262,10 @@ def test_simulate_errors_name_the_argument(setup):
     ]:
         with pytest.raises(ValueError, match=name):
             chessarm.simulate(setup, **kwargs)
-    with pytest.warns(chessarm.ChessarmWarning, match="q0 joint 2"):
+    with pytest.warns(chessarm.ChessarmWarning, match="q0 joint 2") as warned:
         chessarm.Simulator(setup, q0=[0.0, 45.0, 0.0, 0.0])
+        chessarm.simulate(setup, q0=[0.0, 2.7, 0.0, 0.0], tracking_from=1.0)
+    assert [w.filename for w in warned] == [__file__, __file__]  # the user's line, not the package's
     sim = chessarm.simulate(setup, controller=["pd", "pid"])
     with pytest.raises(AttributeError, match="runs"):
         sim.q  # noqa: B018 - two controllers: which one's?
