@@ -191,7 +191,8 @@ pub enum Planned {
 }
 
 /// A planned motion: the joints' trajectory (`t`, `q`, `qd`, `qdd`) and the tool's path
-/// (`tool`, `tool_velocity`, `tool_acceleration`), sampled every `dt`.
+/// (`tool`, `tool_velocity`, `tool_acceleration`), sampled every `dt`. A plan of moves holds each
+/// move's samples in turn (as `joint.csv`): a move's last and the next one's first share an instant.
 #[pyclass(module = "chessarm", frozen)]
 #[derive(Debug)]
 pub struct Plan {

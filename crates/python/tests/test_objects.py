@@ -450,6 +450,25 @@ def test_play_equals_the_clis_game(tmp_path, setup):
     np.testing.assert_array_equal(game.plies[2].tip, np.column_stack([table[a] for a in "xyz"]))
 
 
+@needs_cli
+def test_a_noisy_game_and_servos_equal_the_clis(tmp_path, setup):
+    cli(tmp_path / "play", "play", "--moves", "e4 e5", "--sensors", "hobby", "--seed", "1")
+    game = chessarm.play(setup, moves="e4 e5", sensors="hobby", seed=1)
+    record = json.loads((tmp_path / "play" / "game.json").read_text())
+    assert [[e * 1e3 for e in p.place_errors] for p in game.plies] == [m["place_errors_mm"] for m in record["moves"]]
+    assert game.final_fen_physical == record["final_fen_physical"]
+    assert any("hobby" in note for note in game.notes)
+    subprocess.run(
+        [BIN, "--actuator", "sts3215", "simulate", "--out", str(tmp_path / "sim"), "--json"], check=True, capture_output=True
+    )
+    sim = chessarm.simulate(chessarm.Setup.default(actuator="sts3215"))
+    assert sim.controllers == ["plain"] and "servos" in sim.notes[0]
+    table = columns(tmp_path / "sim" / "plain.csv")
+    np.testing.assert_array_equal(sim.q, stacked(table, "q"))
+    np.testing.assert_array_equal(sim.servo_goal, stacked(table, "goal"))
+    np.testing.assert_array_equal(sim.servo_target, stacked(table, "target"))
+
+
 def test_play_pgn_text_and_files_and_engines(tmp_path, setup):
     game = chessarm.play(setup, pgn="1. f3 e5 2. g4 Qh4# 0-1\n", robot="black")
     assert game.result == "0-1" and [p.by for p in game.plies] == ["hand", "robot", "hand", "robot"]
