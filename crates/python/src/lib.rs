@@ -5,6 +5,20 @@
 //! in SI units (rad, rad/s, rad/s², N·m, m). A function of a state takes one state (shape
 //! `(4,)`) or many (shape `(n, 4)`, one per row); many states are computed in Rust with the
 //! GIL released.
+//!
+//! On the application layer (`chessarm::app`), in memory, MuJoCo's way (the model and the data
+//! are objects): [`setup::PySetup`] (`chessarm.Setup`, resolved as the command line resolves its
+//! global flags), [`plan::plan`] → [`plan::Plan`], [`simulate::simulate`] →
+//! [`simulate::Simulation`] of [`simulate::Run`]s, [`play::play`] → [`play::Game`] of
+//! [`play::Ply`]s, and [`simulator::Simulator`], the closed loop a step at a time. No argument
+//! list, no files, no process-wide state; the GIL is released while they compute.
+
+mod common;
+mod plan;
+mod play;
+mod setup;
+mod simulate;
+mod simulator;
 
 use chessarm::app::setup::file::Setup;
 use chessarm_core::arm::dynamics::{
@@ -31,6 +45,30 @@ pyo3::create_exception!(
     "A dynamics computation failed (e.g. M(q) not positive definite)."
 );
 pyo3::create_exception!(chessarm, CommandError, Error, "A chessarm command failed (the CLI's one-line message).");
+pyo3::create_exception!(
+    chessarm,
+    PlanError,
+    Error,
+    "A motion chessarm cannot plan (a table the arm cannot serve, a path it cannot follow)."
+);
+pyo3::create_exception!(
+    chessarm,
+    SimulationError,
+    Error,
+    "A simulation that failed (it diverged, a controller that cannot be built)."
+);
+pyo3::create_exception!(
+    chessarm,
+    GameError,
+    Error,
+    "A game that stopped (a move the arm cannot make, an engine that failed)."
+);
+pyo3::create_exception!(
+    chessarm,
+    ChessarmWarning,
+    pyo3::exceptions::PyUserWarning,
+    "What chessarm says about a setup or a study (a URDF's notes, angles outside the limits)."
+);
 
 /// Runs `chessarm ARGS --json` in this process on a thread of its own, the GIL released:
 /// `(stdout, stderr)` of the command (its result's JSON is stdout). Bad arguments raise
@@ -188,11 +226,11 @@ fn row_major(m: &chessarm_core::nalgebra::Matrix4<f64>) -> [f64; 16] {
 /// A 4-DOF arm: base yaw and three pitch joints, in standard DH, with its links' masses.
 #[pyclass(module = "chessarm", frozen)]
 struct Arm {
-    model: ArmModel<4>,
-    joint_names: [String; 4],
+    pub(crate) model: ArmModel<4>,
+    pub(crate) joint_names: [String; 4],
     /// Per joint, ±1: the user's angles, rates and torques are `sign ·` the model's (a URDF's
     /// base yaw about −z is −1), so every array in or out is in the file's own sense.
-    signs: [f64; 4],
+    pub(crate) signs: [f64; 4],
 }
 
 /// How a result turns with the joints' signs `S`.
@@ -497,7 +535,22 @@ fn _chessarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("UnreachableError", m.py().get_type::<UnreachableError>())?;
     m.add("DynamicsError", m.py().get_type::<DynamicsError>())?;
     m.add("CommandError", m.py().get_type::<CommandError>())?;
+    m.add("PlanError", m.py().get_type::<PlanError>())?;
+    m.add("SimulationError", m.py().get_type::<SimulationError>())?;
+    m.add("GameError", m.py().get_type::<GameError>())?;
+    m.add("ChessarmWarning", m.py().get_type::<ChessarmWarning>())?;
     m.add_function(wrap_pyfunction!(run_cli, m)?)?;
+    m.add_class::<setup::PySetup>()?;
+    m.add_class::<plan::Plan>()?;
+    m.add_class::<plan::PlannedMove>()?;
+    m.add_class::<simulate::Simulation>()?;
+    m.add_class::<simulate::Run>()?;
+    m.add_class::<play::Game>()?;
+    m.add_class::<play::Ply>()?;
+    m.add_class::<simulator::Simulator>()?;
+    m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(play::play, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,7 +1,8 @@
-"""The README's Python examples, run as written (each ```python block in order, in one
-namespace, in a fresh folder with the repository's examples/; the Dask one, which needs a
-cluster, aside), so that none of them fails the way the first one did (`NameError: name 'q'
-is not defined`)."""
+"""The Python page's examples (docs/python.md, where the README's moved), run as written (each
+```python block in order, in one namespace, in a fresh folder with the repository's examples/;
+the Dask one, which needs a cluster, aside), so that none of them fails the way the first one
+did (`NameError: name 'q' is not defined`). crates/cli/tests/python_package.rs runs the same
+blocks from cargo test (and leaves this file out)."""
 
 import os
 import shutil
@@ -14,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[3]
 
 def python_blocks():
     blocks, current = [], None
-    for line in (ROOT / "README.md").read_text(encoding="utf-8").splitlines():
+    for line in (ROOT / "docs" / "python.md").read_text(encoding="utf-8").splitlines():
         stripped = line.strip()
         if stripped.startswith("```"):
             if current is not None:
@@ -39,7 +40,7 @@ def test_every_readme_python_example_runs_as_written(tmp_path):
     try:
         namespace = {}
         for block in blocks:
-            exec(compile(block, "README.md", "exec"), namespace)  # noqa: S102 - the README's own examples
+            exec(compile(block, "docs/python.md", "exec"), namespace)  # noqa: S102 - the page's own examples
     finally:
         os.chdir(here)
     # What the first block promises: shapes and the inverse pair aba ∘ rnea = identity.

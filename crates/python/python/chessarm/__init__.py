@@ -7,38 +7,75 @@ same numbers as the ``chessarm`` command::
     arm = chessarm.Arm.default()            # or Arm.from_file("my-arm.toml"), Arm.from_urdf(path)
     M = arm.mass_matrix([0.1, 0.5, -0.3, 0.2])
     tau = arm.rnea(Q, V, A)                 # Q, V, A of shape (n, 4): n states at once
-    game = chessarm.play(moves="e4 e5 Nf3")  # the CLI's commands, results as NumPy arrays
+
+The studies in memory, on a setup's objects (MuJoCo's habit: the model and the data are
+objects)::
+
+    setup = chessarm.Setup.default()         # or Setup.from_file(…), Setup.from_urdf(…)
+    plan = chessarm.plan(setup, moves="e4 e5")           # plan.t, plan.q (n, 4), plan.tool (n, 3)
+    sim = chessarm.simulate(setup, controller="pd")      # sim.q, sim.tau, sim.max_tip_error
+    game = chessarm.play(setup, moves="e4 e5 Nf3")       # game.plies[0].placement_error
+    stepper = chessarm.Simulator(setup, dt=1e-3)         # stepper.step_torque(tau), stepper.state
+
+Without a setup, ``plan``, ``simulate`` and ``play`` run the CLI's commands (as
+``chessarm.cli``); ``tune`` and ``robustness`` always do::
+
+    game = chessarm.play(moves="e4 e5 Nf3")  # the CLI's files, loaded as NumPy arrays
     rows = chessarm.tune(kp="100..900:10", kd="10..60:10")
 """
 
 from ._chessarm import (  # noqa: F401
     Arm,
+    ChessarmWarning,
     CommandError,
     DynamicsError,
     Error,
+    Game,
+    GameError,
     ModelError,
+    Plan,
+    PlanError,
+    PlannedMove,
+    Ply,
+    Run,
+    Setup,
+    Simulation,
+    SimulationError,
+    Simulator,
     UnreachableError,
     __version__,
 )
-from ._commands import Game, Plan, Result, Simulation, Sweep, Table, play, plan, robustness, run, simulate, tune
+from . import cli  # noqa: F401
+from ._commands import Result, Sweep, Table, robustness, run, tune
+from ._studies import play, plan, simulate
 
 __all__ = [
     "Arm",
+    "Setup",
+    "Simulator",
     "Error",
     "ModelError",
     "UnreachableError",
     "DynamicsError",
     "CommandError",
-    "run",
+    "PlanError",
+    "SimulationError",
+    "GameError",
+    "ChessarmWarning",
     "plan",
     "simulate",
     "play",
+    "Plan",
+    "PlannedMove",
+    "Simulation",
+    "Run",
+    "Game",
+    "Ply",
+    "cli",
+    "run",
     "tune",
     "robustness",
     "Result",
-    "Plan",
-    "Simulation",
-    "Game",
     "Sweep",
     "Table",
     "__version__",
