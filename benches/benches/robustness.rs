@@ -2,16 +2,17 @@
 //! `hobby` sensors (12-bit encoders, σ 0.5 count, 1 sample delay) and the Kalman filter, PD
 //! control, unknown pawn. The target is 1000 trials in ≤ 3 s on the 2-core machine; the bench
 //! runs 100 trials on all cores and reports the time per 100 (× 10 for 1000), and one trial on
-//! one thread for the per-trial cost. Also with the model errors of the target (±10 %
+//! one thread for the per-trial cost. Also with the model errors of the target (±10 %
 //! link masses, the ERRATA inertia rotation, ±50 % piece masses), where the controller's model
 //! differs from the plant's and computes its own dynamics terms.
 
 use chessarm::app::setup::conditions::Study;
 use chessarm::app::setup::file::Setup;
+use chessarm::app::studies::never;
 use chessarm::app::studies::plan::plan_scenario;
+use chessarm::app::studies::robustness::{TrialOptions, Work, run_trials};
 use chessarm::app::studies::simulate::{DefaultGains, controller_specs};
 use chessarm::cli::{Cli, Command};
-use chessarm::commands::robustness::{TrialOptions, Work, run_trials};
 use clap::Parser;
 use criterion::{Criterion, criterion_group, criterion_main};
 
@@ -46,7 +47,7 @@ fn trials(c: &mut Criterion) {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("pool");
         group.bench_function(format!("{name}: 100 trials, 2 threads"), |b| {
             b.iter(|| {
-                pool.install(|| run_trials(&setup, &work, &specs, &study, &options, 0..100, None))
+                pool.install(|| run_trials(&setup, &work, &specs, &study, &options, 0..100, None, &never))
                     .expect("not cancelled")
             })
         });
@@ -54,7 +55,7 @@ fn trials(c: &mut Criterion) {
         group.bench_function(format!("{name}: 1 trial, 1 thread"), |b| {
             b.iter(|| {
                 single
-                    .install(|| run_trials(&setup, &work, &specs, &study, &options, 0..1, None))
+                    .install(|| run_trials(&setup, &work, &specs, &study, &options, 0..1, None, &never))
                     .expect("not cancelled")
             })
         });

@@ -154,24 +154,7 @@ fn count_unescaped(text: &str) -> Result<usize, String> {
     }
 }
 
-/// `N` evenly spaced gains from `A` to `B` inclusive (`A..B:N`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GainRange {
-    pub from: f64,
-    pub to: f64,
-    pub count: usize,
-}
-
-impl GainRange {
-    /// The values, `from` first.
-    pub fn values(&self) -> Vec<f64> {
-        if self.count == 1 {
-            return vec![self.from];
-        }
-        let step = (self.to - self.from) / (self.count - 1) as f64;
-        (0..self.count).map(|i| if i + 1 == self.count { self.to } else { self.from + step * i as f64 }).collect()
-    }
-}
+pub use crate::app::studies::tune::GainRange;
 
 /// Parses `A..B:N`: finite `0 ≤ A ≤ B`, whole `N ≥ 1`.
 fn range_unescaped(text: &str) -> Result<GainRange, String> {

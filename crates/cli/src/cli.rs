@@ -374,44 +374,15 @@ pub struct PlacementArgs {
 }
 
 impl PlacementArgs {
-    /// The fine points' condition for a placement tolerance of `tolerance` m (SI: the flags'
-    /// mm and mm/s converted here), or `None` with --release-by-clock.
-    pub fn in_position(
-        &self,
-        tolerance: f64,
-        resolution: crate::app::setup::conditions::Resolution,
-    ) -> Option<chessarm_core::plan::fine_point::InPosition> {
-        if self.release_by_clock {
-            return None;
+    /// The choices in SI (the flags' mm and mm/s converted here).
+    pub fn options(&self) -> crate::app::studies::placement::Placement {
+        crate::app::studies::placement::Placement {
+            release_by_clock: self.release_by_clock,
+            in_position_band: self.in_position_band_mm.map(|band| band / 1e3),
+            in_position_speed: self.in_position_speed_mm_s.map(|speed| speed / 1e3),
+            in_position_timeout: self.in_position_timeout,
+            payload_feedforward: !self.no_payload_feedforward,
         }
-        let mut gate = chessarm_core::plan::fine_point::InPosition::for_actuators(
-            tolerance,
-            resolution.tip_quantum,
-            resolution.holding_band,
-        );
-        if let Some(band) = self.in_position_band_mm {
-            gate.tip_band = band / 1e3;
-            gate.speed_band = gate.tip_band / chessarm_core::plan::fine_point::BAND_CROSSING_TIME;
-        }
-        if let Some(speed) = self.in_position_speed_mm_s {
-            gate.speed_band = speed / 1e3;
-        }
-        if let Some(timeout) = self.in_position_timeout {
-            gate.timeout = timeout;
-        }
-        Some(gate)
-    }
-
-    /// Sets a game's fine points and payload feed-forward; `tolerance` in m, `resolution` the
-    /// sensors' and actuators' ([`crate::app::setup::conditions::Study::resolution`]).
-    pub fn apply(
-        &self,
-        settings: &mut chessarm_chess::play::PlaySettings,
-        tolerance: f64,
-        resolution: crate::app::setup::conditions::Resolution,
-    ) {
-        settings.in_position = self.in_position(tolerance, resolution);
-        settings.payload_feedforward = !self.no_payload_feedforward;
     }
 }
 
@@ -579,18 +550,7 @@ pub struct GainsArgs {
     pub conditions: ConditionArgs,
 }
 
-/// A metric to rank candidates by (smaller is better).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Metric {
-    /// Largest tool-tip error over the run, mm.
-    MaxTipError,
-    /// RMS joint error over all joints and samples, rad.
-    RmsJointError,
-    /// Largest |τ| over all joints relative to the joint's limit.
-    PeakTorque,
-    /// Largest tool-tip error at the grip and release instants, mm.
-    PlaceError,
-}
+pub use crate::app::studies::tune::Metric;
 
 #[derive(Debug, Args, Clone)]
 pub struct TuneArgs {

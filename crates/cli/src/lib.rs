@@ -53,7 +53,7 @@ pub fn cancelled() -> bool {
 
 /// The error of a command stopped by [`cancel`].
 pub fn interrupted() -> anyhow::Error {
-    anyhow::anyhow!("interrupted")
+    app::studies::interrupted()
 }
 
 /// One command at a time runs captured (the capture is the process's).

@@ -7,8 +7,9 @@ use crate::setup::PySetup;
 use crate::simulate::{Conditions, given_gains, specs};
 use crate::{GameError, common};
 use chessarm::app::setup::file::Setup;
+use chessarm::app::studies::placement::Placement;
 use chessarm::app::studies::simulate::DefaultGains;
-use chessarm::cli::{IntegratorChoice, PlacementArgs, RobotSide};
+use chessarm::cli::{IntegratorChoice, RobotSide};
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
 use chessarm_chess::outcome::OutcomeReason;
@@ -496,13 +497,8 @@ pub fn play(
     settings.timing = setup.timing;
     settings.export_rate = Some(100.0);
     settings.controller_knows_payload = controller_knows_payload;
-    let placement = PlacementArgs {
-        release_by_clock,
-        in_position_band_mm: in_position_band.map(|b| b * 1e3),
-        in_position_speed_mm_s: in_position_speed.map(|s| s * 1e3),
-        in_position_timeout,
-        no_payload_feedforward: !payload_feedforward,
-    };
+    let placement =
+        Placement { release_by_clock, in_position_band, in_position_speed, in_position_timeout, payload_feedforward };
     placement.apply(&mut settings, tolerance, study.resolution(&setup));
     settings.integrator = integrator;
     settings.dt = dt;

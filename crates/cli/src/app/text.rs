@@ -64,3 +64,25 @@ pub fn escape_controls(text: &str) -> String {
     }
     shown
 }
+
+/// A number as a plot's tick or a message shows it: at most four significant digits, no trailing zeros, never "-0"; scientific
+/// notation beyond 10⁶ and below 10⁻⁴.
+pub fn tick(value: f64) -> String {
+    if !value.is_finite() {
+        return String::new();
+    }
+    if value.abs() < 1e-12 {
+        return "0".into();
+    }
+    let magnitude = value.abs().log10().floor() as i32;
+    if !(-4..6).contains(&magnitude) {
+        let text = format!("{value:.2e}");
+        let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
+        let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+        return format!("{mantissa}e{exponent}");
+    }
+    let decimals = (3 - magnitude).clamp(0, 8) as usize;
+    let text = format!("{value:.decimals$}");
+    let text = if text.contains('.') { text.trim_end_matches('0').trim_end_matches('.').to_string() } else { text };
+    if text == "-0" { "0".into() } else { text }
+}

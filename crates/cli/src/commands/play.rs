@@ -260,7 +260,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     settings.timing = setup.timing;
     settings.export_rate = Some(args.export_rate);
     settings.controller_knows_payload = args.controller_knows_payload;
-    args.placement.apply(&mut settings, args.tolerance_mm / 1e3, study.resolution(setup));
+    args.placement.options().apply(&mut settings, args.tolerance_mm / 1e3, study.resolution(setup));
     settings.integrator = args.integrator.integrator();
     settings.dt = args.dt;
     settings.tolerance = args.tolerance_mm / 1e3;

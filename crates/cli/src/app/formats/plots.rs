@@ -2,6 +2,7 @@
 //! Callers convert units for display and say so in the axis labels.
 
 use crate::app::output::render_atomic;
+pub use crate::app::text::tick;
 use anyhow::{Result, anyhow};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -120,28 +121,6 @@ fn range_of(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let span = high - low;
     let pad = if span > 1e-12 { 0.05 * span } else { low.abs().max(1.0) * 0.05 };
     (low - pad, high + pad)
-}
-
-/// A tick label: at most four significant digits, no trailing zeros, never "-0"; scientific
-/// notation beyond 10⁶ and below 10⁻⁴.
-pub fn tick(value: f64) -> String {
-    if !value.is_finite() {
-        return String::new();
-    }
-    if value.abs() < 1e-12 {
-        return "0".into();
-    }
-    let magnitude = value.abs().log10().floor() as i32;
-    if !(-4..6).contains(&magnitude) {
-        let text = format!("{value:.2e}");
-        let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
-        let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
-        return format!("{mantissa}e{exponent}");
-    }
-    let decimals = (3 - magnitude).clamp(0, 8) as usize;
-    let text = format!("{value:.decimals$}");
-    let text = if text.contains('.') { text.trim_end_matches('0').trim_end_matches('.').to_string() } else { text };
-    if text == "-0" { "0".into() } else { text }
 }
 
 /// The label of an axis position: its value, or on a log scale (positions are log10 of the

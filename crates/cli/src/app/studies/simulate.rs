@@ -60,8 +60,8 @@ pub struct GivenGains {
     pub ki: Option<[f64; 4]>,
 }
 
-/// A count of simulated steps, told as they pass (a progress bar's `inc`).
-pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
+/// A count of simulated steps, told as they pass.
+pub use crate::app::studies::Progress;
 
 /// The piece gripped in the report's scenario: the setup's pawn with the given mass (kg).
 pub fn gripped_pawn(setup: &Setup, mass: f64) -> Payload {
