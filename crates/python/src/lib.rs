@@ -19,6 +19,7 @@ mod play;
 mod setup;
 mod simulate;
 mod simulator;
+mod sweeps;
 
 use chessarm::app::setup::file::Setup;
 use chessarm_core::arm::dynamics::{
@@ -551,6 +552,10 @@ fn _chessarm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(play::play, m)?)?;
+    m.add_class::<sweeps::Tuning>()?;
+    m.add_class::<sweeps::Campaign>()?;
+    m.add_function(wrap_pyfunction!(sweeps::tune, m)?)?;
+    m.add_function(wrap_pyfunction!(sweeps::robustness, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -252,7 +252,7 @@ enum Source {
 }
 
 /// A game given as PGN: a path (which must exist) or the PGN text.
-fn pgn_record(value: &Bound<'_, PyAny>, number: usize) -> PyResult<GameRecord> {
+pub(crate) fn pgn_record(value: &Bound<'_, PyAny>, number: usize) -> PyResult<GameRecord> {
     let text: Option<String> = value.extract().ok();
     let looks_like_a_path = |line: &str| {
         let line = line.trim();

@@ -14,7 +14,7 @@ use chessarm::app::setup::file::Setup;
 use chessarm::app::studies::simulate::{DefaultGains, gripped_pawn};
 use chessarm::cli::IntegratorChoice;
 use chessarm_core::arm::dynamics::DynamicsTerms;
-use chessarm_core::arm::mass_factor::MassMatrixFactor;
+use chessarm_core::arm::mass_matrix::MassMatrixFactor;
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::control::{Controller, JointState, Reference};
 use chessarm_core::sense::Feedback;

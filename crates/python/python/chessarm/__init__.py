@@ -17,8 +17,11 @@ objects)::
     game = chessarm.play(setup, moves="e4 e5 Nf3")       # game.plies[0].placement_error
     stepper = chessarm.Simulator(setup, dt=1e-3)         # stepper.step_torque(tau), stepper.state
 
-Without a setup, ``plan``, ``simulate`` and ``play`` run the CLI's commands (as
-``chessarm.cli``); ``tune`` and ``robustness`` always do::
+    sweep = chessarm.tune(setup, kp="100..900:10", kd="10..60:10")   # sweep.max_tip_error, sweep.best()
+    trials = chessarm.robustness(setup, trials=20, sensors="hobby")  # trials.place_error, .statistics
+
+Without a setup, ``plan``, ``simulate``, ``play``, ``tune`` and ``robustness`` run the CLI's
+commands (as ``chessarm.cli``)::
 
     game = chessarm.play(moves="e4 e5 Nf3")  # the CLI's files, loaded as NumPy arrays
     rows = chessarm.tune(kp="100..900:10", kd="10..60:10")
@@ -26,6 +29,7 @@ Without a setup, ``plan``, ``simulate`` and ``play`` run the CLI's commands (as
 
 from ._chessarm import (  # noqa: F401
     Arm,
+    Campaign,
     ChessarmWarning,
     CommandError,
     DynamicsError,
@@ -42,12 +46,13 @@ from ._chessarm import (  # noqa: F401
     Simulation,
     SimulationError,
     Simulator,
+    Tuning,
     UnreachableError,
     __version__,
 )
 from . import cli  # noqa: F401
-from ._commands import Result, Sweep, Table, robustness, run, tune
-from ._studies import play, plan, simulate
+from ._commands import Result, Sweep, Table, run
+from ._studies import play, plan, robustness, simulate, tune
 
 __all__ = [
     "Arm",
@@ -71,6 +76,8 @@ __all__ = [
     "Run",
     "Game",
     "Ply",
+    "Tuning",
+    "Campaign",
     "cli",
     "run",
     "tune",

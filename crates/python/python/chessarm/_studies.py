@@ -1,4 +1,4 @@
-"""``chessarm.plan``, ``simulate`` and ``play``: in memory when the first argument is a
+"""``chessarm.plan``, ``simulate``, ``play``, ``tune`` and ``robustness``: in memory when the first argument is a
 :class:`chessarm.Setup`, else the command-line form of earlier versions.
 
 In memory (``plan(setup, …)``, ``simulate(setup, …)``, ``play(setup, …)``) the studies run as
@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Any, Optional, Union, overload
 
 from . import _chessarm, _commands
-from ._chessarm import Game, Plan, Setup, Simulation
+from ._chessarm import Campaign, Game, Plan, Setup, Simulation, Tuning
 
 
 def _in_memory(args: tuple, kwargs: dict) -> bool:
@@ -69,3 +69,26 @@ def play(*args: Any, **kwargs: Any) -> Union[Game, _commands.Game]:
     if _in_memory(args, kwargs):
         return _chessarm.play(*args, **kwargs)
     return _commands.play(*args, **kwargs)
+
+
+def tune(*args: Any, **kwargs: Any) -> Union[Tuning, _commands.Sweep]:
+    """``tune(setup, kp="100..900:40", kd="10..60:40", …)`` (or ``p_gain=`` with servos): a
+    :class:`chessarm.Tuning` in memory, the numbers of ``chessarm tune`` with the same options.
+
+    Without a setup (``tune(kp=…, kd=…, out=…, **flags)``): ``chessarm tune`` run in this
+    process, its CSV loaded (:func:`chessarm.cli.tune`)."""
+    if _in_memory(args, kwargs):
+        return _chessarm.tune(*args, **kwargs)
+    return _commands.tune(*args, **kwargs)
+
+
+def robustness(*args: Any, **kwargs: Any) -> Union[Campaign, _commands.Result]:
+    """``robustness(setup, trials=100, controller=["pd", "pid"], …)``: a
+    :class:`chessarm.Campaign` in memory, the rows of ``chessarm robustness`` with the same
+    options.
+
+    Without a setup (``robustness(trials=…, out=…, **flags)``): ``chessarm robustness`` run in
+    this process, its files loaded (:func:`chessarm.cli.robustness`)."""
+    if _in_memory(args, kwargs):
+        return _chessarm.robustness(*args, **kwargs)
+    return _commands.robustness(*args, **kwargs)

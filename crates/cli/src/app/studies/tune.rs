@@ -38,6 +38,37 @@ pub struct GainRange {
 }
 
 impl GainRange {
+    /// Parses `A..B:N`: finite `0 ≤ A ≤ B`, whole `N ≥ 1` (at most a million); the error names
+    /// the text.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let shape = || format!("'{text}' is not a range A..B:N (e.g. 100..900:40)");
+        let (bounds, count) = text.split_once(':').ok_or_else(shape)?;
+        let (from, to) = bounds.split_once("..").ok_or_else(shape)?;
+        let number = |part: &str| -> Result<f64, String> {
+            match part.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                Ok(v) => Err(format!("{v} in '{text}' is not finite")),
+                Err(_) => Err(format!("'{part}' in '{text}' is not a number")),
+            }
+        };
+        let (from, to) = (number(from)?, number(to)?);
+        let count: usize =
+            count.trim().parse().map_err(|_| format!("count '{count}' in '{text}' is not a whole number"))?;
+        if count == 0 {
+            return Err(format!("count 0 in '{text}': need at least one value"));
+        }
+        if from < 0.0 {
+            return Err(format!("gain {from} in '{text}' must be >= 0"));
+        }
+        if from > to {
+            return Err(format!("start {from} is above end {to} in '{text}'"));
+        }
+        if count > 1_000_000 {
+            return Err(format!("count {count} in '{text}' is too large (at most 1000000)"));
+        }
+        Ok(GainRange { from, to, count })
+    }
+
     /// The values, `from` first.
     pub fn values(&self) -> Vec<f64> {
         if self.count == 1 {
