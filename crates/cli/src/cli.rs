@@ -386,13 +386,7 @@ impl PlacementArgs {
     }
 }
 
-/// Which side the arm plays.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum RobotSide {
-    White,
-    Black,
-    Both,
-}
+pub use crate::app::studies::play::RobotSide;
 
 /// The side a person plays (`play --human`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -4,17 +4,17 @@
 use crate::common::{bad_value, column, non_negative, positive, pythonic, rows};
 use crate::plan::motion_args;
 use crate::setup::PySetup;
-use crate::simulate::{Conditions, given_gains, specs};
+use crate::simulate::{Conditions, given_gains};
 use crate::{GameError, common};
 use chessarm::app::setup::file::Setup;
 use chessarm::app::studies::placement::Placement;
-use chessarm::app::studies::simulate::DefaultGains;
-use chessarm::cli::{IntegratorChoice, RobotSide};
+use chessarm::app::studies::play::{GameResult, PlayOptions, Played, RobotSide, game_result};
+use chessarm::app::studies::simulate::ControllerName;
+use chessarm::cli::IntegratorChoice;
 use chessarm_chess::notation::GameRecord;
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
-use chessarm_chess::outcome::OutcomeReason;
-use chessarm_chess::play::{Game as ChessGame, MoveReport, Mover, PlaySettings};
-use chessarm_chess::shakmaty::{Chess, Color, Move, Position};
+use chessarm_chess::play::{Game as ChessGame, MoveReport, Mover};
+use chessarm_chess::shakmaty::{Chess, Move, Position};
 use pyo3::exceptions::{PyFileNotFoundError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -295,36 +295,6 @@ fn spawn_engine(name: &str, depth: u32, movetime: u64) -> PyResult<Engine> {
         .map_err(|e| PyValueError::new_err(format!("engine={name:?}: {e}")))
 }
 
-/// The game's result and why, as the command line's `play` says it.
-fn result(game: &ChessGame, source: &Source, played: usize) -> (String, String) {
-    let outcome = game.outcome();
-    let claimable =
-        outcome.is_some_and(|o| matches!(o.reason, OutcomeReason::ThreefoldRepetition | OutcomeReason::FiftyMoveRule));
-    let recorded = match source {
-        Source::Record(record) => record.header("Result").filter(|r| ["1-0", "0-1", "1/2-1/2"].contains(r)),
-        Source::Engines { .. } => None,
-    };
-    if let Some(outcome) = outcome
-        && !(claimable && recorded.is_some())
-    {
-        return (outcome.result.to_string(), outcome.reason.to_string());
-    }
-    match source {
-        Source::Record(_) => match (recorded, outcome) {
-            (Some(recorded), Some(outcome)) => {
-                (recorded.to_string(), format!("as the PGN records it ({} could have been claimed)", outcome.reason))
-            }
-            (Some(recorded), None) => {
-                (recorded.to_string(), "as the PGN records it (the final position is not over by the rules)".into())
-            }
-            (None, _) => ("*".into(), "the given moves end; the game is not over".into()),
-        },
-        Source::Engines { plies, .. } => {
-            ("*".into(), format!("stopped after plies={plies} ({played} played); the game is not over"))
-        }
-    }
-}
-
 /// Plays a game with the simulated arm: `moves` (SAN or UCI, from `fen`), or `pgn` (a path or
 /// the PGN text; game number `game`), or, without either, a game against `engine`
 /// (`builtin` to `depth`, or a UCI program's path) for up to `plies` half-moves. The arm plays
@@ -459,56 +429,46 @@ pub fn play(
         kalman_acceleration_noise,
         lowpass_time_constant,
     )?;
-    if !setup.actuators.take_positions() && common::names("controller", controller)?.len() != 1 {
+    let servos = setup.actuators.take_positions();
+    let names = common::names("controller", controller)?;
+    if !servos && names.len() != 1 {
         return Err(bad_value("controller", controller, "a game has one controller"));
     }
-    let mut notes = Vec::new();
-    let mut hosts = specs(
-        &setup,
-        controller,
-        given_gains(kp, kd, ki)?,
-        DefaultGains::Game,
-        conditions.args.knows_friction(&setup),
-        &mut notes,
-    )?;
-    if hosts.len() > 1 {
-        return Err(PyValueError::new_err(
-            "servo_command: play sends one kind of goal; give the setup one of plain, sag, feedforward",
-        ));
-    }
-    let spec = hosts.remove(0);
-    let controller_name = spec.name.clone();
-    let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
-    settings.controller = spec;
-    chessarm::app::setup::servos::drive(&setup, &mut settings);
-    let study = conditions.study(&setup, settings.control_period)?;
-    let trial = study.trial(conditions.args.run_seed()).map_err(|e| GameError::new_err(pythonic(&e)))?;
-    let ideal = study.is_ideal(&setup);
-    if !ideal {
-        notes.push(study.note(conditions.args.run_seed()).trim_end().to_string());
-        trial.apply_to(&mut settings);
-    }
-    if let Some(note) = study.friction_note() {
-        notes.push(common::flags_as_arguments(note.trim_end().trim_start_matches("note: ")));
-    }
-    settings.pieces = setup.pieces;
-    settings.clearance = Some(setup.clearance.clone());
-    settings.limits = setup.motion;
-    settings.timing = setup.timing;
-    settings.export_rate = Some(100.0);
-    settings.controller_knows_payload = controller_knows_payload;
-    let placement =
-        Placement { release_by_clock, in_position_band, in_position_speed, in_position_timeout, payload_feedforward };
-    placement.apply(&mut settings, tolerance, study.resolution(&setup));
-    settings.integrator = integrator;
-    settings.dt = dt;
-    settings.tolerance = tolerance;
-    settings.limits.tracking = study.tracking(
-        &setup,
-        &settings.controller.gains,
-        settings.payload_feedforward && chessarm::app::setup::servos::cancels_inertia(&settings.controller.kind),
-        settings.controller_knows_payload,
-    );
+    let options = PlayOptions {
+        controller: common::choice::<ControllerName>("controller", &names[0])?,
+        gains: given_gains(kp, kd, ki)?,
+        conditions: conditions.args,
+        placement: Placement {
+            release_by_clock,
+            in_position_band,
+            in_position_speed,
+            in_position_timeout,
+            payload_feedforward,
+        },
+        tolerance,
+        dt,
+        integrator,
+        export_rate: 100.0,
+        controller_knows_payload,
+    };
+    let prepared = chessarm::app::studies::play::prepare(&setup, &options).map_err(|e| {
+        let message = pythonic(&e);
+        if message.starts_with("servo_command") {
+            PyValueError::new_err(
+                "servo_command: play sends one kind of goal; give the setup one of plain, sag, feedforward",
+            )
+        } else {
+            GameError::new_err(message)
+        }
+    })?;
+    let notes: Vec<String> = prepared
+        .servo_note
+        .iter()
+        .chain(&prepared.notes)
+        .map(|note| common::flags_as_arguments(note.trim_end().trim_start_matches("note: ")))
+        .collect();
+    let controller_name = prepared.controller;
+    let settings = prepared.settings;
     let (start, total) = match &source {
         Source::Record(record) => (record.start.clone(), record.moves.len()),
         Source::Engines { start, plies, .. } => (start.clone(), *plies),
@@ -528,10 +488,7 @@ pub fn play(
             break;
         }
         let turn = game.position().turn();
-        let robot_moves = matches!(
-            (robot_side, turn),
-            (RobotSide::Both, _) | (RobotSide::White, Color::White) | (RobotSide::Black, Color::Black)
-        );
+        let robot_moves = robot_side.moves(turn);
         let mv = match &mut source {
             Source::Record(record) => record.moves[ply],
             Source::Engines { robot, opponent, .. } => {
@@ -553,7 +510,12 @@ pub fn play(
         reports.push(Py::new(py, Ply::new(py, &setup, &report)?)?);
     }
     let wall_time = started.elapsed().as_secs_f64();
-    let (result, reason) = result(&game, &source, reports.len());
+    let played = match &source {
+        Source::Record(record) => Played::Record(record),
+        Source::Engines { plies, .. } => Played::Engines { plies: *plies },
+    };
+    let GameResult { result, reason } = game_result(&game, played, reports.len());
+    let reason = common::flags_as_arguments(&reason);
     let misplaced = pyo3::types::PyList::empty(py);
     for (ply, san, m) in game.misplaced() {
         let item = PyDict::new(py);

@@ -6,15 +6,13 @@ use crate::app::formats::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, wr
 use crate::app::output::{
     ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json,
 };
-use crate::app::setup::conditions::Study;
 use crate::app::setup::file::Setup;
-use crate::app::studies::simulate::{DefaultGains, controller_specs};
+use crate::app::studies::play::{GameResult, PlayOptions, Played, Prepared, game_result, prepare};
 use crate::cli::{PlayArgs, RobotSide};
 use anyhow::{Context, Result, bail};
 use chessarm_chess::notation::{GameRecord, parse_fen, parse_move_list};
 use chessarm_chess::opponent::{BuiltinEngine, Opponent, UciEngine};
-use chessarm_chess::outcome::OutcomeReason;
-use chessarm_chess::play::{Game, MoveReport, Mover, PlaySettings};
+use chessarm_chess::play::{Game, MoveReport, Mover};
 use chessarm_chess::shakmaty::{Chess, Color, Position};
 use serde_json::{Value, json};
 use std::path::Path;
@@ -203,10 +201,6 @@ fn pgn_date(time: std::time::SystemTime) -> String {
     format!("{year:04}.{month:02}.{day:02}")
 }
 
-fn robot_moves(side: RobotSide, turn: Color) -> bool {
-    matches!((side, turn), (RobotSide::Both, _) | (RobotSide::White, Color::White) | (RobotSide::Black, Color::Black))
-}
-
 /// Refuses the person's flags without a person: they would be ignored (and `--resume` would
 /// keep an old game.pgn beside a new game.json).
 fn refuse_person_flags_without_a_person(args: &PlayArgs) -> Result<()> {
@@ -229,47 +223,14 @@ fn refuse_person_flags_without_a_person(args: &PlayArgs) -> Result<()> {
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     refuse_person_flags_without_a_person(args)?;
     let setup = &args.motion.apply(setup)?;
-    let hosts = crate::servo_hosts(setup);
-    if hosts.as_ref().is_some_and(|h| h.len() > 1) {
-        anyhow::bail!("--servo-command: play sends one kind of goal; give one of plain, sag, feedforward");
-    }
-    let mut spec = match hosts {
-        Some(mut hosts) => hosts.remove(0),
-        None => controller_specs(&[args.controller.into()], &args.gains.given(), DefaultGains::Game)?.remove(0),
-    };
-    spec.knows_friction = args.conditions.options().knows_friction(setup);
-    let mut settings = PlaySettings::new(spec.name.clone(), spec.gains);
-    let settings_name = spec.name.clone();
-    settings.controller = spec;
-    crate::app::setup::servos::drive(setup, &mut settings);
-    let study = Study::new(setup, &args.conditions.options(), settings.control_period)?;
-    let trial = study.trial(args.conditions.options().run_seed())?;
-    let ideal = study.is_ideal(setup);
-    if !ideal {
-        crate::tell(&study.note(args.conditions.options().run_seed()));
-    }
-    if let Some(note) = study.friction_note() {
+    let Prepared { settings, controller: settings_name, study, trial, ideal, servo_note, notes } =
+        prepare(setup, &options(args))?;
+    if let (Some(note), false) = (servo_note, crate::json_output()) {
         crate::tell(&note);
     }
-    if !ideal {
-        trial.apply_to(&mut settings);
+    for note in notes {
+        crate::tell(&note);
     }
-    settings.pieces = setup.pieces;
-    settings.clearance = Some(setup.clearance.clone());
-    settings.limits = setup.motion;
-    settings.timing = setup.timing;
-    settings.export_rate = Some(args.export_rate);
-    settings.controller_knows_payload = args.controller_knows_payload;
-    args.placement.options().apply(&mut settings, args.tolerance_mm / 1e3, study.resolution(setup));
-    settings.integrator = args.integrator.integrator();
-    settings.dt = args.dt;
-    settings.tolerance = args.tolerance_mm / 1e3;
-    settings.limits.tracking = study.tracking(
-        setup,
-        &settings.controller.gains,
-        settings.payload_feedforward && crate::app::setup::servos::cancels_inertia(&settings.controller.kind),
-        settings.controller_knows_payload,
-    );
     let mut source = source(args)?;
     let start = match &source {
         Source::Record(record) => record.start.clone(),
@@ -389,13 +350,12 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
             let mv = match &mut source {
                 Source::Record(record) => record.moves[ply],
                 Source::Engines { robot, opponent, .. } => {
-                    let player =
-                        if robot_moves(args.robot, turn) && args.robot != RobotSide::Both { robot } else { opponent };
+                    let player = if args.robot.moves(turn) && args.robot != RobotSide::Both { robot } else { opponent };
                     player.choose_move(game.position()).with_context(|| format!("ply {}", ply + 1))?
                 }
                 Source::Human(_) => unreachable!("played above"),
             };
-            let mover = if robot_moves(args.robot, turn) { Mover::Robot } else { Mover::Opponent };
+            let mover = if args.robot.moves(turn) { Mover::Robot } else { Mover::Opponent };
             let report = game.play(&mv, mover)?;
             if let Some(arm) = real_arm.as_mut() {
                 send_to_arm(arm, &report)?;
@@ -449,7 +409,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     if !dependence.is_empty() {
         crate::tell(&format!("note: this game may differ on another machine: {}\n", dependence.join("; ")));
     }
-    let result = game_result(&game, &source, args, reports.len());
+    let result = result_of(&game, &source, args.plies, reports.len());
     let mut summary = game_json(&game, &reports, wall_time_s, &dependence, &result);
     summary["complete"] = json!(true);
     if let Source::Human(human) = &source {
@@ -943,51 +903,31 @@ fn move_line(report: &MoveReport) -> String {
     line
 }
 
-/// The game's result as PGN writes it (`1-0`, `0-1`, `1/2-1/2`, `*`) and why.
-struct GameResult {
-    result: String,
-    reason: String,
+/// The game's result: a person's game as it ended (a resignation, a draw agreed), else as
+/// the rules or the record say ([`game_result`]); an engine game stops after `limit` plies.
+fn result_of(game: &Game, source: &Source, limit: usize, plies: usize) -> GameResult {
+    match source {
+        Source::Human(human) => match &human.ended {
+            Some((result, reason)) => GameResult { result: result.clone(), reason: reason.clone() },
+            None => game_result(game, Played::Person, plies),
+        },
+        Source::Record(record) => game_result(game, Played::Record(record), plies),
+        Source::Engines { .. } => game_result(game, Played::Engines { plies: limit }, plies),
+    }
 }
 
-/// What the rules say of the final position; a replayed game that is not over there keeps the
-/// result its PGN records; otherwise `*` and why the game stopped.
-fn game_result(game: &Game, source: &Source, args: &PlayArgs, plies: usize) -> GameResult {
-    if let Source::Human(human) = source
-        && let Some((result, reason)) = &human.ended
-    {
-        return GameResult { result: result.clone(), reason: reason.clone() };
-    }
-    let outcome = game.outcome();
-    // Threefold repetition and the fifty-move rule are draws a player may claim: a replayed
-    // game whose PGN records another result was played on, so its record stands.
-    let claimable =
-        outcome.is_some_and(|o| matches!(o.reason, OutcomeReason::ThreefoldRepetition | OutcomeReason::FiftyMoveRule));
-    let recorded = match source {
-        Source::Record(record) => record.header("Result").filter(|r| ["1-0", "0-1", "1/2-1/2"].contains(r)),
-        Source::Engines { .. } | Source::Human(_) => None,
-    };
-    if let Some(outcome) = outcome
-        && !(claimable && recorded.is_some())
-    {
-        return GameResult { result: outcome.result.to_string(), reason: outcome.reason.to_string() };
-    }
-    match source {
-        Source::Record(_) => match (recorded, outcome) {
-            (Some(recorded), Some(outcome)) => GameResult {
-                result: recorded.to_string(),
-                reason: format!("as the PGN records it ({} could have been claimed)", outcome.reason),
-            },
-            (Some(recorded), None) => GameResult {
-                result: recorded.to_string(),
-                reason: "as the PGN records it (the final position is not over by the rules)".into(),
-            },
-            (None, _) => GameResult { result: "*".into(), reason: "the given moves end; the game is not over".into() },
-        },
-        Source::Engines { .. } => GameResult {
-            result: "*".into(),
-            reason: format!("stopped after --plies {} ({plies} played); the game is not over", args.plies),
-        },
-        Source::Human(_) => GameResult { result: "*".into(), reason: "the game is not over".into() },
+/// The options of the game the flags describe (SI: the flags' mm converted here).
+fn options(args: &PlayArgs) -> PlayOptions {
+    PlayOptions {
+        controller: args.controller.into(),
+        gains: args.gains.given(),
+        conditions: args.conditions.options(),
+        placement: args.placement.options(),
+        tolerance: args.tolerance_mm / 1e3,
+        dt: args.dt,
+        integrator: args.integrator.integrator(),
+        export_rate: args.export_rate,
+        controller_knows_payload: args.controller_knows_payload,
     }
 }
 

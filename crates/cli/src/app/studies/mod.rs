@@ -1,6 +1,7 @@
 //! The studies: each a library call with typed options and a typed result, nothing written.
 pub mod placement;
 pub mod plan;
+pub mod play;
 pub mod robustness;
 pub mod simulate;
 pub mod tune;
