@@ -2,10 +2,10 @@
 //! ask for), and with `--fit` the largest board it serves, printed as a setup file.
 
 use crate::app::setup::file::Setup;
+use crate::app::studies::board::{BoardStudy, board_study};
 use crate::cli::BoardArgs;
 use anyhow::{Context, Result, anyhow};
-use chessarm_chess::reach::{check_table, fit_board, square_margins};
-use chessarm_chess::sag::{SquareHold, sag_map};
+use chessarm_chess::sag::SquareHold;
 use serde_json::json;
 
 /// Refuses, before any work, output paths the board's files cannot go to: a plot not named
@@ -33,60 +33,17 @@ fn check_outputs(args: &BoardArgs) -> Result<()> {
 
 pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     check_outputs(args)?;
-    let limits = setup.motion;
-    let started = std::time::Instant::now();
-    let mut fitted = setup.clone();
-    let mut tried = None;
-    if args.fit {
-        let fit = fit_board(
-            &setup.arm,
-            &setup.pieces,
-            setup.board.square_size,
-            &limits,
-            (setup.board.surface_height, setup.board.base_clearance),
-        )
-        .map_err(|e| anyhow!("{e}"))?;
-        // The fingers open around a piece beside its neighbours: squares below what they need
-        // would have the planner refuse moves.
-        let needed = fingers_need(setup, setup.board.square_size)?;
-        if fit.board.square_size < needed {
-            anyhow::bail!(
-                "the arm serves squares of at most {:.1} mm, and the fingers ([gripper]: {:.1} mm thick, {:.1} mm wide, \
-                 opened {:.1} mm beside a piece) need {:.1} mm to open around a piece beside its neighbours with {:.1} mm \
-                 to spare ([motion] arm_clearance): slimmer fingers, a smaller opening or a longer arm",
-                fit.board.square_size * 1e3,
-                setup.clearance.gripper.finger_thickness * 1e3,
-                setup.clearance.gripper.finger_width * 1e3,
-                setup.clearance.gripper.finger_opening * 1e3,
-                needed * 1e3,
-                setup.clearance.margin * 1e3
-            );
-        }
-        fitted.board = fit.board;
-        fitted.pieces = fit.pieces;
-        tried = Some(fit.tried);
-    }
-    let seconds = started.elapsed().as_secs_f64();
-    let check = check_table(&setup.arm, &fitted.board, &fitted.pieces, &limits);
-    let margins = square_margins(&setup.arm, &fitted.board, &fitted.pieces, &limits);
+    let BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed } =
+        board_study(setup, args.fit, args.sag_map.is_some())?;
     if let Some(map) = &args.map {
         plot_reach_map(map, &fitted, &margins).with_context(|| format!("--map {}", map.display()))?;
     }
-    // With servos or steppers: which squares they hold, and how well.
-    let sag = match (setup.actuators.take_positions(), &args.sag_map) {
-        (true, _) => Some(sag_map(&setup.arm, &setup.actuators, &fitted.board, &fitted.pieces)),
-        (false, Some(_)) => {
-            anyhow::bail!("--sag-map is for servos or steppers; the joints have torque motors (give --actuator NAME)")
-        }
-        (false, None) => None,
-    };
     if let (Some(path), Some(sag)) = (&args.sag_map, &sag) {
         plot_sag_map(path, sag).with_context(|| format!("--sag-map {}", path.display()))?;
     }
     let sag_text = sag.as_ref().map_or(String::new(), |sag| sag_table(setup, sag));
     let sag_json = sag.as_ref().map(|sag| sag_json(setup, sag));
     let board = &fitted.board;
-    let smallest = margins.iter().filter_map(|(_, m)| m.as_ref().ok()).copied().fold(f64::INFINITY, f64::min);
     let summary = format!(
         "board: squares of {:.1} mm, centre ({:.4}, {:.4}) m, yaw {:.4} rad{}; {}{}\n",
         board.square_size * 1e3,
@@ -101,7 +58,6 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         },
         args.map.as_ref().map_or(String::new(), |m| format!("; reach map {}", m.display())),
     );
-    let needed = fingers_need(setup, setup.board.square_size)?;
     let fingers_text = format!(
         "fingers: squares of at least {:.1} mm keep them {:.1} mm from the neighbours of the piece they open around{}\n",
         needed * 1e3,
@@ -254,16 +210,4 @@ fn plot_sag_map(path: &std::path::Path, sag: &[SquareHold]) -> Result<()> {
         (hold.square, value)
     });
     crate::app::formats::plots::plot_squares(path, &title, "tool-tip error (mm)", values, "not reached")
-}
-
-/// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they
-/// open around, the setup's pieces (on squares of `square` m) scaled with the squares.
-fn fingers_need(setup: &Setup, square: f64) -> Result<f64> {
-    chessarm_chess::clearance::moves::square_for_fingers(
-        &setup.pieces,
-        square,
-        &setup.clearance.gripper,
-        setup.clearance.margin,
-    )
-    .ok_or_else(|| anyhow!("the fingers ([gripper]) do not clear a piece's neighbours even on squares of 20 cm"))
 }

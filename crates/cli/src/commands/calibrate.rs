@@ -8,13 +8,12 @@
 
 use crate::app::output::{ensure_dir, write_json};
 use crate::app::setup::file::Setup;
+use crate::app::studies::calibrate::{Calibration, calibrate};
 use crate::cli::CalibrateArgs;
 use anyhow::{Context, Result, bail};
 use chessarm_chess::board::parse_square;
 use chessarm_chess::shakmaty::Square;
-use chessarm_core::arm::calibration::{CalibrationError, CalibrationFit, Touch, fit};
-use chessarm_core::arm::model::JointVector;
-use chessarm_core::nalgebra::Vector2;
+use chessarm_core::arm::calibration::CalibrationFit;
 use serde_json::json;
 use std::io::BufRead;
 
@@ -26,12 +25,6 @@ fn parse_touch(text: &str) -> Result<(Square, [f64; 4])> {
     let square = parse_square(square.trim()).map_err(|e| anyhow::anyhow!("--touch '{text}': {e}"))?;
     let angles = crate::args::angles(angles).map_err(|e| anyhow::anyhow!("--touch '{text}': {e}"))?;
     Ok((square, angles))
-}
-
-/// A square's centre in the board's own frame (m, from its centre along files and ranks).
-fn board_point(setup: &Setup, square: Square) -> Vector2<f64> {
-    let (file, rank) = chessarm_chess::board::BoardGeometry::squares_from_center(square);
-    Vector2::new(file, rank) * setup.board.square_size
 }
 
 /// The touches read over the bus: torque off, then for each square the person moves the tool
@@ -84,51 +77,8 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
         }
         None => args.touches.iter().map(|t| parse_touch(t)).collect::<Result<_>>()?,
     };
-    let signs = setup.convention.signs;
-    let touches: Vec<Touch> = touched
-        .iter()
-        .map(|(square, user)| Touch {
-            q: JointVector::<4>::from(std::array::from_fn::<f64, 4, _>(|j| signs[j] * user[j])),
-            point: board_point(setup, *square),
-        })
-        .collect();
-    let fitted = fit(&setup.arm, &touches, args.zeros)
-        .and_then(|fitted| fitted.check_residuals(args.max_residual_mm * 1e-3).map(|()| fitted))
-        .map_err(|e| anyhow::anyhow!("{}", refusal(&e, &touched)))?;
-    let mut calibrated = setup.clone();
-    calibrated.board.center = fitted.center;
-    calibrated.board.yaw = fitted.yaw;
-    calibrated.board.surface_height = fitted.surface_height;
-    // The zero errors in the setup's sense (δ user = sign · δ model).
-    let zero_errors: [f64; 4] = std::array::from_fn(|j| signs[j] * fitted.zero_errors[j] + 0.0);
-    let mut zero_ticks = None;
-    if args.zeros && setup.actuators.take_positions() {
-        let bus = crate::app::setup::servos::ServoBus::of(setup)?;
-        // ticks = zero + direction · q / count with q the true angle = read + δ: the zero moves
-        // by −direction · δ / count.
-        let ticks: Vec<f64> = (0..4)
-            .map(|j| {
-                let count = std::f64::consts::TAU / bus.counts_per_revolution[j];
-                (bus.zero_ticks[j] - bus.directions[j] * zero_errors[j] / count).round()
-            })
-            .collect();
-        let mut file = calibrated.servo_bus.clone().unwrap_or_default();
-        file.zero_ticks = Some(ticks.clone());
-        calibrated.servo_bus = Some(file);
-        crate::app::setup::servos::ServoBus::of(&calibrated)?;
-        zero_ticks = Some(ticks);
-    }
-    // The fitted board must be one the setup's own check (`board`, `play`) accepts.
-    chessarm_chess::reach::check_table(&setup.arm, &calibrated.board, &calibrated.pieces, &setup.motion).map_err(
-        |e| {
-            anyhow::anyhow!(
-                "the fitted board (centre ({:.1}, {:.1}) mm, yaw {:.2}°) is not served: {e}; nothing was written",
-                fitted.center.x * 1e3,
-                fitted.center.y * 1e3,
-                fitted.yaw.to_degrees()
-            )
-        },
-    )?;
+    let Calibration { fitted, calibrated, zero_errors, zero_ticks } =
+        calibrate(setup, &touched, args.zeros, args.max_residual_mm * 1e-3)?;
     ensure_dir(&args.out)?;
     let setup_path = args.out.join("setup.toml");
     let text = calibrated.to_toml_beside_urdf()?;
@@ -138,7 +88,7 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
         touched.iter().zip(&fitted.residuals).map(|((square, _), r)| (*square, r.norm() * 1e3)).collect();
     crate::app::formats::plots::plot_squares(
         &plot,
-        &format!("calibration: each touch's residual (mm), {} touches", touches.len()),
+        &format!("calibration: each touch's residual (mm), {} touches", touched.len()),
         "residual (mm)",
         residual_of.iter().map(|(s, r)| (*s, Ok(*r))),
         "not touched",
@@ -150,45 +100,6 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
     let files = vec![setup_path.display().to_string(), plot.display().to_string(), json_path.display().to_string()];
     human.push_str(&crate::files_text(&files));
     crate::emit(&human, &value)
-}
-
-/// Why the touches are refused, naming them by their squares (mm, as typed and printed).
-fn refusal(error: &CalibrationError, touched: &[(Square, [f64; 4])]) -> String {
-    let square = |i: usize| touched.get(i).map_or_else(|| format!("touch {}", i + 1), |(s, _)| s.to_string());
-    let end = "nothing was written";
-    match error {
-        CalibrationError::PointsInLine => format!(
-            "the touched squares {} lie on one line: touch squares that span the board (e.g. a1, h1, h8, a8) — the \
-             fit takes the board as flat and level, and touches along one line cannot show it tilted across that \
-             line; {end}",
-            touched.iter().map(|(s, _)| s.to_string()).collect::<Vec<_>>().join(", ")
-        ),
-        CalibrationError::TooClose { first, second, tips, points } => format!(
-            "the touches of {} and {} put the tool tip {:.1} mm apart, but their squares' centres are {:.1} mm \
-             apart (at least half that expected): the arm was not moved between them, or an angle is wrong; {end}",
-            square(*first),
-            square(*second),
-            tips * 1e3,
-            points * 1e3
-        ),
-        CalibrationError::TipsInLine { touches, tips, points } => format!(
-            "the touches of {}, {} and {} put the tool tip nearly on one line (a triangle of {:.0} mm², their \
-             squares' centres {:.0} mm², at least half that expected): an angle is wrong; {end}",
-            square(touches[0]),
-            square(touches[1]),
-            square(touches[2]),
-            tips * 1e6,
-            points * 1e6
-        ),
-        CalibrationError::ResidualTooLarge { touch, residual, bound } => format!(
-            "the touch of {} is {:.2} mm from where the fitted board puts its centre, above --max-residual-mm {} \
-             (the touches disagree: a wrong square, a wrong angle, or the tip off the centre); {end}",
-            square(*touch),
-            residual * 1e3,
-            bound * 1e3
-        ),
-        other => format!("{other}; {end}"),
-    }
 }
 
 fn result_json(

@@ -1,0 +1,98 @@
+//! The board an arm serves: with `fit`, the largest board (squares, centre, yaw) the arm's
+//! reach allows, its pieces scaled with the squares; the check that every square, slot and
+//! traverse is served, each square's radial margin, the squares the fingers need, and with
+//! servos or steppers how well they hold each square (the sag map).
+
+use crate::app::setup::file::Setup;
+use anyhow::{Result, anyhow};
+use chessarm_chess::reach::{ReachError, check_table, fit_board, square_margins};
+use chessarm_chess::sag::{SquareHold, sag_map};
+use chessarm_chess::shakmaty::Square;
+
+/// What the board study finds.
+#[derive(Debug, Clone)]
+pub struct BoardStudy {
+    /// The setup with the fitted board and pieces (the setup's own without `fit`).
+    pub fitted: Setup,
+    /// With `fit`: how many board poses the search tried, and how long it took, s.
+    pub tried: Option<usize>,
+    pub seconds: f64,
+    /// Whether every square, slot and traverse is served, or why not.
+    pub check: Result<(), ReachError>,
+    /// Each square's radial margin, m, or why it is not served.
+    pub margins: Vec<(Square, Result<f64, String>)>,
+    /// The smallest of the margins, m.
+    pub smallest: f64,
+    /// With servos or steppers: how they hold each square.
+    pub sag: Option<Vec<SquareHold>>,
+    /// The smallest square on which the fingers clear the neighbours of the piece they open
+    /// around, m.
+    pub fingers_need: f64,
+}
+
+/// Checks the setup's board, or with `fit` fits the largest one; `sag` asks for the sag map
+/// (refused with torque motors; with servos or steppers it is always made).
+///
+/// # Errors
+///
+/// No board fits, the fitted squares are smaller than the fingers need, a sag map asked for
+/// torque motors.
+pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
+    let limits = setup.motion;
+    let started = std::time::Instant::now();
+    let mut fitted = setup.clone();
+    let mut tried = None;
+    let needed = fingers_need(setup, setup.board.square_size)?;
+    if fit {
+        let fit = fit_board(
+            &setup.arm,
+            &setup.pieces,
+            setup.board.square_size,
+            &limits,
+            (setup.board.surface_height, setup.board.base_clearance),
+        )
+        .map_err(|e| anyhow!("{e}"))?;
+        // The fingers open around a piece beside its neighbours: squares below what they need
+        // would have the planner refuse moves.
+        if fit.board.square_size < needed {
+            anyhow::bail!(
+                "the arm serves squares of at most {:.1} mm, and the fingers ([gripper]: {:.1} mm thick, {:.1} mm wide, \
+                 opened {:.1} mm beside a piece) need {:.1} mm to open around a piece beside its neighbours with {:.1} mm \
+                 to spare ([motion] arm_clearance): slimmer fingers, a smaller opening or a longer arm",
+                fit.board.square_size * 1e3,
+                setup.clearance.gripper.finger_thickness * 1e3,
+                setup.clearance.gripper.finger_width * 1e3,
+                setup.clearance.gripper.finger_opening * 1e3,
+                needed * 1e3,
+                setup.clearance.margin * 1e3
+            );
+        }
+        fitted.board = fit.board;
+        fitted.pieces = fit.pieces;
+        tried = Some(fit.tried);
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let check = check_table(&setup.arm, &fitted.board, &fitted.pieces, &limits);
+    let margins = square_margins(&setup.arm, &fitted.board, &fitted.pieces, &limits);
+    let sag = match (setup.actuators.take_positions(), sag) {
+        (true, _) => Some(sag_map(&setup.arm, &setup.actuators, &fitted.board, &fitted.pieces)),
+        (false, true) => {
+            anyhow::bail!("--sag-map is for servos or steppers; the joints have torque motors (give --actuator NAME)")
+        }
+        (false, false) => None,
+    };
+    let smallest = margins.iter().filter_map(|(_, m)| m.as_ref().ok()).copied().fold(f64::INFINITY, f64::min);
+    Ok(BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed })
+}
+
+/// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they
+/// open around, the setup's pieces (on squares of `square` m) scaled with the squares.
+fn fingers_need(setup: &Setup, square: f64) -> Result<f64> {
+    chessarm_chess::clearance::moves::square_for_fingers(
+        &setup.pieces,
+        square,
+        &setup.clearance.gripper,
+        setup.clearance.margin,
+    )
+    .ok_or_else(|| anyhow!("the fingers ([gripper]) do not clear a piece's neighbours even on squares of 20 cm"))
+}
