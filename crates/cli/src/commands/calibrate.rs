@@ -37,14 +37,13 @@ fn read_over_bus(setup: &Setup, args: &CalibrateArgs, port: &std::path::Path) ->
         .map(|name| parse_square(name).map_err(|e| anyhow::anyhow!("--squares {}: {e}", args.squares.join(","))))
         .collect::<Result<_>>()?;
     let mut arm = crate::app::bus::arm::RealArm::open(
-        setup,
-        &crate::app::bus::arm::ArmOptions {
+        &crate::app::setup::servos::wiring(setup)?,
+        crate::app::bus::arm::ArmOptions {
             port: Some(port),
             dry_run: false,
             max_step: std::f64::consts::PI,
             reply_timeout: std::time::Duration::from_millis(args.reply_timeout_ms),
-            log: &args.out.join("bus.jsonl"),
-            append_log: false,
+            log: Box::new(|| crate::app::output::create_log(&args.out.join("bus.jsonl"), false)),
         },
     )?;
     arm.torque_off().context("cannot turn the servos' torque off")?;

@@ -313,14 +313,13 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let mut real_arm = (args.port.is_some() || args.dry_run)
         .then(|| {
             crate::app::bus::arm::RealArm::open(
-                setup,
-                &crate::app::bus::arm::ArmOptions {
+                &crate::app::setup::servos::wiring(setup)?,
+                crate::app::bus::arm::ArmOptions {
                     port: args.port.as_deref(),
                     dry_run: args.dry_run,
                     max_step: args.max_step_deg.to_radians(),
                     reply_timeout: Duration::from_millis(args.reply_timeout_ms),
-                    log: &args.out.join("bus.jsonl"),
-                    append_log: args.resume,
+                    log: Box::new(|| crate::app::output::create_log(&args.out.join("bus.jsonl"), args.resume)),
                 },
             )
         })

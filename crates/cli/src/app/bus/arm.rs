@@ -3,9 +3,8 @@
 //! (`[servo_bus]`) and sent by the [`Driver`], every goal checked on the wire.
 
 use crate::app::bus::driver::{Driver, DriverError, Followed, TickGoal, Wire, WireLimits};
+use crate::app::bus::mapping::ServoBus;
 use crate::app::bus::port::{BAUD_RATE, SerialLine};
-use crate::app::setup::file::Setup;
-use crate::app::setup::servos::ServoBus;
 use anyhow::{Result, bail};
 use chessarm_chess::play::{Handling, ServoGoal};
 use std::path::Path;
@@ -22,8 +21,23 @@ pub struct RealArm {
     pub followed: Vec<Followed>,
 }
 
-/// How the driver is set up from the command line.
+/// The arm's servos as the driver needs them: their addresses and ticks, the joints' names,
+/// the sense of each joint (`signs`: the setup's angle = sign × the model's), the joints'
+/// limits in the setup's sense (rad) and speed limits (rad/s), and the bus rate (Hz). Made
+/// from a setup by `app::setup::servos::wiring`.
 #[derive(Debug, Clone)]
+pub struct Wiring {
+    pub bus: ServoBus,
+    pub protocol: crate::app::bus::Protocol,
+    pub joint_names: [String; 4],
+    pub signs: [f64; 4],
+    pub limits: [(f64, f64); 4],
+    pub velocity_limits: [f64; 4],
+    pub bus_rate: f64,
+}
+
+/// How the driver is set up from the command line.
+#[allow(missing_debug_implementations)]
 pub struct ArmOptions<'a> {
     /// The serial device (`None` with `dry_run`).
     pub port: Option<&'a Path>,
@@ -31,10 +45,8 @@ pub struct ArmOptions<'a> {
     /// The largest distance of a goal from a joint's present position, rad.
     pub max_step: f64,
     pub reply_timeout: Duration,
-    /// Where every packet is logged (JSON lines), after what it holds with `append_log` (a
-    /// resumed game's).
-    pub log: &'a Path,
-    pub append_log: bool,
+    /// Where every packet is logged (JSON lines): opens the log file, once the port is open.
+    pub log: Box<dyn FnOnce() -> Result<std::fs::File> + 'a>,
 }
 
 /// How much faster than a joint's speed limit its goals may change: sag and feedforward goals
@@ -45,63 +57,51 @@ pub struct ArmOptions<'a> {
 /// by the simulation). A goal faster still is a jump the plan never makes.
 pub const GOAL_SPEED_ALLOWANCE: f64 = 1.5;
 
-/// The checks on the wire for `setup`'s joints: their limits, `max_step` (rad) and speed
-/// limits over one bus period, in ticks of `bus`.
-pub fn wire_limits(setup: &Setup, bus: &ServoBus, max_step: f64) -> WireLimits {
-    let period = 1.0 / setup.bus_rate;
+/// The checks on the wire for the joints of `wiring`: their limits, `max_step` (rad) and speed
+/// limits over one bus period, in ticks of its bus.
+pub fn wire_limits(wiring: &Wiring, max_step: f64) -> WireLimits {
+    let bus = &wiring.bus;
+    let period = 1.0 / wiring.bus_rate;
     let count = |j: usize| std::f64::consts::TAU / bus.counts_per_revolution[j];
     let mut limits = WireLimits { lower: [0; 4], upper: [0; 4], max_step: [0; 4], max_change: [0; 4] };
     for j in 0..4 {
-        let (lower, upper) = setup.user_limits(j);
+        let (lower, upper) = wiring.limits[j];
         let (a, b) = (bus.ticks(j, lower) as i64, bus.ticks(j, upper) as i64);
         limits.lower[j] = a.min(b);
         limits.upper[j] = a.max(b);
         limits.max_step[j] = (max_step / count(j)).floor() as i64;
         // The joint's speed limit over a period with the allowance for the host's offsets, and
         // a tick for the goals' rounding.
-        limits.max_change[j] =
-            (GOAL_SPEED_ALLOWANCE * setup.arm.link(j).limits.velocity * period / count(j)).ceil() as i64 + 1;
+        limits.max_change[j] = (GOAL_SPEED_ALLOWANCE * wiring.velocity_limits[j] * period / count(j)).ceil() as i64 + 1;
     }
     limits
 }
 
 impl RealArm {
-    /// The driver for `setup`'s servos on `options.port` (or a dry run).
+    /// The driver for the servos of `wiring` on `options.port` (or a dry run).
     ///
     /// # Errors
     ///
-    /// The joints have no servos of a known protocol, or the port cannot be opened.
-    pub fn open(setup: &Setup, options: &ArmOptions<'_>) -> Result<Self> {
-        if !setup.actuators.take_positions() {
-            bail!(
-                "--port and --dry-run drive servos: give them with --actuator (e.g. sts3215 for the SO-101, xm430 for the OpenManipulator-X)"
-            );
-        }
-        let bus = ServoBus::of(setup)?;
-        let Some(protocol) = bus.protocol else {
-            bail!(
-                "the servos ({}) speak neither Feetech's nor Dynamixel's protocol; give [servo_bus] protocol",
-                setup.actuator_names.join(", ")
-            );
-        };
+    /// The port or the log cannot be opened.
+    pub fn open(wiring: &Wiring, options: ArmOptions<'_>) -> Result<Self> {
         let wire = match (options.port, options.dry_run) {
             (_, true) => Wire::DryRun,
             (Some(port), false) => Wire::Serial(SerialLine::open(port, BAUD_RATE)?),
             (None, false) => bail!("give --port DEVICE or --dry-run"),
         };
-        let log = crate::app::output::create_log(options.log, options.append_log)?;
+        let log = (options.log)()?;
         let driver = Driver::new(
             wire,
-            protocol,
-            bus.ids,
-            setup.joint_names.clone(),
-            bus.gripper,
-            wire_limits(setup, &bus, options.max_step),
-            1.0 / setup.bus_rate,
+            wiring.protocol,
+            wiring.bus.ids,
+            wiring.joint_names.clone(),
+            wiring.bus.gripper,
+            wire_limits(wiring, options.max_step),
+            1.0 / wiring.bus_rate,
             options.reply_timeout,
             Box::new(std::io::BufWriter::new(log)),
         );
-        Ok(Self { driver, bus, signs: setup.convention.signs, enabled: false, followed: Vec::new() })
+        Ok(Self { driver, bus: wiring.bus, signs: wiring.signs, enabled: false, followed: Vec::new() })
     }
 
     /// A goal (rad, the model's sense) in ticks.

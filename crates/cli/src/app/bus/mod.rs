@@ -14,6 +14,7 @@ pub mod arm;
 pub mod driver;
 pub mod dynamixel;
 pub mod feetech;
+pub mod mapping;
 pub mod port;
 pub mod simulator;
 

@@ -20,7 +20,7 @@
 //! ([`SimulatedBus::expire`]), so the next whole packet is answered.
 
 use super::Protocol;
-use crate::app::setup::servos::ServoBus;
+use crate::app::bus::mapping::ServoBus;
 use chessarm_core::arm::model::{ArmModel, JointVector};
 use chessarm_core::control::JointState;
 use chessarm_core::sim::actuator::{Actuators, PositionBank};

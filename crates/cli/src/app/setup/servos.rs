@@ -2,6 +2,7 @@
 //! period against the simulation's step, the P register a sweep varies, and `[servo_bus]`
 //! checked into the servos' addresses and register mapping.
 
+pub use crate::app::bus::mapping::ServoBus;
 use crate::app::setup::file::Setup;
 use anyhow::{Result, bail};
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
@@ -112,20 +113,6 @@ pub fn with_p_register(actuators: &Actuators<4>, conversions: &[Option<f64>; 4],
     out
 }
 
-/// The servos' addresses and register mapping, checked ([`ServoBusFile`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ServoBus {
-    pub ids: [u8; 4],
-    pub directions: [f64; 4],
-    pub zero_ticks: [f64; 4],
-    /// Counts per output revolution of each joint's servo (a stepper's microsteps).
-    pub counts_per_revolution: [f64; 4],
-    /// The bus's protocol (`None`: the servos speak neither, e.g. a hobby PWM servo or a
-    /// stepper; the goals are then only exported).
-    pub protocol: Option<crate::app::bus::Protocol>,
-    pub gripper: Option<crate::app::bus::driver::GripperServo>,
-}
-
 impl ServoBus {
     /// The setup's bus: its `[servo_bus]` table over the defaults, checked.
     pub fn of(setup: &Setup) -> Result<Self> {
@@ -216,19 +203,6 @@ impl ServoBus {
         }
         Ok(bus)
     }
-
-    /// Joint `j`'s goal `q` (rad, the setup's sense) in ticks of its servo's position register.
-    pub fn ticks(&self, j: usize, q: f64) -> f64 {
-        let count = std::f64::consts::TAU / self.counts_per_revolution[j];
-        self.zero_ticks[j] + self.directions[j] * (q / count).round()
-    }
-
-    /// Joint `j`'s angle (rad, the setup's sense) at tick `tick` of its servo's register
-    /// ([`ServoBus::ticks`]' inverse on whole ticks).
-    pub fn angle(&self, j: usize, tick: f64) -> f64 {
-        let count = std::f64::consts::TAU / self.counts_per_revolution[j];
-        self.directions[j] * (tick - self.zero_ticks[j]) * count
-    }
 }
 
 /// The servo columns of a run's CSV (simulate's and play's): the goals and internal targets
@@ -248,4 +222,33 @@ pub fn push_servo_values(
             row.extend(convention.user(part));
         }
     }
+}
+
+/// The wiring of the setup's servos for the real arm's driver.
+///
+/// # Errors
+///
+/// The joints have no servos, or servos of no protocol chessarm speaks; a bad `[servo_bus]`.
+pub fn wiring(setup: &Setup) -> Result<crate::app::bus::arm::Wiring> {
+    if !setup.actuators.take_positions() {
+        bail!(
+            "--port and --dry-run drive servos: give them with --actuator (e.g. sts3215 for the SO-101, xm430 for the OpenManipulator-X)"
+        );
+    }
+    let bus = ServoBus::of(setup)?;
+    let Some(protocol) = bus.protocol else {
+        bail!(
+            "the servos ({}) speak neither Feetech's nor Dynamixel's protocol; give [servo_bus] protocol",
+            setup.actuator_names.join(", ")
+        );
+    };
+    Ok(crate::app::bus::arm::Wiring {
+        bus,
+        protocol,
+        joint_names: setup.joint_names.clone(),
+        signs: setup.convention.signs,
+        limits: std::array::from_fn(|j| setup.user_limits(j)),
+        velocity_limits: std::array::from_fn(|j| setup.arm.link(j).limits.velocity),
+        bus_rate: setup.bus_rate,
+    })
 }
