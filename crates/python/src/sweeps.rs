@@ -25,13 +25,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 fn gain_range(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<GainRange>> {
     let Some(value) = value.filter(|v| !v.is_none()) else { return Ok(None) };
     if let Ok(text) = value.extract::<String>() {
-        return GainRange::parse(&text).map(Some).map_err(|e| PyValueError::new_err(format!("{name}={text:?}: {e}")));
+        return GainRange::parse(&text).map(Some).map_err(|e| bad_value(name, value, &e));
     }
     let (from, to, count): (f64, f64, usize) =
         value.extract().map_err(|_| bad_value(name, value, "a range \"A..B:N\" or (A, B, N)"))?;
-    GainRange::parse(&format!("{from}..{to}:{count}"))
-        .map(Some)
-        .map_err(|e| PyValueError::new_err(format!("{name}=({from}, {to}, {count}): {e}")))
+    GainRange::parse(&format!("{from}..{to}:{count}")).map(Some).map_err(|e| bad_value(name, value, &e))
 }
 
 /// A shard `(K, N)`, 1 ≤ K ≤ N.
@@ -217,19 +215,25 @@ pub fn tune(
     shard: Option<(usize, usize)>,
     threads: Option<usize>,
 ) -> PyResult<Tuning> {
-    let setup: &Setup = &setup.get().setup;
+    let py_setup = setup.get();
+    // A servo sweep without a strategy named sweeps every host strategy, as `chessarm tune` does.
+    let mut every_strategy = None;
+    if py_setup.options.servo_command.is_none() && py_setup.setup.actuators.take_positions() {
+        let mut all = (*py_setup.setup).clone();
+        all.servo_commands = chessarm_core::control::servo_host::ServoCommand::ALL.to_vec();
+        every_strategy = Some(all);
+    }
+    let setup: &Setup = every_strategy.as_ref().unwrap_or(&py_setup.setup);
     non_negative("payload_mass", payload_mass)?;
     if let Some(from) = tracking_from {
         non_negative("tracking_from", from)?;
     }
-    let controller = common::choice::<ControllerName>("controller", controller)?;
-    if !matches!(controller, ControllerName::Pd | ControllerName::Pid | ControllerName::Adaptive | ControllerName::Dob)
-    {
-        return Err(PyValueError::new_err(format!(
-            "controller={:?}: tune sweeps one of pd, pid, adaptive, dob",
-            controller.name()
-        )));
+    let named = common::choice::<ControllerName>("controller", controller)?;
+    if !matches!(named, ControllerName::Pd | ControllerName::Pid | ControllerName::Adaptive | ControllerName::Dob) {
+        let given = pyo3::types::PyString::new(py, controller).into_any();
+        return Err(bad_value("controller", &given, "tune sweeps one of pd, pid, adaptive, dob"));
     }
+    let controller = named;
     let conditions = Conditions::new(
         sensors,
         estimator,

@@ -17,6 +17,7 @@ import pytest
 import chessarm
 
 BIN = os.environ.get("CHESSARM_BIN")
+UNCERTAINTY = Path(__file__).resolve().parents[3] / "examples" / "uncertainty.toml"
 needs_cli = pytest.mark.skipif(BIN is None, reason="CHESSARM_BIN is not set: SKIPPED the comparison with the CLI")
 
 
@@ -74,10 +75,12 @@ def test_a_servo_sweep_equals_the_clis(tmp_path):
 
 @needs_cli
 def test_robustness_equals_the_clis_campaign(tmp_path, setup):
-    flags = ["--trials", "4", "--controller", "pd,dob", "--sensors", "hobby", "--seed", "3"]
+    flags = ["--trials", "4", "--controller", "pd,dob", "--sensors", "hobby", "--seed", "3", "--uncertainty", str(UNCERTAINTY)]
     out = subprocess.run([BIN, "robustness", *flags, "--out", str(tmp_path), "--json"], check=True, capture_output=True, text=True)
     summary = json.loads(out.stdout)["summary"]
-    trials = chessarm.robustness(setup, trials=4, controller=["pd", "dob"], sensors="hobby", seed=3)
+    trials = chessarm.robustness(
+        setup, trials=4, controller=["pd", "dob"], sensors="hobby", seed=3, uncertainty=UNCERTAINTY
+    )
     header, rows = table(tmp_path / "robustness.csv")
     assert len(trials) == len(rows) == 8
     assert trials.trial == column(header, rows, "trial", int)
