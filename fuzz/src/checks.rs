@@ -335,6 +335,23 @@ fn check_packet_bounds(data: &[u8], parsed: &Result<chessarm::app::bus::Status, 
     }
 }
 
+/// `parse` on `data` within its bounds ([`check_packet_bounds`]), and what it reads, built again
+/// by `build` from its ID, error byte and parameters, read back the same by `parse`. Returns
+/// what it read and the bytes built.
+fn check_rebuilt(
+    data: &[u8],
+    parse: fn(&[u8]) -> Result<chessarm::app::bus::Status, chessarm::app::bus::PacketError>,
+    build: fn(u8, u8, &[u8]) -> Vec<u8>,
+) -> Option<(chessarm::app::bus::Status, Vec<u8>)> {
+    let parsed = parse(data);
+    check_packet_bounds(data, &parsed);
+    let read = parsed.ok()?;
+    let built = build(read.id, read.error, &read.params);
+    let back = parse(&built).unwrap_or_else(|e| panic!("{built:02X?} does not read back: {e}"));
+    assert_eq!((back.id, back.error, &back.params), (read.id, read.error, &read.params));
+    Some((read, built))
+}
+
 /// Feetech STS packets: whatever the bytes, the parser does not panic; a packet read (status
 /// or instruction: one layout) is built again byte for byte from its ID, error (instruction)
 /// byte and parameters; a packet built from the input's first bytes (ID, instruction, up to 253
@@ -379,24 +396,13 @@ pub fn check_bus_dynamixel(data: &[u8]) {
             assert_eq!(stuffed.get(i + 3), Some(&0xFD), "unstuffed header pattern at {i} in {stuffed:02X?}");
         }
     }
-    let parsed = dynamixel::parse_packet(data);
-    check_packet_bounds(data, &parsed);
-    if let Ok(packet) = &parsed {
-        let built = dynamixel::instruction(packet.id, packet.error, &packet.params);
-        let back = dynamixel::parse_packet(&built).unwrap_or_else(|e| panic!("{built:02X?} does not read back: {e}"));
-        assert_eq!((back.id, back.error, &back.params), (packet.id, packet.error, &packet.params));
+    if let Some((packet, built)) = check_rebuilt(data, dynamixel::parse_packet, dynamixel::instruction) {
         let body = &data[packet.start + 7..packet.consumed - 2];
         if dynamixel::stuff(&dynamixel::unstuff(body)) == body {
             assert_eq!(built, &data[packet.start..packet.consumed], "{packet:?}");
         }
     }
-    let status = dynamixel::parse_status(data);
-    check_packet_bounds(data, &status);
-    if let Ok(status) = &status {
-        let built = dynamixel::status(status.id, status.error, &status.params);
-        let back = dynamixel::parse_status(&built).unwrap_or_else(|e| panic!("{built:02X?} does not read back: {e}"));
-        assert_eq!((back.id, back.error, &back.params), (status.id, status.error, &status.params));
-    }
+    check_rebuilt(data, dynamixel::parse_status, dynamixel::status);
     if let [id, instruction, params @ ..] = data {
         let built = dynamixel::instruction(*id, *instruction, params);
         let back = dynamixel::parse_packet(&built).unwrap_or_else(|e| panic!("{built:02X?} does not read back: {e}"));

@@ -5,6 +5,9 @@
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
+#[path = "../../core/tests/common/mod.rs"]
+mod common;
+
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::pieces::PieceSet;
 use chessarm_chess::scenario::scenario;
@@ -17,12 +20,11 @@ use chessarm_core::control::adaptive::AdaptiveComputedTorque;
 use chessarm_core::control::computed_torque::{AntiWindup, ComputedTorque, DEFAULT_ERROR_BAND};
 use chessarm_core::control::disturbance_observer::DisturbanceObserver;
 use chessarm_core::control::gains::{Gains, REPORT_PD, REPORT_PID};
-use chessarm_core::control::{Controller, JointState, Reference};
+use chessarm_core::control::{Controller, JointState};
 use chessarm_core::plan::path::{CartesianPath, GripperAction};
 use chessarm_core::plan::trajectory::JointTrajectory;
-use chessarm_core::sim::{
-    NoObserver, PayloadEvent, Plant, ReferenceSource, SimConfig, SimSummary, StepRecord, simulate,
-};
+use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate};
+use common::Prefix;
 
 /// The report's scenario as the demo plans it: path, and joint trajectory at 1 ms.
 struct Scenario {
@@ -87,21 +89,6 @@ impl Scenario {
         let config = SimConfig::new(&plant);
         let reference = Prefix { trajectory: &self.trajectory, duration };
         simulate(&mut plant, controller, &reference, start, events, &[], &config, &mut NoObserver).unwrap();
-    }
-}
-
-/// The first `duration` seconds of a trajectory.
-struct Prefix<'a> {
-    trajectory: &'a JointTrajectory,
-    duration: f64,
-}
-
-impl ReferenceSource<4> for Prefix<'_> {
-    fn reference(&self, t: f64) -> Reference<4> {
-        self.trajectory.reference(t)
-    }
-    fn duration(&self) -> f64 {
-        self.duration
     }
 }
 

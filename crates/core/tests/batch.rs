@@ -6,6 +6,8 @@
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
+mod common;
+
 use std::io::Write;
 
 use chessarm_core::arm::link::Friction;
@@ -22,6 +24,7 @@ use chessarm_core::plan::trajectory::JointTrajectory;
 use chessarm_core::sense::{Estimator, Feedback, JointKalman, KalmanSettings, SensorProfile, Sensors};
 use chessarm_core::sim::batch::{LaneCount, LaneRun, SimdLevel, simulate_lanes, takes_in_lanes};
 use chessarm_core::sim::{Integrator, PayloadEvent, ReferenceSource, SimConfig, SimError, SimSummary};
+use common::Hold;
 
 /// A short pick-and-place-like move: 1.2 s along a line at the board's height.
 fn trajectory() -> JointTrajectory {
@@ -29,18 +32,6 @@ fn trajectory() -> JointTrajectory {
     path.move_to(Vector3::new(0.32, 0.12, 0.05), 0.6).unwrap();
     path.move_to(Vector3::new(0.2, 0.05, 0.1), 0.6).unwrap();
     JointTrajectory::from_path(&report_arm(), &path, 1e-3, TOOL_DOWN).unwrap()
-}
-
-/// Holds still for a shorter time: a lane that finishes before its batch.
-struct Hold(JointVector<4>, f64);
-
-impl ReferenceSource<4> for Hold {
-    fn reference(&self, _t: f64) -> Reference<4> {
-        Reference::hold(self.0)
-    }
-    fn duration(&self) -> f64 {
-        self.1
-    }
 }
 
 /// A cheap deterministic generator for the candidates.
@@ -53,6 +44,17 @@ impl Draw {
     }
     fn range(&mut self, low: f64, high: f64) -> f64 {
         low + (high - low) * self.next()
+    }
+    /// Proportional and derivative gains: one time in about seven far beyond what a 1 kHz
+    /// sampled loop can hold, the run diverging within ~0.1 s (`true` says so), else moderate.
+    fn pd_gains(&mut self) -> (bool, f64, f64) {
+        let diverging = self.next() < 0.15;
+        let (kp, kd) = if diverging {
+            (self.range(4e6, 8e6), self.range(3e3, 6e3))
+        } else {
+            (self.range(20.0, 400.0), self.range(2.0, 40.0))
+        };
+        (diverging, kp, kd)
     }
 }
 
@@ -93,13 +95,7 @@ fn candidate<'a>(
         ControllerKind::Adaptive,
     ];
     let kind = kinds[(draw.next() * 4.0) as usize % 4];
-    let diverging = draw.next() < 0.15;
-    // Gains far beyond what a 1 kHz sampled loop can hold: the run diverges within ~0.1 s.
-    let (kp, kd) = if diverging {
-        (draw.range(4e6, 8e6), draw.range(3e3, 6e3))
-    } else {
-        (draw.range(20.0, 400.0), draw.range(2.0, 40.0))
-    };
+    let (diverging, kp, kd) = draw.pd_gains();
     let ki = if kind == ControllerKind::AntiWindupPid { draw.range(1.0, 30.0) } else { 0.0 };
     let spec = ControllerSpec {
         name: format!("c{index}"),
@@ -124,6 +120,7 @@ fn candidate<'a>(
     if draw.next() < 0.3 {
         config.torque_lag = JointVector::repeat(draw.range(1e-3, 1e-2));
     }
+    // A lane that holds still for a shorter time finishes before its batch.
     let short = draw.next() < 0.2;
     let reference: &(dyn ReferenceSource<4> + Sync) = if short { hold } else { trajectory };
     let initial = (draw.next() < 0.3 || diverging).then(|| {
@@ -216,7 +213,7 @@ fn fingerprint(result: &Result<SimSummary<4>, SimError>) -> String {
 #[test]
 fn every_lane_equals_the_scalar_run_bit_for_bit_at_every_lane_count_and_level() {
     let trajectory = trajectory();
-    let hold = Hold(trajectory.reference(0.0).q, 0.37);
+    let hold = Hold { q: trajectory.reference(0.0).q, duration: 0.37 };
     let events = grips([(0.5, false), (5.0, false)]);
     let marks = [0.3, 0.9, 1.1];
     let count = 27;
@@ -267,7 +264,7 @@ fn every_lane_equals_the_scalar_run_bit_for_bit_at_every_lane_count_and_level() 
 #[test]
 fn a_run_outside_the_family_or_with_other_settings_is_simulated_alone() {
     let trajectory = trajectory();
-    let hold = Hold(trajectory.reference(0.0).q, 0.2);
+    let hold = Hold { q: trajectory.reference(0.0).q, duration: 0.2 };
     let events = [[PayloadEvent::new(10.0, None, true); 2]; 3];
     let mut runs: Vec<LaneRun<'_>> = (0..5).map(|i| candidate(i, &trajectory, &hold, &events, &[])).collect();
     let mut links = *report_arm().links();
@@ -290,7 +287,7 @@ fn a_run_outside_the_family_or_with_other_settings_is_simulated_alone() {
 #[test]
 fn every_integrator_batches_bit_for_bit() {
     let trajectory = trajectory();
-    let hold = Hold(trajectory.reference(0.0).q, 0.3);
+    let hold = Hold { q: trajectory.reference(0.0).q, duration: 0.3 };
     let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
     let events = [[PayloadEvent::new(0.2, pawn, true); 2]; 3];
     for integrator in [Integrator::RungeKutta4, Integrator::Midpoint, Integrator::SemiImplicitEuler] {
@@ -303,13 +300,7 @@ fn every_integrator_batches_bit_for_bit() {
                 })
                 .collect::<Vec<_>>()
         };
-        let scalar: Vec<String> = make().iter_mut().map(|run| fingerprint(&run.simulate_alone())).collect();
-        for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
-            for lanes in [LaneCount::Four, LaneCount::Eight] {
-                let batched: Vec<String> = simulate_lanes(&mut make(), lanes, level).iter().map(fingerprint).collect();
-                assert_eq!(scalar, batched, "{integrator:?}, {} lanes at {}", lanes.get(), level.name());
-            }
-        }
+        alone_equals_batched(&make, &|_, result| fingerprint(result));
     }
 }
 
@@ -319,7 +310,7 @@ fn every_integrator_batches_bit_for_bit() {
 #[test]
 fn nystrom_at_a_large_time_step_batches_bit_for_bit() {
     let trajectory = trajectory();
-    let hold = Hold(trajectory.reference(0.0).q, 0.3);
+    let hold = Hold { q: trajectory.reference(0.0).q, duration: 0.3 };
     let events = [[PayloadEvent::new(0.2, None, true); 2]; 3];
     let make = || {
         (0..12)
@@ -334,20 +325,14 @@ fn nystrom_at_a_large_time_step_batches_bit_for_bit() {
             })
             .collect::<Vec<_>>()
     };
-    let scalar: Vec<String> = make().iter_mut().map(|run| fingerprint(&run.simulate_alone())).collect();
+    let scalar = alone_equals_batched(&make, &|_, result| fingerprint(result));
     assert!(scalar.iter().filter(|f| !f.starts_with("error")).count() >= 4, "{scalar:?}");
-    for level in SimdLevel::ALL.into_iter().filter(|level| level.available()) {
-        for lanes in [LaneCount::Four, LaneCount::Eight] {
-            let batched: Vec<String> = simulate_lanes(&mut make(), lanes, level).iter().map(fingerprint).collect();
-            assert_eq!(scalar, batched, "{} lanes at {}", lanes.get(), level.name());
-        }
-    }
 }
 
 #[test]
 fn a_run_with_a_nan_time_step_gets_the_scalar_simulators_error() {
     let trajectory = trajectory();
-    let hold = Hold(trajectory.reference(0.0).q, 0.2);
+    let hold = Hold { q: trajectory.reference(0.0).q, duration: 0.2 };
     let events = [[PayloadEvent::new(10.0, None, true); 2]; 3];
     let mut runs: Vec<LaneRun<'_>> = (0..3).map(|i| candidate(i, &trajectory, &hold, &events, &[])).collect();
     runs[0].config.dt = f64::NAN;
@@ -375,12 +360,7 @@ fn lane_law_candidate<'a>(
     let mut draw = Draw(index * 104_729 + 5);
     let kinds = [ControllerKind::ComputedTorque, ControllerKind::AntiWindupPid];
     let kind = kinds[(draw.next() * 2.0) as usize % 2];
-    let diverging = draw.next() < 0.15;
-    let (kp, kd) = if diverging {
-        (draw.range(4e6, 8e6), draw.range(3e3, 6e3))
-    } else {
-        (draw.range(20.0, 400.0), draw.range(2.0, 40.0))
-    };
+    let (diverging, kp, kd) = draw.pd_gains();
     // The plain PID (ComputedTorque with an integral) as well as PD.
     let ki = if draw.next() < 0.5 { draw.range(1.0, 30.0) } else { 0.0 };
     let mut gains = Gains::uniform(kp, kd, ki).unwrap();
@@ -414,7 +394,7 @@ fn lane_law_candidate<'a>(
 fn batches_of_computed_torque_runs_take_their_laws_and_metrics_in_lanes_bit_for_bit() {
     let trajectory = trajectory();
     // A reference without a desired tip: the metrics take it from the plants' kinematics.
-    let hold = Hold(trajectory.reference(0.0).q + JointVector::repeat(0.05), 0.4);
+    let hold = Hold { q: trajectory.reference(0.0).q + JointVector::repeat(0.05), duration: 0.4 };
     let events = grips([(0.1, false), (0.35, true)]);
     let marks = [0.3, 0.9, 1.1, 0.2];
     // Every third run marks other instants (one shared): a batch's lanes mark at different steps.
@@ -463,7 +443,7 @@ fn payload_events_between_steps_are_due_where_each_run_says() {
     // (`time <= t + dt/2`): events exactly half-way between two steps, and just before, after
     // the first step's time; in batches whose laws run in lanes and batches that do not.
     let trajectory = trajectory();
-    let hold = Hold(trajectory.reference(0.0).q, 0.4);
+    let hold = Hold { q: trajectory.reference(0.0).q, duration: 0.4 };
     let pawn = Some(Payload::upright_cylinder(0.05, 0.05, 0.012, 0.03));
     let dt = 1e-3;
     let half_way = |step: usize| step as f64 * dt + 0.5 * dt;
@@ -499,7 +479,7 @@ fn sensed(profile: SensorProfile<4>, settings: KalmanSettings, seed: u64) -> Fee
 #[test]
 fn batches_of_sensed_computed_torque_runs_take_their_filters_in_lanes_bit_for_bit() {
     let trajectory = trajectory();
-    let hold = Hold(trajectory.reference(0.0).q, 0.4);
+    let hold = Hold { q: trajectory.reference(0.0).q, duration: 0.4 };
     let events = grips([(0.1, false), (0.35, true)]);
     let marks = [0.3, 0.9, 1.1];
     let mut with_rate = SensorProfile::<4>::hobby();

@@ -3,7 +3,9 @@
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
-use chessarm_core::arm::dynamics::{DynamicsTerms, gravity_torques, inverse_dynamics, mass_matrix};
+mod common;
+
+use chessarm_core::arm::dynamics::{DynamicsTerms, gravity_torques, inverse_dynamics};
 use chessarm_core::arm::link::Inertial;
 use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::payload::{payload_regressor, payload_terms};
@@ -15,13 +17,8 @@ use chessarm_core::control::gains::{GainError, Gains, REPORT_PD, REPORT_PID};
 use chessarm_core::control::{Controller, JointState, Reference};
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use chessarm_core::sense::rng::SeededRng;
-use chessarm_core::sim::{
-    NoObserver, PayloadEvent, Plant, ReferenceSource, SimConfig, SimSummary, StepRecord, simulate,
-};
-
-fn q(values: [f64; 4]) -> JointVector<4> {
-    JointVector::<4>::from(values)
-}
+use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, SimConfig, SimSummary, StepRecord, simulate};
+use common::{Hold, q, steady_error_prediction};
 
 /// A point mass `mass` kg `offset` m along the tool x axis.
 fn point(mass: f64, offset: f64) -> Payload {
@@ -89,21 +86,6 @@ fn at_rest_the_payload_torque_is_its_weight_and_a_tool_down_offset_moves_nothing
     assert!(weight.amax() > 1.0, "a 1 kg weight at the tip must load the shoulder: {weight}");
 }
 
-/// Holds still at one configuration for a given time.
-struct Hold {
-    q: JointVector<4>,
-    duration: f64,
-}
-
-impl ReferenceSource<4> for Hold {
-    fn reference(&self, _t: f64) -> Reference<4> {
-        Reference::hold(self.q)
-    }
-    fn duration(&self) -> f64 {
-        self.duration
-    }
-}
-
 /// Holds `target` for `duration` s from rest on it; the plant is `plant_model`, whose payload
 /// (if any) the controller is not told.
 fn hold(
@@ -119,23 +101,6 @@ fn hold(
     let start = Some(JointState::at_rest(target));
     let reference = Hold { q: target, duration };
     simulate(&mut plant, controller, &reference, start, events, &[], &config, &mut NoObserver).unwrap()
-}
-
-/// PD's steady error with a wrong model: at rest `M̂(q) kp e + ĝ(q) = g(q)` at `q = q_d − e`,
-/// solved by fixed-point iteration.
-fn steady_error_prediction(
-    plant_model: &ArmModel<4>,
-    controller_model: &ArmModel<4>,
-    target: &JointVector<4>,
-    kp: f64,
-) -> JointVector<4> {
-    let mut error = JointVector::<4>::zeros();
-    for _ in 0..50 {
-        let q = target - error;
-        let difference = gravity_torques(plant_model, &q) - gravity_torques(controller_model, &q);
-        error = mass_matrix(controller_model, &q).cholesky().unwrap().solve(&difference) / kp;
-    }
-    error
 }
 
 fn report_pd(model: ArmModel<4>) -> ComputedTorque<4> {

@@ -3,7 +3,9 @@
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
-use chessarm_core::arm::dynamics::{gravity_torques, mass_matrix};
+mod common;
+
+use chessarm_core::arm::dynamics::gravity_torques;
 use chessarm_core::arm::lagrange::energy;
 use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;
@@ -14,26 +16,8 @@ use chessarm_core::control::{JointState, Reference};
 use chessarm_core::nalgebra::Vector3;
 use chessarm_core::plan::path::CartesianPath;
 use chessarm_core::plan::trajectory::JointTrajectory;
-use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, ReferenceSource, SimConfig, SimError, StepRecord, simulate};
-
-fn q(values: [f64; 4]) -> JointVector<4> {
-    JointVector::<4>::from(values)
-}
-
-/// Holds still at one configuration for a given time.
-struct Hold {
-    q: JointVector<4>,
-    duration: f64,
-}
-
-impl ReferenceSource<4> for Hold {
-    fn reference(&self, _t: f64) -> Reference<4> {
-        Reference::hold(self.q)
-    }
-    fn duration(&self) -> f64 {
-        self.duration
-    }
-}
+use chessarm_core::sim::{NoObserver, PayloadEvent, Plant, SimConfig, SimError, StepRecord, simulate};
+use common::{Hold, Prefix, q, steady_error_prediction};
 
 /// Holds `target` for `duration` s from `start` (default: at rest on the target), recording
 /// nothing.
@@ -47,21 +31,6 @@ fn hold(
 ) -> Result<chessarm_core::sim::SimSummary<4>, SimError> {
     let start = start.or(Some(JointState::at_rest(target)));
     simulate(plant, controller, &Hold { q: target, duration }, start, &[], &[], config, &mut NoObserver)
-}
-
-/// The first `duration` seconds of a trajectory.
-struct Prefix<'a> {
-    trajectory: &'a JointTrajectory,
-    duration: f64,
-}
-
-impl ReferenceSource<4> for Prefix<'_> {
-    fn reference(&self, t: f64) -> Reference<4> {
-        self.trajectory.reference(t)
-    }
-    fn duration(&self) -> f64 {
-        self.duration
-    }
 }
 
 #[test]
@@ -128,22 +97,6 @@ fn pd_error_follows_the_closed_form_when_the_model_is_exact() {
     // The zero-order hold delays the control by dt/2 on average: a phase error ≈ ωn·dt/2 =
     // 1e-3 of the response, so 2e-3 × |e0| = 8e-5 rad bounds it with margin.
     assert!(worst < 2e-3 * initial_error.amax(), "worst deviation {worst} rad");
-}
-
-fn steady_error_prediction(
-    plant_model: &ArmModel<4>,
-    controller_model: &ArmModel<4>,
-    target: &JointVector<4>,
-    kp: f64,
-) -> JointVector<4> {
-    // At rest, τ = M̂(q)(kp e) + ĝ(q) must equal g(q), with q = q_d − e: iterate the fixed point.
-    let mut error = JointVector::<4>::zeros();
-    for _ in 0..50 {
-        let q = target - error;
-        let difference = gravity_torques(plant_model, &q) - gravity_torques(controller_model, &q);
-        error = mass_matrix(controller_model, &q).cholesky().unwrap().solve(&difference) / kp;
-    }
-    error
 }
 
 #[test]

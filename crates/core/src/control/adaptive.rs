@@ -54,10 +54,10 @@
 //! payload was not yet carried). At a release the estimate is cleared to zero and estimation
 //! stops: the gripper is then known to be empty.
 
-use super::gains::{GainError, Gains, REPORT_PD};
+use super::gains::{GainError, Gains};
 use super::{Controller, JointState, Reference};
 use crate::arm::dynamics::{BodyFrames, DynamicsTerms, friction_torques, rnea_with_frames};
-use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
+use crate::arm::model::{ArmModel, JointVector};
 use crate::arm::payload::{PayloadRegressor, payload_regressor};
 use nalgebra::{Matrix2, Vector2};
 
@@ -160,8 +160,7 @@ pub struct AdaptiveComputedTorque<const N: usize> {
 impl<const N: usize> AdaptiveComputedTorque<N> {
     /// With the report's PD gains (kp = 400, kd = 20) and the default settings.
     pub fn new(model: ArmModel<N>) -> Self {
-        let (kp, kd) = REPORT_PD;
-        let gains = Gains { kp: JointVector::repeat(kp), kd: JointVector::repeat(kd), ki: JointVector::zeros() };
+        let gains = Gains::report_pd();
         let settings = AdaptiveSettings::default();
         Self {
             model,
@@ -266,15 +265,7 @@ impl<const N: usize> Controller<N> for AdaptiveComputedTorque<N> {
         self.commanded = JointVector::zeros();
     }
 
-    fn command(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N> {
-        let terms = DynamicsTerms::new(&self.model, &state.q, &state.qd);
-        self.command_with_terms(state, reference, period, &terms)
-    }
-
-    fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError> {
-        self.model = self.model.with_payload(payload)?;
-        Ok(())
-    }
+    super::model_based_controller_methods!();
 
     fn gripper_changed(&mut self, closed: bool) {
         self.gripping = closed;
@@ -284,14 +275,6 @@ impl<const N: usize> Controller<N> for AdaptiveComputedTorque<N> {
             self.estimate = Vector2::zeros();
             self.previous = None;
         }
-    }
-
-    fn commanded_acceleration(&self) -> Option<JointVector<N>> {
-        Some(self.commanded)
-    }
-
-    fn dynamics_model(&self) -> Option<&ArmModel<N>> {
-        Some(&self.model)
     }
 
     fn command_with_terms(

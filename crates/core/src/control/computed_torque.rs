@@ -39,7 +39,7 @@
 use super::gains::{GainError, Gains};
 use super::{Controller, JointState, Reference};
 use crate::arm::dynamics::DynamicsTerms;
-use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
+use crate::arm::model::{ArmModel, JointVector};
 use crate::lanes::Real;
 
 /// The outer loop `v = q̈_d + kd ė + kp e + ki ∫e`, added in that order, on one run (`S =
@@ -225,18 +225,7 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
         self.commanded = JointVector::zeros();
     }
 
-    fn command(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N> {
-        let terms = DynamicsTerms::new(&self.model, &state.q, &state.qd);
-        self.command_with_terms(state, reference, period, &terms)
-    }
-
-    fn commanded_acceleration(&self) -> Option<JointVector<N>> {
-        Some(self.commanded)
-    }
-
-    fn dynamics_model(&self) -> Option<&ArmModel<N>> {
-        Some(&self.model)
-    }
+    super::model_based_controller_methods!();
 
     fn as_computed_torque(&mut self) -> Option<&mut ComputedTorque<N>> {
         Some(self)
@@ -287,10 +276,5 @@ impl<const N: usize> Controller<N> for ComputedTorque<N> {
         }
         self.commanded = outer;
         torque
-    }
-
-    fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError> {
-        self.model = self.model.with_payload(payload)?;
-        Ok(())
     }
 }

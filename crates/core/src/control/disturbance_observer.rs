@@ -32,11 +32,11 @@
 //! `ω_q h` = 0.05 rad of phase at 1 kHz. Rate noise reaches `d̂` amplified (a difference of
 //! rates divided by `h`, then filtered): lower `ω_q` for noisy sensors.
 
-use super::gains::{GainError, Gains, REPORT_PD};
+use super::gains::{GainError, Gains};
 use super::{Controller, JointState, Reference};
 use crate::arm::dynamics::DynamicsTerms;
 use crate::arm::mass_matrix::MassMatrixFactor;
-use crate::arm::model::{ArmModel, JointVector, ModelError, Payload};
+use crate::arm::model::{ArmModel, JointVector};
 
 /// Default Q-filter bandwidth `ω_q`, rad/s (see the module documentation).
 pub const DEFAULT_OBSERVER_BANDWIDTH: f64 = 50.0;
@@ -69,10 +69,9 @@ impl<const N: usize> DisturbanceObserver<N> {
     /// With the report's PD gains (kp = 400, kd = 20) and `ω_q` =
     /// [`DEFAULT_OBSERVER_BANDWIDTH`].
     pub fn new(model: ArmModel<N>) -> Self {
-        let (kp, kd) = REPORT_PD;
         Self {
             model,
-            gains: Gains { kp: JointVector::repeat(kp), kd: JointVector::repeat(kd), ki: JointVector::zeros() },
+            gains: Gains::report_pd(),
             bandwidth: DEFAULT_OBSERVER_BANDWIDTH,
             disturbance: JointVector::zeros(),
             previous: None,
@@ -129,23 +128,7 @@ impl<const N: usize> Controller<N> for DisturbanceObserver<N> {
         self.commanded = JointVector::zeros();
     }
 
-    fn command(&mut self, state: &JointState<N>, reference: &Reference<N>, period: f64) -> JointVector<N> {
-        let terms = DynamicsTerms::new(&self.model, &state.q, &state.qd);
-        self.command_with_terms(state, reference, period, &terms)
-    }
-
-    fn set_payload(&mut self, payload: Option<Payload>) -> Result<(), ModelError> {
-        self.model = self.model.with_payload(payload)?;
-        Ok(())
-    }
-
-    fn commanded_acceleration(&self) -> Option<JointVector<N>> {
-        Some(self.commanded)
-    }
-
-    fn dynamics_model(&self) -> Option<&ArmModel<N>> {
-        Some(&self.model)
-    }
+    super::model_based_controller_methods!();
 
     fn command_with_terms(
         &mut self,

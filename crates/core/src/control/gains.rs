@@ -82,6 +82,13 @@ impl<const N: usize> Gains<N> {
         Self::per_joint(JointVector::repeat(kp), JointVector::repeat(kd), JointVector::repeat(ki))
     }
 
+    /// The report's PD gains ([`REPORT_PD`]) on every joint, no integral: the model-based
+    /// controllers' default outer loop.
+    pub(crate) fn report_pd() -> Self {
+        let (kp, kd) = REPORT_PD;
+        Self { kp: JointVector::repeat(kp), kd: JointVector::repeat(kd), ki: JointVector::zeros() }
+    }
+
     /// PD from natural frequency `wn` (rad/s) and damping ratio `zeta`: `kp = ωn²`, `kd = 2ζωn`.
     pub fn pd_from_natural_frequency(wn: f64, zeta: f64) -> Result<Self, GainError> {
         check_design(wn, zeta)?;

@@ -1,6 +1,42 @@
 //! Controllers behind one trait. A controller owns its own model of the arm, which may differ
 //! from the plant's (the plant may carry a payload the controller does not know about).
 
+/// The [`Controller`] methods that every law computing with its own model of the arm (a field
+/// `model`) and keeping the acceleration it last asked for (a field `commanded`) implements
+/// alike: its terms at the measured state computed for [`Controller::command_with_terms`], a
+/// payload given to its model, and both fields handed out. A macro because these are trait
+/// methods of each law's own `impl` (a function cannot stand in for them).
+macro_rules! model_based_controller_methods {
+    () => {
+        fn command(
+            &mut self,
+            state: &$crate::control::JointState<N>,
+            reference: &$crate::control::Reference<N>,
+            period: f64,
+        ) -> $crate::arm::model::JointVector<N> {
+            let terms = $crate::arm::dynamics::DynamicsTerms::new(&self.model, &state.q, &state.qd);
+            self.command_with_terms(state, reference, period, &terms)
+        }
+
+        fn set_payload(
+            &mut self,
+            payload: Option<$crate::arm::model::Payload>,
+        ) -> Result<(), $crate::arm::model::ModelError> {
+            self.model = self.model.with_payload(payload)?;
+            Ok(())
+        }
+
+        fn commanded_acceleration(&self) -> Option<$crate::arm::model::JointVector<N>> {
+            Some(self.commanded)
+        }
+
+        fn dynamics_model(&self) -> Option<&$crate::arm::model::ArmModel<N>> {
+            Some(&self.model)
+        }
+    };
+}
+use model_based_controller_methods;
+
 pub mod adaptive;
 pub mod choice;
 pub mod computed_torque;

@@ -419,7 +419,7 @@ where
     R: ReferenceSource<N> + ?Sized,
     O: Observer<N> + ?Sized,
 {
-    drive(plant, feedback, controller, reference, initial, events, marks, None, config, observer)
+    simulate_fine_points(plant, feedback, controller, reference, initial, events, marks, None, config, observer)
         .map(|(summary, _)| summary)
 }
 
@@ -429,7 +429,8 @@ where
 /// controller's model's kinematics (the plant's where the controller has none), or until the
 /// gate's timeout. The run lasts the plan plus its waits; `marks` are instants of the plan (a
 /// mark at an event is taken when the event goes ahead). Returns the metrics and each event's
-/// wait, in order. Without a gate it is [`simulate_sensed`] (and no waits).
+/// wait, in order. Without a gate it is [`simulate_sensed`] (and no waits), whose scalar closed
+/// loop this is.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate_fine_points<const N: usize, C, R, O>(
     plant: &mut Plant<N>,
@@ -449,7 +450,33 @@ where
     O: Observer<N> + ?Sized,
 {
     let gate = gate.map(|g| g.validated()).transpose().map_err(|e| SimError::Config(e.to_string()))?;
-    drive(plant, feedback, controller, reference, initial, events, marks, gate.as_ref(), config, observer)
+    let gate = gate.as_ref();
+    let mut run = Run::new(feedback, controller, reference, initial, events, marks, config, plant.model())?;
+    let mut waits = Vec::with_capacity(if gate.is_some() { events.len() } else { 0 });
+    let mut waiting = None;
+    loop {
+        while let Some(event) = run.due_event() {
+            if !gate_open(&mut run, plant.model(), gate, &mut waiting, &mut waits) {
+                break;
+            }
+            plant.set_payload(event.payload).map_err(|source| SimError::Payload { time: run.time(), source })?;
+            run.apply_event(&event, plant.model())?;
+        }
+        plant.evaluate(&run.state).map_err(|source| SimError::Dynamics { time: run.time(), source })?;
+        let at_state = plant.evaluated();
+        let view = PlantView { tip: at_state.tip(), terms: at_state.terms() };
+        let torque = run.control(&view, plant.model(), observer)?;
+        if run.finished() {
+            break;
+        }
+        // A stepper's pull is evaluated at every stage of the step; anything else is held.
+        let next = match run.steppers() {
+            Some(bank) => plant.step_with(&run.state, |q, qd| bank.torque_at(q, qd), run.dt, run.config.integrator),
+            None => plant.step(&run.state, &torque, run.dt, run.config.integrator),
+        };
+        run.advance(next)?;
+    }
+    Ok((run.summary(), waits))
 }
 
 /// Where an event is in its fine point's wait: the step the plan reached it.
@@ -496,53 +523,6 @@ where
         run.hold();
         false
     }
-}
-
-/// The scalar closed loop of [`simulate_sensed`] and [`simulate_fine_points`].
-#[allow(clippy::too_many_arguments)]
-fn drive<const N: usize, C, R, O>(
-    plant: &mut Plant<N>,
-    feedback: &mut Feedback<N>,
-    controller: &mut C,
-    reference: &R,
-    initial: Option<JointState<N>>,
-    events: &[PayloadEvent],
-    marks: &[f64],
-    gate: Option<&InPosition>,
-    config: &SimConfig<N>,
-    observer: &mut O,
-) -> Result<(SimSummary<N>, Vec<Wait>), SimError>
-where
-    C: Controller<N> + ?Sized,
-    R: ReferenceSource<N> + ?Sized,
-    O: Observer<N> + ?Sized,
-{
-    let mut run = Run::new(feedback, controller, reference, initial, events, marks, config, plant.model())?;
-    let mut waits = Vec::with_capacity(if gate.is_some() { events.len() } else { 0 });
-    let mut waiting = None;
-    loop {
-        while let Some(event) = run.due_event() {
-            if !gate_open(&mut run, plant.model(), gate, &mut waiting, &mut waits) {
-                break;
-            }
-            plant.set_payload(event.payload).map_err(|source| SimError::Payload { time: run.time(), source })?;
-            run.apply_event(&event, plant.model())?;
-        }
-        plant.evaluate(&run.state).map_err(|source| SimError::Dynamics { time: run.time(), source })?;
-        let at_state = plant.evaluated();
-        let view = PlantView { tip: at_state.tip(), terms: at_state.terms() };
-        let torque = run.control(&view, plant.model(), observer)?;
-        if run.finished() {
-            break;
-        }
-        // A stepper's pull is evaluated at every stage of the step; anything else is held.
-        let next = match run.steppers() {
-            Some(bank) => plant.step_with(&run.state, |q, qd| bank.torque_at(q, qd), run.dt, run.config.integrator),
-            None => plant.step(&run.state, &torque, run.dt, run.config.integrator),
-        };
-        run.advance(next)?;
-    }
-    Ok((run.summary(), waits))
 }
 
 /// What the closed loop needs of the plant at the current state: the tool tip (m) and the

@@ -55,6 +55,51 @@ const STS3215_TARGET_SPEED: f64 = 3400.0 * std::f64::consts::TAU / 4096.0;
 /// kg·m²: the estimate for the Dynamixels' armature, which ROBOTIS does not publish.
 const SMALL_ROTOR_INERTIA: f64 = 0.0261 / (345.0 * 345.0);
 
+/// The 7.4 V STS3215 (numbers and sources in its profile); the 12 V one has its gear train and
+/// firmware.
+const STS3215: ServoSpec = ServoSpec {
+    supply_voltage: 7.4,
+    resistance: 2.48,
+    torque_constant: 1.178,
+    max_torque: 1.91,
+    armature: 0.0261,
+    coulomb_friction: 0.0515,
+    viscous_friction: 0.0599,
+    backlash: 1.0 * DEGREE,
+    counts_per_revolution: 4096.0,
+    period: 1e-3,
+    kp: 32.0 * FEETECH_DUTY_PER_RAD_PER_P,
+    ki: 0.0,
+    kd: 0.0,
+    max_duty: 0.97,
+    deadband: std::f64::consts::TAU / 4096.0,
+    max_target_speed: STS3215_TARGET_SPEED,
+    max_target_acceleration: 0.0,
+};
+
+/// The XL430-W250 (numbers and sources in its profile); the XM430 has its firmware and its
+/// estimates of the friction and the backlash.
+const XL430: ServoSpec = ServoSpec {
+    supply_voltage: 11.1,
+    // kt = 11.1 V / 5.97 rad/s; R = kt · 11.1 V / 1.4 N·m.
+    resistance: 14.74,
+    torque_constant: 1.859,
+    max_torque: 1.4,
+    armature: SMALL_ROTOR_INERTIA * 258.5 * 258.5,
+    coulomb_friction: 0.0515,
+    viscous_friction: 0.0599,
+    backlash: 0.25 * DEGREE,
+    counts_per_revolution: 4096.0,
+    period: 1e-3,
+    kp: 640.0 * DYNAMIXEL_DUTY_PER_RAD_PER_P,
+    ki: 0.0,
+    kd: 0.0,
+    max_duty: 1.0,
+    deadband: 0.0,
+    max_target_speed: 0.0,
+    max_target_acceleration: 0.0,
+};
+
 /// The built-in servos.
 pub const PROFILES: [Profile; 5] = [
     Profile {
@@ -62,25 +107,7 @@ pub const PROFILES: [Profile; 5] = [
         description: "Feetech STS3215 (7.4 V, 1:345), the SO-100/SO-101's servo",
         p_register: 32.0,
         duty_per_rad_per_p: FEETECH_DUTY_PER_RAD_PER_P,
-        spec: ServoSpec {
-            supply_voltage: 7.4,
-            resistance: 2.48,
-            torque_constant: 1.178,
-            max_torque: 1.91,
-            armature: 0.0261,
-            coulomb_friction: 0.0515,
-            viscous_friction: 0.0599,
-            backlash: 1.0 * DEGREE,
-            counts_per_revolution: 4096.0,
-            period: 1e-3,
-            kp: 32.0 * FEETECH_DUTY_PER_RAD_PER_P,
-            ki: 0.0,
-            kd: 0.0,
-            max_duty: 0.97,
-            deadband: std::f64::consts::TAU / 4096.0,
-            max_target_speed: STS3215_TARGET_SPEED,
-            max_target_acceleration: 0.0,
-        },
+        spec: STS3215,
         sources: "R 2.48 Ω, kt 1.178 N·m/A, armature 0.0261 kg·m², Coulomb 0.0515 N·m, viscous 0.0599 N·m·s/rad: \
                   Rhoban BAM's identification (bam/params/feetech_sts3215_7_4V/m1.json); P 32 (factory; LeRobot writes 16) \
                   × 0.166 duty/rad, max duty 0.97, target speed 3400 counts/s: BAM bam/feetech/actuator.py; stall 1.91 N·m \
@@ -101,19 +128,8 @@ pub const PROFILES: [Profile; 5] = [
             resistance: 8.38,
             torque_constant: 2.47,
             max_torque: 2.94,
-            armature: 0.0261,
             coulomb_friction: 0.114,
-            viscous_friction: 0.0599,
-            backlash: 1.0 * DEGREE,
-            counts_per_revolution: 4096.0,
-            period: 1e-3,
-            kp: 32.0 * FEETECH_DUTY_PER_RAD_PER_P,
-            ki: 0.0,
-            kd: 0.0,
-            max_duty: 0.97,
-            deadband: std::f64::consts::TAU / 4096.0,
-            max_target_speed: STS3215_TARGET_SPEED,
-            max_target_acceleration: 0.0,
+            ..STS3215
         },
         sources: "no-load 45 rpm (4.71 rad/s) and stall 30 kg·cm (2.94 N·m, max_torque) at 12 V: Feetech C018 datasheet via \
                   robonine.com's test, which measured 35 kg·cm (3.43 N·m) at stall and ~1° backlash; kt = 0.97·12/4.71 and \
@@ -126,26 +142,7 @@ pub const PROFILES: [Profile; 5] = [
         description: "ROBOTIS Dynamixel XL430-W250-T (11.1 V, 258.5:1), the Interbotix arms' servo",
         p_register: 640.0,
         duty_per_rad_per_p: DYNAMIXEL_DUTY_PER_RAD_PER_P,
-        spec: ServoSpec {
-            supply_voltage: 11.1,
-            // kt = 11.1 V / 5.97 rad/s; R = kt · 11.1 V / 1.4 N·m.
-            resistance: 14.74,
-            torque_constant: 1.859,
-            max_torque: 1.4,
-            armature: SMALL_ROTOR_INERTIA * 258.5 * 258.5,
-            coulomb_friction: 0.0515,
-            viscous_friction: 0.0599,
-            backlash: 0.25 * DEGREE,
-            counts_per_revolution: 4096.0,
-            period: 1e-3,
-            kp: 640.0 * DYNAMIXEL_DUTY_PER_RAD_PER_P,
-            ki: 0.0,
-            kd: 0.0,
-            max_duty: 1.0,
-            deadband: 0.0,
-            max_target_speed: 0.0,
-            max_target_acceleration: 0.0,
-        },
+        spec: XL430,
         sources: "stall 1.4 N·m and no-load 57 rpm (5.97 rad/s) at 11.1 V, 258.5:1, 4096 pulses, Position P 640, PWM limit \
                   885 (duty 1), profile velocity and acceleration 0 (unlimited): ROBOTIS e-manual XL430-W250; kt and R by \
                   this module's datasheet method; armature: the STS3215's rotor (BAM) behind 258.5:1 (estimate: not \
@@ -165,18 +162,8 @@ pub const PROFILES: [Profile; 5] = [
             torque_constant: 2.490,
             max_torque: 4.1,
             armature: SMALL_ROTOR_INERTIA * 353.5 * 353.5,
-            coulomb_friction: 0.0515,
-            viscous_friction: 0.0599,
-            backlash: 0.25 * DEGREE,
-            counts_per_revolution: 4096.0,
-            period: 1e-3,
             kp: 800.0 * DYNAMIXEL_DUTY_PER_RAD_PER_P,
-            ki: 0.0,
-            kd: 0.0,
-            max_duty: 1.0,
-            deadband: 0.0,
-            max_target_speed: 0.0,
-            max_target_acceleration: 0.0,
+            ..XL430
         },
         sources: "stall 4.1 N·m and no-load 46 rpm (4.82 rad/s) at 12 V, 353.5:1, 4096 pulses, Position P 800, I 0, D 0, PWM \
                   limit 885: ROBOTIS e-manual XM430-W350; kt and R by this module's datasheet method; armature: the STS3215's \
