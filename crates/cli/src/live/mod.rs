@@ -89,7 +89,7 @@ pub fn material_balance(position: &Chess, color: Color) -> i32 {
 }
 
 /// Whether the arm accepts the person's draw offer: when it is not ahead in material. (A
-/// UCI engine's protocol has no draw offers; one rule for both engines, said in the README.)
+/// UCI engine's protocol has no draw offers; one rule for both engines, said in docs/live.md.)
 pub fn accepts_draw(position: &Chess, robot: Color) -> bool {
     material_balance(position, robot) <= 0
 }

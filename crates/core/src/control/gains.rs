@@ -32,7 +32,7 @@ pub const REPORT_PD: (f64, f64) = (400.0, 20.0);
 /// The report's PID gains: kp = 600, kd = 25, ki = 75.
 pub const REPORT_PID: (f64, f64, f64) = (600.0, 25.0, 75.0);
 /// The gains of whole games (`play`, and `robustness` of a game): kp = 2500, kd = 100
-/// (ωn = 50 rad/s, ζ = 1), chosen by measurement (README, "Defaults chosen by measurement"):
+/// (ωn = 50 rad/s, ζ = 1), chosen by measurement (docs/realistic-robot.md, "Defaults chosen by measurement"):
 /// with hobby encoders and model errors the report's PD left the fine points waiting 1.0 s a
 /// ply on average (Kasparov–Topalov, 4.04 s a ply in all); these gains wait 0.27 s (2.94 s a
 /// ply), at 2 % more peak torque. Every computed-torque controller takes them, PID with the

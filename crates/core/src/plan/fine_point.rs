@@ -74,9 +74,9 @@ impl InPosition {
     /// encoder moves by a count ([`tip_quantum`]): a tip band of two quanta, between
     /// [`FINEST_BAND_SHARE`] and [`BAND_SHARE_OF_TOLERANCE`] of the tolerance (a band the
     /// estimate cannot resolve would wait on noise; a band finer than needed costs waits).
-    /// Measured (README): 12-bit encoders keep the tenth (0.5 mm), 17-bit ones take the
+    /// Measured (docs/realistic-robot.md): 12-bit encoders keep the tenth (0.5 mm), 17-bit ones take the
     /// twentieth, which takes the p95 placement error from 0.33 to 0.20 mm on
-    /// Kasparov–Topalov for 8.5 % more robot time (100 trials, PD, the README's model errors).
+    /// Kasparov–Topalov for 8.5 % more robot time (100 trials, PD, the model errors of examples/uncertainty.toml).
     pub fn for_sensors(tolerance: f64, tip_quantum: f64) -> Self {
         let tip_band = (2.0 * tip_quantum).clamp(FINEST_BAND_SHARE * tolerance, BAND_SHARE_OF_TOLERANCE * tolerance);
         Self { tip_band, speed_band: tip_band / BAND_CROSSING_TIME, ..Self::for_tolerance(tolerance) }
