@@ -388,6 +388,16 @@ impl PlacementArgs {
 
 pub use crate::app::studies::play::RobotSide;
 
+/// How the person's moves arrive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum HumanInput {
+    /// Moves typed in SAN or UCI.
+    Typed,
+    /// The board's occupancy read by its sensors (64 × 0/1 from a1 to h8, a hex bitboard, or a
+    /// FEN board field), one reading per line after each move.
+    Occupancy,
+}
+
 /// The side a person plays (`play --human`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum HumanSide {
@@ -445,7 +455,7 @@ pub struct PlayArgs {
     /// characters 0/1 from a1 to h8, a 0x bitboard, or a FEN board field, one line after each
     /// move). Default: typed.
     #[arg(long, value_enum, requires = "human")]
-    pub human_input: Option<crate::live::input::HumanInput>,
+    pub human_input: Option<HumanInput>,
     /// Read your moves from a Unix socket chessarm creates at this path (a board's reader
     /// program connects and writes lines) instead of standard input.
     #[arg(long, value_name = "PATH", requires = "human")]

@@ -515,7 +515,11 @@ pub fn play(
         Source::Engines { plies, .. } => Played::Engines { plies: *plies },
     };
     let GameResult { result, reason } = game_result(&game, played, reports.len());
-    let reason = common::flags_as_arguments(&reason);
+    // The command's `--plies N` is this call's `plies=N`.
+    let reason = match played {
+        Played::Engines { plies } => reason.replace(&format!("--plies {plies}"), &format!("plies={plies}")),
+        _ => reason,
+    };
     let misplaced = pyo3::types::PyList::empty(py);
     for (ply, san, m) in game.misplaced() {
         let item = PyDict::new(py);

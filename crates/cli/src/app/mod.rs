@@ -1,12 +1,13 @@
 //! The application layer: what the command-line program and the Python package both stand on.
 //!
 //! Each room holds one concern, and data flows through them one way:
+//! - [`input`]: the user's files read with a bound on their size;
 //! - [`setup`]: the setup resolved once (the setup file, a URDF and its meshes, actuators,
 //!   sensors, model errors) into the core's types;
 //! - [`studies`]: plan, simulate and the other studies, typed options in, typed results out,
 //!   nothing written;
 //! - [`formats`]: one room per file kind (PGN, plots, the replay page, the hardware export, the
-//!   URDF export);
+//!   URDF export, the studies' tables);
 //! - [`bus`]: the servo bus (packets, driver, simulated bus, the real arm), which depends on the
 //!   physics only;
 //! - [`output`]: result files written whole or not at all, the folder's list, its lock;
@@ -19,6 +20,7 @@
 
 pub mod bus;
 pub mod formats;
+pub mod input;
 pub mod output;
 pub mod resources;
 pub mod setup;

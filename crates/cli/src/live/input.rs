@@ -27,15 +27,7 @@ pub const REFUSED_KEPT: usize = 100;
 pub const REFUSED_IN_A_ROW: usize = 1000;
 const REFUSED_CHARS: usize = 200;
 
-/// How the person's moves arrive.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum HumanInput {
-    /// Moves typed in SAN or UCI.
-    Typed,
-    /// The board's occupancy read by its sensors (64 × 0/1 from a1 to h8, a hex bitboard, or a
-    /// FEN board field), one reading per line after each move.
-    Occupancy,
-}
+pub use crate::cli::HumanInput;
 
 /// What the person did.
 #[derive(Debug, Clone, PartialEq, Eq)]

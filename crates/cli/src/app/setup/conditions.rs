@@ -114,14 +114,14 @@ pub struct Trial {
 }
 
 fn read_toml<T: serde::de::DeserializeOwned>(flag: &str, path: &Path) -> Result<T> {
-    let text = crate::app::formats::pgn::read_text(flag, path, crate::app::formats::pgn::MAX_SETUP_BYTES)?;
+    let text = crate::app::input::read_text(flag, path, crate::app::input::MAX_SETUP_BYTES)?;
     toml::from_str(&text)
         .map_err(|e| anyhow!("{flag} {}: {}", path.display(), crate::app::setup::file::toml_error(&text, &e)))
 }
 
 /// An uncertainty file: the fields at its top level, or a setup file's `[uncertainty]` table.
 fn read_uncertainty(path: &Path) -> Result<UncertaintyFile> {
-    let text = crate::app::formats::pgn::read_text("--uncertainty", path, crate::app::formats::pgn::MAX_SETUP_BYTES)?;
+    let text = crate::app::input::read_text("--uncertainty", path, crate::app::input::MAX_SETUP_BYTES)?;
     let value: toml::Value = toml::from_str(&text)
         .map_err(|e| anyhow!("--uncertainty {}: {}", path.display(), crate::app::setup::file::toml_error(&text, &e)))?;
     let table = match value.get("uncertainty") {

@@ -510,8 +510,7 @@ impl Setup {
         match path {
             None => Ok(Self::default()),
             Some(path) => {
-                let text =
-                    crate::app::formats::pgn::read_text("arm file", path, crate::app::formats::pgn::MAX_SETUP_BYTES)?;
+                let text = crate::app::input::read_text("arm file", path, crate::app::input::MAX_SETUP_BYTES)?;
                 let setup = Self::parse(&text).with_context(|| format!("arm file {}", path.display()))?;
                 Ok(Self { path: Some(path.to_path_buf()), ..setup })
             }

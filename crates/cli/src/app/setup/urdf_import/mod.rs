@@ -78,7 +78,7 @@ pub struct ImportedArm {
 /// The file cannot be read, is not XML, or describes something chessarm cannot model; the
 /// message names the file, the element and its line.
 pub fn load(path: &Path, options: &ImportOptions) -> Result<ImportedArm> {
-    let text = crate::app::formats::pgn::read_text("URDF file", path, crate::app::formats::pgn::MAX_URDF_BYTES)?;
+    let text = crate::app::input::read_text("URDF file", path, crate::app::input::MAX_URDF_BYTES)?;
     let folder = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
     from_urdf_in(&text, options, folder).with_context(|| format!("URDF file {}", path.display()))
 }
