@@ -89,22 +89,8 @@ fn a_board_shifted_8_mm_and_turned_2_degrees_is_found_from_four_typed_touches() 
 #[test]
 fn touches_read_over_the_bus_give_the_board_and_the_zero_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms/so101_new_calib.urdf");
-    let board = dir.path().join("board.toml");
-    let fit = chessarm(&[
-        "--urdf",
-        urdf,
-        "--lock",
-        "wrist_roll=0",
-        "--arm",
-        common::NEEDLE_FINGERS,
-        "board",
-        "--fit",
-        "--save",
-        board.to_str().unwrap(),
-    ]);
-    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
-    let setup_args = ["--urdf", urdf, "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
+    let (urdf, board) = common::so101_fitted(dir.path());
+    let setup_args = ["--urdf", urdf.to_str().unwrap(), "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
     // The board as chessarm loads it with these flags.
     let arm_toml = common::chessarm_human(&[&setup_args[..], &["arm"]].concat());
     assert!(arm_toml.status.success());
@@ -323,22 +309,8 @@ fn a_fitted_board_the_arm_does_not_serve_is_refused() {
 #[test]
 fn pressing_enter_four_times_without_moving_the_arm_is_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms/so101_new_calib.urdf");
-    let board = dir.path().join("board.toml");
-    let fit = chessarm(&[
-        "--urdf",
-        urdf,
-        "--lock",
-        "wrist_roll=0",
-        "--arm",
-        common::NEEDLE_FINGERS,
-        "board",
-        "--fit",
-        "--save",
-        board.to_str().unwrap(),
-    ]);
-    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
-    let setup_args = ["--urdf", urdf, "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
+    let (urdf, board) = common::so101_fitted(dir.path());
+    let setup_args = ["--urdf", urdf.to_str().unwrap(), "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
     let sim = common::BusSim::start_with_stdin(dir.path(), &setup_args, &[]);
     let out = dir.path().join("cal");
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))

@@ -181,11 +181,9 @@ fn play_writes_a_trajectory_for_each_robot_move_with_the_urdfs_joint_names() {
     let report = json_of(&output);
     assert!(report["files"].as_array().unwrap().iter().any(|f| f.as_str().unwrap().ends_with("hardware")));
     let hardware = out.join("hardware");
-    let mut names: Vec<String> =
-        std::fs::read_dir(&hardware).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names = common::file_names(&hardware);
     // chessarm's list of the files it wrote there.
     names.retain(|name| !name.starts_with('.'));
-    names.sort();
     // Only the robot's moves (White's); black's e5 is the opponent's hand.
     assert_eq!(names, ["001-e2e4.csv", "001-e2e4.json", "003-g1f3.csv", "003-g1f3.json"]);
     for (stem, moves_csv) in [("001-e2e4", "001-e2e4.csv"), ("003-g1f3", "003-g1f3.csv")] {

@@ -71,10 +71,7 @@ fn special_moves_game_plays_through_and_reports_every_move() {
     assert!((game["total_robot_time_s"].as_f64().unwrap() - total).abs() < 1e-6);
     assert!(game["wall_time_s"].as_f64().unwrap() > 0.0);
     // One CSV a move, and the list of what chessarm wrote there.
-    let csvs = std::fs::read_dir(dir.path().join("moves"))
-        .unwrap()
-        .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().ends_with(".csv"))
-        .count();
+    let csvs = common::file_names(&dir.path().join("moves")).iter().filter(|n| n.ends_with(".csv")).count();
     assert_eq!(csvs, moves.len());
     assert!(dir.path().join("tip_error.png").exists());
 }
@@ -312,11 +309,8 @@ fn a_game_that_stops_part_way_leaves_nothing_that_passes_for_a_whole_game() {
     assert!(record["error"].as_str().unwrap().contains("e2e5"), "{record}");
     // The trajectories of the move it made are kept aside, where no driver looks for a game.
     assert!(!out.join("hardware").exists());
-    let aside: Vec<String> = std::fs::read_dir(out.join("hardware-incomplete"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".json"))
-        .collect();
+    let aside: Vec<String> =
+        common::file_names(&out.join("hardware-incomplete")).into_iter().filter(|n| n.ends_with(".json")).collect();
     assert_eq!(aside.len(), 1, "{aside:?}");
     assert!(aside[0].starts_with("001-"), "{aside:?}");
     // A whole game says so.

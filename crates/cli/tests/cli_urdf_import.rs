@@ -609,22 +609,8 @@ fn makers_files_are_taken_as_published_or_refused_with_every_problem_at_once() {
 /// ASCII STL of the box `[0, x] × [0, y] × [0, z]` (12 triangles; its 8 corners, each repeated).
 fn box_stl(x: f64, y: f64, z: f64) -> String {
     let corner = |i: usize| [(i & 1) as f64 * x, ((i >> 1) & 1) as f64 * y, ((i >> 2) & 1) as f64 * z];
-    let faces = [
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
     let mut text = String::from("solid box\n");
-    for face in faces {
+    for face in common::BOX_FACES {
         text.push_str("facet normal 0 0 0\nouter loop\n");
         for i in face {
             let [a, b, c] = corner(i);

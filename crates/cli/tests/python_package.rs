@@ -6,15 +6,14 @@
 
 #![allow(clippy::unwrap_used)]
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
 /// The Python that has the `chessarm` package and pytest (CI's `CHESSARM_PYTHON`).
 fn python_with_chessarm() -> Option<String> {
-    let candidates = std::env::var("CHESSARM_PYTHON").into_iter().chain(["python3".to_string()]);
-    candidates.into_iter().find(|python| {
-        Command::new(python).args(["-c", "import chessarm, pytest"]).output().is_ok_and(|o| o.status.success())
-    })
+    common::python_with("chessarm, pytest")
 }
 
 #[test]
@@ -88,12 +87,7 @@ fn the_python_pages_examples_run_as_written() {
     assert!(blocks.len() >= 2, "docs/python.md's examples not found: {blocks:?}");
     // A fresh folder with the repository's examples/, which the examples name.
     let dir = tempfile::tempdir().unwrap();
-    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
-    std::fs::create_dir(dir.path().join("examples")).unwrap();
-    for entry in std::fs::read_dir(&examples).unwrap() {
-        let entry = entry.unwrap();
-        std::fs::copy(entry.path(), dir.path().join("examples").join(entry.file_name())).unwrap();
-    }
+    common::copy_examples(dir.path());
     let mut paths = Vec::new();
     for (i, block) in blocks.iter().enumerate() {
         // Named so that a traceback says where the block comes from.
