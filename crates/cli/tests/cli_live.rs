@@ -10,7 +10,7 @@ mod common;
 
 use chessarm::app::bus::Protocol;
 use chessarm_chess::shakmaty::{Chess, Position};
-use common::{BusSim, chessarm};
+use common::{BusSim, chessarm, json_file};
 use serde_json::Value;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -87,13 +87,7 @@ fn play_human(arm: &Arm, sim: &BusSim, out: &Path, extra: &[&str], input: &str) 
     let mut args = arm.setup();
     args.extend(["play", "--human", "white", "--port", &sim.device, "--out", out.to_str().unwrap()].map(String::from));
     args.extend(extra.iter().map(|s| s.to_string()));
-    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(&args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::spawn(&args, Stdio::piped());
     child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
     child.wait_with_output().unwrap()
 }
@@ -192,10 +186,6 @@ fn python_chess_reading(out: &Path) -> Value {
         Command::new(python).args([script.to_str().unwrap(), out.join("game.pgn").to_str().unwrap()]).output().unwrap();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     serde_json::from_slice(&output.stdout).unwrap()
-}
-
-fn json_file(path: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
 /// 20 moves typed by a person (SAN, a mistyped one, an illegal one, a take-back and its move
@@ -335,13 +325,7 @@ fn a_boards_occupancy_through_a_socket_plays_twenty_moves_on_the_dynamixel_bus()
         .map(String::from),
     );
     let _one_at_a_time = REAL_TIME.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(&args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = common::spawn(&args, Stdio::null());
     // The reader program connects once chessarm has made its socket.
     let started = std::time::Instant::now();
     let mut stream = loop {

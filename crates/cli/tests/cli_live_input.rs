@@ -10,7 +10,7 @@
 mod common;
 
 use chessarm_chess::shakmaty::{Chess, Position, fen::Fen, uci::UciMove};
-use common::chessarm;
+use common::{chessarm, json_file};
 use serde_json::Value;
 use std::io::{Read, Write};
 use std::path::Path;
@@ -20,14 +20,7 @@ use std::time::{Duration, Instant};
 /// Runs `play` with `args` (and `--json`) and `input` on standard input; killed (and the test
 /// failed) if it runs longer than `limit` — a loop that never ends must not hang the suite.
 fn play_with_input(args: &[&str], input: &[u8], limit: Duration) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(args)
-        .arg("--json")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::spawn(&[args, &["--json"]].concat(), Stdio::piped());
     let mut stdin = child.stdin.take().unwrap();
     let input = input.to_vec();
     // Written on a thread: the child may stop reading (and the pipe fill) before the end.
@@ -81,10 +74,6 @@ fn assert_error_last(output: &Output, needles: &[&str]) {
     for needle in needles {
         assert!(last.contains(needle), "'{needle}' missing from: {stderr}");
     }
-}
-
-fn json_file(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// The occupancy (a `0x` bitboard, a1 the lowest bit) after `uci` in the position `fen`.
@@ -258,14 +247,10 @@ fn the_input_socket_is_removed_on_a_signal() {
     for signal in ["INT", "TERM"] {
         let socket = dir.path().join(format!("board-{signal}.sock"));
         let out = dir.path().join(format!("out-{signal}"));
-        let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-            .args(["play", "--human", "white", "--input-socket", socket.to_str().unwrap(), "--out"])
-            .arg(&out)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
+        let child = common::spawn(
+            &["play", "--human", "white", "--input-socket", socket.to_str().unwrap(), "--out", out.to_str().unwrap()],
+            Stdio::null(),
+        );
         let started = Instant::now();
         while !socket.exists() {
             assert!(started.elapsed() < Duration::from_secs(60), "no socket");
@@ -286,14 +271,10 @@ fn the_input_socket_is_removed_on_a_signal() {
     drop(std::os::unix::net::UnixListener::bind(&stale).unwrap());
     assert!(stale.exists());
     let out = dir.path().join("out-stale");
-    let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(["play", "--human", "white", "--input-socket", stale.to_str().unwrap(), "--out"])
-        .arg(&out)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = common::spawn(
+        &["play", "--human", "white", "--input-socket", stale.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        Stdio::null(),
+    );
     let started = Instant::now();
     // The board connects once chessarm listens on its new socket.
     let mut board = loop {

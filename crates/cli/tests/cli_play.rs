@@ -8,17 +8,11 @@ use common::{assert_one_line_error, chessarm};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-fn fixture(name: &str) -> String {
-    format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
-}
+use common::chess_fixture as fixture;
 
 /// Plays and returns game.json, asserting the physical board equals the rules' board.
 fn play(dir: &Path, args: &[&str]) -> Value {
-    let mut all = vec!["play", "--out", dir.to_str().unwrap()];
-    all.extend_from_slice(args);
-    let output = chessarm(&all);
-    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
-    let game: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("game.json")).unwrap()).unwrap();
+    let game = common::play_game(dir, args);
     assert_eq!(game["final_fen_physical"], game["final_fen_rules"], "{}", game["misplaced"]);
     assert_eq!(game["misplaced"].as_array().unwrap().len(), 0, "{}", game["misplaced"]);
     game

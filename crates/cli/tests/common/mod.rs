@@ -22,6 +22,22 @@ pub fn json_of(output: &Output) -> Value {
     serde_json::from_slice(&output.stdout).expect("stdout is JSON")
 }
 
+/// A JSON file, read.
+pub fn json_file(path: &std::path::Path) -> Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// The path of the chess crate's test fixture `name` (PGN games).
+pub fn chess_fixture(name: &str) -> String {
+    format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `chessarm play <args…> --out <out>`, which must succeed: its game.json.
+pub fn play_game(out: &std::path::Path, args: &[&str]) -> Value {
+    json_of(&chessarm(&[&["play"], args, &["--out", out.to_str().unwrap()]].concat()));
+    json_file(&out.join("game.json"))
+}
+
 /// Exit code 2, exactly one line on stderr containing every `needle`, nothing on stdout.
 pub fn assert_one_line_error(output: &Output, needles: &[&str]) {
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -55,20 +71,26 @@ pub fn copy_examples(dir: &std::path::Path) {
     copy_files(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples"), &dir.join("examples"));
 }
 
+/// Starts `chessarm` with `args`, its standard input `stdin`, its output and errors piped (a
+/// run that a test talks to or waits on).
+pub fn spawn<S: AsRef<std::ffi::OsStr>>(args: &[S], stdin: std::process::Stdio) -> std::process::Child {
+    use std::process::Stdio;
+    Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(args)
+        .stdin(stdin)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
 /// Starts `chessarm` with `args`, which ask for the live page (`--live 0`), and reads its
 /// stderr up to the line with the page's address: the child, that address (with the run's
 /// token), and a thread that reads the rest of its stderr (so that the pipe never fills).
 pub fn start_with_live_page<S: AsRef<std::ffi::OsStr>>(
     args: &[S],
 ) -> (std::process::Child, String, std::thread::JoinHandle<String>) {
-    use std::process::Stdio;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = spawn(args, std::process::Stdio::null());
     let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
     let mut seen = String::new();
     let url = loop {
