@@ -9,7 +9,7 @@ mod common;
 use common::{assert_one_line_error, chessarm, json_of, so101_fitted};
 use std::path::Path;
 
-const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
+use common::OPERA;
 
 /// An XM430 on 48 V with a 20 N·m current limit: a servo strong enough for the report's arm
 /// (the built-in ones stall under it), given as a user's table over a built-in.

@@ -11,11 +11,7 @@ use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::Path;
 
-const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
-
-fn read_json(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
+use common::json_file as read_json;
 
 /// Rows of a CSV as (header, rows of strings).
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
@@ -164,12 +160,7 @@ fn plan_writes_each_moves_planned_trajectory_with_its_gripper_commands() {
 fn play_writes_a_trajectory_for_each_robot_move_with_the_urdfs_joint_names() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("play");
-    let board = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm-board.toml");
-    let output = chessarm(&[
-        "--urdf",
-        FIXTURE,
-        "--arm",
-        board,
+    let output = common::on_offset_arm_board(&[
         "play",
         "--moves",
         "e4 e5 Nf3",

@@ -11,7 +11,7 @@ use chessarm_core::nalgebra::Vector3;
 use common::{assert_one_line_error, chessarm};
 use std::path::{Path, PathBuf};
 
-const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
+use common::OFFSET_ARM as FIXTURE;
 
 /// Binary STL of `triangles`.
 fn binary_stl(triangles: &[[[f32; 3]; 3]]) -> Vec<u8> {

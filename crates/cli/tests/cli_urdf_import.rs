@@ -12,7 +12,7 @@ use common::{assert_one_line_error, chessarm, json_of, numbers};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
+use common::OFFSET_ARM as FIXTURE;
 
 /// Seeded joint states spread over the joints' ranges (a small LCG: reproducible, no crate).
 fn states(count: usize, seed: u64) -> Vec<([f64; 4], [f64; 4])> {
@@ -274,18 +274,7 @@ fn a_urdf_arm_reaches_every_square_and_plays_a_move() {
     for needle in ["error:", "cannot be served", "the way from a1 to white reserve slot 0", "board --fit"] {
         assert!(last.contains(needle), "{needle}: {stderr}");
     }
-    let board = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm-board.toml");
-    let report = json_of(&chessarm(&[
-        "--urdf",
-        FIXTURE,
-        "--arm",
-        board,
-        "play",
-        "--moves",
-        "e4",
-        "--out",
-        out.to_str().unwrap(),
-    ]));
+    let report = json_of(&common::on_offset_arm_board(&["play", "--moves", "e4", "--out", out.to_str().unwrap()]));
     assert_eq!(report["misplaced"].as_u64(), Some(0), "{report}");
 }
 

@@ -32,6 +32,9 @@ pub fn chess_fixture(name: &str) -> String {
     format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The Opera Game (Morphy, 1858), a whole game of 33 plies.
+pub const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
+
 /// `chessarm play <args…> --out <out>`, which must succeed: its game.json.
 pub fn play_game(out: &std::path::Path, args: &[&str]) -> Value {
     json_of(&chessarm(&[&["play"], args, &["--out", out.to_str().unwrap()]].concat()));
@@ -186,6 +189,15 @@ pub fn python_with(module: &str) -> Option<String> {
 /// Needle fingers for the small boards the real arms serve (see the file).
 #[allow(dead_code)]
 pub const NEEDLE_FINGERS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/needle_fingers.toml");
+
+/// The repository's example URDF (a 4-joint arm with offsets) and its fitted board's setup.
+pub const OFFSET_ARM: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
+pub const OFFSET_ARM_BOARD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm-board.toml");
+
+/// `chessarm --urdf <OFFSET_ARM> --arm <OFFSET_ARM_BOARD> <args…>` (with `--json`).
+pub fn on_offset_arm_board(args: &[&str]) -> Output {
+    chessarm(&[&["--urdf", OFFSET_ARM, "--arm", OFFSET_ARM_BOARD], args].concat())
+}
 
 /// The makers' URDFs of the real arms.
 pub const REAL_ARMS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
