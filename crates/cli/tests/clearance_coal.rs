@@ -15,7 +15,7 @@ use chessarm_core::nalgebra::Vector3;
 use serde_json::{Value, json};
 use std::path::Path;
 
-const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
+use common::OPERA;
 
 /// How far parry's distance may be from Coal's, m. Coal converges to well under a micrometre
 /// here (its distances move by less than 0.5 µm with its GJK tolerance cut from 1e-6 to

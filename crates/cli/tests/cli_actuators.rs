@@ -6,31 +6,10 @@
 
 mod common;
 
-use common::{NEEDLE_FINGERS, assert_one_line_error, chessarm, json_of};
+use common::{assert_one_line_error, chessarm, json_of, so101_fitted};
 use std::path::Path;
 
-const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
-const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
-
-/// The SO-101's official URDF and a setup of the board fitted to it in `dir`.
-fn so101_fitted(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
-    let urdf = Path::new(FIXTURES).join("so101_new_calib.urdf");
-    let board = dir.join("board.toml");
-    let fit = chessarm(&[
-        "--urdf",
-        urdf.to_str().unwrap(),
-        "--lock",
-        "wrist_roll=0",
-        "--arm",
-        NEEDLE_FINGERS,
-        "board",
-        "--fit",
-        "--save",
-        board.to_str().unwrap(),
-    ]);
-    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
-    (urdf, board)
-}
+use common::OPERA;
 
 /// An XM430 on 48 V with a 20 N·m current limit: a servo strong enough for the report's arm
 /// (the built-in ones stall under it), given as a user's table over a built-in.

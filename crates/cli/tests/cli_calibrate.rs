@@ -10,6 +10,7 @@ use chessarm_core::nalgebra::{Rotation2, Vector2};
 use common::chessarm;
 use serde_json::Value;
 use std::io::Write;
+use std::process::Stdio;
 
 /// The joint angles (rad, the setup's sense, as `chessarm <setup> ik` gives them) at which the
 /// tool tip touches `square`'s centre on the setup's board moved by `shift` (m) and turned by
@@ -89,22 +90,8 @@ fn a_board_shifted_8_mm_and_turned_2_degrees_is_found_from_four_typed_touches() 
 #[test]
 fn touches_read_over_the_bus_give_the_board_and_the_zero_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms/so101_new_calib.urdf");
-    let board = dir.path().join("board.toml");
-    let fit = chessarm(&[
-        "--urdf",
-        urdf,
-        "--lock",
-        "wrist_roll=0",
-        "--arm",
-        common::NEEDLE_FINGERS,
-        "board",
-        "--fit",
-        "--save",
-        board.to_str().unwrap(),
-    ]);
-    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
-    let setup_args = ["--urdf", urdf, "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
+    let (urdf, board) = common::so101_fitted(dir.path());
+    let setup_args = ["--urdf", urdf.to_str().unwrap(), "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
     // The board as chessarm loads it with these flags.
     let arm_toml = common::chessarm_human(&[&setup_args[..], &["arm"]].concat());
     assert!(arm_toml.status.success());
@@ -115,15 +102,10 @@ fn touches_read_over_the_bus_give_the_board_and_the_zero_errors() {
     let squares = ["a1", "d1", "h1", "a4", "e5", "h4", "a8", "d8", "h8"];
     let mut sim = common::BusSim::start_with_stdin(dir.path(), &setup_args, &[]);
     let out = dir.path().join("cal");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(setup_args)
-        .args(["calibrate", "--zeros", "--port", &sim.device, "--squares", &squares.join(","), "--json"])
-        .args(["--out", out.to_str().unwrap()])
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let squares_arg = squares.join(",");
+    let calibrate = ["calibrate", "--zeros", "--port", &sim.device, "--squares", &squares_arg, "--json"];
+    let mut child =
+        common::spawn(&[&setup_args[..], &calibrate, &["--out", out.to_str().unwrap()]].concat(), Stdio::piped());
     let mut enter = child.stdin.take().unwrap();
     // Each square: the hand puts the tip there (once calibrate has turned the torque off), then
     // Enter. The servos' counts: 4096 a turn.
@@ -323,32 +305,12 @@ fn a_fitted_board_the_arm_does_not_serve_is_refused() {
 #[test]
 fn pressing_enter_four_times_without_moving_the_arm_is_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms/so101_new_calib.urdf");
-    let board = dir.path().join("board.toml");
-    let fit = chessarm(&[
-        "--urdf",
-        urdf,
-        "--lock",
-        "wrist_roll=0",
-        "--arm",
-        common::NEEDLE_FINGERS,
-        "board",
-        "--fit",
-        "--save",
-        board.to_str().unwrap(),
-    ]);
-    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
-    let setup_args = ["--urdf", urdf, "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
+    let (urdf, board) = common::so101_fitted(dir.path());
+    let setup_args = ["--urdf", urdf.to_str().unwrap(), "--arm", board.to_str().unwrap(), "--actuator", "sts3215-12v"];
     let sim = common::BusSim::start_with_stdin(dir.path(), &setup_args, &[]);
     let out = dir.path().join("cal");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(setup_args)
-        .args(["calibrate", "--port", &sim.device, "--json", "--out", out.to_str().unwrap()])
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let calibrate = ["calibrate", "--port", &sim.device, "--json", "--out", out.to_str().unwrap()];
+    let mut child = common::spawn(&[&setup_args[..], &calibrate].concat(), Stdio::piped());
     let mut enter = child.stdin.take().unwrap();
     for _ in 0..4 {
         std::thread::sleep(std::time::Duration::from_millis(200));

@@ -161,12 +161,7 @@ fn play_removes_only_the_files_an_earlier_run_wrote() {
     let out = dir.path().join("game");
     let out_text = out.to_str().unwrap();
     let moves = out.join("moves");
-    let names = |dir: &std::path::Path| {
-        let mut names: Vec<String> =
-            std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
-        names.sort();
-        names
-    };
+    let names = common::file_names;
     // A user's file in moves/ is left alone; one where chessarm would write is refused, untouched.
     std::fs::create_dir_all(&moves).unwrap();
     std::fs::write(moves.join("notes.txt"), "my notes").unwrap();
@@ -274,15 +269,9 @@ fn a_signal_during_a_write_leaves_no_temporary_and_no_partial_file() {
         kill(signal, child.id());
         let status = child.wait().unwrap();
         assert_eq!(status.code(), Some(130), "{signal}: {status:?}");
-        let left: Vec<String> = std::fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
         // Only the list of what chessarm writes there and the folder's lock (released by the
         // kernel with the process): no temporary, no partial result.
-        let mut left = left;
-        left.sort();
-        assert_eq!(left, [".chessarm-lock", ".chessarm-written"], "{signal}");
+        assert_eq!(common::file_names(dir.path()), [".chessarm-lock", ".chessarm-written"], "{signal}");
     }
 }
 

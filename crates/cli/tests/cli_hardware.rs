@@ -11,11 +11,7 @@ use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::Path;
 
-const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
-
-fn read_json(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
+use common::json_file as read_json;
 
 /// Rows of a CSV as (header, rows of strings).
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
@@ -164,12 +160,7 @@ fn plan_writes_each_moves_planned_trajectory_with_its_gripper_commands() {
 fn play_writes_a_trajectory_for_each_robot_move_with_the_urdfs_joint_names() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("play");
-    let board = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm-board.toml");
-    let output = chessarm(&[
-        "--urdf",
-        FIXTURE,
-        "--arm",
-        board,
+    let output = common::on_offset_arm_board(&[
         "play",
         "--moves",
         "e4 e5 Nf3",
@@ -181,11 +172,9 @@ fn play_writes_a_trajectory_for_each_robot_move_with_the_urdfs_joint_names() {
     let report = json_of(&output);
     assert!(report["files"].as_array().unwrap().iter().any(|f| f.as_str().unwrap().ends_with("hardware")));
     let hardware = out.join("hardware");
-    let mut names: Vec<String> =
-        std::fs::read_dir(&hardware).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names = common::file_names(&hardware);
     // chessarm's list of the files it wrote there.
     names.retain(|name| !name.starts_with('.'));
-    names.sort();
     // Only the robot's moves (White's); black's e5 is the opponent's hand.
     assert_eq!(names, ["001-e2e4.csv", "001-e2e4.json", "003-g1f3.csv", "003-g1f3.json"]);
     for (stem, moves_csv) in [("001-e2e4", "001-e2e4.csv"), ("003-g1f3", "003-g1f3.csv")] {

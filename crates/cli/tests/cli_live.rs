@@ -10,13 +10,11 @@ mod common;
 
 use chessarm::app::bus::Protocol;
 use chessarm_chess::shakmaty::{Chess, Position};
-use common::{BusSim, chessarm};
+use common::{BusSim, chessarm, json_file};
 use serde_json::Value;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-
-const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
 
 /// The 20-move games run in real time against a simulated bus in another process: one at a
 /// time, so that on a 2-core machine they (and Chromium) do not starve each other's servos.
@@ -50,13 +48,9 @@ impl Arm {
 }
 
 fn fitted(dir: &Path, urdf: &str, lock: &[&str], actuator: &'static str, protocol: Protocol) -> Arm {
-    let urdf = Path::new(FIXTURES).join(urdf);
+    let urdf = Path::new(common::REAL_ARMS).join(urdf);
     let board = dir.join(format!("{actuator}.toml"));
-    let mut args = vec!["--urdf", urdf.to_str().unwrap()];
-    args.extend(lock);
-    args.extend(["--arm", common::NEEDLE_FINGERS, "board", "--fit", "--save", board.to_str().unwrap()]);
-    let fit = chessarm(&args);
-    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
+    common::fit_board(&urdf, lock, &board);
     let mut text = std::fs::read_to_string(&board).unwrap();
     text.push_str(
         "\n[servo_bus]\nids = [11, 12, 13, 14]\ndirections = [1, 1, -1, 1]\nzero_ticks = [2048, 2048, 2048, 2048]\n\
@@ -93,13 +87,7 @@ fn play_human(arm: &Arm, sim: &BusSim, out: &Path, extra: &[&str], input: &str) 
     let mut args = arm.setup();
     args.extend(["play", "--human", "white", "--port", &sim.device, "--out", out.to_str().unwrap()].map(String::from));
     args.extend(extra.iter().map(|s| s.to_string()));
-    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(&args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::spawn(&args, Stdio::piped());
     child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
     child.wait_with_output().unwrap()
 }
@@ -198,10 +186,6 @@ fn python_chess_reading(out: &Path) -> Value {
         Command::new(python).args([script.to_str().unwrap(), out.join("game.pgn").to_str().unwrap()]).output().unwrap();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     serde_json::from_slice(&output.stdout).unwrap()
-}
-
-fn json_file(path: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
 /// 20 moves typed by a person (SAN, a mistyped one, an illegal one, a take-back and its move
@@ -341,13 +325,7 @@ fn a_boards_occupancy_through_a_socket_plays_twenty_moves_on_the_dynamixel_bus()
         .map(String::from),
     );
     let _one_at_a_time = REAL_TIME.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(&args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = common::spawn(&args, Stdio::null());
     // The reader program connects once chessarm has made its socket.
     let started = std::time::Instant::now();
     let mut stream = loop {
@@ -568,29 +546,7 @@ fn twenty_moves_clicked_on_the_live_page_with_the_arm_on_its_bus() {
     );
     args.extend(["--reply-timeout-ms".to_string(), GAME_REPLY_TIMEOUT_MS.to_string()]);
     let _one_at_a_time = REAL_TIME.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(&args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    // The page's address, from the line chessarm prints.
-    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
-    let mut seen = String::new();
-    let url = loop {
-        let mut line = String::new();
-        assert!(std::io::BufRead::read_line(&mut stderr, &mut line).unwrap() > 0, "no live page: {seen}");
-        seen.push_str(&line);
-        if let Some(at) = line.find("http://127.0.0.1:") {
-            break line[at..].split_whitespace().next().unwrap().to_string();
-        }
-    };
-    let rest = std::thread::spawn(move || {
-        let mut text = String::new();
-        std::io::Read::read_to_string(&mut stderr, &mut text).unwrap();
-        text
-    });
+    let (mut child, url, rest) = common::start_with_live_page(&args);
     // The same port again: refused, naming it.
     let port = url.split('?').next().unwrap().trim_end_matches('/').rsplit(':').next().unwrap().to_string();
     let again =

@@ -10,7 +10,7 @@
 mod common;
 
 use chessarm_chess::shakmaty::{Chess, Position, fen::Fen, uci::UciMove};
-use common::chessarm;
+use common::{chessarm, json_file};
 use serde_json::Value;
 use std::io::{Read, Write};
 use std::path::Path;
@@ -20,14 +20,7 @@ use std::time::{Duration, Instant};
 /// Runs `play` with `args` (and `--json`) and `input` on standard input; killed (and the test
 /// failed) if it runs longer than `limit` — a loop that never ends must not hang the suite.
 fn play_with_input(args: &[&str], input: &[u8], limit: Duration) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(args)
-        .arg("--json")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::spawn(&[args, &["--json"]].concat(), Stdio::piped());
     let mut stdin = child.stdin.take().unwrap();
     let input = input.to_vec();
     // Written on a thread: the child may stop reading (and the pipe fill) before the end.
@@ -81,10 +74,6 @@ fn assert_error_last(output: &Output, needles: &[&str]) {
     for needle in needles {
         assert!(last.contains(needle), "'{needle}' missing from: {stderr}");
     }
-}
-
-fn json_file(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// The occupancy (a `0x` bitboard, a1 the lowest bit) after `uci` in the position `fen`.
@@ -190,36 +179,29 @@ fn control_characters_in_the_input_are_shown_escaped() {
 #[test]
 fn the_typed_words_work_at_every_prompt() {
     let dir = tempfile::tempdir().unwrap();
+    // From `fen`, the board's reading after `uci`, then `word` at the prompt that reading
+    // brings: the game ends with `result`, no line refused; the run's stderr.
+    let answer = |name: &str, fen: &str, uci: &str, word: &str, result: &str| {
+        let out = dir.path().join(name);
+        let input = format!("{}\n{word}\n", reading_after(fen, uci));
+        let output = play_with_input(
+            &["play", "--human", "white", "--human-input", "occupancy", "--fen", fen, "--out", out.to_str().unwrap()],
+            input.as_bytes(),
+            Duration::from_secs(120),
+        );
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        let game = json_file(&out.join("game.json"));
+        assert_eq!(game["result"], result, "{game}");
+        assert_eq!(game["human"]["refused_lines"], 0);
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
     // A pawn on a7: the reading after a7a8 asks which piece it became.
-    let promotion = "4k3/P7/8/8/8/8/8/4K3 w - - 0 1";
-    let out = dir.path().join("promotion");
-    let input = format!("{}\nquit\n", reading_after(promotion, "a7a8q"));
-    let output = play_with_input(
-        &["play", "--human", "white", "--human-input", "occupancy", "--fen", promotion, "--out", out.to_str().unwrap()],
-        input.as_bytes(),
-        Duration::from_secs(120),
-    );
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    let stderr = String::from_utf8_lossy(&output.stderr);
+    let stderr = answer("promotion", "4k3/P7/8/8/8/8/8/4K3 w - - 0 1", "a7a8q", "quit", "*");
     assert!(stderr.contains("promotion: which piece"), "{stderr}");
     assert!(!stderr.contains("not played"), "quit was refused: {stderr}");
-    let game = json_file(&out.join("game.json"));
-    assert_eq!(game["result"], "*", "{game}");
-    assert_eq!(game["human"]["refused_lines"], 0);
     // The rook on a1 takes on a5 or on e1: only a1 empties, so the board reads alike.
-    let which = "4k3/8/8/p7/8/8/8/R3b1K1 w - - 0 1";
-    let out = dir.path().join("which");
-    let input = format!("{}\nresign\n", reading_after(which, "a1a5"));
-    let output = play_with_input(
-        &["play", "--human", "white", "--human-input", "occupancy", "--fen", which, "--out", out.to_str().unwrap()],
-        input.as_bytes(),
-        Duration::from_secs(120),
-    );
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    assert!(String::from_utf8_lossy(&output.stderr).contains("which was it?"));
-    let game = json_file(&out.join("game.json"));
-    assert_eq!(game["result"], "0-1", "{game}");
-    assert_eq!(game["human"]["refused_lines"], 0);
+    let stderr = answer("which", "4k3/8/8/p7/8/8/8/R3b1K1 w - - 0 1", "a1a5", "resign", "0-1");
+    assert!(stderr.contains("which was it?"), "{stderr}");
 }
 
 /// After a take-back the folder holds one game: moves/ only the played moves' CSVs, game.json
@@ -251,11 +233,8 @@ fn a_take_back_leaves_one_true_record() {
     let timed: Vec<u64> =
         game["human"]["robot_moves"].as_array().unwrap().iter().map(|m| m["ply"].as_u64().unwrap()).collect();
     assert_eq!(timed, [2]);
-    let csvs: Vec<String> = std::fs::read_dir(out.join("moves"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|name| name.ends_with(".csv"))
-        .collect();
+    let csvs: Vec<String> =
+        common::file_names(&out.join("moves")).into_iter().filter(|n| n.ends_with(".csv")).collect();
     assert_eq!(csvs.len(), 1, "{csvs:?}");
     assert!(csvs[0].starts_with("002-"), "{csvs:?}");
 }
@@ -268,14 +247,10 @@ fn the_input_socket_is_removed_on_a_signal() {
     for signal in ["INT", "TERM"] {
         let socket = dir.path().join(format!("board-{signal}.sock"));
         let out = dir.path().join(format!("out-{signal}"));
-        let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-            .args(["play", "--human", "white", "--input-socket", socket.to_str().unwrap(), "--out"])
-            .arg(&out)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
+        let child = common::spawn(
+            &["play", "--human", "white", "--input-socket", socket.to_str().unwrap(), "--out", out.to_str().unwrap()],
+            Stdio::null(),
+        );
         let started = Instant::now();
         while !socket.exists() {
             assert!(started.elapsed() < Duration::from_secs(60), "no socket");
@@ -296,14 +271,10 @@ fn the_input_socket_is_removed_on_a_signal() {
     drop(std::os::unix::net::UnixListener::bind(&stale).unwrap());
     assert!(stale.exists());
     let out = dir.path().join("out-stale");
-    let child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(["play", "--human", "white", "--input-socket", stale.to_str().unwrap(), "--out"])
-        .arg(&out)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = common::spawn(
+        &["play", "--human", "white", "--input-socket", stale.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        Stdio::null(),
+    );
     let started = Instant::now();
     // The board connects once chessarm listens on its new socket.
     let mut board = loop {
@@ -385,30 +356,11 @@ fn exchange(port: u16, text: &str) -> String {
 fn only_the_live_page_plays_and_only_in_turn() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_chessarm"))
-        .args(["play", "--human", "white", "--live", "0", "--out"])
-        .arg(&out)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let (child, address, rest) =
+        common::start_with_live_page(&["play", "--human", "white", "--live", "0", "--out", out.to_str().unwrap()]);
     // The address chessarm prints, with the run's token.
-    let (port, token): (u16, String) = loop {
-        let mut line = String::new();
-        assert!(std::io::BufRead::read_line(&mut stderr, &mut line).unwrap() > 0, "no live page");
-        if let Some(at) = line.find("http://127.0.0.1:") {
-            let address = line[at..].split_whitespace().next().unwrap();
-            let (origin, token) = address.split_once("/?token=").unwrap();
-            break (origin.rsplit(':').next().unwrap().parse().unwrap(), token.to_string());
-        }
-    };
-    let rest = std::thread::spawn(move || {
-        let mut text = String::new();
-        stderr.read_to_string(&mut text).unwrap();
-        text
-    });
+    let (origin, token) = address.split_once("/?token=").unwrap();
+    let (port, token): (u16, String) = (origin.rsplit(':').next().unwrap().parse().unwrap(), token.to_string());
     let host = format!("127.0.0.1:{port}");
     let origin = format!("http://{host}");
     let post = |path: &str, body: &str, headers: &str| {

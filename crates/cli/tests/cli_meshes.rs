@@ -11,7 +11,7 @@ use chessarm_core::nalgebra::Vector3;
 use common::{assert_one_line_error, chessarm};
 use std::path::{Path, PathBuf};
 
-const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
+use common::OFFSET_ARM as FIXTURE;
 
 /// Binary STL of `triangles`.
 fn binary_stl(triangles: &[[[f32; 3]; 3]]) -> Vec<u8> {
@@ -149,21 +149,16 @@ fn a_small_mesh_is_hulled_over_its_own_vertices() {
 }
 
 fn box_triangles(corner: impl Fn(usize) -> [f32; 3]) -> Vec<[[f32; 3]; 3]> {
-    let faces = [
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
-    faces.iter().map(|f| f.map(&corner)).collect()
+    common::BOX_FACES.iter().map(|f| f.map(&corner)).collect()
+}
+
+/// The fixture arm with `mesh` at `scale` is refused with one line holding every `needle`, in
+/// the user's words.
+fn refused(dir: &Path, mesh: &[u8], scale: &str, needles: &[&str]) {
+    let (urdf, _) = arm_with_mesh(dir, mesh, scale);
+    let output = fk(&urdf);
+    assert_one_line_error(&output, needles);
+    in_users_words(&output);
 }
 
 /// A 90 × 20 × 16 box (the fixture's forearm, in mm).
@@ -176,38 +171,36 @@ fn box_stl() -> Vec<u8> {
 #[test]
 fn a_mesh_scaled_past_any_number_is_said_to_overflow() {
     let dir = tempfile::tempdir().unwrap();
-    let (urdf, _) = arm_with_mesh(dir.path(), &box_stl(), "1e308 1e308 1e308");
-    let output = fk(&urdf);
-    assert_one_line_error(&output, &["forearm.stl", "scaled by \"1e308 1e308 1e308\"", "vertices overflow"]);
-    in_users_words(&output);
+    let scale = "1e308 1e308 1e308";
+    refused(dir.path(), &box_stl(), scale, &["forearm.stl", "scaled by \"1e308 1e308 1e308\"", "vertices overflow"]);
     // Finite coordinates whose products (the hull's volumes) are not: said with the size.
-    let (urdf, _) = arm_with_mesh(dir.path(), &box_stl(), "1e200 1e200 1e200");
-    let output = fk(&urdf);
-    assert_one_line_error(&output, &["forearm.stl", "scaled by \"1e200 1e200 1e200\"", "9e201 m across"]);
-    in_users_words(&output);
+    let scale = "1e200 1e200 1e200";
+    refused(dir.path(), &box_stl(), scale, &["forearm.stl", "scaled by \"1e200 1e200 1e200\"", "9e201 m across"]);
 }
 
 /// A mesh whose vertices are all one point is no shape: said with their count.
 #[test]
 fn a_mesh_whose_vertices_coincide_is_said_to_be_no_shape() {
     let dir = tempfile::tempdir().unwrap();
-    let (urdf, _) = arm_with_mesh(dir.path(), &binary_stl(&box_triangles(|_| [5.0, 5.0, 5.0])), "0.001 0.001 0.001");
-    let output = fk(&urdf);
-    assert_one_line_error(&output, &["forearm.stl", "all 36 vertices coincide", "no shape to check clearance with"]);
-    in_users_words(&output);
+    let point = binary_stl(&box_triangles(|_| [5.0, 5.0, 5.0]));
+    refused(
+        dir.path(),
+        &point,
+        "0.001 0.001 0.001",
+        &["forearm.stl", "all 36 vertices coincide", "no shape to check clearance with"],
+    );
 }
 
 /// Scaled down to nothing: the mesh's size after the scale is said, with the scale as typed.
 #[test]
 fn a_mesh_scaled_to_nothing_is_said_to_be_too_small() {
     let dir = tempfile::tempdir().unwrap();
-    let (urdf, _) = arm_with_mesh(dir.path(), &box_stl(), "1e-300 1e-300 1e-300");
-    let output = fk(&urdf);
-    assert_one_line_error(
-        &output,
+    refused(
+        dir.path(),
+        &box_stl(),
+        "1e-300 1e-300 1e-300",
         &["forearm.stl", "scaled by \"1e-300 1e-300 1e-300\"", "the mesh is 9e-299 m across", "too small"],
     );
-    in_users_words(&output);
 }
 
 /// A flat mesh (every vertex in one plane) spans no volume: said before any hull is tried.
@@ -215,10 +208,7 @@ fn a_mesh_scaled_to_nothing_is_said_to_be_too_small() {
 fn a_flat_mesh_is_said_to_span_no_volume() {
     let dir = tempfile::tempdir().unwrap();
     let flat = binary_stl(&box_triangles(|i| [(i & 1) as f32 * 90.0, ((i >> 1) & 1) as f32 * 20.0, 0.0]));
-    let (urdf, _) = arm_with_mesh(dir.path(), &flat, "0.001 0.001 0.001");
-    let output = fk(&urdf);
-    assert_one_line_error(&output, &["forearm.stl", "span no volume"]);
-    in_users_words(&output);
+    refused(dir.path(), &flat, "0.001 0.001 0.001", &["forearm.stl", "span no volume"]);
 }
 
 /// Many shapes of many corners: refused at import, naming the sum and the bound (forty copies

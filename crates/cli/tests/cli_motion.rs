@@ -5,22 +5,9 @@
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
 mod common;
-use common::{assert_one_line_error, chessarm, json_of};
+use common::{assert_one_line_error, chess_fixture as fixture, chessarm, json_of, play_game as game_json};
 
 use serde_json::Value;
-use std::path::Path;
-
-fn fixture(name: &str) -> String {
-    format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn game_json(dir: &Path, args: &[&str]) -> Value {
-    let mut all = vec!["play", "--out", dir.to_str().unwrap()];
-    all.extend_from_slice(args);
-    let output = chessarm(&all);
-    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
-    serde_json::from_str(&std::fs::read_to_string(dir.join("game.json")).unwrap()).unwrap()
-}
 
 #[test]
 fn lspb_timing_reproduces_the_timings_and_placements_from_before_the_optimal_planner() {

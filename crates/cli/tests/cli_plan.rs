@@ -185,9 +185,7 @@ fn plan_writes_the_report_files_whole() {
     let summary = json_of(&chessarm(&["plan", "--scenario", "queens-gambit", "--out", &out_text, "--xlsx"]));
     assert_eq!(summary["samples"].as_u64(), Some(2601));
     assert!((summary["duration_s"].as_f64().unwrap() - 13.0).abs() < 1e-12);
-    let mut names: Vec<String> =
-        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
-    names.sort();
+    let mut names = common::file_names(&out);
     // The results, the list of what chessarm wrote there and the folder's lock.
     assert_eq!(
         names,

@@ -8,17 +8,11 @@ use common::{assert_one_line_error, chessarm};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-fn fixture(name: &str) -> String {
-    format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
-}
+use common::chess_fixture as fixture;
 
 /// Plays and returns game.json, asserting the physical board equals the rules' board.
 fn play(dir: &Path, args: &[&str]) -> Value {
-    let mut all = vec!["play", "--out", dir.to_str().unwrap()];
-    all.extend_from_slice(args);
-    let output = chessarm(&all);
-    assert!(output.status.success(), "stderr: {}", String::from_utf8_lossy(&output.stderr));
-    let game: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("game.json")).unwrap()).unwrap();
+    let game = common::play_game(dir, args);
     assert_eq!(game["final_fen_physical"], game["final_fen_rules"], "{}", game["misplaced"]);
     assert_eq!(game["misplaced"].as_array().unwrap().len(), 0, "{}", game["misplaced"]);
     game
@@ -71,10 +65,7 @@ fn special_moves_game_plays_through_and_reports_every_move() {
     assert!((game["total_robot_time_s"].as_f64().unwrap() - total).abs() < 1e-6);
     assert!(game["wall_time_s"].as_f64().unwrap() > 0.0);
     // One CSV a move, and the list of what chessarm wrote there.
-    let csvs = std::fs::read_dir(dir.path().join("moves"))
-        .unwrap()
-        .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().ends_with(".csv"))
-        .count();
+    let csvs = common::file_names(&dir.path().join("moves")).iter().filter(|n| n.ends_with(".csv")).count();
     assert_eq!(csvs, moves.len());
     assert!(dir.path().join("tip_error.png").exists());
 }
@@ -312,11 +303,8 @@ fn a_game_that_stops_part_way_leaves_nothing_that_passes_for_a_whole_game() {
     assert!(record["error"].as_str().unwrap().contains("e2e5"), "{record}");
     // The trajectories of the move it made are kept aside, where no driver looks for a game.
     assert!(!out.join("hardware").exists());
-    let aside: Vec<String> = std::fs::read_dir(out.join("hardware-incomplete"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".json"))
-        .collect();
+    let aside: Vec<String> =
+        common::file_names(&out.join("hardware-incomplete")).into_iter().filter(|n| n.ends_with(".json")).collect();
     assert_eq!(aside.len(), 1, "{aside:?}");
     assert!(aside[0].starts_with("001-"), "{aside:?}");
     // A whole game says so.

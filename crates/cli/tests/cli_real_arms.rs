@@ -16,8 +16,8 @@ use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
-const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
+use common::OPERA;
+use common::REAL_ARMS as FIXTURES;
 
 /// Each file, the flags it needs (the SO-101's fifth joint held), its tool link, and how far
 /// the file's own kinematics may be from chessarm's: the SO-101's CAD export rounds π to

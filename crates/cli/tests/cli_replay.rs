@@ -45,13 +45,17 @@ fn artefact(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-/// Plays `args` into `out` and returns its game.json.
-fn played(out: &Path, args: &[&str]) -> Value {
-    let mut all = vec!["play"];
-    all.extend_from_slice(args);
-    all.extend_from_slice(&["--out", out.to_str().unwrap()]);
-    json_of(&chessarm(&all));
-    serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap()
+use common::play_game as played;
+
+/// Plays `args` into `out` and opens its replay.html in the browser (`screenshot`, `times`
+/// and `shot_at` as for [`probe`]'s first run): the game.json and the page's report, whose
+/// console is clean and whose final table is the game's.
+fn replayed(out: &Path, args: &[&str], screenshot: &Path, times: &[f64], shot_at: f64) -> (Value, Value) {
+    let game = played(out, args);
+    let report = probe(&out.join("replay.html"), screenshot, 0, times, shot_at);
+    assert_clean_console(&report);
+    assert_final_table(&report, &game);
+    (game, report)
 }
 
 /// Opens `html` in the browser: the page's report (see probe.mjs).
@@ -336,11 +340,8 @@ fn captures_castling_and_promotions_end_with_every_piece_in_its_place() {
     require_browser();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let pgn = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures/special_moves.pgn");
-    let game = played(&out, &[pgn.to_str().unwrap()]);
-    let report = probe(&out.join("replay.html"), &artefact("replay-special-moves.png"), 0, &[], 1.0);
-    assert_clean_console(&report);
-    assert_final_table(&report, &game);
+    let pgn = common::chess_fixture("special_moves.pgn");
+    let (game, report) = replayed(&out, &[&pgn], &artefact("replay-special-moves.png"), &[], 1.0);
     assert_handlings_and_steps(&report);
     let table = game["final_table"].as_array().unwrap();
     assert!(table.iter().any(|p| p["location"].as_str().unwrap().contains("graveyard")), "nothing was captured");
@@ -391,8 +392,8 @@ fn replay_data(html: &Path) -> Value {
 fn a_whole_game_s_replay_stays_small_and_at_most_50_hz() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let pgn = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures/kasparov_topalov_1999.pgn");
-    let game = json_of(&chessarm(&["play", pgn.to_str().unwrap(), "--out", out.to_str().unwrap()]));
+    let pgn = common::chess_fixture("kasparov_topalov_1999.pgn");
+    let game = json_of(&chessarm(&["play", &pgn, "--out", out.to_str().unwrap()]));
     assert_eq!(game["plies"], 87);
     let html = out.join("replay.html");
     let size = std::fs::metadata(&html).unwrap().len();
@@ -442,19 +443,19 @@ fn the_opponent_s_hand_moves_count_to_the_last_ply_and_a_page_without_robot_move
     let dir = tempfile::tempdir().unwrap();
     // The arm plays black: the last ply, White's, is the hand's, after the last robot frame.
     let out = dir.path().join("black");
-    let pgn = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures/special_moves.pgn");
-    let game = played(&out, &[pgn.to_str().unwrap(), "--robot", "black"]);
-    let report = probe(&out.join("replay.html"), &artefact("replay-robot-black.png"), 0, &[], 3.0);
-    assert_clean_console(&report);
-    assert_final_table(&report, &game);
+    let pgn = common::chess_fixture("special_moves.pgn");
+    let (_, report) = replayed(&out, &[&pgn, "--robot", "black"], &artefact("replay-robot-black.png"), &[], 3.0);
     assert_handlings_and_steps(&report);
     // A FEN start with Black to move, one move by the hand: no robot frame but the home pose.
     let out = dir.path().join("hand");
     let fen = "rnbqkbnr/pppppppp/8/8/4P3/8/PPPP1PPP/RNBQKBNR b KQkq - 0 1";
-    let game = played(&out, &["--moves", "e5", "--fen", fen, "--robot", "white"]);
-    let report = probe(&out.join("replay.html"), &artefact("replay-hand-only.png"), 0, &[0.0], 0.0);
-    assert_clean_console(&report);
-    assert_final_table(&report, &game);
+    let (_, report) = replayed(
+        &out,
+        &["--moves", "e5", "--fen", fen, "--robot", "white"],
+        &artefact("replay-hand-only.png"),
+        &[0.0],
+        0.0,
+    );
     let tool = common::numbers(&report["samples"][0]["tool"]);
     assert!(tool.iter().all(|v| v.is_finite()) && tool[2] > 0.1, "no arm drawn: {tool:?}");
     assert_eq!(report["moves"][0]["ply"], 1);

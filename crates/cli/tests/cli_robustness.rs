@@ -9,6 +9,9 @@ use common::{assert_one_line_error, assert_same_at_every_batching, chessarm, jso
 
 use std::path::Path;
 
+/// Three plies, for the studies of a game.
+const SHORT_GAME: &str = "[Result \"*\"]\n\n1. e4 e5 2. Nf3 *\n";
+
 const UNCERTAINTY: &str =
     "link_mass = 0.10\ncom = 0.002\ninertia_rotation = \"errata\"\nviscous = [0.0, 0.01]\npiece_mass = 0.5\n";
 
@@ -226,7 +229,7 @@ fn a_setup_profile_is_used_by_name_and_play_records_the_conditions() {
 fn a_game_trial_replays_alone_and_tune_and_gains_take_the_conditions() {
     let dir = tempfile::tempdir().unwrap();
     let uncertainty = write(dir.path(), "u.toml", UNCERTAINTY);
-    let pgn = write(dir.path(), "short.pgn", "[Result \"*\"]\n\n1. e4 e5 2. Nf3 *\n");
+    let pgn = write(dir.path(), "short.pgn", SHORT_GAME);
     let study = dir.path().join("study");
     json_of(&chessarm(&[
         "robustness",
@@ -393,7 +396,7 @@ fn a_campaign_is_the_same_at_every_lane_count_and_simd_level() {
 fn the_frontier_runs_the_same_trials_at_every_pace_and_a_faster_pace_takes_less_robot_time() {
     let dir = tempfile::tempdir().unwrap();
     let uncertainty = write(dir.path(), "u.toml", UNCERTAINTY);
-    let pgn = write(dir.path(), "short.pgn", "[Result \"*\"]\n\n1. e4 e5 2. Nf3 *\n");
+    let pgn = write(dir.path(), "short.pgn", SHORT_GAME);
     let out = dir.path().join("frontier");
     let study = |extra: &[&str]| {
         let common =

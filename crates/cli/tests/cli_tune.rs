@@ -175,10 +175,9 @@ fn bad_ranges_are_one_line_errors_naming_the_value() {
 fn a_sweep_over_a_game_counts_misplaced_pieces() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("game");
-    let pgn = format!("{}/../chess/tests/fixtures/opera_game.pgn", env!("CARGO_MANIFEST_DIR"));
     let result = json_of(&chessarm(&[
         "tune",
-        &pgn,
+        common::OPERA,
         "--kp",
         "25..900:2",
         "--kd",

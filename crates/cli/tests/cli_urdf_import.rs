@@ -12,7 +12,7 @@ use common::{assert_one_line_error, chessarm, json_of, numbers};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
+use common::OFFSET_ARM as FIXTURE;
 
 /// Seeded joint states spread over the joints' ranges (a small LCG: reproducible, no crate).
 fn states(count: usize, seed: u64) -> Vec<([f64; 4], [f64; 4])> {
@@ -274,18 +274,7 @@ fn a_urdf_arm_reaches_every_square_and_plays_a_move() {
     for needle in ["error:", "cannot be served", "the way from a1 to white reserve slot 0", "board --fit"] {
         assert!(last.contains(needle), "{needle}: {stderr}");
     }
-    let board = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm-board.toml");
-    let report = json_of(&chessarm(&[
-        "--urdf",
-        FIXTURE,
-        "--arm",
-        board,
-        "play",
-        "--moves",
-        "e4",
-        "--out",
-        out.to_str().unwrap(),
-    ]));
+    let report = json_of(&common::on_offset_arm_board(&["play", "--moves", "e4", "--out", out.to_str().unwrap()]));
     assert_eq!(report["misplaced"].as_u64(), Some(0), "{report}");
 }
 
@@ -609,22 +598,8 @@ fn makers_files_are_taken_as_published_or_refused_with_every_problem_at_once() {
 /// ASCII STL of the box `[0, x] × [0, y] × [0, z]` (12 triangles; its 8 corners, each repeated).
 fn box_stl(x: f64, y: f64, z: f64) -> String {
     let corner = |i: usize| [(i & 1) as f64 * x, ((i >> 1) & 1) as f64 * y, ((i >> 2) & 1) as f64 * z];
-    let faces = [
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
     let mut text = String::from("solid box\n");
-    for face in faces {
+    for face in common::BOX_FACES {
         text.push_str("facet normal 0 0 0\nouter loop\n");
         for i in face {
             let [a, b, c] = corner(i);

@@ -6,15 +6,14 @@
 
 #![allow(clippy::unwrap_used)]
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
 /// The Python that has the `chessarm` package and pytest (CI's `CHESSARM_PYTHON`).
 fn python_with_chessarm() -> Option<String> {
-    let candidates = std::env::var("CHESSARM_PYTHON").into_iter().chain(["python3".to_string()]);
-    candidates.into_iter().find(|python| {
-        Command::new(python).args(["-c", "import chessarm, pytest"]).output().is_ok_and(|o| o.status.success())
-    })
+    common::python_with("chessarm, pytest")
 }
 
 #[test]
@@ -22,11 +21,8 @@ fn python_with_chessarm() -> Option<String> {
 fn the_python_packages_tests_pass_against_this_cli() {
     let python = python_with_chessarm().expect("CHESSARM_PYTHON (or python3) with the chessarm package and pytest");
     let tests = Path::new(env!("CARGO_MANIFEST_DIR")).join("../python/tests");
-    // test_readme.py runs the README's ```python blocks, which have moved to docs/python.md:
-    // the test below runs them there.
     let output = Command::new(&python)
         .args(["-m", "pytest", "-q", "-p", "no:cacheprovider", "-rs"])
-        .arg(format!("--ignore={}", tests.join("test_readme.py").display()))
         .arg(&tests)
         .env("CHESSARM_BIN", env!("CARGO_BIN_EXE_chessarm"))
         .output()
@@ -62,7 +58,9 @@ fn python_page_blocks() -> Vec<String> {
 }
 
 /// Runs the blocks named on its command line in order, in one namespace, then checks what the
-/// first block promises: shapes, and the inverse pair aba ∘ rnea = identity.
+/// page promises: the plan's tool path is the forward kinematics of its joints, your own
+/// controller's loop ran along the whole plan, and the kinematics section's shapes and inverse
+/// pair aba ∘ rnea = identity (its names are the last to be bound).
 const RUN_BLOCKS: &str = r#"
 import sys
 import numpy as np
@@ -70,6 +68,10 @@ namespace = {}
 for path in sys.argv[1:]:
     with open(path, encoding="utf-8") as f:
         exec(compile(f.read(), path, "exec"), namespace)
+plan = namespace["plan"]
+assert plan.q.shape == (len(plan), 4) and plan.tool.shape == (len(plan), 3)
+assert np.allclose(namespace["tips"], plan.tool, rtol=0.0, atol=1e-9)
+assert namespace["mine"].t > 12.9
 assert namespace["M"].shape == (4, 4) and namespace["J"].shape == (6, 4)
 assert namespace["tau"].shape == (1000, 4)
 assert np.allclose(namespace["arm"].aba(namespace["q"], namespace["v"], namespace["tau"][0]), 0.0, atol=1e-9)
@@ -85,12 +87,7 @@ fn the_python_pages_examples_run_as_written() {
     assert!(blocks.len() >= 2, "docs/python.md's examples not found: {blocks:?}");
     // A fresh folder with the repository's examples/, which the examples name.
     let dir = tempfile::tempdir().unwrap();
-    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
-    std::fs::create_dir(dir.path().join("examples")).unwrap();
-    for entry in std::fs::read_dir(&examples).unwrap() {
-        let entry = entry.unwrap();
-        std::fs::copy(entry.path(), dir.path().join("examples").join(entry.file_name())).unwrap();
-    }
+    common::copy_examples(dir.path());
     let mut paths = Vec::new();
     for (i, block) in blocks.iter().enumerate() {
         // Named so that a traceback says where the block comes from.

@@ -9,6 +9,8 @@
 
 #![allow(clippy::unwrap_used)] // test helpers may panic: a panic is a failed test
 
+mod common;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -32,12 +34,8 @@ fn readme() -> Page {
 
 /// Every page of `docs/`, by name.
 fn docs_pages() -> Vec<Page> {
-    let mut names: Vec<String> = std::fs::read_dir(root().join("docs"))
-        .unwrap()
-        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|name| name.ends_with(".md"))
-        .collect();
-    names.sort();
+    let mut names = common::file_names(&root().join("docs"));
+    names.retain(|name| name.ends_with(".md"));
     names
         .into_iter()
         .map(|name| {
@@ -152,21 +150,12 @@ fn example_folder(page: &Page) -> tempfile::TempDir {
     }
     // The makers' URDFs the examples name, at the same path.
     let real_arms = Path::new("crates/cli/tests/fixtures/real-arms");
-    std::fs::create_dir_all(dir.path().join(real_arms)).unwrap();
-    for entry in std::fs::read_dir(root.join(real_arms)).unwrap() {
-        let entry = entry.unwrap();
-        std::fs::copy(entry.path(), dir.path().join(real_arms).join(entry.file_name())).unwrap();
-    }
+    common::copy_files(&root.join(real_arms), &dir.path().join(real_arms));
     // The needle fingers the real arms' examples give.
     let needle = Path::new("crates/cli/tests/fixtures/needle_fingers.toml");
     std::fs::copy(root.join(needle), dir.path().join(needle)).unwrap();
     // The repository's examples/ folder, which the examples name.
-    let examples = root.join("examples");
-    std::fs::create_dir(dir.path().join("examples")).unwrap();
-    for entry in std::fs::read_dir(&examples).unwrap() {
-        let entry = entry.unwrap();
-        std::fs::copy(entry.path(), dir.path().join("examples").join(entry.file_name())).unwrap();
-    }
+    common::copy_examples(dir.path());
     dir
 }
 
@@ -411,12 +400,7 @@ fn the_pages_monte_carlo_figures_are_what_their_command_prints() {
     let tables: Vec<MonteCarloTable> = all_pages().iter().flat_map(monte_carlo_tables).collect();
     assert!(tables.len() >= 2 && tables.iter().all(|t| t.1.len() == 2), "the pages' Monte Carlo tables: {tables:?}");
     let dir = tempfile::tempdir().unwrap();
-    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
-    std::fs::create_dir(dir.path().join("examples")).unwrap();
-    for entry in std::fs::read_dir(&examples).unwrap() {
-        let entry = entry.unwrap();
-        std::fs::copy(entry.path(), dir.path().join("examples").join(entry.file_name())).unwrap();
-    }
+    common::copy_examples(dir.path());
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../chess/tests/fixtures");
     for (template, rows) in &tables {
         for (game, figures) in rows {

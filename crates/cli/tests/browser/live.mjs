@@ -4,22 +4,11 @@
 // makes the assertions.
 //
 //   node live.mjs URL SCREENSHOT.png MOVE1,MOVE2,...   (UCI; a promotion's piece is answered q)
-import { chromium } from 'playwright-core';
-import fs from 'node:fs';
-import os from 'node:os';
-import path from 'node:path';
+import { launch } from './chromium.mjs';
 
 const [url, screenshot, movesArg] = process.argv.slice(2);
 const moves = movesArg.split(',').filter((m) => m !== '');
-const executablePath = process.env.CHESSARM_CHROMIUM || '/usr/bin/chromium';
-const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'chessarm-chromium-'));
-const context = await chromium.launchPersistentContext(profile, {
-  executablePath,
-  headless: true,
-  viewport: { width: 1280, height: 800 },
-  args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update',
-    '--disable-sync', '--no-first-run', '--disable-quic'],
-});
+const { context, close } = await launch();
 const errors = [];
 let quitting = false;
 const requests = [];
@@ -65,7 +54,6 @@ try {
 } catch (e) {
   errors.push(`probe: ${e.message}`);
 } finally {
-  await context.close();
-  fs.rmSync(profile, { recursive: true, force: true });
+  await close();
 }
 console.log(JSON.stringify({ ...report, errors, requests }));

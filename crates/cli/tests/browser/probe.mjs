@@ -3,10 +3,8 @@
 // stdout. The Rust tests (crates/cli/tests/cli_replay.rs) make the assertions.
 //
 //   node probe.mjs REPLAY.html SCREENSHOT.png [--run N] [--times t1,t2,...] [--shot-at T]
-import { chromium } from 'playwright-core';
-import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
+import { launch } from './chromium.mjs';
 import { pathToFileURL } from 'node:url';
 
 const [html, screenshot, ...rest] = process.argv.slice(2);
@@ -17,15 +15,7 @@ const option = (name, fallback) => {
 const run = Number(option('--run', '0'));
 const times = option('--times', '').split(',').filter((s) => s !== '').map(Number);
 const shotAt = option('--shot-at', null);
-const executablePath = process.env.CHESSARM_CHROMIUM || '/usr/bin/chromium';
-const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'chessarm-chromium-'));
-const context = await chromium.launchPersistentContext(profile, {
-  executablePath,
-  headless: true,
-  viewport: { width: 1280, height: 800 },
-  args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update',
-    '--disable-sync', '--no-first-run', '--disable-quic'],
-});
+const { context, close } = await launch();
 const errors = [];
 const requests = [];
 try {
@@ -79,6 +69,5 @@ try {
   report.requests = requests;
   process.stdout.write(JSON.stringify(report));
 } finally {
-  await context.close();
-  fs.rmSync(profile, { recursive: true, force: true });
+  await close();
 }

@@ -22,6 +22,25 @@ pub fn json_of(output: &Output) -> Value {
     serde_json::from_slice(&output.stdout).expect("stdout is JSON")
 }
 
+/// A JSON file, read.
+pub fn json_file(path: &std::path::Path) -> Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// The path of the chess crate's test fixture `name` (PGN games).
+pub fn chess_fixture(name: &str) -> String {
+    format!("{}/../chess/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The Opera Game (Morphy, 1858), a whole game of 33 plies.
+pub const OPERA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/opera_game.pgn");
+
+/// `chessarm play <args…> --out <out>`, which must succeed: its game.json.
+pub fn play_game(out: &std::path::Path, args: &[&str]) -> Value {
+    json_of(&chessarm(&[&["play"], args, &["--out", out.to_str().unwrap()]].concat()));
+    json_file(&out.join("game.json"))
+}
+
 /// Exit code 2, exactly one line on stderr containing every `needle`, nothing on stdout.
 pub fn assert_one_line_error(output: &Output, needles: &[&str]) {
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -32,6 +51,83 @@ pub fn assert_one_line_error(output: &Output, needles: &[&str]) {
     }
     assert!(output.stdout.is_empty(), "partial output on stdout");
 }
+
+/// The names of the files in `dir`, sorted.
+pub fn file_names(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> =
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    names
+}
+
+/// Copies the files of the folder `from` into the folder `to` (made, with its parents).
+pub fn copy_files(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+    }
+}
+
+/// A copy of the repository's `examples/` in `dir`, for commands that name its files.
+pub fn copy_examples(dir: &std::path::Path) {
+    copy_files(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples"), &dir.join("examples"));
+}
+
+/// Starts `chessarm` with `args`, its standard input `stdin`, its output and errors piped (a
+/// run that a test talks to or waits on).
+pub fn spawn<S: AsRef<std::ffi::OsStr>>(args: &[S], stdin: std::process::Stdio) -> std::process::Child {
+    use std::process::Stdio;
+    Command::new(env!("CARGO_BIN_EXE_chessarm"))
+        .args(args)
+        .stdin(stdin)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Starts `chessarm` with `args`, which ask for the live page (`--live 0`), and reads its
+/// stderr up to the line with the page's address: the child, that address (with the run's
+/// token), and a thread that reads the rest of its stderr (so that the pipe never fills).
+pub fn start_with_live_page<S: AsRef<std::ffi::OsStr>>(
+    args: &[S],
+) -> (std::process::Child, String, std::thread::JoinHandle<String>) {
+    let mut child = spawn(args, std::process::Stdio::null());
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    let url = loop {
+        let mut line = String::new();
+        assert!(std::io::BufRead::read_line(&mut stderr, &mut line).unwrap() > 0, "no live page: {seen}");
+        seen.push_str(&line);
+        if let Some(at) = line.find("http://127.0.0.1:") {
+            break line[at..].split_whitespace().next().unwrap().to_string();
+        }
+    };
+    let rest = std::thread::spawn(move || {
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut stderr, &mut text).unwrap();
+        text
+    });
+    (child, url, rest)
+}
+
+/// A box's 12 triangles, outward, over its 8 corners numbered by their sides: corner `i` is at
+/// the far side in x where bit 0 of `i` is set, in y bit 1, in z bit 2.
+pub const BOX_FACES: [[usize; 3]; 12] = [
+    [0, 2, 1],
+    [1, 2, 3],
+    [4, 5, 6],
+    [5, 7, 6],
+    [0, 1, 4],
+    [1, 5, 4],
+    [2, 6, 3],
+    [3, 6, 7],
+    [0, 4, 2],
+    [2, 4, 6],
+    [1, 3, 5],
+    [3, 7, 5],
+];
 
 /// The numbers of a JSON array.
 pub fn numbers(value: &Value) -> Vec<f64> {
@@ -93,6 +189,37 @@ pub fn python_with(module: &str) -> Option<String> {
 /// Needle fingers for the small boards the real arms serve (see the file).
 #[allow(dead_code)]
 pub const NEEDLE_FINGERS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/needle_fingers.toml");
+
+/// The repository's example URDF (a 4-joint arm with offsets) and its fitted board's setup.
+pub const OFFSET_ARM: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm.urdf");
+pub const OFFSET_ARM_BOARD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/offset-arm-board.toml");
+
+/// `chessarm --urdf <OFFSET_ARM> --arm <OFFSET_ARM_BOARD> <args…>` (with `--json`).
+pub fn on_offset_arm_board(args: &[&str]) -> Output {
+    chessarm(&[&["--urdf", OFFSET_ARM, "--arm", OFFSET_ARM_BOARD], args].concat())
+}
+
+/// The makers' URDFs of the real arms.
+pub const REAL_ARMS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/real-arms");
+
+/// Fits the board to the arm of `urdf` (with the flags `lock`) holding needle fingers, and
+/// saves that setup at `board` (`board --fit --save`).
+pub fn fit_board(urdf: &std::path::Path, lock: &[&str], board: &std::path::Path) {
+    let mut args = vec!["--urdf", urdf.to_str().unwrap()];
+    args.extend(lock);
+    args.extend(["--arm", NEEDLE_FINGERS, "board", "--fit", "--save", board.to_str().unwrap()]);
+    let fit = chessarm(&args);
+    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
+}
+
+/// The SO-101's official URDF (its wrist roll locked) and a setup of the board fitted to it,
+/// saved at `dir/board.toml`.
+pub fn so101_fitted(dir: &std::path::Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let urdf = std::path::Path::new(REAL_ARMS).join("so101_new_calib.urdf");
+    let board = dir.join("board.toml");
+    fit_board(&urdf, &["--lock", "wrist_roll=0"], &board);
+    (urdf, board)
+}
 
 /// `chessarm bus-sim` running: the simulated servo bus on a pseudo-terminal (`device`), its
 /// log of every instruction received at `log`; ended (Ctrl-C's signal) when dropped.
