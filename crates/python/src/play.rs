@@ -451,6 +451,8 @@ pub fn play(
         export_rate: 100.0,
         controller_knows_payload,
     };
+    // What `prepare` refuses is an argument (the servos' strategy, the gains, the sensors, a
+    // plant or uncertainty file): a ValueError, as the other studies' arguments.
     let prepared = chessarm::app::studies::play::prepare(&setup, &options).map_err(|e| {
         let message = pythonic(&e);
         if message.starts_with("servo_command") {
@@ -458,7 +460,7 @@ pub fn play(
                 "servo_command: play sends one kind of goal; give the setup one of plain, sag, feedforward",
             )
         } else {
-            GameError::new_err(message)
+            PyValueError::new_err(message)
         }
     })?;
     let notes: Vec<String> = prepared

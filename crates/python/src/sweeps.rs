@@ -3,11 +3,11 @@
 //! their rows as NumPy arrays (SI: errors in m), the numbers of `chessarm tune` and
 //! `chessarm robustness` with the same options.
 
+use crate::SimulationError;
 use crate::common::{self, bad_value, column, non_negative, positive, pythonic};
 use crate::play::pgn_record;
 use crate::setup::PySetup;
 use crate::simulate::{Conditions, given_gains};
-use crate::{GameError, SimulationError};
 use chessarm::app::setup::file::Setup;
 use chessarm::app::studies::placement::Placement;
 use chessarm::app::studies::robustness::{self as campaign, RobustnessOptions};
@@ -15,7 +15,7 @@ use chessarm::app::studies::simulate::ControllerName;
 use chessarm::app::studies::tune::{self as sweep, GainRange, Metric, TuneOptions};
 use chessarm::app::studies::{Progress, Stop};
 use chessarm::cli::IntegratorChoice;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -30,6 +30,19 @@ fn gain_range(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<G
     let (from, to, count): (f64, f64, usize) =
         value.extract().map_err(|_| bad_value(name, value, "a range \"A..B:N\" or (A, B, N)"))?;
     GainRange::parse(&format!("{from}..{to}:{count}")).map(Some).map_err(|e| bad_value(name, value, &e))
+}
+
+/// A piece's mass, kg: not negative, and not beyond the model's largest (a typo in units), as
+/// `simulate`'s `payload_mass`.
+fn payload(name: &str, mass: f64) -> PyResult<f64> {
+    non_negative(name, mass)?;
+    if mass > chessarm_core::arm::model::MAX_MASS {
+        return Err(PyValueError::new_err(format!(
+            "{name}={mass}: beyond {} kg, a typo in units",
+            chessarm_core::arm::model::MAX_MASS
+        )));
+    }
+    Ok(mass)
 }
 
 /// A shard `(K, N)`, 1 ≤ K ≤ N.
@@ -224,7 +237,7 @@ pub fn tune(
         every_strategy = Some(all);
     }
     let setup: &Setup = every_strategy.as_ref().unwrap_or(&py_setup.setup);
-    non_negative("payload_mass", payload_mass)?;
+    payload("payload_mass", payload_mass)?;
     if let Some(from) = tracking_from {
         non_negative("tracking_from", from)?;
     }
@@ -264,7 +277,9 @@ pub fn tune(
         integrator: common::choice::<IntegratorChoice>("integrator", integrator)?.integrator(),
         threads: checked_threads(threads)?,
     };
-    let prepared = sweep::Prepared::new(setup, &options)
+    // The checks and the scenario's plan, with the GIL released; what they refuse is an argument.
+    let prepared = py
+        .detach(|| sweep::Prepared::new(setup, &options))
         .map_err(|e| PyValueError::new_err(common::flags_as_arguments(&pythonic(&e))))?;
     let tuned = interruptible(py, |progress, stop| prepared.run(progress, stop))?
         .map_err(|e| SimulationError::new_err(pythonic(&e)))?;
@@ -420,7 +435,7 @@ pub fn robustness(
     }
     positive("tolerance", tolerance)?;
     if let Some(mass) = payload_mass {
-        non_negative("payload_mass", mass)?;
+        payload("payload_mass", mass)?;
     }
     let controllers = match controller.filter(|c| !c.is_none()) {
         Some(names) => common::names("controller", names)?
@@ -456,10 +471,13 @@ pub fn robustness(
         integrator: common::choice::<IntegratorChoice>("integrator", integrator)?.integrator(),
         threads: checked_threads(threads)?,
     };
-    let prepared = campaign::Prepared::new(setup, &options)
+    // The checks and the scenario's plan, with the GIL released; what they refuse is an argument.
+    let prepared = py
+        .detach(|| campaign::Prepared::new(setup, &options))
         .map_err(|e| PyValueError::new_err(common::flags_as_arguments(&pythonic(&e))))?;
+    prepared.ensure_fits().map_err(|e| PyMemoryError::new_err(pythonic(&e)))?;
     let result = interruptible(py, |progress, stop| prepared.run(progress, stop))?
-        .map_err(|e| GameError::new_err(pythonic(&e)))?;
+        .map_err(|e| SimulationError::new_err(pythonic(&e)))?;
     let rows = &result.rows;
     let of = |f: &dyn Fn(&campaign::TrialRow) -> f64| column(py, rows.iter().map(f));
     let drawn = PyDict::new(py);

@@ -223,11 +223,10 @@ fn refuse_person_flags_without_a_person(args: &PlayArgs) -> Result<()> {
 pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     refuse_person_flags_without_a_person(args)?;
     let setup = &args.motion.apply(setup)?;
-    let Prepared { settings, controller: settings_name, study, trial, ideal, servo_note, notes } =
+    // With servos, their host replaces the torque controller: said before any other word.
+    crate::servo_hosts(setup);
+    let Prepared { settings, controller: settings_name, study, trial, ideal, notes, .. } =
         prepare(setup, &options(args))?;
-    if let (Some(note), false) = (servo_note, crate::json_output()) {
-        crate::tell(&note);
-    }
     for note in notes {
         crate::tell(&note);
     }

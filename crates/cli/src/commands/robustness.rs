@@ -44,10 +44,9 @@ pub fn options(args: &RobustnessArgs) -> Result<RobustnessOptions> {
 pub fn run(setup: &Setup, args: &RobustnessArgs) -> Result<()> {
     let setup = &args.motion.apply(setup)?;
     let options = options(args)?;
+    // With servos, their hosts replace the torque controllers: said before any other word.
+    crate::servo_hosts(setup);
     let campaign = Prepared::new(setup, &options)?;
-    if let (Some(note), false) = (&campaign.servo_note, crate::json_output()) {
-        crate::tell(note);
-    }
     if let Some(paces) = &args.paces {
         let Work::Game(_) = &campaign.work else {
             anyhow::bail!("--paces sweeps a game's motion: give a PGN file (a scenario keeps its own LSPB path)");

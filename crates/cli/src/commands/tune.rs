@@ -39,6 +39,7 @@ pub fn options(args: &TuneArgs) -> Result<TuneOptions> {
 pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     let setup = &args.motion.apply(setup)?;
     let options = options(args)?;
+    let sweep = Prepared::new(setup, &options)?;
     if setup.actuators.take_positions() {
         // The host strategies replace the torque controllers (said once on the terminal).
         crate::servo_hosts(setup);
@@ -46,7 +47,6 @@ pub fn run(setup: &Setup, args: &TuneArgs) -> Result<()> {
     if let (Some(q0), None) = (&options.q0, &options.game) {
         crate::warn_outside_limits(setup, "--q0", q0);
     }
-    let sweep = Prepared::new(setup, &options)?;
     ensure_dir(&args.out)?;
     // An earlier sweep's files must not pass for this one's (a failed heat map, a changed range).
     let (csv_path, heat_map_path) = (args.out.join("tune.csv"), args.out.join("tune.png"));

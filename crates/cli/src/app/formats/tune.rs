@@ -56,15 +56,16 @@ pub fn write_csv(path: &Path, tuned: &Tuned, with_header: bool) -> Result<()> {
 /// and the host strategy for servos.
 pub fn draw_heat_map(setup: &Setup, options: &TuneOptions, tuned: &Tuned, metric: Metric, path: &Path) -> Result<()> {
     if tuned.servos {
-        draw_servo_heat_map(setup, options, &tuned.candidates, metric, path)
+        draw_servo_heat_map(setup, options, tuned, metric, path)
     } else {
-        draw_torque_heat_map(options, &tuned.candidates, metric, path)
+        draw_torque_heat_map(options, tuned, metric, path)
     }
 }
 
 /// Heat map over kp (x) and kd (y); with a ki sweep each cell shows the best over ki. Failed
 /// candidates are grey; the best one within the torque limits is framed.
-fn draw_torque_heat_map(options: &TuneOptions, candidates: &[Candidate], metric: Metric, path: &Path) -> Result<()> {
+fn draw_torque_heat_map(options: &TuneOptions, tuned: &Tuned, metric: Metric, path: &Path) -> Result<()> {
+    let candidates = &tuned.candidates;
     let (Some(kp_range), Some(kd_range)) = (options.kp, options.kd) else {
         bail!("a torque sweep has --kp and --kd ranges")
     };
@@ -102,25 +103,14 @@ fn draw_torque_heat_map(options: &TuneOptions, candidates: &[Candidate], metric:
             values: &cells,
             marked: best.map(|(_, cell)| cell),
             grey: "failed",
-            note: edge_warning(
-                options,
-                candidates
-                    .iter()
-                    .filter(|c| c.respects_limits())
-                    .min_by(|a, b| a.metric(metric).total_cmp(&b.metric(metric)).then(a.index.cmp(&b.index))),
-            ),
+            note: edge_warning(options, tuned.best(metric, 1).first().copied()),
         },
     )
 }
 
 /// A servo sweep's heat map: the P register (x) against the host strategy (y).
-fn draw_servo_heat_map(
-    setup: &Setup,
-    options: &TuneOptions,
-    candidates: &[Candidate],
-    metric: Metric,
-    path: &Path,
-) -> Result<()> {
+fn draw_servo_heat_map(setup: &Setup, options: &TuneOptions, tuned: &Tuned, metric: Metric, path: &Path) -> Result<()> {
+    let candidates = &tuned.candidates;
     let Some(range) = options.p_gain else { bail!("a servo sweep has a --p-gain range") };
     let p_values = range.values();
     let names: Vec<String> = setup.servo_commands.iter().map(|c| c.name().to_string()).collect();
@@ -153,13 +143,7 @@ fn draw_servo_heat_map(
             values: &cells,
             marked: best.map(|(_, cell)| cell),
             grey: "failed",
-            note: edge_warning(
-                options,
-                candidates
-                    .iter()
-                    .filter(|c| c.respects_limits())
-                    .min_by(|a, b| a.metric(metric).total_cmp(&b.metric(metric)).then(a.index.cmp(&b.index))),
-            ),
+            note: edge_warning(options, tuned.best(metric, 1).first().copied()),
         },
     )
 }

@@ -52,7 +52,7 @@ pub struct PlayOptions {
 
 /// A game's settings made ready: what [`Game::new`] takes, the study of its conditions and its
 /// trial, and the notes to tell the person (the conditions, friction the controller does not
-/// know), each as the conditions give it (`note: …` and a line end).
+/// know), each a line as the terminal shows it.
 #[derive(Debug)]
 pub struct Prepared {
     pub settings: PlaySettings,
@@ -68,8 +68,8 @@ pub struct Prepared {
 }
 
 /// The settings of a game on `setup` (its motion limits and timing as the game's) with
-/// `options`; with servos, their host (`hosts` from [`crate::app::setup::servos::servo_hosts`],
-/// one strategy).
+/// `options`; with servos, their host ([`crate::app::setup::servos::servo_hosts`]: the setup
+/// names one strategy).
 ///
 /// # Errors
 ///

@@ -73,8 +73,8 @@ impl RobustnessOptions {
     }
 }
 
-/// A campaign checked and ready to run. Every check of the options is made here, before
-/// anything runs.
+/// A campaign checked and ready to run: every check of the options is made here, before
+/// anything runs (but the memory bound, [`Prepared::ensure_fits`]).
 #[derive(Debug)]
 pub struct Prepared<'a> {
     setup: &'a Setup,
@@ -87,6 +87,8 @@ pub struct Prepared<'a> {
     pub work: Work,
     pub trial_options: TrialOptions,
     pub range: std::ops::Range<usize>,
+    /// Worker threads the campaign runs on.
+    pub threads: usize,
 }
 
 /// A campaign's result.
@@ -106,7 +108,7 @@ impl<'a> Prepared<'a> {
     ///
     /// # Errors
     ///
-    /// Bad conditions or controllers, a scenario the setup cannot plan, a campaign too large.
+    /// Bad conditions, controllers or thread count, a scenario the setup cannot plan.
     pub fn new(setup: &'a Setup, options: &'a RobustnessOptions) -> Result<Self> {
         crate::app::resources::batching()?;
         let defaults = if options.game.is_some() { DefaultGains::Game } else { DefaultGains::Report };
@@ -145,7 +147,8 @@ impl<'a> Prepared<'a> {
             in_position: options.placement.in_position(options.tolerance, resolution),
             tolerance: options.tolerance,
         };
-        Ok(Self { setup, options, specs, servo_note, study, work, trial_options, range })
+        let threads = crate::app::resources::worker_threads(options.threads)?;
+        Ok(Self { setup, options, specs, servo_note, study, work, trial_options, range, threads })
     }
 
     /// Checks that the campaign's rows fit in memory (every row, with its drawn parameters'
@@ -163,15 +166,17 @@ impl<'a> Prepared<'a> {
         )
     }
 
-    /// Runs the shard's trials on `options.threads` worker threads; `progress` is told of each
-    /// trial done, `stop` asked before each task.
+    /// Runs the shard's trials on the worker threads; `progress` is told of each trial done,
+    /// `stop` asked before each task.
     ///
     /// # Errors
     ///
-    /// No worker threads, a bad `CHESSARM_LANES`, a cancelled run ([`interrupted`]).
+    /// Too many rows for the memory there is ([`Prepared::ensure_fits`], which a caller that
+    /// writes files checks first), the worker threads cannot start, a cancelled run
+    /// ([`interrupted`]).
     pub fn run(self, progress: Option<Progress<'_>>, stop: Stop<'_>) -> Result<Campaign> {
         self.ensure_fits()?;
-        let threads = crate::app::resources::worker_threads(self.options.threads)?;
+        let threads = self.threads;
         let pool =
             rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start the worker threads")?;
         let started = Instant::now();
@@ -191,20 +196,6 @@ impl<'a> Prepared<'a> {
         let statistics = self.specs.iter().map(|spec| statistics(&rows, &spec.name)).collect();
         Ok(Campaign { rows, specs: self.specs, statistics, wall_time_s, threads })
     }
-}
-
-/// Runs the campaign `options` on `setup` (see [`Prepared`]).
-///
-/// # Errors
-///
-/// Those of [`Prepared::new`] and [`Prepared::run`].
-pub fn robustness(
-    setup: &Setup,
-    options: &RobustnessOptions,
-    progress: Option<Progress<'_>>,
-    stop: Stop<'_>,
-) -> Result<Campaign> {
-    Prepared::new(setup, options)?.run(progress, stop)
 }
 
 /// What every trial runs.

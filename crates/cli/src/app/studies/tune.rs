@@ -217,9 +217,10 @@ impl<'a> Prepared<'a> {
     ///
     /// # Errors
     ///
-    /// Bad ranges or conditions, a scenario the setup cannot plan.
+    /// Bad ranges, conditions or thread count, a scenario the setup cannot plan.
     pub fn new(setup: &'a Setup, options: &'a TuneOptions) -> Result<Self> {
         crate::app::resources::batching()?;
+        crate::app::resources::worker_threads(options.threads)?;
         let settings = settings(setup, options)?;
         let range = crate::app::resources::shard_range(settings.len(), options.shard);
         let conditions = crate::app::setup::conditions::Study::new(setup, &options.conditions, 1e-3)?;
@@ -286,15 +287,6 @@ impl<'a> Prepared<'a> {
             wall_time_s: started.elapsed().as_secs_f64(),
         })
     }
-}
-
-/// Runs the sweep `options` on `setup` (see [`Prepared`]).
-///
-/// # Errors
-///
-/// Those of [`Prepared::new`] and [`Prepared::run`].
-pub fn tune(setup: &Setup, options: &TuneOptions, progress: Option<Progress<'_>>, stop: Stop<'_>) -> Result<Tuned> {
-    Prepared::new(setup, options)?.run(progress, stop)
 }
 
 /// Every candidate's setting in sweep order: a torque controller's gains, or with servos each
