@@ -13,7 +13,6 @@ use crate::cli::CalibrateArgs;
 use anyhow::{Context, Result, bail};
 use chessarm_chess::board::parse_square;
 use chessarm_chess::shakmaty::Square;
-use chessarm_core::arm::calibration::CalibrationFit;
 use serde_json::json;
 use std::io::BufRead;
 
@@ -76,8 +75,8 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
         }
         None => args.touches.iter().map(|t| parse_touch(t)).collect::<Result<_>>()?,
     };
-    let Calibration { fitted, calibrated, zero_errors, zero_ticks } =
-        calibrate(setup, &touched, args.zeros, args.max_residual_mm * 1e-3)?;
+    let calibration = calibrate(setup, &touched, args.zeros, args.max_residual_mm * 1e-3)?;
+    let Calibration { fitted, calibrated, .. } = &calibration;
     ensure_dir(&args.out)?;
     let setup_path = args.out.join("setup.toml");
     let text = calibrated.to_toml_beside_urdf()?;
@@ -93,9 +92,9 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
         "not touched",
     )?;
     let json_path = args.out.join("calibration.json");
-    let value = result_json(setup, &fitted, &touched, &zero_errors, zero_ticks.as_deref(), args.zeros);
+    let value = result_json(setup, &calibration, &touched, args.zeros);
     write_json(&json_path, &value)?;
-    let mut human = text_of(setup, &fitted, &touched, &zero_errors, zero_ticks.as_deref(), args.zeros);
+    let mut human = text_of(setup, &calibration, &touched, args.zeros);
     let files = vec![setup_path.display().to_string(), plot.display().to_string(), json_path.display().to_string()];
     human.push_str(&crate::files_text(&files));
     crate::emit(&human, &value)
@@ -103,12 +102,12 @@ pub fn run(setup: &Setup, args: &CalibrateArgs) -> Result<()> {
 
 fn result_json(
     setup: &Setup,
-    fitted: &CalibrationFit,
+    calibration: &Calibration,
     touched: &[(Square, [f64; 4])],
-    zero_errors: &[f64; 4],
-    zero_ticks: Option<&[f64]>,
     zeros: bool,
 ) -> serde_json::Value {
+    let Calibration { fitted, zero_errors, zero_ticks, .. } = calibration;
+    let zero_ticks = zero_ticks.as_deref();
     json!({
         "center_m": [fitted.center.x, fitted.center.y],
         "yaw_rad": fitted.yaw,
@@ -128,14 +127,9 @@ fn result_json(
     })
 }
 
-fn text_of(
-    setup: &Setup,
-    fitted: &CalibrationFit,
-    touched: &[(Square, [f64; 4])],
-    zero_errors: &[f64; 4],
-    zero_ticks: Option<&[f64]>,
-    zeros: bool,
-) -> String {
+fn text_of(setup: &Setup, calibration: &Calibration, touched: &[(Square, [f64; 4])], zeros: bool) -> String {
+    let Calibration { fitted, zero_errors, zero_ticks, .. } = calibration;
+    let zero_ticks = zero_ticks.as_deref();
     let mut text = format!(
         "board centre ({:.2}, {:.2}) mm, yaw {:.3}°, surface {:.2} mm: moved {:.2} mm, turned {:.3}°, raised {:.2} mm from the setup's\n",
         fitted.center.x * 1e3,

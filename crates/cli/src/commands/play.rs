@@ -1,12 +1,14 @@
 //! `play`: a game of chess with the simulated arm, every piece checked on its square.
 
 use crate::app::formats::hardware::MoveLabel;
+use crate::app::formats::pgn::PgnGame;
 use crate::app::formats::plots::{Corner, Level, Panel, Series, Style, plot_panels, tick};
 use crate::app::formats::replay::{Frame, Replay, ReplayMove, ReplayRun, thin, write_replay};
 use crate::app::output::{
     ensure_dir, numbered, refuse_unlisted, remove_listed_in, remove_stale, write_csv, write_json,
 };
 use crate::app::setup::file::Setup;
+use crate::app::studies::person::{PersonGame, side_name};
 use crate::app::studies::play::{GameResult, PlayOptions, Played, Prepared, game_result, prepare};
 use crate::cli::{PlayArgs, RobotSide};
 use anyhow::{Context, Result, bail};
@@ -37,16 +39,10 @@ enum Source {
 /// A person against the arm (`--human`): who plays what, the person's input, the engine that
 /// chooses the arm's moves, the game's PGN as it stands, and how it ended.
 struct HumanGame {
-    person: Color,
+    /// The game's turns, its record and how it ended.
+    turns: PersonGame,
     input: crate::live::input::Person,
     engine: Box<dyn Opponent>,
-    pgn: crate::live::PgnGame,
-    /// The moves resumed from game.pgn (played by hand at the start: the board shows them).
-    resumed: usize,
-    /// Per ply of the PGN, the pieces it moved (from, to), for take-backs.
-    relocations: Vec<Vec<(chessarm_chess::table::Location, chessarm_chess::table::Location)>>,
-    /// Why it ended (result and reason), when the person resigned, drew or stopped.
-    ended: Option<(String, String)>,
     /// The socket the input comes from, removed at the end.
     _socket: Option<crate::live::input::SocketFile>,
     /// The live page, if served (`--live`).
@@ -137,9 +133,9 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         // Saved over after every move: a game.pgn chessarm did not write is refused now, not
         // after the resumed moves have been replayed.
         crate::app::output::refuse_if_not_ours(&path, "--out").context("--resume")?;
-        crate::live::PgnGame::resume(&path, person)?
+        PgnGame::resume(&path, person)?
     } else {
-        crate::live::PgnGame { headers: Vec::new(), start: start_position(args)?, moves: Vec::new() }
+        PgnGame { headers: Vec::new(), start: start_position(args)?, moves: Vec::new() }
     };
     let engine = opponent(args)?;
     let mut pgn = pgn;
@@ -155,7 +151,6 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
             ("Black".into(), black.into()),
         ];
     }
-    let resumed = pgn.moves.len();
     let (lines, socket, live): (Box<dyn std::io::BufRead + Send>, _, _) = match args.live {
         Some(port) => {
             let (page, clicks) = crate::live::page::LivePage::serve(port)?;
@@ -169,16 +164,12 @@ fn human_source(args: &PlayArgs, side: crate::cli::HumanSide) -> Result<Source> 
         }
     };
     Ok(Source::Human(Box::new(HumanGame {
-        person,
+        turns: PersonGame::new(person, pgn),
         input: crate::live::input::Person::new(
             args.human_input.unwrap_or(crate::live::input::HumanInput::Typed),
             lines,
         ),
         engine,
-        pgn,
-        resumed,
-        relocations: Vec::new(),
-        ended: None,
         _socket: socket,
         live,
         timings: Vec::new(),
@@ -234,7 +225,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let start = match &source {
         Source::Record(record) => record.start.clone(),
         Source::Engines { start, .. } => start.clone(),
-        Source::Human(human) => human.pgn.start.clone(),
+        Source::Human(human) => human.turns.pgn.start.clone(),
     };
     let total = match &source {
         Source::Record(record) => record.moves.len(),
@@ -411,7 +402,7 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let mut summary = game_json(&game, &reports, wall_time_s, &dependence, &result);
     summary["complete"] = json!(true);
     if let Source::Human(human) = &source {
-        human.pgn.save(&args.out.join("game.pgn"), &result.result)?;
+        human.turns.pgn.save(&args.out.join("game.pgn"), &result.result)?;
         summary["human"] = human_json(human, args, &taken_back);
     }
     if let Some(arm) = &real_arm {
@@ -615,19 +606,6 @@ fn send_to_arm(arm: &mut crate::app::bus::arm::RealArm, report: &MoveReport) -> 
     Ok(())
 }
 
-/// A robot move's PGN comment: its robot time, its largest placement error and its smallest
-/// clearance.
-fn robot_comment(report: &MoveReport) -> String {
-    let mut comment = format!("robot {:.2} s", report.duration);
-    if let Some(worst) = report.place_errors.iter().copied().reduce(f64::max) {
-        comment.push_str(&format!(", placed within {:.2} mm", worst * 1e3));
-    }
-    if let Some(c) = &report.clearance {
-        comment.push_str(&format!(", clearance {:.1} mm", c.distance * 1e3));
-    }
-    comment
-}
-
 /// A person plays the arm: the person's moves from their input (played by hand), the arm's
 /// from the engine (planned, checked, simulated, then sent to the real arm if there is one),
 /// game.pgn saved after every ply, until the rules end the game, the person resigns, a draw is
@@ -642,19 +620,16 @@ fn play_human(
 ) -> Result<()> {
     let pgn_path = out.args.out.join("game.pgn");
     // The resumed moves: the board shows them, so they are played by hand.
-    for (m, _) in human.pgn.moves.clone().iter().take(human.resumed) {
-        let report = game.play(m, Mover::Opponent)?;
-        human.relocations.push(report.handled.iter().map(|h| (h.from, h.to)).collect());
+    for k in 0..human.turns.resumed {
+        let report = human.turns.play_resumed(game, k)?;
         kept.keep(report, out, bar)?;
     }
-    if human.resumed > 0 {
-        crate::tell(&format!("resumed {} after {} plies\n", pgn_path.display(), human.resumed));
+    if human.turns.resumed > 0 {
+        crate::tell(&format!("resumed {} after {} plies\n", pgn_path.display(), human.turns.resumed));
     }
-    let robot = !human.person;
-    let side = |c: Color| if c == Color::White { "white" } else { "black" };
     // When the person's last move was read (for the arm's latency).
     let mut person_moved = Instant::now();
-    human.pgn.save(&pgn_path, "*")?;
+    human.turns.pgn.save(&pgn_path, "*")?;
     publish(human, game, kept, out, "")?;
     loop {
         if crate::cancelled() {
@@ -664,80 +639,52 @@ fn play_human(
             return Ok(());
         }
         let position = game.position().clone();
-        if position.turn() == human.person {
-            crate::tell(&format!("your move ({}):\n", side(human.person)));
+        if position.turn() == human.turns.person {
+            crate::tell(&format!("your move ({}):\n", side_name(human.turns.person)));
             match human.input.next(&position)? {
                 crate::live::input::Action::Move(m) => {
                     person_moved = Instant::now();
-                    let report = game.play(&m, Mover::Opponent)?;
-                    human.relocations.push(report.handled.iter().map(|h| (h.from, h.to)).collect());
-                    human.pgn.moves.push((m, None));
+                    let report = human.turns.person_moves(game, m)?;
                     kept.keep(report, out, bar)?;
                 }
                 crate::live::input::Action::Undo => {
-                    // The person's last move and the arm's reply to it (on the person's turn the
-                    // last move is the arm's): none before the person has moved.
-                    let plies = 2;
-                    if human.pgn.moves.len() < plies {
+                    let Some(taken) = human.turns.take_back(game)? else {
                         crate::tell("nothing to take back: you have not moved yet\n");
                         continue;
-                    }
-                    let keep_moves = human.pgn.moves.len() - plies;
-                    let moved: Vec<_> = human.relocations[keep_moves..].concat();
-                    let mut earlier = human.pgn.clone();
-                    earlier.moves.truncate(keep_moves);
-                    let handled = game.take_back(plies, &moved, earlier.position())?;
-                    let put: Vec<String> = handled.iter().map(|h| format!("{} to {}", h.from, h.to)).collect();
-                    crate::tell(&format!("taken back {plies} plies: put back {}\n", put.join(", ")));
-                    kept.replay.take_back(&handled, plies);
-                    kept.take_back(keep_moves, out)?;
+                    };
+                    let put: Vec<String> = taken.handled.iter().map(|h| format!("{} to {}", h.from, h.to)).collect();
+                    crate::tell(&format!("taken back {} plies: put back {}\n", taken.plies, put.join(", ")));
+                    kept.replay.take_back(&taken.handled, taken.plies);
+                    kept.take_back(taken.kept, out)?;
                     // The arm's taken-back replies leave its timings too.
-                    human.timings.retain(|t| t.ply <= keep_moves);
-                    human.relocations.truncate(keep_moves);
-                    human.pgn.moves.truncate(keep_moves);
+                    human.timings.retain(|t| t.ply <= taken.kept);
                 }
                 crate::live::input::Action::Resign => {
-                    let result = if human.person == Color::White { "0-1" } else { "1-0" };
-                    human.ended = Some((result.into(), format!("{} (the person) resigned", side(human.person))));
+                    human.turns.resign();
                     return Ok(());
                 }
-                crate::live::input::Action::Draw => {
-                    if crate::live::accepts_draw(&position, robot) {
-                        human.ended = Some(("1/2-1/2".into(), "draw agreed".into()));
-                        return Ok(());
+                crate::live::input::Action::Draw => match human.turns.offer_draw(&position) {
+                    Ok(()) => return Ok(()),
+                    Err(lead) => {
+                        crate::tell(&format!("the arm declines the draw: it is ahead by {lead} in material\n"));
                     }
-                    crate::tell(&format!(
-                        "the arm declines the draw: it is ahead by {} in material\n",
-                        crate::live::material_balance(&position, robot)
-                    ));
-                }
+                },
                 crate::live::input::Action::Quit => {
-                    human.ended = Some((
-                        "*".into(),
-                        format!("the person stopped; go on with --resume (game.pgn in {})", out.args.out.display()),
-                    ));
+                    human.turns.stop(&out.args.out);
                     return Ok(());
                 }
             }
         } else {
-            let thinking_started = Instant::now();
-            let m = human
-                .engine
-                .choose_move(&position)
-                .with_context(|| format!("the arm's move after {} plies", human.pgn.moves.len()))?;
-            let thinking = thinking_started.elapsed().as_secs_f64();
-            let report = game.play(&m, Mover::Robot)?;
+            let (report, thinking) = human.turns.arm_moves(game, human.engine.as_mut())?;
             // The arm starts now: the move is planned, checked and simulated.
             let latency = person_moved.elapsed().as_secs_f64() - thinking;
             if let Some(arm) = real_arm.as_deref_mut() {
                 send_to_arm(arm, &report)?;
             }
             human.timings.push(RobotTiming { ply: report.ply, thinking, latency });
-            human.relocations.push(report.handled.iter().map(|h| (h.from, h.to)).collect());
-            human.pgn.moves.push((m, Some(robot_comment(&report))));
             kept.keep(report, out, bar)?;
         }
-        human.pgn.save(&pgn_path, "*")?;
+        human.turns.pgn.save(&pgn_path, "*")?;
         publish(human, game, kept, out, "")?;
     }
 }
@@ -748,8 +695,8 @@ fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, statu
     use chessarm_chess::shakmaty::{CastlingMode, EnPassantMode, fen::Fen};
     let Some(page) = &human.live else { return Ok(()) };
     let position = game.position();
-    let over = game.outcome().is_some() || human.ended.is_some();
-    let your_turn = !over && position.turn() == human.person;
+    let over = game.outcome().is_some() || human.turns.ended.is_some();
+    let your_turn = !over && position.turn() == human.turns.person;
     let evaluation = if game.outcome().is_some() {
         None
     } else {
@@ -758,8 +705,8 @@ fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, statu
         score.map(|s| if position.turn() == Color::White { s } else { -s })
     };
     let mut list = String::new();
-    let mut replayed = human.pgn.start.clone();
-    for (k, (m, _)) in human.pgn.moves.iter().enumerate() {
+    let mut replayed = human.turns.pgn.start.clone();
+    for (k, (m, _)) in human.turns.pgn.moves.iter().enumerate() {
         if replayed.turn() == Color::White || k == 0 {
             let dots = if replayed.turn() == Color::White { "." } else { "..." };
             list.push_str(&format!("{}{dots} ", replayed.fullmoves()));
@@ -772,7 +719,7 @@ fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, statu
     }
     let status = if !status.is_empty() {
         status.to_string()
-    } else if let Some((result, reason)) = &human.ended {
+    } else if let Some((result, reason)) = &human.turns.ended {
         format!("{result}: {reason}")
     } else if let Some(outcome) = game.outcome() {
         format!("{}: {}", outcome.result, outcome.reason)
@@ -783,12 +730,12 @@ fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, statu
     };
     let state = json!({
         "fen": Fen::from_position(position, EnPassantMode::Legal).to_string(),
-        "person": if human.person == Color::White { "white" } else { "black" },
+        "person": if human.turns.person == Color::White { "white" } else { "black" },
         "your_turn": your_turn,
         "legal": if your_turn { position.legal_moves().iter().map(|m| m.to_uci(CastlingMode::Standard).to_string()).collect::<Vec<_>>() } else { Vec::new() },
-        "last_uci": human.pgn.moves.last().map(|(m, _)| m.to_uci(CastlingMode::Standard).to_string()),
+        "last_uci": human.turns.pgn.moves.last().map(|(m, _)| m.to_uci(CastlingMode::Standard).to_string()),
         "last_robot_ply": kept.reports.iter().rev().find(|r| r.mover == Mover::Robot).map(|r| r.ply),
-        "plies": human.pgn.moves.len(),
+        "plies": human.turns.pgn.moves.len(),
         "move_list": list.trim_end(),
         "evaluation": evaluation,
         "status": status,
@@ -796,7 +743,7 @@ fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, statu
         "replay_version": kept.reports.len(),
     });
     let replay = Replay {
-        title: format!("chessarm: a person against the arm, {} plies", human.pgn.moves.len()),
+        title: format!("chessarm: a person against the arm, {} plies", human.turns.pgn.moves.len()),
         arm: &out.setup.arm,
         board: &out.setup.board,
         pieces: &out.setup.pieces,
@@ -816,13 +763,13 @@ fn publish(human: &HumanGame, game: &Game, kept: &Kept, out: &Outputs<'_>, statu
 fn human_json(human: &HumanGame, args: &PlayArgs, taken_back: &[Value]) -> Value {
     let latencies: Vec<f64> = human.timings.iter().map(|t| t.latency).collect();
     json!({
-        "person": if human.person == Color::White { "white" } else { "black" },
+        "person": if human.turns.person == Color::White { "white" } else { "black" },
         "input": match args.human_input.unwrap_or(crate::live::input::HumanInput::Typed) {
             crate::live::input::HumanInput::Typed => "typed",
             crate::live::input::HumanInput::Occupancy => "occupancy",
         },
         "engine": human.engine.name(),
-        "resumed_plies": human.resumed,
+        "resumed_plies": human.turns.resumed,
         // The first refused lines (bounded), and how many there were in all.
         "refused_input": human.input.refused.kept,
         "refused_lines": human.input.refused.lines,
@@ -905,7 +852,7 @@ fn move_line(report: &MoveReport) -> String {
 /// the rules or the record say ([`game_result`]); an engine game stops after `limit` plies.
 fn result_of(game: &Game, source: &Source, limit: usize, plies: usize) -> GameResult {
     match source {
-        Source::Human(human) => match &human.ended {
+        Source::Human(human) => match &human.turns.ended {
             Some((result, reason)) => GameResult { result: result.clone(), reason: reason.clone() },
             None => game_result(game, Played::Person, plies),
         },

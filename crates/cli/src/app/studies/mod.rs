@@ -1,6 +1,7 @@
 //! The studies: each a library call with typed options and a typed result, nothing written.
 pub mod board;
 pub mod calibrate;
+pub mod person;
 pub mod placement;
 pub mod plan;
 pub mod play;
