@@ -40,8 +40,12 @@ try {
     report.plies.push(state.plies);
     if (state.over) break;
   }
-  // The 3D scene of the game so far, loaded in its frame.
-  await page.waitForFunction(() => { const s = window.live.scene(); return s && s.ready; }, null, { timeout: 60000 });
+  // The 3D scene of the game so far, loaded in its frame: the frame reloads after each ply, so
+  // the scene of an earlier ply may still be showing (on a loaded machine); wait for this one's.
+  await page.waitForFunction(() => {
+    const s = window.live.scene();
+    return s && s.ready && s.moves >= window.live.state().plies;
+  }, null, { timeout: 60000 });
   report.scene = await page.evaluate(() => window.live.scene());
   report.final = await page.evaluate(() => window.live.state());
   report.board_text = await page.evaluate(() => document.getElementById('board').textContent);
