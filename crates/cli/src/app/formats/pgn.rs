@@ -1,9 +1,10 @@
 //! PGN game files: read as a stream up to the game asked for; a person's game written after
 //! every ply and read back to go on with it.
 
+pub use crate::app::studies::person::PgnGame;
 use anyhow::{Context, Result};
 use chessarm_chess::notation::write_pgn;
-use chessarm_chess::shakmaty::{Chess, Color, Move, Position};
+use chessarm_chess::shakmaty::Color;
 use std::path::Path;
 
 /// Game `number` (1-based) of the PGN file at `path`, read as a stream: the file is read only
@@ -18,14 +19,7 @@ pub fn read_pgn_game(path: &Path, number: usize) -> Result<chessarm_chess::notat
     chessarm_chess::notation::read_game(file, number).with_context(|| format!("PGN file {}", path.display()))
 }
 
-/// The game as PGN keeps it: its headers, start, and every move with its comment.
-#[derive(Debug, Clone)]
-pub struct PgnGame {
-    pub headers: Vec<(String, String)>,
-    pub start: Chess,
-    pub moves: Vec<(Move, Option<String>)>,
-}
-
+/// The record of a person's game saved and read back (`play --human`, `--resume`).
 impl PgnGame {
     /// The game saved at `path` (`play --human --resume`).
     ///
@@ -69,14 +63,5 @@ impl PgnGame {
         headers.push(("PlyCount".to_string(), self.moves.len().to_string()));
         let text = write_pgn(&headers, &self.start, &self.moves, result);
         crate::app::output::write_atomic(path, |out| out.write_all(text.as_bytes()).context("writing the PGN"))
-    }
-
-    /// The position after the moves.
-    pub fn position(&self) -> Chess {
-        let mut position = self.start.clone();
-        for (m, _) in &self.moves {
-            position.play_unchecked(*m);
-        }
-        position
     }
 }

@@ -4,13 +4,31 @@
 //! person's actions arrive and what is shown are the caller's (the terminal, a file, a socket,
 //! the live page).
 
-use crate::app::formats::pgn::PgnGame;
 use anyhow::{Context, Result};
 use chessarm_chess::opponent::Opponent;
 use chessarm_chess::play::{Game, Handling, MoveReport, Mover};
 use chessarm_chess::shakmaty::{Chess, Color, Move, Position, Role};
 use chessarm_chess::table::Location;
 use std::path::Path;
+
+/// The game as PGN keeps it: its headers, start, and every move with its comment.
+#[derive(Debug, Clone)]
+pub struct PgnGame {
+    pub headers: Vec<(String, String)>,
+    pub start: Chess,
+    pub moves: Vec<(Move, Option<String>)>,
+}
+
+impl PgnGame {
+    /// The position after the moves.
+    pub fn position(&self) -> Chess {
+        let mut position = self.start.clone();
+        for (m, _) in &self.moves {
+            position.play_unchecked(*m);
+        }
+        position
+    }
+}
 
 /// A person's game as it stands.
 #[derive(Debug, Clone)]
