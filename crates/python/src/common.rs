@@ -158,7 +158,7 @@ pub fn warn(py: Python<'_>, text: &str) -> PyResult<()> {
     let line = text.trim_end();
     let line = line.strip_prefix("warning: ").or_else(|| line.strip_prefix("note: ")).unwrap_or(line);
     let message = std::ffi::CString::new(flags_as_arguments(line).replace('\0', " ")).expect("no NUL left");
-    let category = py.get_type::<crate::ChessarmWarning>();
+    let category = py.get_type::<crate::errors::ChessarmWarning>();
     PyErr::warn(py, &category, &message, caller_level(py).unwrap_or(1))
 }
 

@@ -14,6 +14,7 @@
 //! list, no files, no process-wide state; the GIL is released while they compute.
 
 mod common;
+mod errors;
 mod plan;
 mod play;
 mod setup;
@@ -32,44 +33,14 @@ use chessarm_core::arm::task::{TOOL_DOWN, inverse_kinematics, tool_point};
 use chessarm_core::nalgebra::Vector3;
 use numpy::ndarray::{ArrayD, IxDyn};
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyException, PyMemoryError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
-pyo3::create_exception!(chessarm, Error, PyException, "Every error of chessarm's own (not a wrong argument).");
-pyo3::create_exception!(chessarm, ModelError, Error, "A setup file or URDF that chessarm cannot use.");
-pyo3::create_exception!(chessarm, UnreachableError, Error, "Inverse kinematics has no solution (reach or limits).");
-pyo3::create_exception!(
-    chessarm,
-    DynamicsError,
-    Error,
-    "A dynamics computation failed (e.g. M(q) not positive definite)."
-);
-pyo3::create_exception!(chessarm, CommandError, Error, "A chessarm command failed (the CLI's one-line message).");
-pyo3::create_exception!(
-    chessarm,
-    PlanError,
-    Error,
-    "A motion chessarm cannot plan (a table the arm cannot serve, a path it cannot follow)."
-);
-pyo3::create_exception!(
-    chessarm,
-    SimulationError,
-    Error,
-    "A simulation that failed (it diverged, a controller that cannot be built)."
-);
-pyo3::create_exception!(
-    chessarm,
-    GameError,
-    Error,
-    "A game that stopped (a move the arm cannot make, an engine that failed)."
-);
-pyo3::create_exception!(
-    chessarm,
-    ChessarmWarning,
-    pyo3::exceptions::PyUserWarning,
-    "What chessarm says about a setup or a study (a URDF's notes, angles outside the limits)."
-);
+pub use errors::{
+    ChessarmWarning, CommandError, DynamicsError, Error, GameError, ModelError, PlanError, SimulationError,
+    UnreachableError,
+};
 
 /// Runs `chessarm ARGS --json` in this process on a thread of its own, the GIL released:
 /// `(stdout, stderr)` of the command (its result's JSON is stdout). Bad arguments raise

@@ -2,8 +2,8 @@
 //! trajectory (`app::studies::plan`), as NumPy arrays.
 
 use crate::common::{bad_value, column, positive, pythonic, rows};
+use crate::errors::{PlanError, UnreachableError};
 use crate::setup::PySetup;
-use crate::{PlanError, UnreachableError};
 use chessarm::app::studies::plan::{MovesPlan, Plan as ScenarioPlan, plan_moves, plan_scenario};
 use chessarm::cli::{MotionArgs, TimingChoice};
 use chessarm_core::arm::model::ArmModel;

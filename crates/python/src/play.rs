@@ -1,11 +1,12 @@
 //! `chessarm.play(setup, …)` in memory: a game of chess with the simulated arm, ply by ply
 //! (the chess crate's `Game`), set up as the command line's `play` sets it up, nothing written.
 
+use crate::common;
 use crate::common::{bad_value, column, non_negative, positive, pythonic, rows};
+use crate::errors::GameError;
 use crate::plan::motion_args;
 use crate::setup::PySetup;
 use crate::simulate::{Conditions, given_gains};
-use crate::{GameError, common};
 use chessarm::app::setup::file::Setup;
 use chessarm::app::studies::placement::Placement;
 use chessarm::app::studies::play::{GameResult, PlayOptions, Played, RobotSide, game_result};

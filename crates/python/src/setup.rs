@@ -1,8 +1,9 @@
 //! `chessarm.Setup`: the setup resolved once, as the command line resolves its global flags
 //! (`app::setup::resolve`): the setup file, a URDF with its locks and tool, the actuators.
 
+use crate::Arm;
 use crate::common::{numbers, pythonic, rows, warn};
-use crate::{Arm, ModelError};
+use crate::errors::ModelError;
 use chessarm::app::setup::file::Setup;
 use chessarm::app::setup::{SetupOptions, resolve};
 use chessarm_core::control::servo_host::ServoCommand;

@@ -1,10 +1,11 @@
 //! `chessarm.simulate(setup, …)` in memory: each controller along a scenario's plan in the
 //! setup's plant (`app::studies::simulate`), every step kept as NumPy arrays, with the metrics.
 
+use crate::common;
 use crate::common::{bad_value, column, non_negative, optional_per_joint, positive, pythonic, rows};
+use crate::errors::SimulationError;
 use crate::plan::{Plan, Planned, check_scenario};
 use crate::setup::PySetup;
-use crate::{SimulationError, common};
 use chessarm::app::resources::show;
 use chessarm::app::setup::conditions::{ConditionOptions, EstimatorChoice, Study};
 use chessarm::app::setup::file::Setup;

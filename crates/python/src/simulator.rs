@@ -7,9 +7,9 @@
 //! and held, the motors' lag, one step of the integrator, the same divergence check.
 
 use crate::common::{self, non_negative, positive, pythonic};
+use crate::errors::{DynamicsError, SimulationError};
 use crate::setup::PySetup;
 use crate::simulate::{Conditions, given_gains, initial_angles, specs};
-use crate::{DynamicsError, SimulationError};
 use chessarm::app::setup::file::Setup;
 use chessarm::app::studies::simulate::{DefaultGains, gripped_pawn};
 use chessarm::cli::IntegratorChoice;

@@ -3,8 +3,8 @@
 //! their rows as NumPy arrays (SI: errors in m), the numbers of `chessarm tune` and
 //! `chessarm robustness` with the same options.
 
-use crate::SimulationError;
 use crate::common::{self, bad_value, column, non_negative, positive, pythonic};
+use crate::errors::SimulationError;
 use crate::play::pgn_record;
 use crate::setup::PySetup;
 use crate::simulate::{Conditions, given_gains};
