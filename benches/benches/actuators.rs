@@ -6,7 +6,6 @@
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::scenario::queens_gambit;
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::Gains;
 use chessarm_core::control::servo_host::{ServoCommand, ServoHost};
@@ -19,7 +18,7 @@ fn scenario(c: &mut Criterion) {
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid");
-    let trajectory = JointTrajectory::from_path(&model, &path, 1e-3, TOOL_DOWN).expect("feasible");
+    let trajectory = JointTrajectory::from_path(&model, &path, 1e-3).expect("feasible");
     let gains = Gains::uniform(400.0, 40.0, 0.0).expect("valid");
     c.bench_function("queens-gambit 13 s, torque motors, PD at 1 kHz", |b| {
         b.iter(|| {

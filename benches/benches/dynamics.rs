@@ -5,7 +5,6 @@ use chessarm_chess::scenario::queens_gambit;
 use chessarm_core::arm::dynamics::{bias_torques, forward_dynamics, gravity_torques, inverse_dynamics, mass_matrix};
 use chessarm_core::arm::model::JointVector;
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 use chessarm_core::control::{Controller, JointState};
@@ -57,7 +56,7 @@ fn scenario(c: &mut Criterion) {
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid");
-    let trajectory = JointTrajectory::from_path(&model, &path, 1e-3, TOOL_DOWN).expect("feasible");
+    let trajectory = JointTrajectory::from_path(&model, &path, 1e-3).expect("feasible");
     let gains = Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid");
     let runs = Integrator::ALL.map(|integrator| (integrator, model, ""));
     let general = (Integrator::RungeKuttaNystrom4, model.with_general_dynamics(), " (general)");

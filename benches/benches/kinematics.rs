@@ -28,7 +28,7 @@ fn planning(c: &mut Criterion) {
     c.bench_function("plan queens-gambit at 5 ms (path + IK + rates, 2601 samples)", |b| {
         b.iter(|| {
             let path = scenario.path(&board).expect("valid");
-            JointTrajectory::from_path(&model, &path, black_box(0.005), TOOL_DOWN).expect("feasible")
+            JointTrajectory::from_path(&model, &path, black_box(0.005)).expect("feasible")
         })
     });
 }

@@ -11,7 +11,6 @@ use chessarm_chess::shakmaty::{Chess, Position};
 use chessarm_chess::table::Table;
 use chessarm_chess::tasks::MotionLimits;
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::plan::constraints::{
     JointAcceleration, JointSpeed, JointTorque, PathConstraint, ToolAcceleration, ToolSpeed,
 };
@@ -63,7 +62,7 @@ fn planning(c: &mut Criterion) {
     let empty_limits: [&dyn PathConstraint<4>; 4] = [&speed, &acceleration, &torque, &tool];
     let carrying_limits: [&dyn PathConstraint<4>; 5] = [&speed, &acceleration, &torque_loaded, &tool, &carry];
     let plan = |path: &GeometricPath, constraints: &[&dyn PathConstraint<4>]| {
-        time_leg(&arm, path, constraints, limits.grid_step, 0, TOOL_DOWN, 1e-3).expect("feasible")
+        time_leg(&arm, path, constraints, limits.grid_step, 0, 1e-3).expect("feasible")
     };
     let (a, b) = (plan(&empty, &empty_limits), plan(&carrying, &carrying_limits));
     println!(

@@ -8,7 +8,6 @@
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::scenario::queens_gambit;
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 use chessarm_core::plan::trajectory::JointTrajectory;
@@ -35,7 +34,7 @@ fn main() {
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid scenario");
-    let trajectory = JointTrajectory::from_path(&model, &path, 1e-3, TOOL_DOWN).expect("feasible");
+    let trajectory = JointTrajectory::from_path(&model, &path, 1e-3).expect("feasible");
     let gains = Gains::uniform(REPORT_PD.0, REPORT_PD.1, 0.0).expect("valid gains");
     let mut times = Vec::new();
     let mut last_error = 0.0;

@@ -3,7 +3,6 @@
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::scenario::queens_gambit;
 use chessarm_core::arm::model::ArmModel;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 use chessarm_core::plan::trajectory::JointTrajectory;
@@ -15,7 +14,7 @@ use chessarm_core::sim::{Plant, SimConfig};
 pub fn scenario_trajectory(model: &ArmModel<4>) -> JointTrajectory {
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).expect("valid scenario");
-    JointTrajectory::from_path(model, &path, 1e-3, TOOL_DOWN).expect("feasible")
+    JointTrajectory::from_path(model, &path, 1e-3).expect("feasible")
 }
 
 /// `runs` PD candidates of the scenario for the batch simulator (the report's gains, kp

@@ -24,7 +24,6 @@ use crate::tasks::{
     append_move_path, check_segment, describe_move, move_tasks, task_geometry,
 };
 use chessarm_core::arm::model::ArmModel;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use chessarm_core::plan::constraints::{
     JointAcceleration, JointSpeed, JointTorque, PathConstraint, ToolAcceleration, ToolSpeed, TrackingBudget,
@@ -185,7 +184,7 @@ pub fn plan_move(
                     }
                 })
                 .map_err(wrap)?;
-                match JointTrajectory::from_path(arm, &path, period, TOOL_DOWN) {
+                match JointTrajectory::from_path(arm, &path, period) {
                     Ok(trajectory) => {
                         let phases = lspb_phases(&path);
                         return Ok(PlannedMove {
@@ -360,7 +359,7 @@ fn plan_optimal(
                 GripperAction::Release => limits.release_dwell,
             };
             if dwell > 0.0 {
-                motion.push(Stretch::Dwell { at: motion.end(), duration: dwell });
+                motion.push(Stretch::Dwell { at: motion.end(), pitch: motion.end_pitch(), duration: dwell });
                 phases.grip += dwell;
             }
         }
@@ -380,7 +379,7 @@ fn plan_optimal(
         }
         too_low(&limit_times)
     })?;
-    let trajectory = JointTrajectory::from_path(arm, &motion, period, TOOL_DOWN).map_err(TaskError::Trajectory)?;
+    let trajectory = JointTrajectory::from_path(arm, &motion, period).map_err(TaskError::Trajectory)?;
     let mut planned = Vec::with_capacity(tasks.len());
     for (k, (task, geometry)) in tasks.iter().zip(&geometries).enumerate() {
         let at = |xy: Vector2<f64>| Vector3::new(xy.x, xy.y, geometry.surface + geometry.grip_z);
@@ -523,7 +522,7 @@ fn time_optimal_leg(
             shifts.iter().flat_map(move |shift| instants.map(|t| t + shift * window))
         });
         let times = periods.chain(stages);
-        match check_motion_at(arm, &leg, carried, &check, TOOL_DOWN, times).map_err(TaskError::Trajectory)? {
+        match check_motion_at(arm, &leg, carried, &check, times).map_err(TaskError::Trajectory)? {
             Ok(usage) => return Ok((plan, usage)),
             // The smoothing averages the law over a stretch of path along which the limits
             // vary, and fills in the speed's dips where the law rides a limit: a smoothed leg
@@ -548,7 +547,7 @@ fn time_optimal_leg(
                     let instants = [w[0] * scale, 0.5 * (w[0] + w[1]) * scale, w[1] * scale * (1.0 - 1e-12)];
                     shifts.iter().flat_map(move |shift| instants.map(|t| t + shift * window))
                 });
-                let over = match check_motion_at(arm, &leg, carried, &loose, TOOL_DOWN, times.chain(stages))
+                let over = match check_motion_at(arm, &leg, carried, &loose, times.chain(stages))
                     .map_err(TaskError::Trajectory)?
                 {
                     Ok(usage) => (usage.share * LOOSE).max(1.0),
@@ -583,8 +582,7 @@ fn plan_leg(
     refinement: u32,
     period: f64,
 ) -> Result<LegPlan, TaskError> {
-    let mut plan =
-        time_leg(arm, path, constraints, limits.grid_step, refinement, TOOL_DOWN, period).map_err(TaskError::Leg)?;
+    let mut plan = time_leg(arm, path, constraints, limits.grid_step, refinement, period).map_err(TaskError::Leg)?;
     if limits.jerk > 0.0 {
         plan.leg = plan.leg.smoothed_for_jerk(limits.jerk, period);
     }

@@ -709,7 +709,7 @@ impl Game {
         report.slowdowns = plan.slowdowns;
         if let Some(rate) = settings.export_rate {
             let commands = plan.gripper_commands();
-            let points = hardware_points(&self.arm, motion, &commands, TOOL_DOWN, rate)
+            let points = hardware_points(&self.arm, motion, &commands, rate)
                 .map_err(|source| PlayError::Export { mv: name.to_string(), source })?;
             let grips = planned.iter().map(|step| step.task.to_string()).collect();
             let fine_points = commands.iter().map(|c| motion.sample(c.time).position).collect();

@@ -105,7 +105,7 @@ fn scenario_joint_path_traces_the_tip_path() {
     let model = report_arm();
     let board = BoardGeometry::default();
     let path = queens_gambit(&board).path(&board).unwrap();
-    let trajectory = JointTrajectory::from_path(&model, &path, 0.005, TOOL_DOWN).unwrap();
+    let trajectory = JointTrajectory::from_path(&model, &path, 0.005).unwrap();
     assert_eq!(trajectory.samples().len(), 2601);
     for sample in trajectory.samples() {
         let tip = tool_point(&model, &sample.q);

@@ -15,7 +15,6 @@ use chessarm_core::arm::dynamics::inverse_dynamics;
 use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::payload::payload_regressor;
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::adaptive::AdaptiveComputedTorque;
 use chessarm_core::control::computed_torque::{AntiWindup, ComputedTorque, DEFAULT_ERROR_BAND};
 use chessarm_core::control::disturbance_observer::DisturbanceObserver;
@@ -38,7 +37,7 @@ impl Scenario {
         let board = BoardGeometry::default();
         let path = scenario("queens-gambit", &board).unwrap().path(&board).unwrap();
         let arm = report_arm();
-        let trajectory = JointTrajectory::from_path(&arm, &path, 1e-3, TOOL_DOWN).unwrap();
+        let trajectory = JointTrajectory::from_path(&arm, &path, 1e-3).unwrap();
         Self { arm, path, trajectory }
     }
 

@@ -15,7 +15,6 @@ use chessarm_chess::table::Table;
 use chessarm_chess::tasks::MotionLimits;
 use chessarm_core::arm::dynamics::inverse_dynamics;
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::plan::trajectory::{ToolMotion, joint_motion_at};
 
 fn parse(fen: &str, uci: &str) -> (Chess, Move) {
@@ -146,7 +145,7 @@ fn check_capture(limits: &MotionLimits) -> PlannedMove {
             Some(task) => arm.with_payload(Some(pieces.payload(task.task.piece.role))).unwrap(),
             None => arm,
         };
-        let joint = joint_motion_at(&arm, &sample, TOOL_DOWN).unwrap();
+        let joint = joint_motion_at(&arm, &sample).unwrap();
         let torque = inverse_dynamics(&model, &joint.q, &joint.qd, &joint.qdd);
         for j in 0..4 {
             let limit = limits.torque_margin * arm.link(j).limits.torque;
@@ -245,7 +244,7 @@ fn a_tracking_budget_bounds_the_carried_pieces_tracking_error_at_every_tenth_of_
             continue;
         };
         let model = arm.with_payload(Some(pieces.payload(task.task.piece.role))).unwrap();
-        let joint = joint_motion_at(&arm, &sample, TOOL_DOWN).unwrap();
+        let joint = joint_motion_at(&arm, &sample).unwrap();
         let mut jacobian = chessarm_core::nalgebra::Matrix3x4::<f64>::zeros();
         for j in 0..4 {
             let mut step = chessarm_core::arm::model::JointVector::<4>::zeros();

@@ -14,7 +14,6 @@ use chessarm_core::arm::link::Friction;
 
 use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
 use chessarm_core::control::{Controller, JointState, Reference};
@@ -31,7 +30,7 @@ fn trajectory() -> JointTrajectory {
     let mut path = CartesianPath::new(Vector3::new(0.25, -0.1, 0.12));
     path.move_to(Vector3::new(0.32, 0.12, 0.05), 0.6).unwrap();
     path.move_to(Vector3::new(0.2, 0.05, 0.1), 0.6).unwrap();
-    JointTrajectory::from_path(&report_arm(), &path, 1e-3, TOOL_DOWN).unwrap()
+    JointTrajectory::from_path(&report_arm(), &path, 1e-3).unwrap()
 }
 
 /// A cheap deterministic generator for the candidates.

@@ -392,14 +392,14 @@ fn a_path_across_the_base_joints_turn_is_refused_not_followed_as_a_jump() {
     let model = report_arm_with([(-PI, PI), limits[1], limits[2], limits[3]], -FRAC_PI_2);
     let mut path = CartesianPath::new(Vector3::new(-0.1, 0.3, 0.1));
     path.move_to(Vector3::new(0.1, 0.3, 0.1), 2.0).unwrap();
-    match JointTrajectory::from_path(&model, &path, 0.01, TOOL_DOWN) {
+    match JointTrajectory::from_path(&model, &path, 0.01) {
         Err(error @ PlanError::Jump { joint: 1, .. }) => {
             assert!(error.to_string().contains("would jump"), "{error}");
         }
         other => panic!("expected a jump of joint 1, got {other:?}"),
     }
     // The same line with the turn behind the arm is followed smoothly.
-    let smooth = JointTrajectory::from_path(&report_arm(), &path, 0.01, TOOL_DOWN).unwrap();
+    let smooth = JointTrajectory::from_path(&report_arm(), &path, 0.01).unwrap();
     let steps = smooth.samples().windows(2).map(|w| (w[1].q - w[0].q).abs().max()).fold(0.0, f64::max);
     assert!(steps < 0.05, "largest step {steps} rad");
 }

@@ -6,7 +6,7 @@
 use chessarm_core::arm::dynamics::mass_matrix;
 use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
+use chessarm_core::arm::task::{TOOL_DOWN, tool_point};
 use chessarm_core::nalgebra::Vector3;
 use chessarm_core::plan::constraints::{
     JointAcceleration, JointSpeed, JointTorque, PathConstraint, PathPoint, ToolAcceleration, ToolSpeed,
@@ -14,7 +14,9 @@ use chessarm_core::plan::constraints::{
 };
 use chessarm_core::plan::geometric::{GeometricPath, PathPiece, Stretch, TimedMotion};
 use chessarm_core::plan::optimal::{MotionCheck, check_motion, path_points, time_leg};
+use chessarm_core::plan::path::PitchLaw;
 use chessarm_core::plan::topp::{ConstraintTable, LimitId, ToppError, acceleration_bounds, project, time_optimal};
+use chessarm_core::plan::trajectory::joint_motion_at;
 
 const G: f64 = 9.81;
 
@@ -177,7 +179,7 @@ fn a_straight_line_under_tool_speed_and_acceleration_limits_is_the_trapezoid() {
     let speed = ToolSpeed { max: v };
     let acceleration = ToolAcceleration { max: a, gravity: Vector3::zeros(), label: "tool acceleration".into() };
     let constraints: [&dyn PathConstraint<4>; 2] = [&speed, &acceleration];
-    let plan = time_leg(&model, &line, &constraints, line.length() / 200.0, 0, TOOL_DOWN, 1e-9).unwrap();
+    let plan = time_leg(&model, &line, &constraints, line.length() / 200.0, 0, 1e-9).unwrap();
     let exact = trapezoid_time(line.length(), v, a);
     let error = (plan.leg.timing.duration() - exact).abs() / exact;
     assert!(error < 0.01, "{} s against {exact} s", plan.leg.timing.duration());
@@ -251,8 +253,8 @@ fn the_pick_and_place_optimum_matches_a_dense_grid_integration_within_one_percen
     let limits = limits(&model);
     let path = pick_and_place(0.04);
     let constraints = limits.carrying();
-    let plan = time_leg(&model, &path, &constraints, 0.005, 0, TOOL_DOWN, 1e-9).unwrap();
-    let dense = path_points(&model, &path, &path.grid(0.0002, 0), TOOL_DOWN).unwrap();
+    let plan = time_leg(&model, &path, &constraints, 0.005, 0, 1e-9).unwrap();
+    let dense = path_points(&model, &path, &path.grid(0.0002, 0)).unwrap();
     let reference = dense_grid_time(&dense, &constraints);
     let duration = plan.leg.timing.duration();
     let error = (duration - reference).abs() / reference;
@@ -278,7 +280,7 @@ fn every_limit_holds_at_ten_times_the_planning_grid() {
     let model = report_arm();
     let limits = limits(&model);
     let path = pick_and_place(0.04);
-    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, TOOL_DOWN, 1e-3).unwrap();
+    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, 1e-3).unwrap();
     let motion = motion_of(&plan);
     let stages = plan.leg.timing.u.len() as f64;
     let dt = motion.duration() / (10.0 * stages);
@@ -292,7 +294,7 @@ fn every_limit_holds_at_ten_times_the_planning_grid() {
         tracking: None,
     };
     let carried = model.with_payload(Some(Payload::upright_cylinder(0.1, 0.08, 0.014, 0.05))).unwrap();
-    let result = check_motion(&model, &motion, &[(0.0, f64::INFINITY, carried)], &check, TOOL_DOWN, dt).unwrap();
+    let result = check_motion(&model, &motion, &[(0.0, f64::INFINITY, carried)], &check, dt).unwrap();
     let largest = result.unwrap();
     // The plan uses its limits to the full (a time-optimal plan touches at least one).
     assert!(largest.share > 0.99, "largest share of a limit used: {largest:?}");
@@ -307,7 +309,7 @@ fn a_grip_weaker_than_gravity_and_a_motor_weaker_than_the_holding_torque_are_nam
     let path = pick_and_place(0.04);
     let weak_grip = ToolAcceleration { max: 8.0, gravity: model.gravity(), label: "grip".into() };
     let constraints: [&dyn PathConstraint<4>; 1] = [&weak_grip];
-    let error = time_leg(&model, &path, &constraints, 0.005, 0, TOOL_DOWN, 1e-3).unwrap_err().to_string();
+    let error = time_leg(&model, &path, &constraints, 0.005, 0, 1e-3).unwrap_err().to_string();
     let gravity = format!("{:.3}", model.gravity().norm());
     assert!(error.contains("grip") && error.contains(&gravity) && error.contains("8 m/s²"), "{error}");
 
@@ -316,7 +318,7 @@ fn a_grip_weaker_than_gravity_and_a_motor_weaker_than_the_holding_torque_are_nam
     let weak = model.with_links(links).unwrap();
     let torque = JointTorque { model: weak, margin: 0.85, max_speed: [3.0; 4] };
     let constraints: [&dyn PathConstraint<4>; 1] = [&torque];
-    let error = time_leg(&weak, &path, &constraints, 0.005, 0, TOOL_DOWN, 1e-3).unwrap_err().to_string();
+    let error = time_leg(&weak, &path, &constraints, 0.005, 0, 1e-3).unwrap_err().to_string();
     assert!(error.contains("joint 2") && error.contains("gravity") && error.contains("0.5 N·m"), "{error}");
 }
 
@@ -425,7 +427,7 @@ fn a_smoothed_leg_keeps_its_jerk_limit_on_a_grid_ten_times_finer_than_the_contro
     let limits = limits(&model);
     let path = pick_and_place(0.04);
     let period = 1e-3;
-    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, TOOL_DOWN, period).unwrap();
+    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, period).unwrap();
     let base = plan.leg.clone();
     for jerk in [1000.0, 200.0, 50.0] {
         let leg = base.clone().smoothed_for_jerk(jerk, period);
@@ -474,7 +476,7 @@ fn the_unsmoothed_leg_is_the_time_optimal_law_and_a_stretch_is_a_uniform_slow_do
     let model = report_arm();
     let limits = limits(&model);
     let path = pick_and_place(0.04);
-    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, TOOL_DOWN, 1e-3).unwrap();
+    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, 1e-3).unwrap();
     let leg = plan.leg.clone();
     assert_eq!(leg.window(), 0.0);
     // Unsmoothed, the law is the stretched optimal timing itself, bit for bit.
@@ -493,4 +495,87 @@ fn the_unsmoothed_leg_is_the_time_optimal_law_and_a_stretch_is_a_uniform_slow_do
         let (a, b) = (smoothed.law(t), slow.law(k * t));
         assert!((a.0 - b.0).abs() < 1e-12 && (a.1 - k * b.1).abs() < 1e-12 && (a.2 - k * k * b.2).abs() < 1e-9);
     }
+}
+
+/// The pick-and-place leg with the tool turning from straight down to `tilt` rad outwards
+/// along its traverse (between the ends of the rise and the start of the descent).
+fn turning_pick_and_place(tilt: f64) -> GeometricPath {
+    let path = pick_and_place(0.04);
+    let (rise, descent) = (0.13 - 0.025, 0.13 - 0.025);
+    let law = PitchLaw { from: TOOL_DOWN, to: TOOL_DOWN + tilt, start: rise, end: path.length() - descent };
+    path.with_pitch(law)
+}
+
+#[test]
+fn a_leg_whose_tool_turns_keeps_every_limit_and_its_joints_follow_the_pitch() {
+    let model = report_arm();
+    let limits = limits(&model);
+    let path = turning_pick_and_place(0.35);
+    let plan = time_leg(&model, &path, &limits.carrying(), 0.005, 0, 1e-3).unwrap();
+    let mut motion = TimedMotion::pitched(path.start(), TOOL_DOWN);
+    motion.push(Stretch::Leg(plan.leg.clone()));
+    assert!((motion.end_pitch() - (TOOL_DOWN + 0.35)).abs() < 1e-12);
+    let check = MotionCheck {
+        joint_speed: [3.0; 4],
+        joint_acceleration: [20.0; 4],
+        torque_margin: 0.85,
+        tool_speed: 1.0,
+        carry_acceleration: 5.0,
+        grip_strength: 2.0 * G,
+        tracking: None,
+    };
+    let carried = model.with_payload(Some(Payload::upright_cylinder(0.1, 0.08, 0.014, 0.05))).unwrap();
+    let stages = plan.leg.timing.u.len() as f64;
+    let dt = motion.duration() / (10.0 * stages);
+    let used = check_motion(&model, &motion, &[(0.0, f64::INFINITY, carried)], &check, dt).unwrap().unwrap();
+    assert!(used.share > 0.99, "{used:?}");
+    // The joints put the tool at the law's pitch, and their rates and accelerations are the
+    // differences of the joint path (the pitch's rate and acceleration enter J⁻¹ and J̇).
+    let h = 1e-5;
+    let joint = |t: f64| joint_motion_at(&model, &motion.sample(t)).unwrap();
+    let (mut turning, mut compared) = (0, 0);
+    for k in 1..200 {
+        let t = motion.duration() * f64::from(k) / 200.0;
+        let sample = motion.sample(t);
+        let state = joint(t);
+        let reached = tool_point(&model, &state.q);
+        assert!((reached.xyz() - sample.position).norm() < 1e-9 && (reached.w - sample.pitch).abs() < 1e-9);
+        let rate = (joint(t + h).q - joint(t - h).q) / (2.0 * h);
+        let acceleration = (joint(t + h).qd - joint(t - h).qd) / (2.0 * h);
+        assert!((rate - state.qd).norm() < 1e-6 * (1.0 + state.qd.norm()), "t = {t}: {rate} vs {}", state.qd);
+        // The time law's s̈ is constant on each stage and steps between stages: compare
+        // accelerations only where both neighbours lie on the same stage.
+        if plan.leg.law(t + h).2 == plan.leg.law(t - h).2 {
+            compared += 1;
+            let tolerance = 1e-4 * (1.0 + state.qdd.norm());
+            assert!((acceleration - state.qdd).norm() < tolerance, "t = {t}: {acceleration} vs {}", state.qdd);
+        }
+        if sample.pitch_rate.abs() > 0.1 {
+            turning += 1;
+        }
+    }
+    assert!(turning > 20, "the tool turns over a good part of the leg ({turning} of 199 samples)");
+    assert!(compared > 100, "accelerations compared at {compared} of 199 samples");
+}
+
+#[test]
+fn the_pitch_law_is_a_quintic_step_with_its_derivatives() {
+    let law = PitchLaw { from: -1.5, to: -1.0, start: 0.1, end: 0.3 };
+    assert_eq!(law.eval(0.05), (-1.5, 0.0, 0.0));
+    assert_eq!(law.eval(0.35), (-1.0, 0.0, 0.0));
+    assert!((law.eval(0.2).0 + 1.25).abs() < 1e-15, "half-way at the middle");
+    let h = 1e-6;
+    for k in 1..100 {
+        let s = 0.1 + 0.2 * f64::from(k) / 100.0;
+        let (_, slope, bend) = law.eval(s);
+        let numeric_slope = (law.eval(s + h).0 - law.eval(s - h).0) / (2.0 * h);
+        let numeric_bend = (law.eval(s + h).1 - law.eval(s - h).1) / (2.0 * h);
+        assert!((numeric_slope - slope).abs() < 1e-6 && (numeric_bend - bend).abs() < 1e-4, "s = {s}");
+    }
+    // Rate and acceleration vanish at both ends (continuous with the constant pitch outside).
+    for s in [0.1, 0.3] {
+        let (_, slope, bend) = law.eval(s);
+        assert!(slope.abs() < 1e-12 && bend.abs() < 1e-9, "s = {s}: {slope} {bend}");
+    }
+    assert_eq!(PitchLaw::constant(-0.7).eval(3.0), (-0.7, 0.0, 0.0));
 }

@@ -125,7 +125,7 @@ fn path_hits_waypoints_and_is_continuous() {
 fn joint_trajectory_rates_match_differences_of_ik() {
     let model = report_arm();
     let path = square_path();
-    let trajectory = JointTrajectory::from_path(&model, &path, 0.005, TOOL_DOWN).unwrap();
+    let trajectory = JointTrajectory::from_path(&model, &path, 0.005).unwrap();
     assert_eq!(trajectory.samples().len(), 1201);
     let h = 1e-5;
     let ik = |t: f64| inverse_kinematics(&model, &path.sample(t).position, TOOL_DOWN).unwrap();
@@ -141,8 +141,8 @@ fn joint_trajectory_rates_match_differences_of_ik() {
         // skip samples within h of one, where the one-sided accelerations differ).
         let numeric_rate = (ik(t + h) - ik(t - h)) / (2.0 * h);
         assert!((numeric_rate - sample.qd).norm() < 1e-6, "t = {t}: {numeric_rate} vs {}", sample.qd);
-        let numeric_acc = (joint_state_at(&model, &path.sample(t + h), TOOL_DOWN).unwrap().qd
-            - joint_state_at(&model, &path.sample(t - h), TOOL_DOWN).unwrap().qd)
+        let numeric_acc = (joint_state_at(&model, &path.sample(t + h)).unwrap().qd
+            - joint_state_at(&model, &path.sample(t - h)).unwrap().qd)
             / (2.0 * h);
         let near_corner = path.sample(t + h).acceleration != path.sample(t - h).acceleration;
         if !near_corner {
@@ -161,10 +161,10 @@ fn unreachable_path_reports_time_and_target() {
     // path starts outside the reach and comes back in.
     let mut path = CartesianPath::new(Vector3::new(0.21, 0.8, 0.0));
     path.move_to(Vector3::new(0.21, 0.2, 0.0), 2.0).unwrap();
-    let error = JointTrajectory::from_path(&model, &path, 0.01, TOOL_DOWN).unwrap_err();
+    let error = JointTrajectory::from_path(&model, &path, 0.01).unwrap_err();
     assert!(matches!(error, PlanError::Ik { .. }), "{error:?}");
     assert!(error.to_string().starts_with("at t = "), "{error}");
-    assert!(JointTrajectory::from_path(&model, &path, 0.0, TOOL_DOWN).is_err());
+    assert!(JointTrajectory::from_path(&model, &path, 0.0).is_err());
 }
 
 #[test]
@@ -172,6 +172,25 @@ fn too_fast_a_move_breaks_the_velocity_limit() {
     let model = report_arm();
     let mut path = CartesianPath::new(Vector3::new(0.21, 0.0, 0.05));
     path.move_to(Vector3::new(-0.21, 0.3, 0.05), 0.05).unwrap();
-    let error = JointTrajectory::from_path(&model, &path, 0.001, TOOL_DOWN).unwrap_err();
+    let error = JointTrajectory::from_path(&model, &path, 0.001).unwrap_err();
     assert!(matches!(error, PlanError::VelocityLimit { .. }), "{error:?}");
+}
+
+#[test]
+fn an_lspb_move_turns_the_tool_with_its_profile() {
+    let model = report_arm();
+    let mut path = CartesianPath::new(Vector3::new(0.1, 0.25, 0.12));
+    let profile = Lspb::new(0.0, 1.0, 2.0).unwrap();
+    path.turning_move(Vector3::new(-0.1, 0.35, 0.12), TOOL_DOWN + 0.3, profile);
+    path.pause(0.5).unwrap();
+    assert!((path.end_pitch() - (TOOL_DOWN + 0.3)).abs() < 1e-15);
+    let trajectory = JointTrajectory::from_path(&model, &path, 0.01).unwrap();
+    for sample in trajectory.samples() {
+        let s = profile.sample(sample.t.min(2.0));
+        let reached = tool_point(&model, &sample.q);
+        assert!((reached.w - (TOOL_DOWN + 0.3 * s.position)).abs() < 1e-9, "t = {}", sample.t);
+        // The pitch row of J q̇ is the profile's rate times the turn.
+        let rate = task_jacobian(&model, &sample.q) * sample.qd;
+        assert!((rate.w - 0.3 * s.velocity).abs() < 1e-9, "t = {}", sample.t);
+    }
 }

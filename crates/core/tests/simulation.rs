@@ -9,7 +9,6 @@ use chessarm_core::arm::dynamics::gravity_torques;
 use chessarm_core::arm::lagrange::energy;
 use chessarm_core::arm::model::{ArmModel, JointVector, Payload};
 use chessarm_core::arm::preset::report_arm;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::control::computed_torque::ComputedTorque;
 use chessarm_core::control::gains::{Gains, REPORT_PD, normalised_error_response};
 use chessarm_core::control::{JointState, Reference};
@@ -75,7 +74,7 @@ fn report_move() -> CartesianPath {
 fn pd_error_follows_the_closed_form_when_the_model_is_exact() {
     let model = report_arm();
     let dt = 1e-4;
-    let trajectory = JointTrajectory::from_path(&model, &report_move(), dt, TOOL_DOWN).unwrap();
+    let trajectory = JointTrajectory::from_path(&model, &report_move(), dt).unwrap();
     let mut plant = Plant::new(model);
     let mut controller = pd_controller(model);
     let initial_error = q([0.02, -0.03, 0.04, 0.01]);
@@ -259,7 +258,7 @@ fn sharing_the_plants_terms_with_the_controller_changes_nothing() {
     // differ (unknown) until the release, so the loop switches between shared and own terms.
     let model = report_arm();
     let dt = 1e-3;
-    let trajectory = JointTrajectory::from_path(&model, &report_move(), dt, TOOL_DOWN).unwrap();
+    let trajectory = JointTrajectory::from_path(&model, &report_move(), dt).unwrap();
     let pawn = Some(Payload::upright_cylinder(0.25, 0.05, 0.012, 0.04));
     for knows in [true, false] {
         let events = [PayloadEvent::new(1.2, pawn, knows), PayloadEvent::new(3.1, None, knows)];

@@ -9,7 +9,6 @@ use crate::app::studies::plan::{plan_moves, plan_scenario};
 use crate::cli::PlanArgs;
 use anyhow::{Result, anyhow};
 use chessarm_chess::motion::{PlannedMove, TimingMode};
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::plan::hardware::{GripperCommand, hardware_points};
 use chessarm_core::plan::topp::limit_curve;
 use chessarm_core::plan::trajectory::JointSample;
@@ -204,7 +203,7 @@ fn write_hardware(
     label: &MoveLabel<'_>,
     rate: f64,
 ) -> Result<Vec<String>> {
-    let points = hardware_points(&setup.arm, motion, commands, TOOL_DOWN, rate).map_err(|e| {
+    let points = hardware_points(&setup.arm, motion, commands, rate).map_err(|e| {
         anyhow!("{}: the hardware trajectory: {e}", if label.uci.is_empty() { label.san } else { label.uci })
     })?;
     crate::app::formats::hardware::write_move(

@@ -10,8 +10,9 @@
 //! stays in the triangle `A C B`. On lines the parameter is the arc length; on blends it is
 //! `σ`, with `|p'| ≥ cos(θ/2)` for a turn of `θ`.
 
-use super::path::{CartesianSample, GripperAction, PathEvent};
+use super::path::{CartesianSample, GripperAction, PathEvent, PitchLaw};
 use super::topp::Timing;
+use crate::arm::task::TOOL_DOWN;
 use nalgebra::Vector3;
 
 /// One piece of a geometric path.
@@ -81,12 +82,13 @@ pub enum GeometryError {
     Cut { corner: usize, cut: f64 },
 }
 
-/// Lines and blends, parameterised by `s ∈ [0, length]`.
+/// Lines and blends, parameterised by `s ∈ [0, length]`, and the tool's pitch along them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GeometricPath {
     pieces: Vec<PathPiece>,
     /// `s` at the start of each piece.
     starts: Vec<f64>,
+    pitch: PitchLaw,
 }
 
 impl GeometricPath {
@@ -121,7 +123,23 @@ impl GeometricPath {
             starts.push(s);
             s += piece.length();
         }
-        Ok(Self { pieces, starts })
+        Ok(Self { pieces, starts, pitch: PitchLaw::constant(TOOL_DOWN) })
+    }
+
+    /// The same path with the tool's pitch following `pitch` along it (the polyline's is
+    /// [`TOOL_DOWN`] all along).
+    pub fn with_pitch(self, pitch: PitchLaw) -> Self {
+        Self { pitch, ..self }
+    }
+
+    /// The tool's pitch along the path.
+    pub fn pitch(&self) -> PitchLaw {
+        self.pitch
+    }
+
+    /// `(φ, φ', φ'')` at `s` (rad, rad/m, rad/m²).
+    pub fn eval_pitch(&self, s: f64) -> (f64, f64, f64) {
+        self.pitch.eval(s.clamp(0.0, self.length()))
     }
 
     pub fn pieces(&self) -> &[PathPiece] {
@@ -390,11 +408,21 @@ impl TimedLeg {
         timing.t[i] * self.scale + 0.5 * self.window
     }
 
-    /// Tool position, velocity and acceleration at local time `t`.
-    pub fn sample(&self, t: f64) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+    /// Tool position, velocity and acceleration, and pitch with its rate and acceleration, at
+    /// local time `t`: `ẋ = x' ṡ`, `ẍ = x' s̈ + x'' ṡ²` for the position and the pitch alike.
+    pub fn sample(&self, t: f64) -> CartesianSample {
         let (s, sd, sdd) = self.law(t);
         let (p, dp, ddp) = self.path.eval(s);
-        (p, dp * sd, dp * sdd + ddp * (sd * sd))
+        let (pitch, dpitch, ddpitch) = self.path.eval_pitch(s);
+        CartesianSample {
+            t,
+            position: p,
+            velocity: dp * sd,
+            acceleration: dp * sdd + ddp * (sd * sd),
+            pitch,
+            pitch_rate: dpitch * sd,
+            pitch_acceleration: dpitch * sdd + ddpitch * (sd * sd),
+        }
     }
 }
 
@@ -402,7 +430,12 @@ impl TimedLeg {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Stretch {
     Leg(TimedLeg),
-    Dwell { at: Vector3<f64>, duration: f64 },
+    /// Rest at `at` (m) with the tool at `pitch` (rad).
+    Dwell {
+        at: Vector3<f64>,
+        pitch: f64,
+        duration: f64,
+    },
 }
 
 impl Stretch {
@@ -418,14 +451,30 @@ impl Stretch {
 #[derive(Debug, Clone, PartialEq)]
 pub struct TimedMotion {
     start: Vector3<f64>,
+    start_pitch: f64,
     stretches: Vec<Stretch>,
     starts: Vec<f64>,
     events: Vec<PathEvent>,
 }
 
 impl TimedMotion {
+    /// A motion resting at `start` (m) with the tool pointing down.
     pub fn new(start: Vector3<f64>) -> Self {
-        Self { start, stretches: Vec::new(), starts: Vec::new(), events: Vec::new() }
+        Self::pitched(start, TOOL_DOWN)
+    }
+
+    /// A motion resting at `start` (m) with the tool at `pitch` (rad).
+    pub fn pitched(start: Vector3<f64>, pitch: f64) -> Self {
+        Self { start, start_pitch: pitch, stretches: Vec::new(), starts: Vec::new(), events: Vec::new() }
+    }
+
+    /// The tool's pitch where the motion ends, rad.
+    pub fn end_pitch(&self) -> f64 {
+        match self.stretches.last() {
+            Some(Stretch::Leg(leg)) => leg.path.eval_pitch(leg.path.length()).0,
+            Some(Stretch::Dwell { pitch, .. }) => *pitch,
+            None => self.start_pitch,
+        }
     }
 
     pub fn duration(&self) -> f64 {
@@ -466,11 +515,19 @@ impl TimedMotion {
     /// The motion at time `t` (s), held at its ends outside `[0, T]`.
     pub fn sample(&self, t: f64) -> CartesianSample {
         let index = self.starts.partition_point(|&start| start <= t).saturating_sub(1);
-        let (position, velocity, acceleration) = match self.stretches.get(index) {
-            Some(Stretch::Leg(leg)) => leg.sample(t - self.starts[index]),
-            Some(Stretch::Dwell { at, .. }) => (*at, Vector3::zeros(), Vector3::zeros()),
-            None => (self.start, Vector3::zeros(), Vector3::zeros()),
+        let rest = |position: Vector3<f64>, pitch: f64| CartesianSample {
+            t,
+            position,
+            velocity: Vector3::zeros(),
+            acceleration: Vector3::zeros(),
+            pitch,
+            pitch_rate: 0.0,
+            pitch_acceleration: 0.0,
         };
-        CartesianSample { t, position, velocity, acceleration }
+        match self.stretches.get(index) {
+            Some(Stretch::Leg(leg)) => CartesianSample { t, ..leg.sample(t - self.starts[index]) },
+            Some(Stretch::Dwell { at, pitch, .. }) => rest(*at, *pitch),
+            None => rest(self.start, self.start_pitch),
+        }
     }
 }

@@ -4,7 +4,7 @@
 //! Samples lie at `t_k = k / rate` for `k = 0, 1, …` up to the motion's duration, plus the
 //! duration itself and every gripper command's instant (so a driver sees each command at its
 //! exact time). At each instant `q = IK(p(t))`, `q̇ = J⁻¹ ṗ`, `q̈ = J⁻¹ (p̈ − J̇ q̇)` with the
-//! tool at a constant pitch ([`super::trajectory::joint_motion_at`]). The gripper is closed from
+//! tool at the motion's pitch ([`super::trajectory::joint_motion_at`]). The gripper is closed from
 //! a grip command (inclusive) to the next release command (exclusive).
 
 use super::path::GripperAction;
@@ -65,13 +65,11 @@ fn instants(duration: f64, rate: f64, commands: &[GripperCommand]) -> Vec<f64> {
     times
 }
 
-/// The planned `motion` sampled at `rate` Hz and at every gripper command, with the tool at
-/// `pitch` (rad).
+/// The planned `motion` sampled at `rate` Hz and at every gripper command.
 pub fn hardware_points(
     arm: &ArmModel<4>,
     motion: &impl ToolMotion,
     commands: &[GripperCommand],
-    pitch: f64,
     rate: f64,
 ) -> Result<Vec<HardwarePoint>, ExportError> {
     if !(rate.is_finite() && (MIN_EXPORT_RATE..=MAX_EXPORT_RATE).contains(&rate)) {
@@ -82,7 +80,7 @@ pub fn hardware_points(
     let duration = motion.duration();
     let mut points = Vec::new();
     for t in instants(duration, rate, &commands) {
-        let sample = joint_motion_at(arm, &motion.sample(t), pitch)?;
+        let sample = joint_motion_at(arm, &motion.sample(t))?;
         // The last command at or before t decides; grips are counted in order.
         let mut closed = false;
         let mut grips = 0;

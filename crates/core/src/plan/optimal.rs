@@ -63,18 +63,22 @@ impl LegPlan {
     }
 }
 
-/// The path points of `path` at `grid`, tool pitch `pitch`.
-pub fn path_points(
-    model: &ArmModel<4>,
-    path: &GeometricPath,
-    grid: &[f64],
-    pitch: f64,
-) -> Result<Vec<PathPoint<4>>, LegError> {
+/// The path points of `path` at `grid`, at the path's own pitch.
+pub fn path_points(model: &ArmModel<4>, path: &GeometricPath, grid: &[f64]) -> Result<Vec<PathPoint<4>>, LegError> {
     grid.iter()
         .map(|&s| {
             let (tip, dtip, ddtip) = path.eval(s);
-            let sample = CartesianSample { t: 0.0, position: tip, velocity: dtip, acceleration: ddtip };
-            let joint = joint_motion_at(model, &sample, pitch).map_err(|error| {
+            let (pitch, pitch_rate, pitch_acceleration) = path.eval_pitch(s);
+            let sample = CartesianSample {
+                t: 0.0,
+                position: tip,
+                velocity: dtip,
+                acceleration: ddtip,
+                pitch,
+                pitch_rate,
+                pitch_acceleration,
+            };
+            let joint = joint_motion_at(model, &sample).map_err(|error| {
                 // The sample's time means nothing here (the path is not timed yet): say where.
                 let reason = match error {
                     PlanError::Ik { source, .. } => source.to_string(),
@@ -99,11 +103,10 @@ pub fn time_leg(
     constraints: &[&dyn PathConstraint<4>],
     step: f64,
     refinement: u32,
-    pitch: f64,
     period: f64,
 ) -> Result<LegPlan, LegError> {
     let grid = path.grid(step, refinement);
-    let points = path_points(model, path, &grid, pitch)?;
+    let points = path_points(model, path, &grid)?;
     let (mut table, names) = constraint_table(&points, constraints);
     table.tighten(GRID_SLACK);
     let timing: Timing = match time_optimal(&table, 0.0, 0.0) {
@@ -199,10 +202,9 @@ pub fn check_motion(
     motion: &impl ToolMotion,
     carrying: &[(f64, f64, ArmModel<4>)],
     limits: &MotionCheck,
-    pitch: f64,
     dt: f64,
 ) -> Result<Result<Usage, Violation>, PlanError> {
-    check_motion_at(model, motion, carrying, limits, pitch, sample_times(motion.duration(), dt)?)
+    check_motion_at(model, motion, carrying, limits, sample_times(motion.duration(), dt)?)
 }
 
 /// [`check_motion`] at the given instants (s).
@@ -211,13 +213,12 @@ pub fn check_motion_at(
     motion: &impl ToolMotion,
     carrying: &[(f64, f64, ArmModel<4>)],
     limits: &MotionCheck,
-    pitch: f64,
     times: impl Iterator<Item = f64>,
 ) -> Result<Result<Usage, Violation>, PlanError> {
     let mut largest = Usage { share: 0.0, limit: String::new(), time: 0.0 };
     for t in times {
         let sample = motion.sample(t);
-        let joint = joint_motion_at(model, &sample, pitch)?;
+        let joint = joint_motion_at(model, &sample)?;
         let carried = carrying.iter().find(|(grip, release, _)| t >= *grip && t < *release).map(|(_, _, m)| m);
         let arm = carried.unwrap_or(model);
         let torque = inverse_dynamics(arm, &joint.q, &joint.qd, &joint.qdd) - friction_torques(arm, &joint.qd);

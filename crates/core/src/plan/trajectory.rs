@@ -1,6 +1,6 @@
 //! Joint trajectories from Cartesian paths, with analytic derivatives:
-//! `q = IK(x)`, `q̇ = J⁻¹ ẋ`, `q̈ = J⁻¹ (ẍ − J̇ q̇)`, where `x = (x, y, z, pitch)` and the pitch
-//! is held constant (its rate and acceleration are zero). No finite differences (ERRATA 4, 5).
+//! `q = IK(x)`, `q̇ = J⁻¹ ẋ`, `q̈ = J⁻¹ (ẍ − J̇ q̇)`, where `x = (x, y, z, pitch)`, the pitch
+//! and its rate and acceleration the path's own. No finite differences (ERRATA 4, 5).
 
 use super::path::{CartesianPath, CartesianSample, sample_times};
 use super::profile::ProfileError;
@@ -93,10 +93,10 @@ impl ToolMotion for super::geometric::TimedMotion {
     }
 }
 
-/// The joint state that puts the tool tip on `sample` with the given constant tool `pitch`,
-/// and checks the joint speed limits.
-pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64) -> Result<JointSample, PlanError> {
-    let state = joint_motion_at(model, sample, pitch)?;
+/// The joint state that puts the tool tip on `sample` at its pitch, and checks the joint
+/// speed limits.
+pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample) -> Result<JointSample, PlanError> {
+    let state = joint_motion_at(model, sample)?;
     for (i, link) in model.links().iter().enumerate() {
         if state.qd[i].abs() > link.limits.velocity {
             return Err(PlanError::VelocityLimit {
@@ -110,10 +110,10 @@ pub fn joint_state_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64)
     Ok(state)
 }
 
-/// The joint state that puts the tool tip on `sample` with the given constant tool `pitch`;
-/// with a path's `p'`, `p''` as the sample's velocity and acceleration it gives `q'`, `q''`.
-pub fn joint_motion_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64) -> Result<JointSample, PlanError> {
-    let q = inverse_kinematics(model, &sample.position, pitch)
+/// The joint state that puts the tool tip on `sample` at its pitch; with a path's `p'`, `p''`
+/// (and `φ'`, `φ''`) as the sample's rates and accelerations it gives `q'`, `q''`.
+pub fn joint_motion_at(model: &ArmModel<4>, sample: &CartesianSample) -> Result<JointSample, PlanError> {
+    let q = inverse_kinematics(model, &sample.position, sample.pitch)
         .map_err(|source| PlanError::Ik { time: sample.t, source })?;
     let jacobian = task_jacobian(model, &q);
     let determinant = jacobian.determinant();
@@ -126,10 +126,10 @@ pub fn joint_motion_at(model: &ArmModel<4>, sample: &CartesianSample, pitch: f64
     if determinant.abs() < SINGULAR_DETERMINANT {
         return Err(singular());
     }
-    let task = |v: &Vector3<f64>| Vector4::new(v.x, v.y, v.z, 0.0);
-    let qd = lu.solve(&task(&sample.velocity)).ok_or_else(singular)?;
+    let task = |v: &Vector3<f64>, pitch: f64| Vector4::new(v.x, v.y, v.z, pitch);
+    let qd = lu.solve(&task(&sample.velocity, sample.pitch_rate)).ok_or_else(singular)?;
     let drift = task_jacobian_derivative(model, &q, &qd) * qd;
-    let qdd = lu.solve(&(task(&sample.acceleration) - drift)).ok_or_else(singular)?;
+    let qdd = lu.solve(&(task(&sample.acceleration, sample.pitch_acceleration) - drift)).ok_or_else(singular)?;
     Ok(JointSample { t: sample.t, position: sample.position, q, qd, qdd })
 }
 
@@ -143,9 +143,9 @@ pub struct JointTrajectory {
 impl JointTrajectory {
     /// Samples `path` every `dt` s and converts each sample to joint space; a jump between
     /// samples ([`check_continuity`]) is an error.
-    pub fn from_path(model: &ArmModel<4>, path: &impl ToolMotion, dt: f64, pitch: f64) -> Result<Self, PlanError> {
+    pub fn from_path(model: &ArmModel<4>, path: &impl ToolMotion, dt: f64) -> Result<Self, PlanError> {
         let samples = sample_times(path.duration(), dt)?
-            .map(|t| joint_state_at(model, &path.sample(t), pitch))
+            .map(|t| joint_state_at(model, &path.sample(t)))
             .collect::<Result<Vec<_>, _>>()?;
         check_continuity(model, samples.iter().map(|s| (s.t, &s.q)))?;
         Ok(Self { dt, samples })
@@ -182,7 +182,6 @@ impl JointTrajectory {
 mod tests {
     use super::*;
     use crate::arm::preset::report_arm;
-    use crate::arm::task::TOOL_DOWN;
 
     /// `held_at` finds its sample by the cast's truncation; the oracle is the floor it
     /// replaced, at every sample time, between them, and at times no run passes (negative,
@@ -191,7 +190,7 @@ mod tests {
     fn held_at_takes_the_sample_the_floor_gives() {
         let mut path = CartesianPath::new(Vector3::new(0.25, -0.1, 0.12));
         path.move_to(Vector3::new(0.32, 0.12, 0.05), 0.6).unwrap();
-        let trajectory = JointTrajectory::from_path(&report_arm(), &path, 1e-3, TOOL_DOWN).unwrap();
+        let trajectory = JointTrajectory::from_path(&report_arm(), &path, 1e-3).unwrap();
         let (dt, last) = (trajectory.dt(), trajectory.samples().len() - 1);
         let floor = |t: f64| ((t / dt + 1e-9).floor().max(0.0) as usize).min(last);
         let index = |t: f64| {

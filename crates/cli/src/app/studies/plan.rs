@@ -13,7 +13,6 @@ use chessarm_chess::shakmaty::uci::UciMove;
 use chessarm_chess::shakmaty::{CastlingMode, Chess, Position};
 use chessarm_chess::table::Table;
 use chessarm_chess::tasks::classify;
-use chessarm_core::arm::task::TOOL_DOWN;
 use chessarm_core::nalgebra::Vector2;
 use chessarm_core::plan::path::sample_times;
 use chessarm_core::plan::path::{CartesianPath, CartesianSample};
@@ -65,7 +64,7 @@ pub fn plan_scenario(setup: &Setup, name: &str, dt: f64, cause: &str) -> Result<
         BYTES_PER_PLAN_SAMPLE as f64,
     )?;
     let cartesian = path.sample_uniform(dt)?;
-    let joint = JointTrajectory::from_path(&setup.arm, &path, dt, TOOL_DOWN)
+    let joint = JointTrajectory::from_path(&setup.arm, &path, dt)
         .map_err(|e| anyhow!("scenario '{name}' cannot be followed: {e}"))?;
     let placement = Some((setup.board.square_center(scenario.from).xy(), setup.board.square_center(scenario.to).xy()));
     Ok(Plan { name: name.to_string(), path, cartesian, joint, placement, base: setup.arm.base().xy() })
@@ -130,8 +129,7 @@ pub fn plan_moves(setup: &Setup, fen: Option<&str>, moves: &str, dt: f64) -> Res
         let motion = &planned.motion;
         let duration = motion.duration();
         let offset = plan.duration;
-        let sampled =
-            JointTrajectory::from_path(&setup.arm, motion, dt, TOOL_DOWN).map_err(|e| anyhow!("move {san}: {e}"))?;
+        let sampled = JointTrajectory::from_path(&setup.arm, motion, dt).map_err(|e| anyhow!("move {san}: {e}"))?;
         plan.cartesian
             .extend(sample_times(duration, dt)?.map(|t| CartesianSample { t: t + offset, ..motion.sample(t) }));
         plan.joint.extend(sampled.samples().iter().map(|s| JointSample { t: s.t + offset, ..*s }));
