@@ -428,6 +428,10 @@ impl TimedLeg {
 
 /// A part of a timed motion.
 #[derive(Debug, Clone, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "a move holds a handful of stretches, read at every sample: a box per leg would buy nothing"
+)]
 pub enum Stretch {
     Leg(TimedLeg),
     /// Rest at `at` (m) with the tool at `pitch` (rad).
