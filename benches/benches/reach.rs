@@ -1,6 +1,7 @@
 //! What a game asks of the arm's reach: the pre-flight check of the report's board
-//! (every location at every height, every traverse between two of them), and `board --fit` for
-//! a maker's arm from its official URDF (the OpenManipulator-X, as published).
+//! (every location at every height, every traverse between two of them, every column's
+//! clearance), and `board --fit`'s search for a maker's arm from its official URDF (the
+//! OpenManipulator-X, as published), on reach alone.
 
 use chessarm::app::setup::file::Setup;
 use chessarm_chess::reach::{check_table, fit_board};
@@ -12,14 +13,18 @@ fn reach(c: &mut Criterion) {
     group.sample_size(10);
     let setup = Setup::default();
     group.bench_function("pre-flight check, the report's arm and board", |b| {
-        b.iter(|| check_table(black_box(&setup.arm), &setup.board, &setup.pieces, &setup.motion))
+        b.iter(|| {
+            check_table(black_box(&setup.arm), &setup.board, &setup.pieces, &setup.motion, Some(&setup.clearance))
+                .expect("the report's board is served")
+        })
     });
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../crates/cli/tests/fixtures/real-arms/open_manipulator_x.urdf");
     let arm = chessarm::app::setup::urdf_import::load(std::path::Path::new(path), &Default::default())
         .expect("the arm loads");
     group.bench_function("board --fit, OpenManipulator-X", |b| {
         b.iter(|| {
-            fit_board(black_box(&arm.model), &setup.pieces, setup.board.square_size, &setup.motion, (0.0, 0.05))
+            let square = setup.board.square_size;
+            fit_board(black_box(&arm.model), &setup.pieces, square, &setup.motion, (0.0, 0.05), None)
                 .expect("a board fits")
         })
     });

@@ -24,6 +24,7 @@ use crate::tasks::{
     append_move_path, check_segment, describe_move, move_tasks, task_geometry,
 };
 use chessarm_core::arm::model::ArmModel;
+use chessarm_core::arm::task::held_turn;
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use chessarm_core::plan::constraints::{
     JointAcceleration, JointSpeed, JointTorque, PathConstraint, ToolAcceleration, ToolSpeed, TrackingBudget,
@@ -31,7 +32,7 @@ use chessarm_core::plan::constraints::{
 use chessarm_core::plan::geometric::{GeometricPath, MIN_LINE, PathPiece, Stretch, TimedMotion};
 use chessarm_core::plan::optimal::{LegPlan, MotionCheck, Usage, check_motion_at, time_leg};
 use chessarm_core::plan::path::sample_times;
-use chessarm_core::plan::path::{CartesianPath, CartesianSample, GripperAction, Segment};
+use chessarm_core::plan::path::{CartesianPath, CartesianSample, GripperAction, PitchLaw, Segment};
 use chessarm_core::plan::trajectory::{JointTrajectory, PlanError, ToolMotion};
 use shakmaty::{Chess, Move};
 
@@ -171,7 +172,7 @@ pub fn plan_move(
             let mut current = limits;
             let mut slowdowns = 0;
             loop {
-                let mut path = CartesianPath::new(start);
+                let mut path = CartesianPath::pitched(start, current.pitch);
                 let tasks = append_move_path(&mut path, position, mv, table, pieces, &current, arm)?;
                 fits(path.duration(), period, || {
                     let phases = lspb_phases(&path);
@@ -285,7 +286,7 @@ fn plan_optimal(
         let approach: &[Vector3<f64>] = if above { &waypoints[2..3] } else { &waypoints[..3] };
         let mut previous = *current.last().unwrap_or(&start);
         for target in approach.iter().chain(&waypoints[3..]) {
-            check_segment(arm, &previous, target)
+            check_segment(arm, &previous, target, limits.pitch)
                 .map_err(|source| TaskError::Unreachable { task: task.to_string(), source })?;
             previous = *target;
         }
@@ -316,7 +317,7 @@ fn plan_optimal(
     let surface = table.geometry().surface_height;
     let rest = Vector3::new(here.x, here.y, surface + last_height);
     if let Some(from) = current.last() {
-        check_segment(arm, from, &rest).map_err(|source| TaskError::Unreachable {
+        check_segment(arm, from, &rest, limits.pitch).map_err(|source| TaskError::Unreachable {
             task: tasks.last().map_or_else(String::new, |t| t.to_string()),
             source,
         })?;
@@ -325,7 +326,7 @@ fn plan_optimal(
     let radius = geometries.last().map_or(0.0, |g| g.radius);
     specs.push(LegSpec { points: current, carried: None, table: scratch, action: None, radius });
 
-    let mut motion = TimedMotion::new(start);
+    let mut motion = TimedMotion::pitched(start, limits.pitch);
     let mut legs = Vec::new();
     let mut phases = PhaseTimes::default();
     let mut marks = Vec::new();
@@ -334,7 +335,9 @@ fn plan_optimal(
         // Each leg starts where the motion is (a skipped leg's end may lie up to MIN_LINE away).
         spec.points[0] = motion.end();
         let payload_arm = match &spec.carried {
-            Some(task) => arm.with_payload(Some(pieces.payload(task.piece.role))).map_err(TaskError::Model)?,
+            Some(task) => arm
+                .with_payload(Some(pieces.payload(task.piece.role).turned(held_turn(arm, limits.pitch))))
+                .map_err(TaskError::Model)?,
             None => *arm,
         };
         // A leg whose points all lie within MIN_LINE of each other needs no motion (a final
@@ -508,7 +511,7 @@ fn time_optimal_leg(
             }
             too_low(&plan.time_per_limit())
         })?;
-        let mut leg = TimedMotion::new(path.start());
+        let mut leg = TimedMotion::pitched(path.start(), path.eval_pitch(0.0).0);
         leg.push(Stretch::Leg(plan.leg.clone()));
         // Every control period, and every planning stage at its ends and its middle, as the
         // base law passes them and as the smoothed one does (half a window later) and ends
@@ -601,6 +604,8 @@ fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Re
         let around = [corners[k], corners[k + 1], corners[k + 2]];
         let fits = |d: f64| -> Result<bool, TaskError> {
             let path = GeometricPath::polyline(&around, |_| d).map_err(TaskError::Geometry)?;
+            // The pitch is constant along a leg: the blend's clearance below does not depend
+            // on it.
             let blend = path.pieces().iter().find(|p| matches!(p, PathPiece::Blend { .. }));
             Ok(blend.is_none_or(|b| clears(b, spec, pieces, limits)))
         };
@@ -633,7 +638,7 @@ fn blended_paths(spec: &LegSpec, pieces: &PieceSet, limits: &MotionLimits) -> Re
             let section_cuts = &cuts[first..k];
             let path =
                 GeometricPath::polyline(&corners[first..=end], |c| section_cuts[c]).map_err(TaskError::Geometry)?;
-            paths.push(path);
+            paths.push(path.with_pitch(PitchLaw::constant(limits.pitch)));
             first = end;
         }
     }

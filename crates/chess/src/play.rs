@@ -7,7 +7,7 @@
 //! exactly to their squares.
 
 use crate::board::BoardGeometry;
-use crate::clearance::moves::{Carry, ClearanceCheck, MoveClearance, check_move};
+use crate::clearance::moves::{Carry, ClearanceCheck, MIN_OPENING, MoveClearance, check_move};
 use crate::clearance::{Rules, Scratch, reach_bound};
 use crate::motion::{PhaseTimes, PlannedMove, TimingMode, plan_move};
 use crate::outcome::{GameOutcome, outcome, position_key};
@@ -16,7 +16,7 @@ use crate::table::{Location, Misplaced, Table, TableError};
 use crate::tasks::{MotionLimits, MoveKind, PlannedTask, TaskError, classify, move_tasks};
 use chessarm_core::arm::bodies::{Hand, Held};
 use chessarm_core::arm::model::{ArmModel, JointVector};
-use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
+use chessarm_core::arm::task::{IkError, held_turn, inverse_kinematics};
 use chessarm_core::control::JointState;
 use chessarm_core::control::choice::{ControllerKind, ControllerSpec};
 use chessarm_core::control::gains::Gains;
@@ -380,9 +380,18 @@ impl Game {
         if !(settings.tolerance.is_finite() && settings.tolerance > 0.0) {
             return Err(PlayError::Tolerance(settings.tolerance));
         }
+        let mut settings = settings;
         let limits = settings.limits.validated()?;
         let table = Table::from_position(board, &start);
-        crate::reach::check_table(&arm, &board, &settings.pieces, &limits).map_err(PlayError::Reach)?;
+        // The pitch nearest straight down that serves the whole board, for the whole game.
+        let columns = settings.clearance.as_ref();
+        let pitch =
+            crate::reach::check_table(&arm, &board, &settings.pieces, &limits, columns).map_err(PlayError::Reach)?;
+        settings.limits.pitch = pitch;
+        if let Some(check) = settings.clearance.as_mut() {
+            check.held_turn = held_turn(&arm, pitch);
+        }
+        let limits = settings.limits;
         let tool = home_tool(&board, &settings.pieces, &limits);
         let q = home_pose(&arm, &board, &settings.pieces, &limits)?;
         let misplaced =
@@ -722,7 +731,7 @@ impl Game {
                 servo_goals: Vec::new(),
             });
         }
-        let events = gripper_events(settings, &self.table, planned);
+        let events = gripper_events(settings, &self.arm, &self.table, planned);
         let marks: Vec<f64> = events.iter().map(|event| event.time).collect();
         let true_actuators = settings.true_actuators.unwrap_or(settings.actuators);
         let plant_model = true_actuators.plant_model(&settings.plant.unwrap_or(self.arm)).map_err(|source| {
@@ -821,8 +830,12 @@ impl Game {
             // plan had it at the same reference instant, and the pieces put down in this
             // move within their placement error of the plan's places.
             let pieces = &self.settings.pieces;
-            let largest =
-                Held { radius: 0.5 * pieces.widest(), height: pieces.tallest(), grip_height: pieces.highest_grip() };
+            let largest = Held {
+                radius: 0.5 * pieces.widest(),
+                height: pieces.tallest(),
+                grip_height: pieces.highest_grip(),
+                turn: clear.held_turn,
+            };
             let hand =
                 Hand { held: Some(largest), gap: clear.gripper.open_gap(pieces.widest()), gripper: clear.gripper };
             let reach = reach_bound(&self.arm, &hand, &clear.bodies);
@@ -928,8 +941,6 @@ fn first_line(text: &str) -> &str {
     text.lines().next().unwrap_or(text)
 }
 
-/// Narrowest gap a side the planner opens the fingers to beside a piece, m.
-const MIN_OPENING: f64 = 0.001;
 /// How much and how many times the planner raises the traverses' clearance margin, m.
 const RAISE: f64 = 0.02;
 const RAISES: usize = 3;
@@ -960,16 +971,23 @@ fn planned_carries(table: &Table, planned: &[PlannedTask]) -> Vec<Carry> {
 /// takes the true piece (`true_pieces`, else `pieces`) of the kind that stands on the task's
 /// square; the controller's model is told that true piece with
 /// [`PlaySettings::controller_knows_payload`], else the nominal piece of that kind (`pieces`)
-/// with [`PlaySettings::payload_feedforward`], else nothing.
-pub fn gripper_events(settings: &PlaySettings, table: &Table, planned: &[PlannedTask]) -> Vec<PayloadEvent> {
+/// with [`PlaySettings::payload_feedforward`], else nothing. Each piece hangs upright from
+/// the tool at the game's pitch on `arm`.
+pub fn gripper_events(
+    settings: &PlaySettings,
+    arm: &ArmModel<4>,
+    table: &Table,
+    planned: &[PlannedTask],
+) -> Vec<PayloadEvent> {
     let mut events = Vec::with_capacity(2 * planned.len());
+    let turn = held_turn(arm, settings.limits.pitch);
     for step in planned {
         let piece = table.piece_at(step.task.from).map(|p| p.piece.role).unwrap_or(step.task.piece.role);
-        let payload = settings.true_pieces.as_ref().unwrap_or(&settings.pieces).payload(piece);
+        let payload = settings.true_pieces.as_ref().unwrap_or(&settings.pieces).payload(piece).turned(turn);
         let told = if settings.controller_knows_payload {
             Told::Payload(Some(payload))
         } else if settings.payload_feedforward {
-            Told::Payload(Some(settings.pieces.payload(piece)))
+            Told::Payload(Some(settings.pieces.payload(piece).turned(turn)))
         } else {
             Told::Nothing
         };
@@ -994,7 +1012,7 @@ pub fn home_pose(
     pieces: &PieceSet,
     limits: &MotionLimits,
 ) -> Result<JointVector<4>, PlayError> {
-    inverse_kinematics(arm, &home_tool(board, pieces, limits), TOOL_DOWN).map_err(PlayError::Home)
+    inverse_kinematics(arm, &home_tool(board, pieces, limits), limits.pitch).map_err(PlayError::Home)
 }
 
 /// Where a piece that stood at `standing` (board plane, m) is put down when gripped with the

@@ -29,12 +29,14 @@
 //! checked with [`check_table`], shrinking by 1 % until it passes.
 
 use crate::board::BoardGeometry;
+use crate::clearance::columns::check_columns;
+use crate::clearance::moves::ClearanceCheck;
 use crate::pieces::PieceSet;
 use crate::table::{Location, Table, closest_on_segment};
 use crate::tasks::MotionLimits;
 use chessarm_core::arm::dynamics::gravity_torques;
 use chessarm_core::arm::model::{ArmModel, JointVector};
-use chessarm_core::arm::task::{IkError, TOOL_DOWN, inverse_kinematics};
+use chessarm_core::arm::task::{IkError, TOOL_DOWN, held_turn, inverse_kinematics};
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use shakmaty::{Board, Square};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -81,6 +83,8 @@ pub enum ReachError {
     AroundBase { x: f64, y: f64 },
     #[error("no board with squares of at least {smallest} m is served by this arm: {why}")]
     NoFit { smallest: f64, why: String },
+    #[error("{0}")]
+    Crowded(crate::clearance::columns::Crowded),
 }
 
 /// Every location a game uses and the home point, with a name for messages.
@@ -110,7 +114,8 @@ fn heights(pieces: &PieceSet, limits: &MotionLimits) -> Vec<f64> {
     heights
 }
 
-/// The heaviest piece's payload, for the holding check.
+/// The heaviest piece's payload (upright in the tool frame with the tool straight down), for
+/// the holding check.
 fn heaviest(pieces: &PieceSet) -> chessarm_core::arm::model::Payload {
     let (role, _) = pieces
         .all()
@@ -120,14 +125,16 @@ fn heaviest(pieces: &PieceSet) -> chessarm_core::arm::model::Payload {
     pieces.payload(role)
 }
 
-/// Whether the arm serves the tool tip at `point` (pointing down), holding the heaviest piece.
+/// Whether the arm serves the tool tip at `point` with the tool at `pitch` (rad), holding the
+/// heaviest piece (`loaded`, the piece upright at that pitch).
 fn serve(
     arm: &ArmModel<4>,
     loaded: &ArmModel<4>,
     point: &Vector3<f64>,
+    pitch: f64,
     margin: f64,
 ) -> Result<JointVector<4>, Failure> {
-    let q = inverse_kinematics(arm, point, TOOL_DOWN).map_err(Failure::Ik)?;
+    let q = inverse_kinematics(arm, point, pitch).map_err(Failure::Ik)?;
     let need = gravity_torques(loaded, &q);
     for j in 0..4 {
         let limit = margin * loaded.link(j).limits.torque;
@@ -161,8 +168,22 @@ fn failure(place: String, height: f64, point: &Vector3<f64>, why: Failure, margi
 }
 
 /// The arm with the heaviest piece in its grip, for the holding check.
-fn loaded(arm: &ArmModel<4>, pieces: &PieceSet) -> ArmModel<4> {
-    arm.with_payload(Some(heaviest(pieces))).unwrap_or(*arm)
+fn loaded(arm: &ArmModel<4>, pieces: &PieceSet, pitch: f64) -> ArmModel<4> {
+    arm.with_payload(Some(heaviest(pieces).turned(held_turn(arm, pitch)))).unwrap_or(*arm)
+}
+
+/// Steps between the pitches [`check_table`] tries, rad (1°).
+pub const PITCH_STEP: f64 = std::f64::consts::PI / 180.0;
+
+/// The pitches within `max_tilt` of straight down, `step` apart, nearest straight down first
+/// (down, then tilted out, then in, one step further each time).
+fn pitches(max_tilt: f64, step: f64) -> impl Iterator<Item = f64> {
+    let most = (max_tilt / step + 1e-9).floor() as i64;
+    (0..=most).flat_map(move |k| {
+        let out = TOOL_DOWN + k as f64 * step;
+        let inward = TOOL_DOWN - k as f64 * step;
+        if k == 0 { vec![TOOL_DOWN] } else { vec![out, inward] }
+    })
 }
 
 /// Whether the base point lies inside the polygon of the points (as seen by the bearings: the
@@ -188,6 +209,36 @@ pub fn check_table(
     geometry: &BoardGeometry,
     pieces: &PieceSet,
     limits: &MotionLimits,
+    columns: Option<&ClearanceCheck>,
+) -> Result<f64, ReachError> {
+    let (mut first, mut crowded) = (None, None);
+    for pitch in pitches(limits.max_tilt, PITCH_STEP) {
+        match check_table_at(arm, geometry, pieces, limits, pitch, columns) {
+            Ok(()) => return Ok(pitch),
+            // Where the board cannot be served at all, no pitch helps: say so at once.
+            Err(error @ (ReachError::AroundBase { .. } | ReachError::NearBase { .. })) => return Err(error),
+            Err(error @ ReachError::Crowded(_)) => {
+                crowded.get_or_insert(error);
+            }
+            Err(error) => {
+                first.get_or_insert(error);
+            }
+        }
+    }
+    // The nearest pitch that reached everything, crowded, says more than one that did not reach.
+    Err(crowded
+        .or(first)
+        .unwrap_or(ReachError::NoFit { smallest: geometry.square_size, why: "no pitch to try".into() }))
+}
+
+/// [`check_table`] with the tool at `pitch` (rad) throughout.
+pub fn check_table_at(
+    arm: &ArmModel<4>,
+    geometry: &BoardGeometry,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+    pitch: f64,
+    columns: Option<&ClearanceCheck>,
 ) -> Result<(), ReachError> {
     let all = places(geometry, pieces, limits);
     let base = arm.base().xy();
@@ -195,7 +246,7 @@ pub fn check_table(
     if surrounds(&base, &points) {
         return Err(ReachError::AroundBase { x: base.x, y: base.y });
     }
-    let loaded = loaded(arm, pieces);
+    let loaded = loaded(arm, pieces, pitch);
     let heights = heights(pieces, limits);
     let z0 = geometry.surface_height;
     let margin = limits.torque_margin;
@@ -220,7 +271,7 @@ pub fn check_table(
     for (name, p) in &all {
         for &h in &heights {
             let point = Vector3::new(p.x, p.y, z0 + h);
-            serve(arm, &loaded, &point, margin).map_err(|why| failure(name.clone(), h, &point, why, margin))?;
+            serve(arm, &loaded, &point, pitch, margin).map_err(|why| failure(name.clone(), h, &point, why, margin))?;
         }
     }
     let lowest_traverse = limits.clearance_margin + heights[0];
@@ -235,14 +286,17 @@ pub fn check_table(
                 let near_end = (along * length).min((1.0 - along) * length) <= blend;
                 for &h in heights.iter().filter(|h| near_end || **h >= lowest_traverse - 1e-12) {
                     let point = Vector3::new(p.x, p.y, z0 + h);
-                    serve(arm, &loaded, &point, margin).map_err(|why| {
+                    serve(arm, &loaded, &point, pitch, margin).map_err(|why| {
                         failure(format!("the way from {from_name} to {to_name}"), h, &point, why, margin)
                     })?;
                 }
             }
         }
     }
-    Ok(())
+    match columns {
+        Some(check) => check_columns(arm, check, geometry, pieces, &heights, pitch).map_err(ReachError::Crowded),
+        None => Ok(()),
+    }
 }
 
 /// The radial reach of an arm along one bearing: which distances from the base axis are served
@@ -257,7 +311,13 @@ struct Radial {
 }
 
 impl Radial {
-    fn new(arm: &ArmModel<4>, pieces: &PieceSet, limits: &MotionLimits, surface: f64, clearance: f64) -> Self {
+    fn new(
+        arm: &ArmModel<4>,
+        pieces: &PieceSet,
+        limits: &MotionLimits,
+        (surface, clearance): (f64, f64),
+        pitch: f64,
+    ) -> Self {
         let links = arm.links();
         let (lower, upper) = (links[0].limits.lower, links[0].limits.upper);
         let offset = links[0].dh.theta_offset;
@@ -267,7 +327,7 @@ impl Radial {
         let reach: f64 = links.iter().map(|l| l.dh.a.abs() + l.dh.d.abs()).sum();
         let count = (reach / RADIAL_STEP).ceil() as usize + 1;
         let heights = heights(pieces, limits);
-        let loaded = loaded(arm, pieces);
+        let loaded = loaded(arm, pieces, pitch);
         let base = arm.base();
         let direction = Vector3::new(bearing.cos(), bearing.sin(), 0.0);
         let served = (0..count)
@@ -276,7 +336,7 @@ impl Radial {
                 r >= clearance
                     && heights.iter().all(|h| {
                         let point = base + direction * r + Vector3::new(0.0, 0.0, surface + h);
-                        serve(arm, &loaded, &point, limits.torque_margin)
+                        serve(arm, &loaded, &point, pitch, limits.torque_margin)
                             // The front branch only: the base turned towards the point.
                             .is_ok_and(|q| wrap(q[0] + offset - bearing).abs() < FRAC_PI_2)
                     })
@@ -302,10 +362,10 @@ fn wrap(angle: f64) -> f64 {
     chessarm_core::arm::task::wrap_angle(angle)
 }
 
-/// How well one board pose is served by the radial table: the smallest margin (m) of any point
-/// to the edge of the served stretch and of any bearing to the base joint's range (as arc
-/// length at the farthest point), or `None` when something is not served.
-fn proxy_margin(radial: &Radial, base: &Vector2<f64>, points: &[Vector2<f64>]) -> Option<f64> {
+/// How far a board pose's points spread from the base axis: the farthest point's distance and
+/// the closest approach of any straight way between two of them (m), or `None` when they
+/// surround the base.
+fn spread(base: &Vector2<f64>, points: &[Vector2<f64>]) -> Option<(f64, f64)> {
     if surrounds(base, points) {
         return None;
     }
@@ -316,6 +376,14 @@ fn proxy_margin(radial: &Radial, base: &Vector2<f64>, points: &[Vector2<f64>]) -
             near = near.min((base - closest_on_segment(*base, *a, *b)).norm());
         }
     }
+    Some((far, near))
+}
+
+/// How well one board pose is served by the radial table: the smallest margin (m) of any point
+/// to the edge of the served stretch and of any bearing to the base joint's range (as arc
+/// length at the farthest point), or `None` when something is not served. `(far, near)` is
+/// the pose's [`spread`].
+fn proxy_margin(radial: &Radial, base: &Vector2<f64>, points: &[Vector2<f64>], (far, near): (f64, f64)) -> Option<f64> {
     let (low, high) = radial.stretch(far)?;
     if near < low - 1e-12 {
         return None;
@@ -346,7 +414,13 @@ pub struct Fit {
     pub margin: f64,
     /// How many board poses the search tried.
     pub tried: usize,
+    /// The tool's pitch nearest straight down that serves the board, rad ([`check_table`]).
+    pub pitch: f64,
 }
+
+/// Steps between the pitches the fit's search tries, rad (5°); the fitted board's own pitch
+/// is then found to [`PITCH_STEP`] by [`check_table`].
+pub const FIT_PITCH_STEP: f64 = 5.0 * PITCH_STEP;
 
 /// `pieces` scaled from squares of `from` m to `to` m: lengths × `to/from`, masses × its cube.
 pub fn scaled_pieces(pieces: &PieceSet, from: f64, to: f64) -> PieceSet {
@@ -374,21 +448,29 @@ pub fn fit_board(
     square_size: f64,
     limits: &MotionLimits,
     (surface, clearance): (f64, f64),
+    columns: Option<&ClearanceCheck>,
 ) -> Result<Fit, ReachError> {
     const SMALLEST: f64 = 0.01;
     let base = arm.base().xy();
     let mut tried = 0;
-    // The best pose for squares of `s` m: (margin, board), or None.
-    let mut best_at = |s: f64| -> Option<(f64, BoardGeometry, PieceSet)> {
+    // The last column found crowded, for the message when no size is clear.
+    let crowded = std::cell::RefCell::new(None);
+    // The best pose for squares of `s` m at the pitch nearest straight down (of those
+    // FIT_PITCH_STEP apart) that serves one, its columns clear when `clear` asks it:
+    // (margin, board, pieces), or None. Each pose's points are spread once for every pitch.
+    let mut best_at = |s: f64, clear: bool| -> Option<(f64, BoardGeometry, PieceSet)> {
         let scaled = scaled_pieces(pieces, square_size, s);
-        let radial = Radial::new(arm, &scaled, limits, surface, clearance);
-        let reach = radial.served.len() as f64 * RADIAL_STEP;
-        let direction = Vector2::new(radial.bearing.cos(), radial.bearing.sin());
-        let mut best: Option<(f64, BoardGeometry)> = None;
+        let radials: Vec<(f64, Radial)> = pitches(limits.max_tilt, FIT_PITCH_STEP)
+            .map(|pitch| (pitch, Radial::new(arm, &scaled, limits, (surface, clearance), pitch)))
+            .collect();
+        let first = &radials[0].1;
+        let reach = first.served.len() as f64 * RADIAL_STEP;
+        let direction = Vector2::new(first.bearing.cos(), first.bearing.sin());
+        let mut best: Vec<Option<(f64, BoardGeometry)>> = vec![None; radials.len()];
         // Rank 1 towards the arm, the board turned a quarter either way (the arm beside the
         // a- or h-file), or rank 8 towards the arm.
         for turn in [0.0, FRAC_PI_2, -FRAC_PI_2, PI] {
-            let yaw = wrap(radial.bearing - FRAC_PI_2 + turn);
+            let yaw = wrap(first.bearing - FRAC_PI_2 + turn);
             let steps = (reach / 0.002).ceil() as usize;
             for k in 0..=steps {
                 let distance = k as f64 * 0.002;
@@ -401,29 +483,44 @@ pub fn fit_board(
                 };
                 tried += 1;
                 let points: Vec<Vector2<f64>> = places(&board, &scaled, limits).into_iter().map(|(_, p)| p).collect();
-                // A margin for pieces that stand a little off their nominal places.
-                if let Some(margin) = proxy_margin(&radial, &base, &points).filter(|m| *m >= FIT_MARGIN)
-                    && best.is_none_or(|(m, _)| margin > m)
-                {
-                    best = Some((margin, board));
+                let Some(spread) = spread(&base, &points) else { continue };
+                for ((_, radial), best) in radials.iter().zip(best.iter_mut()) {
+                    // A margin for pieces that stand a little off their nominal places.
+                    if let Some(margin) = proxy_margin(radial, &base, &points, spread).filter(|m| *m >= FIT_MARGIN)
+                        && best.is_none_or(|(m, _)| margin > m)
+                    {
+                        *best = Some((margin, board));
+                    }
                 }
             }
         }
-        best.map(|(margin, board)| (margin, board, scaled))
+        let heights = heights(&scaled, limits);
+        radials
+            .iter()
+            .zip(best)
+            .filter_map(|((pitch, _), best)| best.map(|best| (*pitch, best)))
+            // The columns' clearance at the pose found (the radial table knows reach only).
+            .find(|(pitch, (_, board))| match columns.filter(|_| clear) {
+                Some(check) => check_columns(arm, check, board, &scaled, &heights, *pitch)
+                    .map_err(|c| *crowded.borrow_mut() = Some(c))
+                    .is_ok(),
+                None => true,
+            })
+            .map(|(_, (margin, board))| (margin, board, scaled))
     };
-    let Some(mut found) = best_at(SMALLEST) else {
+    let Some(mut found) = best_at(SMALLEST, false) else {
         return Err(ReachError::NoFit {
             smallest: SMALLEST,
-            why: "not even squares of 1 cm: the arm's reach with the tool pointing down, its joint limits or its \
-                  torques leave no room"
+            why: "not even squares of 1 cm: the arm's reach, with the tool within [motion] max_tilt of straight \
+                  down, its joint limits or its torques leave no room"
                 .into(),
         });
     };
-    // Bisection on the square size, to 0.1 mm.
+    // Bisection on the square size, to 0.1 mm, on reach: a larger board reaches farther.
     let (mut low, mut high) = (SMALLEST, 0.2);
     while high - low > 1e-4 {
         let middle = 0.5 * (low + high);
-        match best_at(middle) {
+        match best_at(middle, false) {
             Some(fit) => {
                 low = middle;
                 found = fit;
@@ -431,12 +528,42 @@ pub fn fit_board(
             None => high = middle,
         }
     }
+    // The columns' clearance is not monotone in the size (the arm's links are as thick on a
+    // small board as on a large one): down from the largest reached, 3 % at a time, to the
+    // first size whose columns are clear, then bisection between it and the step above.
+    if columns.is_some() {
+        let mut above = found.1.square_size;
+        let mut size = above;
+        let clear = loop {
+            if let Some(fit) = best_at(size, true) {
+                break fit;
+            }
+            above = size;
+            size *= 0.97;
+            if size < SMALLEST {
+                let why = crowded.borrow().as_ref().map_or_else(String::new, ToString::to_string);
+                return Err(ReachError::NoFit { smallest: SMALLEST, why });
+            }
+        };
+        found = clear;
+        let (mut low, mut high) = (found.1.square_size, above);
+        while high - low > 1e-4 {
+            let middle = 0.5 * (low + high);
+            match best_at(middle, true) {
+                Some(fit) => {
+                    low = middle;
+                    found = fit;
+                }
+                None => high = middle,
+            }
+        }
+    }
     // The proxy's grid against the full check: shrink by 1 % until it passes (at most 20 times).
     let mut shrinks = 0;
     loop {
         let (margin, board, scaled) = found;
-        let error = match check_table(arm, &board, &scaled, limits) {
-            Ok(()) => return Ok(Fit { board, pieces: scaled, margin, tried }),
+        let error = match check_table(arm, &board, &scaled, limits, columns) {
+            Ok(pitch) => return Ok(Fit { board, pieces: scaled, margin, tried, pitch }),
             Err(error) => error,
         };
         let smaller = board.square_size * 0.99;
@@ -445,7 +572,7 @@ pub fn fit_board(
         if shrinks > 20 {
             return Err(no_fit());
         }
-        found = best_at(smaller).ok_or_else(no_fit)?;
+        found = best_at(smaller, true).ok_or_else(no_fit)?;
     }
 }
 
@@ -457,9 +584,9 @@ pub fn square_margins(
     pieces: &PieceSet,
     limits: &MotionLimits,
 ) -> Vec<(Square, Result<f64, String>)> {
-    let radial = Radial::new(arm, pieces, limits, geometry.surface_height, geometry.base_clearance);
+    let radial = Radial::new(arm, pieces, limits, (geometry.surface_height, geometry.base_clearance), limits.pitch);
     let base = arm.base().xy();
-    let loaded = loaded(arm, pieces);
+    let loaded = loaded(arm, pieces, limits.pitch);
     let heights = heights(pieces, limits);
     Square::ALL
         .into_iter()
@@ -468,7 +595,7 @@ pub fn square_margins(
             let r = (c.xy() - base).norm();
             for &h in &heights {
                 let point = Vector3::new(c.x, c.y, geometry.surface_height + h);
-                if let Err(why) = serve(arm, &loaded, &point, limits.torque_margin) {
+                if let Err(why) = serve(arm, &loaded, &point, limits.pitch, limits.torque_margin) {
                     return (
                         square,
                         Err(failure(square.to_string(), h, &point, why, limits.torque_margin).to_string()),

@@ -20,7 +20,7 @@ use crate::pieces::PieceSet;
 use chessarm_core::arm::dynamics::gravity_torques;
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::{ArmModel, JointVector};
-use chessarm_core::arm::task::{TOOL_DOWN, inverse_kinematics};
+use chessarm_core::arm::task::{held_turn, inverse_kinematics};
 use chessarm_core::nalgebra::Vector3;
 use chessarm_core::sim::actuator::{Actuators, PositionBank};
 use shakmaty::{Role, Square};
@@ -70,13 +70,16 @@ impl SquareHold {
 }
 
 /// The sag and headroom of every square of `geometry` for every piece of `pieces` (see the
-/// module), the arm's joints driven by `actuators`.
+/// module), the arm's joints driven by `actuators`, the tool at `pitch` (rad; the game's,
+/// [`crate::reach::check_table`]).
 pub fn sag_map(
     arm: &ArmModel<4>,
     actuators: &Actuators<4>,
     geometry: &BoardGeometry,
     pieces: &PieceSet,
+    pitch: f64,
 ) -> Vec<SquareHold> {
+    let turn = held_turn(arm, pitch);
     let stall = actuators.torque_limits();
     Square::ALL
         .into_iter()
@@ -87,10 +90,11 @@ pub fn sag_map(
                 .into_iter()
                 .map(|(role, d)| {
                     let point = Vector3::new(centre.x, centre.y, geometry.surface_height + d.grip_height);
-                    let q = inverse_kinematics(arm, &point, TOOL_DOWN).map_err(|e| {
+                    let q = inverse_kinematics(arm, &point, pitch).map_err(|e| {
                         format!("{square} ({} at its grip height): {e}", crate::pieces::role_name(role))
                     })?;
-                    let loaded = arm.with_payload(Some(pieces.payload(role))).map_err(|e| e.to_string())?;
+                    let loaded =
+                        arm.with_payload(Some(pieces.payload(role).turned(turn))).map_err(|e| e.to_string())?;
                     let settled = PositionBank::settled(actuators, &loaded, &q);
                     let planned = FrameChain::new(&loaded, &q).tip();
                     let actual = FrameChain::new(&loaded, &settled).tip();

@@ -373,6 +373,16 @@ pub struct MotionLimits {
     /// The tracking error a carried piece of uncertain mass may add
     /// ([`chessarm_core::plan::constraints::TrackingBudget`]).
     pub tracking: Tracking,
+    /// The tool's pitch for every grip, release and traverse, rad above the horizontal
+    /// ([`TOOL_DOWN`] straight down): one pitch for the whole game, so a piece gripped upright
+    /// is put down upright. [`crate::reach::check_table`] chooses it.
+    pub pitch: f64,
+    /// How far from straight down the tool may tilt, rad (`[motion] max_tilt`). A gripper
+    /// whose jaws close across the arm's plane keeps its jaw faces vertical at any pitch (the
+    /// pitch turns them about their own normal), so the grip holds as well tilted; what bounds
+    /// the tilt is the fingers' slant towards the neighbouring squares and the piece's head
+    /// against the palm: 30° leaves a finger 2 cm long within 1 cm of the piece's axis.
+    pub max_tilt: f64,
 }
 
 /// The tracking budget of a carried piece and what it is derived from: the controller's
@@ -473,9 +483,18 @@ impl Default for MotionLimits {
             grid_step: 0.005,
             jerk: 0.0,
             tracking: Tracking::default(),
+            pitch: TOOL_DOWN,
+            max_tilt: DEFAULT_MAX_TILT,
         }
     }
 }
+
+/// The default [`MotionLimits::max_tilt`], rad (30°).
+pub const DEFAULT_MAX_TILT: f64 = std::f64::consts::FRAC_PI_6;
+
+/// The largest [`MotionLimits::max_tilt`], rad (60°): beyond it the fingers lie closer to the
+/// board than to upright, and a piece's head meets the palm.
+pub const MAX_TILT: f64 = std::f64::consts::FRAC_PI_3;
 
 impl MotionLimits {
     /// The limits at pace `k`: the motion's own limits as a uniform speed-up by `k` would
@@ -554,6 +573,20 @@ impl MotionLimits {
                 field: "grid_step",
                 value: self.grid_step,
                 reason: "must be at least 1e-4 m (0.1 mm): a finer grid only costs the planner memory and time",
+            });
+        }
+        if !(self.max_tilt.is_finite() && (0.0..=MAX_TILT).contains(&self.max_tilt)) {
+            return Err(TaskError::Limits {
+                field: "max_tilt",
+                value: self.max_tilt,
+                reason: "must lie in [0, 1.0472] rad (0° to 60° from straight down)",
+            });
+        }
+        if !(self.pitch.is_finite() && (self.pitch - TOOL_DOWN).abs() <= self.max_tilt + 1e-12) {
+            return Err(TaskError::Limits {
+                field: "pitch",
+                value: self.pitch,
+                reason: "must lie within max_tilt of straight down (-1.5708 rad)",
             });
         }
         if !(self.torque_margin > 0.0 && self.torque_margin <= 1.0) {
@@ -684,7 +717,7 @@ pub fn append_task_path(
 
     let mut previous = start;
     for (target, _, _) in &steps {
-        check_segment(arm, &previous, target)
+        check_segment(arm, &previous, target, limits.pitch)
             .map_err(|source| TaskError::Unreachable { task: task_name.clone(), source })?;
         previous = *target;
     }
@@ -725,13 +758,18 @@ pub fn append_task_path(
     Ok(TaskPlan { traverse_height, grip_time, release_time, release_point: at(place, grip_z) })
 }
 
-/// Checks the straight move `from` → `to` with inverse kinematics (tool down) at its end and
-/// at points at most [`CHECK_STEP`] apart.
-pub(crate) fn check_segment(arm: &ArmModel<4>, from: &Vector3<f64>, to: &Vector3<f64>) -> Result<(), IkError> {
+/// Checks the straight move `from` → `to` with inverse kinematics (the tool at `pitch`, rad)
+/// at its end and at points at most [`CHECK_STEP`] apart.
+pub(crate) fn check_segment(
+    arm: &ArmModel<4>,
+    from: &Vector3<f64>,
+    to: &Vector3<f64>,
+    pitch: f64,
+) -> Result<(), IkError> {
     let steps = ((to - from).norm() / CHECK_STEP).ceil().max(1.0) as usize;
     for k in 1..=steps {
         let point = from + (to - from) * (k as f64 / steps as f64);
-        inverse_kinematics(arm, &point, TOOL_DOWN)?;
+        inverse_kinematics(arm, &point, pitch)?;
     }
     Ok(())
 }

@@ -196,7 +196,7 @@ fn the_controller_is_told_the_nominal_mass_of_the_piece_kind_it_grips() {
         )
         .unwrap();
         let told_mass = |settings: &PlaySettings| {
-            let events = gripper_events(settings, &table, &plan.tasks);
+            let events = gripper_events(settings, &report_arm(), &table, &plan.tasks);
             assert_eq!(events[0].payload.unwrap().inertial.mass, heavy.dimensions(role).mass);
             assert_eq!(events[1].payload, None);
             match (events[0].told, events[1].told) {

@@ -491,10 +491,10 @@ fn graveyard_and_reserve_slots_are_reachable_by_the_report_arm() {
     let highest = limits.highest_traverse(&pieces);
     assert!((highest - (0.095 + 0.03 + 0.076)).abs() < 1e-12);
     // Every location at every height and every traverse a game can ask for (reach.rs).
-    chessarm_chess::reach::check_table(&arm, table.geometry(), &pieces, &limits).unwrap();
+    chessarm_chess::reach::check_table(&arm, table.geometry(), &pieces, &limits, None).unwrap();
     // With 5 cm to spare in height (a 5 cm larger clearance margin).
     let higher = MotionLimits { clearance_margin: limits.clearance_margin + 0.05, ..limits };
-    chessarm_chess::reach::check_table(&arm, table.geometry(), &pieces, &higher).unwrap();
+    chessarm_chess::reach::check_table(&arm, table.geometry(), &pieces, &higher, None).unwrap();
     // Slots do not overlap each other or the board.
     let widest = pieces.widest();
     let slots: Vec<_> = Location::off_board().map(|l| table.nominal_position(l)).collect();
@@ -533,8 +533,9 @@ fn a_board_out_of_reach_gives_errors_naming_the_move_and_the_slot() {
     assert!(message.contains("white pawn from e2 to e4") && message.contains("out of reach"), "{message}");
     assert_eq!(path, before, "a failed plan leaves the path unchanged");
 
-    let error = chessarm_chess::reach::check_table(&report_arm(), &far, &PieceSet::default(), &MotionLimits::default())
-        .unwrap_err();
+    let error =
+        chessarm_chess::reach::check_table(&report_arm(), &far, &PieceSet::default(), &MotionLimits::default(), None)
+            .unwrap_err();
     assert!(matches!(error, chessarm_chess::reach::ReachError::Unreachable { .. }));
     assert!(error.to_string().contains("out of reach"), "{error}");
 }

@@ -17,7 +17,7 @@ use chessarm_core::nalgebra::Vector3;
 fn the_solids_follow_the_kinematic_chain() {
     let arm = report_arm();
     let gripper = Gripper::default();
-    let held = Held { radius: 0.0145, height: 0.05, grip_height: 0.04 };
+    let held = Held { radius: 0.0145, height: 0.05, grip_height: 0.04, turn: 0.0 };
     let hand = Hand { gripper, gap: 0.041, held: Some(held) };
     let mut solids = Vec::new();
     for q in [[0.0, 0.5, -1.0, 0.3], [1.2, 1.4, -2.1, -0.4], [-2.0, 0.2, 0.4, 1.1]] {

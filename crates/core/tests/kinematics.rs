@@ -403,3 +403,40 @@ fn a_path_across_the_base_joints_turn_is_refused_not_followed_as_a_jump() {
     let steps = smooth.samples().windows(2).map(|w| (w[1].q - w[0].q).abs().max()).fold(0.0, f64::max);
     assert!(steps < 0.05, "largest step {steps} rad");
 }
+
+#[test]
+fn a_piece_gripped_with_the_tool_tilted_stays_upright_at_that_pitch() {
+    use chessarm_core::arm::kinematics::FrameChain;
+    use chessarm_core::arm::link::{DhParameters, JointLimits, Link};
+    use chessarm_core::arm::task::held_turn;
+    let report = report_arm();
+    // The same arm with its pitch plane flipped (alpha of the base link −π/2: every pitch
+    // axis reversed, and the pitch joints' limits with them), as a URDF with axes `0 -1 0`
+    // gives.
+    let links: [Link; 4] = std::array::from_fn(|i| {
+        let (dh, limits) = (report.link(i).dh, report.link(i).limits);
+        if i == 0 {
+            Link { dh: DhParameters { alpha: -dh.alpha, ..dh }, ..*report.link(i) }
+        } else {
+            Link { limits: JointLimits { lower: -limits.upper, upper: -limits.lower, ..limits }, ..*report.link(i) }
+        }
+    });
+    let flipped = report.with_links(links).unwrap();
+    let mut checked = 0;
+    for model in [report, flipped] {
+        assert_eq!(held_turn(&model, TOOL_DOWN), 0.0);
+        for tilt in [-0.4, -0.1, 0.2, 0.5] {
+            let pitch = TOOL_DOWN + tilt;
+            let turn = held_turn(&model, pitch);
+            assert!((turn.abs() - tilt.abs()).abs() < 1e-12, "turn {turn} for a tilt of {tilt}");
+            for (x, y, z) in [(0.25, 0.1, 0.05), (-0.1, 0.3, 0.12), (0.05, -0.28, 0.2)] {
+                let Ok(q) = inverse_kinematics(&model, &Vector3::new(x, y, z), pitch) else { continue };
+                let frame = FrameChain::new(&model, &q).body_pose(3).rotation;
+                let axis = frame * Vector3::new(turn.cos(), turn.sin(), 0.0);
+                assert!((axis + Vector3::z()).norm() < 1e-12, "tilt {tilt} at ({x}, {y}, {z}): {axis}");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 16, "{checked} of 24 configurations reached");
+}

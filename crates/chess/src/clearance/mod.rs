@@ -14,6 +14,7 @@
 //! stepped over; one shorter than the smallest step is seen as a distance of at most
 //! `v̄ · min_step` (the sweep's `resolution`).
 
+pub mod columns;
 pub mod moves;
 
 use chessarm_core::arm::bodies::{ArmSolid, Bodies, Hand, Part, Solid, solids_into};
@@ -911,7 +912,7 @@ mod tests {
         use chessarm_core::nalgebra::{Rotation3, Translation3};
         let arm = report_arm();
         let hand = Hand {
-            held: Some(chessarm_core::arm::bodies::Held { radius: 0.02, height: 0.095, grip_height: 0.076 }),
+            held: Some(chessarm_core::arm::bodies::Held { radius: 0.02, height: 0.095, grip_height: 0.076, turn: 0.0 }),
             ..open_hand()
         };
         // Described bodies: a box and a hull on every link, off its frame's origin and turned.

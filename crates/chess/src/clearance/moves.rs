@@ -27,6 +27,10 @@ pub struct ClearanceCheck {
     pub margin: f64,
     /// What the arm's pedestal, housings and links are made of (the fingers are `gripper`).
     pub bodies: Bodies,
+    /// Where a held piece's axis lies in the tool frame: the angle (rad) about the tool's z
+    /// axis from where the tool points ([`chessarm_core::arm::task::held_turn`] of the game's
+    /// pitch; 0 with the tool straight down).
+    pub held_turn: f64,
 }
 
 impl ClearanceCheck {
@@ -43,7 +47,7 @@ impl ClearanceCheck {
 
 impl Default for ClearanceCheck {
     fn default() -> Self {
-        Self { gripper: Gripper::default(), margin: DEFAULT_MARGIN, bodies: Bodies::Drawn }
+        Self { gripper: Gripper::default(), margin: DEFAULT_MARGIN, bodies: Bodies::Drawn, held_turn: 0.0 }
     }
 }
 
@@ -51,6 +55,9 @@ impl Default for ClearanceCheck {
 /// the sweep's smallest step shows as at most this (0.5 mm, a quarter of the default margin; it
 /// does not depend on the margin, so a small opening of the fingers is not a contact).
 pub const RESOLUTION: f64 = 0.0005;
+
+/// Narrowest gap a side the planner opens the fingers to beside a piece, m.
+pub const MIN_OPENING: f64 = 0.001;
 
 /// Longest stretch of motion swept with one rate bound, s.
 const WINDOW: f64 = 0.025;
@@ -108,9 +115,9 @@ impl MoveClearance {
     }
 }
 
-fn held(pieces: &PieceSet, table: &Table, index: usize) -> (Held, f64) {
+fn held(pieces: &PieceSet, table: &Table, index: usize, turn: f64) -> (Held, f64) {
     let d = pieces.dimensions(table.pieces()[index].piece.role);
-    (Held { radius: 0.5 * d.base_diameter, height: d.height, grip_height: d.grip_height }, d.base_diameter)
+    (Held { radius: 0.5 * d.base_diameter, height: d.height, grip_height: d.grip_height, turn }, d.base_diameter)
 }
 
 /// Checks a move's motion `samples` (times, s from the move's start, and joint angles, rad;
@@ -135,7 +142,7 @@ pub fn check_move(
     // Where the nearest piece stood at the nearest instant.
     let mut nearest_location = None;
     let gripper = check.gripper;
-    let open = |k: usize| gripper.open_gap(held(pieces, table, carries[k].piece).1);
+    let open = |k: usize| gripper.open_gap(held(pieces, table, carries[k].piece, check.held_turn).1);
     let mut best: Option<(f64, Closest, Option<usize>)> = None;
     // What places the best pair: the hand then and the obstacle, if a piece.
     let mut best_scene: Option<(Hand, Option<Placed>)> = None;
@@ -159,7 +166,7 @@ pub fn check_move(
                 carried: None,
                 around,
             });
-            let (held, diameter) = held(pieces, table, carry.piece);
+            let (held, diameter) = held(pieces, table, carry.piece, check.held_turn);
             let hand = Hand { gripper, gap: diameter, held: Some(held) };
             stretches.push(Phase {
                 from: carry.grip,

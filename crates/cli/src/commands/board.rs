@@ -52,8 +52,18 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         board.yaw,
         tried.map_or(String::new(), |n| format!(" (the largest of {n} poses tried, in {seconds:.2} s)")),
         match &check {
-            Ok(()) =>
-                format!("every square, slot and traverse is served; smallest radial margin {:.1} mm", smallest * 1e3),
+            Ok(pitch) => format!(
+                "every square, slot and traverse is served{}; smallest radial margin {:.1} mm",
+                if *pitch == chessarm_core::arm::task::TOOL_DOWN {
+                    String::new()
+                } else {
+                    format!(
+                        " with the tool {} ([motion] max_tilt)",
+                        chessarm_chess::clearance::columns::tilt_words(*pitch)
+                    )
+                },
+                smallest * 1e3
+            ),
             Err(error) => format!("NOT served: {error}"),
         },
         args.map.as_ref().map_or(String::new(), |m| format!("; reach map {}", m.display())),
@@ -79,6 +89,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
             "center_m": [board.center.x, board.center.y],
             "yaw_rad": board.yaw,
             "served": check.is_ok(),
+            "tool_pitch_rad": check.as_ref().ok(),
             "smallest_margin_m": smallest,
             "poses_tried": tried,
             "seconds": seconds,
@@ -105,6 +116,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
             &summary,
             &json!({
                 "served": check.is_ok(),
+                "tool_pitch_rad": check.as_ref().ok(),
                 "why_not": check.as_ref().err().map(ToString::to_string),
                 "smallest_margin_m": smallest,
                 "sag": sag_json,
@@ -113,7 +125,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         )?;
     }
     // A board that is not served is a failed check.
-    check.map_err(|e| anyhow!("the board is not served: {e}"))
+    check.map(|_| ()).map_err(|e| anyhow!("the board is not served: {e}"))
 }
 
 /// Per square, the radial margin (mm) or grey where it is not served.

@@ -102,6 +102,10 @@ pub struct Held {
     pub radius: f64,
     pub height: f64,
     pub grip_height: f64,
+    /// The angle (rad) about the tool frame's z axis from where the tool points to the piece's
+    /// axis (down): 0 with the tool gripping straight down, else
+    /// [`crate::arm::task::held_turn`] of the grip's pitch.
+    pub turn: f64,
 }
 
 /// What the hand does: the gap between the fingers' inner faces (m) and the piece it holds.
@@ -313,10 +317,11 @@ pub fn solids_into<const N: usize>(
         out.push(ArmSolid { part: Part::Finger(k), solid: Solid::Cuboid { centre, axes, half } });
     }
     if let Some(held) = hand.held {
-        let bottom = tip + held.grip_height * approach;
+        let axis = if held.turn == 0.0 { approach } else { tool * Vector3::new(held.turn.cos(), held.turn.sin(), 0.0) };
+        let bottom = tip + held.grip_height * axis;
         out.push(ArmSolid {
             part: Part::Held,
-            solid: Solid::Cylinder { a: bottom, b: bottom - held.height * approach, radius: held.radius },
+            solid: Solid::Cylinder { a: bottom, b: bottom - held.height * axis, radius: held.radius },
         });
     }
 }

@@ -59,6 +59,19 @@ impl Payload {
         }
     }
 
+    /// The same body turned by `angle` rad about the tool frame's z axis (the last pitch
+    /// axis): `c' = R c`, `I' = R I Rᵀ` with `R = Rz(angle)`. A piece gripped upright with the
+    /// tool tilted lies turned so in the tool frame ([`crate::arm::task::held_turn`]).
+    pub fn turned(self, angle: f64) -> Self {
+        if angle == 0.0 {
+            return self;
+        }
+        let rotation = nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), angle);
+        let r = rotation.matrix();
+        let inertial = self.inertial;
+        Self { inertial: Inertial { com: r * inertial.com, inertia: r * inertial.inertia * r.transpose(), ..inertial } }
+    }
+
     /// A point mass at the tool tip.
     pub fn point_mass(mass: f64) -> Self {
         Self { inertial: Inertial::point(mass, Vector3::zeros()) }

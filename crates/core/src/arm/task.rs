@@ -165,6 +165,26 @@ impl PlanarGeometry {
     }
 }
 
+/// The angle (rad) about the tool frame's z axis (the last pitch axis) from the tool's x axis
+/// (where it points) to the world's down, with the tool at `pitch`: 0 with the tool pointing
+/// down. A piece gripped upright at this pitch and carried at it (the base turning under it,
+/// the pitch joints holding the sum) stays upright, its axis at this angle in the tool frame.
+/// Exactly 0 at [`TOOL_DOWN`]; else read from the tool frame of a configuration at `pitch`
+/// (any: a yaw and the way the pitch is shared among the joints do not change it).
+pub fn held_turn(model: &ArmModel<4>, pitch: f64) -> f64 {
+    if pitch == TOOL_DOWN {
+        return 0.0;
+    }
+    let mut q = JointVector::<4>::zeros();
+    let now = tool_pitch(model, &q);
+    // The pitch row is e·σ4 for the last joint: turning it alone sets the pitch.
+    q[3] = (pitch - now) * pitch_row(model)[3];
+    let frame = FrameChain::new(model, &q).body_pose(3).rotation;
+    let down = -Vector3::z();
+    let (x, y) = (frame * Vector3::x(), frame * Vector3::y());
+    y.dot(&down).atan2(x.dot(&down))
+}
+
 /// Tool-tip position (m) and pitch (rad) for joint angles `q`.
 pub fn tool_point(model: &ArmModel<4>, q: &JointVector<4>) -> TaskVector {
     let tip = FrameChain::new(model, q).tip();

@@ -184,6 +184,9 @@ pub struct MotionFile {
     /// Clearance over the tallest piece passed over, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub clearance_margin: Option<f64>,
+    /// How far from straight down the tool may tilt to grip, rad (0: always straight down).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_tilt: Option<f64>,
     /// The smallest distance a planned move keeps between the arm, its fingers and a carried
     /// piece and every standing piece, the table and the arm itself, m.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -247,7 +250,7 @@ impl GripperFile {
             finger_opening: g("finger_opening", self.finger_opening, d.finger_opening)?,
         };
         let margin = number_or("motion.arm_clearance", motion.arm_clearance, default.margin)?;
-        ClearanceCheck { gripper, margin, bodies: default.bodies.clone() }.validated().map_err(
+        ClearanceCheck { gripper, margin, bodies: default.bodies.clone(), held_turn: 0.0 }.validated().map_err(
             |(field, value, reason)| {
                 let table = if field == "arm_clearance" { "motion" } else { "gripper" };
                 anyhow!("{table}.{field} = {}: {reason}", chessarm_core::short_number(value))
@@ -295,6 +298,8 @@ impl MotionFile {
                 budget: m("tracking_budget", self.tracking_budget, default.tracking.budget)?,
                 ..default.tracking
             },
+            pitch: default.pitch,
+            max_tilt: m("max_tilt", self.max_tilt, default.max_tilt)?,
         };
         checked_limits(limits, "motion", "gripper")
     }
@@ -864,6 +869,7 @@ impl From<&Setup> for SetupFile {
                 jerk: Some(m.jerk),
                 tracking_budget: Some(m.tracking.budget),
                 clearance_margin: Some(m.clearance_margin),
+                max_tilt: Some(m.max_tilt),
                 arm_clearance: Some(setup.clearance.margin),
                 traverse_speed: Some(m.traverse_speed),
                 traverse_acceleration: Some(m.traverse_acceleration),

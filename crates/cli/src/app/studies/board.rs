@@ -17,8 +17,9 @@ pub struct BoardStudy {
     /// With `fit`: how many board poses the search tried, and how long it took, s.
     pub tried: Option<usize>,
     pub seconds: f64,
-    /// Whether every square, slot and traverse is served, or why not.
-    pub check: Result<(), ReachError>,
+    /// The tool's pitch (rad) nearest straight down at which every square, slot and traverse
+    /// is served, or why none is.
+    pub check: Result<f64, ReachError>,
     /// Each square's radial margin, m, or why it is not served.
     pub margins: Vec<(Square, Result<f64, String>)>,
     /// The smallest of the margins, m.
@@ -50,6 +51,7 @@ pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
             setup.board.square_size,
             &limits,
             (setup.board.surface_height, setup.board.base_clearance),
+            Some(&setup.clearance),
         )
         .map_err(|e| anyhow!("{e}"))?;
         // The fingers open around a piece beside its neighbours: squares below what they need
@@ -72,10 +74,12 @@ pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
         tried = Some(fit.tried);
     }
     let seconds = started.elapsed().as_secs_f64();
-    let check = check_table(&setup.arm, &fitted.board, &fitted.pieces, &limits);
+    let check = check_table(&setup.arm, &fitted.board, &fitted.pieces, &limits, Some(&setup.clearance));
+    // The maps at the pitch the game would use (straight down when the board is not served).
+    let limits = chessarm_chess::tasks::MotionLimits { pitch: *check.as_ref().unwrap_or(&limits.pitch), ..limits };
     let margins = square_margins(&setup.arm, &fitted.board, &fitted.pieces, &limits);
     let sag = match (setup.actuators.take_positions(), sag) {
-        (true, _) => Some(sag_map(&setup.arm, &setup.actuators, &fitted.board, &fitted.pieces)),
+        (true, _) => Some(sag_map(&setup.arm, &setup.actuators, &fitted.board, &fitted.pieces, limits.pitch)),
         (false, true) => {
             anyhow::bail!("--sag-map is for servos or steppers; the joints have torque motors (give --actuator NAME)")
         }

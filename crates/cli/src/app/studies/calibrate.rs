@@ -66,16 +66,16 @@ pub fn calibrate(setup: &Setup, touched: &[(Square, [f64; 4])], zeros: bool, max
         zero_ticks = Some(ticks);
     }
     // The fitted board must be one the setup's own check (`board`, `play`) accepts.
-    chessarm_chess::reach::check_table(&setup.arm, &calibrated.board, &calibrated.pieces, &setup.motion).map_err(
-        |e| {
+    let columns = Some(&setup.clearance);
+    chessarm_chess::reach::check_table(&setup.arm, &calibrated.board, &calibrated.pieces, &setup.motion, columns)
+        .map_err(|e| {
             anyhow::anyhow!(
                 "the fitted board (centre ({:.1}, {:.1}) mm, yaw {:.2}°) is not served: {e}; nothing was written",
                 fitted.center.x * 1e3,
                 fitted.center.y * 1e3,
                 fitted.yaw.to_degrees()
             )
-        },
-    )?;
+        })?;
     Ok(Calibration { fitted, calibrated, zero_errors, zero_ticks })
 }
 

@@ -113,11 +113,13 @@ pub fn plan_moves(setup: &Setup, fen: Option<&str>, moves: &str, dt: f64) -> Res
         None => Chess::default(),
     };
     let record = parse_move_list(moves, start)?;
-    let limits = checked_limits(setup.motion, "motion", "gripper")?;
+    let mut limits = checked_limits(setup.motion, "motion", "gripper")?;
     let mut table = Table::from_position(setup.board, &record.start);
-    chessarm_chess::reach::check_table(&setup.arm, &setup.board, &setup.pieces, &limits).map_err(|e| {
-        anyhow!("the table cannot be served by this arm: {e}; `chessarm board --fit` finds a board it serves")
-    })?;
+    let columns = Some(&setup.clearance);
+    limits.pitch = chessarm_chess::reach::check_table(&setup.arm, &setup.board, &setup.pieces, &limits, columns)
+        .map_err(|e| {
+            anyhow!("the table cannot be served by this arm: {e}; `chessarm board --fit` finds a board it serves")
+        })?;
     let mut tool = home_tool(&setup.board, &setup.pieces, &limits);
     let mut position = record.start.clone();
     let mut plan = MovesPlan { plies: Vec::new(), cartesian: Vec::new(), joint: Vec::new(), duration: 0.0, dt };
