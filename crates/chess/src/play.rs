@@ -84,6 +84,11 @@ pub struct PlaySettings {
     /// ([`crate::clearance`]): its plan is checked and changed (or refused) before it runs,
     /// and the simulated motion is checked after. `None`: no check (for measuring its cost).
     pub clearance: Option<ClearanceCheck>,
+    /// Whether [`Game::new`] checks the board's columns with `clearance`
+    /// ([`crate::clearance::columns`]), so that no move can meet a neighbour at a grip: on; off
+    /// only to study the planner's own changes (narrowed fingers, raised traverses) and
+    /// refusals on a board the check would refuse.
+    pub check_columns: bool,
 }
 
 /// A robot move's planned motion for hardware ([`chessarm_core::plan::hardware`]).
@@ -135,6 +140,7 @@ impl PlaySettings {
             actuators: Actuators::torque(),
             true_actuators: None,
             clearance: Some(ClearanceCheck::default()),
+            check_columns: true,
         }
     }
 }
@@ -384,7 +390,7 @@ impl Game {
         let limits = settings.limits.validated()?;
         let table = Table::from_position(board, &start);
         // The pitch nearest straight down that serves the whole board, for the whole game.
-        let columns = settings.clearance.as_ref();
+        let columns = settings.clearance.as_ref().filter(|_| settings.check_columns);
         let pitch =
             crate::reach::check_table(&arm, &board, &settings.pieces, &limits, columns).map_err(PlayError::Reach)?;
         settings.limits.pitch = pitch;

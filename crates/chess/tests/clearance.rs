@@ -25,10 +25,34 @@ fn board(size: f64) -> BoardGeometry {
     BoardGeometry { square_size: size, center: Vector2::new(0.0, 0.12 + 4.0 * size), ..BoardGeometry::default() }
 }
 
+/// Plays one move on `board` with the pre-flight's column check off: the planner's own
+/// changes and refusals (the column check refuses these boards before any move, see
+/// `the_pre_flight_refuses_a_board_whose_columns_are_crowded`).
 fn play(board: BoardGeometry, fen: &str, uci: &str) -> Result<MoveReport, PlayError> {
     let position = parse_fen(fen).expect("a FEN");
     let mv = uci.parse::<UciMove>().expect("a UCI move").to_move(&position).expect("a legal move");
-    Game::new(report_arm(), board, position, settings()).expect("a served board").play(&mv, Mover::Robot)
+    let settings = PlaySettings { check_columns: false, ..settings() };
+    Game::new(report_arm(), board, position, settings).expect("a served board").play(&mv, Mover::Robot)
+}
+
+/// The boards of the planner's refusals below are refused before the first move: with the
+/// tallest, widest piece on every place around a square, the wrist (34 mm squares) or a
+/// finger (36 mm) comes within the margin of a neighbour; the message names the place, the
+/// part and the neighbour. On the report's own board every column is clear.
+#[test]
+fn the_pre_flight_refuses_a_board_whose_columns_are_crowded() {
+    use chessarm_chess::reach::ReachError;
+    let start = || parse_fen(START).expect("a FEN");
+    for (size, part) in [(0.034, "link"), (0.036, "")] {
+        let Err(error) = Game::new(report_arm(), board(size), start(), settings()) else {
+            panic!("squares of {size} m accepted")
+        };
+        let PlayError::Reach(ReachError::Crowded(crowded)) = &error else { panic!("{error}") };
+        assert!(crowded.distance < 0.002 && crowded.part.to_string().starts_with(part), "{error}");
+        let message = error.to_string();
+        assert!(message.contains(&crowded.place) && message.contains(&crowded.neighbour), "{message}");
+    }
+    assert!(Game::new(report_arm(), BoardGeometry::default(), start(), settings()).is_ok());
 }
 
 /// A finger opening into the neighbour's square: on 42 mm squares the default fingers (6 mm
