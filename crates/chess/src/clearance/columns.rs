@@ -1,9 +1,10 @@
 //! What a grip or a release can meet, before any game: every square and slot's *column*, the
 //! tool going straight down over it from the highest traverse to each piece's grip height,
 //! with the tallest and widest piece of the set standing on every place around it (the
-//! squares and slots whose centres lie within 1.5 squares). The arm's solids ([`solids_into`]:
-//! its links, housings, pedestal and fingers, open around the widest piece as narrowly as the
-//! planner may open them beside a piece, [`MIN_OPENING`] a side or the gripper's own opening
+//! squares and slots whose centres lie within 1.5 squares; a king never leaves the board, so
+//! on a graveyard or reserve slot the tallest and widest of the others). The arm's solids ([`solids_into`]:
+//! its links, housings, pedestal and fingers, open around the piece gripped there as narrowly
+//! as the planner may open them beside a piece, [`MIN_OPENING`] a side or the gripper's own opening
 //! when that is less) must keep the
 //! clearance margin from those neighbours at every height checked. A game's moves go down and
 //! up these columns with any pieces around, so a board whose columns are all clear cannot stop
@@ -20,7 +21,7 @@ use chessarm_core::arm::bodies::{ArmSolid, Hand, Part, solids_into};
 use chessarm_core::arm::model::ArmModel;
 use chessarm_core::arm::task::inverse_kinematics;
 use chessarm_core::nalgebra::{Vector2, Vector3};
-use shakmaty::{Board, Square};
+use shakmaty::{Board, Role, Square};
 
 /// How far around a place its neighbours stand, in squares: the eight squares around a square
 /// (the diagonal ones at √2 ≈ 1.41), and the slots beside a slot.
@@ -43,8 +44,8 @@ impl std::fmt::Display for Crowded {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "over {} at {:.1} mm above the table with the tool {}, {} would come {:.1} mm from a piece on {} (the \
-             tallest and widest piece of the set stands on every neighbouring place)",
+            "over {} at {:.1} mm above the table with the tool {}, {} would come {:.1} mm from a piece on {} (every \
+             kind gripped there, the tallest and widest piece of the set on every neighbouring place)",
             self.place,
             self.height * 1e3,
             tilt_words(self.pitch),
@@ -68,54 +69,76 @@ pub fn check_columns(
     pitch: f64,
 ) -> Result<(), Crowded> {
     let table = Table::new(*geometry, &Board::empty());
-    let places: Vec<(String, Vector2<f64>)> = Square::ALL
+    // (name, centre, whether a king may stand there)
+    let places: Vec<(String, Vector2<f64>, bool)> = Square::ALL
         .into_iter()
         .map(Location::Square)
         .chain(Location::off_board())
-        .map(|location| (location.to_string(), table.nominal_position(location)))
+        .map(|location| {
+            (location.to_string(), table.nominal_position(location), matches!(location, Location::Square(_)))
+        })
         .collect();
     let reach = NEIGHBOURHOOD * geometry.square_size;
-    let neighbour = |at: Vector2<f64>| StandingPiece {
-        base: Vector3::new(at.x, at.y, geometry.surface_height),
-        radius: 0.5 * pieces.widest(),
-        height: pieces.tallest(),
+    let largest = |kings: bool| {
+        let kinds = pieces.all().into_iter().filter(|(role, _)| kings || *role != Role::King);
+        kinds.fold((0.0_f64, 0.0_f64), |(width, height), (_, d)| (width.max(d.base_diameter), height.max(d.height)))
+    };
+    let neighbour = |at: Vector2<f64>, kings: bool| {
+        let (width, height) = largest(kings);
+        StandingPiece { base: Vector3::new(at.x, at.y, geometry.surface_height), radius: 0.5 * width, height }
     };
     let mut gripper = check.gripper;
     gripper.finger_opening = gripper.finger_opening.min(MIN_OPENING);
-    let hand = Hand { gripper, gap: gripper.open_gap(pieces.widest()), held: None };
+
     // Only the arm against the neighbours: the table and the arm itself are the sweeps' (the
     // columns do not change with what stands around them).
     let rules = Rules { table: None, off_table: Vec::new(), touching: Vec::new(), self_check: false };
     let mut solids: Vec<ArmSolid> = Vec::new();
     let mut buffers = NearestBuffers::default();
-    for (name, centre) in &places {
+    for (name, centre, kings) in &places {
         let around: Vec<usize> = (0..places.len())
             .filter(|&k| {
                 let d = (places[k].1 - centre).norm();
                 d > 1e-9 && d < reach
             })
             .collect();
-        if around.is_empty() {
-            continue;
-        }
-        let standing: Vec<Placed> = around.iter().map(|&k| Placed::piece(&neighbour(places[k].1))).collect();
-        for &h in heights {
-            let tip = Vector3::new(centre.x, centre.y, geometry.surface_height + h);
-            let Ok(q) = inverse_kinematics(arm, &tip, pitch) else { continue };
-            solids_into(arm, &q, &hand, &check.bodies, &mut solids);
-            let found = nearest::<4>(&solids, &standing, &[], None, &rules, &mut buffers);
-            if let Some(closest) = found.still
-                && closest.distance < check.margin
-                && let Obstacle::Piece(k) = closest.obstacle
-            {
-                return Err(Crowded {
-                    place: name.clone(),
-                    height: h,
-                    pitch,
-                    part: closest.part,
-                    neighbour: places[around[k]].0.clone(),
-                    distance: closest.distance,
-                });
+        let mut standing: Vec<Placed> =
+            around.iter().map(|&k| Placed::piece(&neighbour(places[k].1, places[k].2))).collect();
+        // The piece gripped or put down on the place itself, last: the fingers close on it
+        // (their gap to it is the gripper's, not a clearance), everything else must clear it.
+        let own = standing.len();
+        let gripped = [own];
+        for (_, dims) in pieces.all().into_iter().filter(|(role, _)| *kings || *role != Role::King) {
+            let piece = StandingPiece {
+                base: Vector3::new(centre.x, centre.y, geometry.surface_height),
+                radius: 0.5 * dims.base_diameter,
+                height: dims.height,
+            };
+            standing.truncate(own);
+            standing.push(Placed::piece(&piece));
+            let hand = Hand { gripper, gap: gripper.open_gap(dims.base_diameter), held: None };
+            for &h in heights.iter().filter(|h| **h >= dims.grip_height - 1e-12) {
+                let tip = Vector3::new(centre.x, centre.y, geometry.surface_height + h);
+                let Ok(q) = inverse_kinematics(arm, &tip, pitch) else { continue };
+                solids_into(arm, &q, &hand, &check.bodies, &mut solids);
+                let found = nearest::<4>(&solids, &standing, &gripped, None, &rules, &mut buffers);
+                if let Some(closest) = found.still
+                    && closest.distance < check.margin
+                    && let Obstacle::Piece(k) = closest.obstacle
+                {
+                    let neighbour = match around.get(k) {
+                        Some(&index) => places[index].0.clone(),
+                        None => format!("{name} itself (the piece the fingers close on)"),
+                    };
+                    return Err(Crowded {
+                        place: name.clone(),
+                        height: h,
+                        pitch,
+                        part: closest.part,
+                        neighbour,
+                        distance: closest.distance,
+                    });
+                }
             }
         }
     }
