@@ -17,6 +17,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use common::OPERA;
+
+/// Castling on both sides, en passant, promotion to a queen and, capturing, to a knight.
+const SPECIAL_MOVES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../chess/tests/fixtures/special_moves.pgn");
 use common::REAL_ARMS as FIXTURES;
 
 /// Each file, the flags it needs (the SO-101's fifth joint held), its tool link, and how far
@@ -94,22 +97,40 @@ fn each_makers_arm_fits_a_board_and_plays_the_opera_game_with_every_piece_in_pla
         );
         assert!(!refused.status.success());
         assert!(String::from_utf8_lossy(&refused.stderr).contains("chessarm board --fit"), "{name}");
-        // 2. The Opera game on it, ideal sensors and hobby ones.
-        for sensors in ["ideal", "hobby"] {
-            let out = dir.path().join(format!("{name}-{sensors}"));
+        // The tool tilts where that serves a larger board, never beyond [motion] max_tilt
+        // (30°), and a board the arm serves straight down is smaller.
+        let pitch = fit["tool_pitch_rad"].as_f64().unwrap();
+        assert!((pitch + std::f64::consts::FRAC_PI_2).abs() <= std::f64::consts::FRAC_PI_6 + 1e-12, "{name}: {pitch}");
+        let straight = dir.path().join(format!("{name}-straight.toml"));
+        let needle = std::fs::read_to_string(common::NEEDLE_FINGERS).unwrap();
+        std::fs::write(&straight, needle.replace("[motion]\n", "[motion]\nmax_tilt = 0.0\n")).unwrap();
+        let down = json_of(&chessarm(&[&base[..], &["--arm", straight.to_str().unwrap(), "board", "--fit"]].concat()));
+        assert_eq!(down["tool_pitch_rad"].as_f64(), Some(-std::f64::consts::FRAC_PI_2), "{name}: {down}");
+        let tilted = pitch > -std::f64::consts::FRAC_PI_2;
+        let smaller = down["square_size_m"].as_f64().unwrap();
+        assert!(if tilted { smaller < square } else { smaller == square }, "{name}: {smaller} against {square}");
+        eprintln!("{name}: squares of {:.1} mm straight down, {:.1} mm at pitch {pitch:.4} rad", smaller * 1e3, square * 1e3);
+        // 2. The Opera game on it, ideal sensors and hobby ones; with hobby ones a game of
+        // castling on both sides, en passant and promotions (to a queen and, capturing, to a
+        // knight).
+        for (game, sensors) in [(OPERA, "ideal"), (OPERA, "hobby"), (SPECIAL_MOVES, "hobby")] {
+            let out = dir.path().join(format!("{name}-{sensors}-{}", game.len()));
             let args = [
                 &base[..],
-                &["--arm", setup.to_str().unwrap(), "play", OPERA, "--sensors", sensors, "--out"],
+                &["--arm", setup.to_str().unwrap(), "play", game, "--sensors", sensors, "--out"],
                 &[out.to_str().unwrap()],
             ]
             .concat();
-            let game = json_of(&chessarm(&args));
-            assert_eq!(game["result"], "1-0", "{name} {sensors}: {game}");
-            assert_eq!(game["misplaced"], 0, "{name} {sensors}: {game}");
-            assert_eq!(game["final_fen_physical"], game["final_fen_rules"], "{name} {sensors}");
+            let played = json_of(&chessarm(&args));
+            if game == OPERA {
+                assert_eq!(played["result"], "1-0", "{name} {sensors}: {played}");
+            }
+            assert_eq!(played["misplaced"], 0, "{name} {sensors}: {played}");
+            assert_eq!(played["final_fen_physical"], played["final_fen_rules"], "{name} {sensors}");
             // Nothing touched: the plan keeps the fingers' margin, the simulated motion touches
             // nothing (measured in full wherever its deviation from the plan could).
             let record: Value = serde_json::from_slice(&std::fs::read(out.join("game.json")).unwrap()).unwrap();
+            assert_eq!(record["complete"], true, "{name} {sensors}: {played}");
             let clearance = &record["clearance"];
             assert_eq!(clearance["contacts"], 0, "{name} {sensors}: {clearance}");
             assert!(clearance["smallest_mm"].as_f64().unwrap() >= 1.0, "{name} {sensors}: {clearance}");
@@ -119,7 +140,7 @@ fn each_makers_arm_fits_a_board_and_plays_the_opera_game_with_every_piece_in_pla
                 clearance["part"],
                 clearance["obstacle"]
             );
-            if sensors == "ideal" {
+            if sensors == "ideal" && game == OPERA {
                 check_hardware(name, &out.join("hardware"), tool, tolerance);
             }
         }
