@@ -109,7 +109,11 @@ fn each_makers_arm_fits_a_board_and_plays_the_opera_game_with_every_piece_in_pla
         let tilted = pitch > -std::f64::consts::FRAC_PI_2;
         let smaller = down["square_size_m"].as_f64().unwrap();
         assert!(if tilted { smaller < square } else { smaller == square }, "{name}: {smaller} against {square}");
-        eprintln!("{name}: squares of {:.1} mm straight down, {:.1} mm at pitch {pitch:.4} rad", smaller * 1e3, square * 1e3);
+        eprintln!(
+            "{name}: squares of {:.1} mm straight down, {:.1} mm at pitch {pitch:.4} rad",
+            smaller * 1e3,
+            square * 1e3
+        );
         // 2. The Opera game on it, ideal sensors and hobby ones; with hobby ones a game of
         // castling on both sides, en passant and promotions (to a queen and, capturing, to a
         // knight).
