@@ -243,16 +243,16 @@ fn joint_accelerations_in_the_setup_file_take_one_number_as_the_flag_does() {
     assert_one_line_error(&chessarm(&["--arm", &three, "arm"]), &["motion.joint_acceleration has 3 numbers"]);
 }
 
-/// On 42 mm squares the default fingers, opened 6 mm, would come nearer than the margin to
-/// e2's neighbours: the move's opening is narrowed, game.json says so (the adjustment and
-/// the opening), and the hardware export's gripper opens as narrowly as the plan that was
-/// checked (`finger_opening_m`), while a move with room keeps the setup's 6 mm.
+/// Fingers opened 25 mm beside a piece would reach e2's neighbours on the report's board: the
+/// move's opening is narrowed (the board is accepted: its columns are checked with the fingers
+/// as narrow as the planner may open them), game.json says so (the adjustment and the
+/// opening), and the hardware export's gripper opens as narrowly as the plan that was checked
+/// (`finger_opening_m`), while a move with room keeps the setup's 6 mm.
 #[test]
 fn a_narrowed_opening_reaches_the_hardware_export() {
     let dir = tempfile::tempdir().unwrap();
-    let setup = dir.path().join("tight.toml");
-    // The board of crates/chess/tests/clearance.rs's narrowing case.
-    std::fs::write(&setup, "[board]\nsquare_size = 0.042\ncenter = [0.0, 0.288]\n").unwrap();
+    let setup = dir.path().join("wide.toml");
+    std::fs::write(&setup, "[gripper]\nfinger_opening = 0.025\n").unwrap();
     let out = dir.path().join("out");
     let played = chessarm(&["--arm", setup.to_str().unwrap(), "play", "--moves", "e4", "--out", out.to_str().unwrap()]);
     assert!(played.status.success(), "{}", String::from_utf8_lossy(&played.stderr));
@@ -260,7 +260,7 @@ fn a_narrowed_opening_reaches_the_hardware_export() {
         serde_json::from_str(&std::fs::read_to_string(out.join("game.json")).unwrap()).unwrap();
     let first = &report["moves"][0];
     let opening_mm = first["finger_opening_mm"].as_f64().unwrap();
-    assert!(opening_mm < 6.0, "{first}");
+    assert!(opening_mm < 25.0, "{first}");
     assert!(!first["clearance_adjustments"].as_array().unwrap().is_empty(), "{first}");
     let exported: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("hardware/001-e2e4.json")).unwrap()).unwrap();

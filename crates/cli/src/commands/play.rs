@@ -222,6 +222,17 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
         crate::tell(&note);
     }
     let mut source = source(args)?;
+    // A person sits across from the arm: the board turned to face them, when it is served so.
+    let seated;
+    let setup = match &source {
+        Source::Human(human) => {
+            let (board, note) = crate::app::studies::person::seat(setup, human.turns.person);
+            crate::tell(&note);
+            seated = Setup { board, ..setup.clone() };
+            &seated
+        }
+        _ => setup,
+    };
     let start = match &source {
         Source::Record(record) => record.start.clone(),
         Source::Engines { start, .. } => start.clone(),

@@ -52,22 +52,28 @@ pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
             &limits,
             (setup.board.surface_height, setup.board.base_clearance),
             Some(&setup.clearance),
-        )
-        .map_err(|e| anyhow!("{e}"))?;
-        // The fingers open around a piece beside its neighbours: squares below what they need
-        // would have the planner refuse moves.
-        if fit.board.square_size < needed {
-            anyhow::bail!(
-                "the arm serves squares of at most {:.1} mm, and the fingers ([gripper]: {:.1} mm thick, {:.1} mm wide, \
-                 opened {:.1} mm beside a piece) need {:.1} mm to open around a piece beside its neighbours with {:.1} mm \
-                 to spare ([motion] arm_clearance): slimmer fingers, a smaller opening or a longer arm",
-                fit.board.square_size * 1e3,
+        );
+        let fingers = || {
+            format!(
+                "the fingers ([gripper]: {:.1} mm thick, {:.1} mm wide, opened {:.1} mm beside a piece) need {:.1} mm to \
+                 open around a piece beside its neighbours with {:.1} mm to spare ([motion] arm_clearance): slimmer \
+                 fingers, a smaller opening or a longer arm",
                 setup.clearance.gripper.finger_thickness * 1e3,
                 setup.clearance.gripper.finger_width * 1e3,
                 setup.clearance.gripper.finger_opening * 1e3,
                 needed * 1e3,
                 setup.clearance.margin * 1e3
-            );
+            )
+        };
+        // A fit refused for a finger beside a neighbour says what the fingers need.
+        let fit = fit.map_err(|e| match &e {
+            ReachError::NoFit { why, .. } if why.contains("finger") => anyhow!("{e}; {}", fingers()),
+            _ => anyhow!("{e}"),
+        })?;
+        // The fingers open around a piece beside its neighbours: squares below what they need
+        // would have the planner refuse moves.
+        if fit.board.square_size < needed {
+            anyhow::bail!("the arm serves squares of at most {:.1} mm, and {}", fit.board.square_size * 1e3, fingers());
         }
         fitted.board = fit.board;
         fitted.pieces = fit.pieces;

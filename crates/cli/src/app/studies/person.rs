@@ -8,6 +8,9 @@ use anyhow::{Context, Result};
 use chessarm_chess::opponent::Opponent;
 use chessarm_chess::play::{Game, Handling, MoveReport, Mover};
 use chessarm_chess::shakmaty::{Chess, Color, Move, Position, Role};
+use crate::app::setup::file::Setup;
+use chessarm_chess::board::BoardGeometry;
+use chessarm_chess::shakmaty::Square;
 use chessarm_chess::table::Location;
 use std::path::Path;
 
@@ -156,6 +159,46 @@ impl PersonGame {
         self.relocations.push(report.handled.iter().map(|h| (h.from, h.to)).collect());
         self.pgn.moves.push((m, Some(robot_comment(&report))));
         Ok((report, thinking))
+    }
+}
+
+/// The board as the person sits at it, across from the arm: their first rank must stand
+/// farther from the arm's base than their last (the arm reaches in from its own side). When the
+/// setup's board has it the other way, it is turned half a turn about its centre (`yaw + π`;
+/// the squares land on squares, the graveyard and reserve move with the board) and checked as
+/// the game's pre-flight checks it; the turned board, or the setup's when the turned one is
+/// not served, with a line for the terminal saying which and why.
+pub fn seat(setup: &Setup, person: Color) -> (BoardGeometry, String) {
+    let board = setup.board;
+    let base = setup.arm.base().xy();
+    let distance = |square: Square| (board.square_center(square).xy() - base).norm();
+    let (own, far) = match person {
+        Color::White => (Square::E1, Square::E8),
+        Color::Black => (Square::E8, Square::E1),
+    };
+    let side = side_name(person);
+    if distance(own) >= distance(far) - 1e-9 {
+        return (board, format!("seat: the person plays {side} from across the board, their first rank farthest from the arm\n"));
+    }
+    let yaw = chessarm_core::arm::task::wrap_angle(board.yaw + std::f64::consts::PI);
+    let turned = BoardGeometry { yaw, ..board };
+    let mut limits = setup.motion;
+    limits.pitch = chessarm_core::arm::task::TOOL_DOWN;
+    match chessarm_chess::reach::check_table(&setup.arm, &turned, &setup.pieces, &limits, Some(&setup.clearance)) {
+        Ok(_) => (
+            turned,
+            format!(
+                "seat: the board turned half a turn (yaw {yaw:.4} rad) so that {side}'s first rank faces the person \
+                 across from the arm\n"
+            ),
+        ),
+        Err(why) => (
+            board,
+            format!(
+                "seat: the setup's board stands, {side}'s first rank on the arm's side (the person sits behind the arm): \
+                 turned half a turn it is not served: {why}\n"
+            ),
+        ),
     }
 }
 
