@@ -89,6 +89,10 @@ pub struct PlaySettings {
     /// only to study the planner's own changes (narrowed fingers, raised traverses) and
     /// refusals on a board the check would refuse.
     pub check_columns: bool,
+    /// The tool's pitch (rad) a pre-flight of this arm, board, pieces, limits and clearance
+    /// already found ([`crate::reach::check_table`]): [`Game::new`] takes it instead of
+    /// checking again (a campaign plays many games on one board). `None`: checked.
+    pub checked_pitch: Option<f64>,
 }
 
 /// A robot move's planned motion for hardware ([`chessarm_core::plan::hardware`]).
@@ -141,6 +145,7 @@ impl PlaySettings {
             true_actuators: None,
             clearance: Some(ClearanceCheck::default()),
             check_columns: true,
+            checked_pitch: None,
         }
     }
 }
@@ -391,8 +396,12 @@ impl Game {
         let table = Table::from_position(board, &start);
         // The pitch nearest straight down that serves the whole board, for the whole game.
         let columns = settings.clearance.as_ref().filter(|_| settings.check_columns);
-        let pitch =
-            crate::reach::check_table(&arm, &board, &settings.pieces, &limits, columns).map_err(PlayError::Reach)?;
+        let pitch = match settings.checked_pitch {
+            Some(pitch) => pitch,
+            None => {
+                crate::reach::check_table(&arm, &board, &settings.pieces, &limits, columns).map_err(PlayError::Reach)?
+            }
+        };
         settings.limits.pitch = pitch;
         if let Some(check) = settings.clearance.as_mut() {
             check.held_turn = held_turn(&arm, pitch);
@@ -436,6 +445,16 @@ impl Game {
 
     pub fn position(&self) -> &Chess {
         &self.position
+    }
+
+    /// The tool's pitch for the whole game, rad ([`crate::reach::check_table`]'s choice).
+    pub fn pitch(&self) -> f64 {
+        self.settings.limits.pitch
+    }
+
+    /// The board the game is played on.
+    pub fn board(&self) -> &BoardGeometry {
+        self.table.geometry()
     }
 
     pub fn table(&self) -> &Table {

@@ -85,6 +85,11 @@ pub enum ReachError {
     NoFit { smallest: f64, why: String },
     #[error("{0}")]
     Crowded(crate::clearance::columns::Crowded),
+    #[error(
+        "{source} (with the tool straight down; no pitch within [motion] max_tilt = {:.0}° serves the board either)",
+        .max_tilt.to_degrees()
+    )]
+    AtEveryPitch { max_tilt: f64, source: Box<ReachError> },
 }
 
 /// Every location a game uses and the home point, with a name for messages.
@@ -212,7 +217,8 @@ pub fn check_table(
     columns: Option<&ClearanceCheck>,
 ) -> Result<f64, ReachError> {
     let (mut first, mut crowded) = (None, None);
-    for pitch in pitches(limits.max_tilt, PITCH_STEP) {
+    let max_tilt = tilt_allowed(arm, limits);
+    for pitch in pitches(max_tilt, PITCH_STEP) {
         match check_table_at(arm, geometry, pieces, limits, pitch, columns) {
             Ok(()) => return Ok(pitch),
             // Where the board cannot be served at all, no pitch helps: say so at once.
@@ -225,10 +231,21 @@ pub fn check_table(
             }
         }
     }
-    // The nearest pitch that reached everything, crowded, says more than one that did not reach.
-    Err(crowded
-        .or(first)
-        .unwrap_or(ReachError::NoFit { smallest: geometry.square_size, why: "no pitch to try".into() }))
+    // The nearest pitch that reached everything, crowded, says more than one that did not reach;
+    // a point out of reach is said as straight down, and that no tilt helps either.
+    let error = match (crowded, first) {
+        (Some(crowded), _) => crowded,
+        (None, Some(first)) if max_tilt > 0.0 => ReachError::AtEveryPitch { max_tilt, source: Box::new(first) },
+        (None, Some(first)) => first,
+        (None, None) => ReachError::NoFit { smallest: geometry.square_size, why: "no pitch to try".into() },
+    };
+    Err(error)
+}
+
+/// The tilt the planner may use: `[motion] max_tilt`, or none where the tool frame's z axis is
+/// not the last pitch axis ([`chessarm_core::arm::task::tool_z_is_pitch_axis`]).
+fn tilt_allowed(arm: &ArmModel<4>, limits: &MotionLimits) -> f64 {
+    if chessarm_core::arm::task::tool_z_is_pitch_axis(arm) { limits.max_tilt } else { 0.0 }
 }
 
 /// [`check_table`] with the tool at `pitch` (rad) throughout.
@@ -460,7 +477,7 @@ pub fn fit_board(
     // (margin, board, pieces), or None. Each pose's points are spread once for every pitch.
     let mut best_at = |s: f64, clear: bool| -> Option<(f64, BoardGeometry, PieceSet)> {
         let scaled = scaled_pieces(pieces, square_size, s);
-        let radials: Vec<(f64, Radial)> = pitches(limits.max_tilt, FIT_PITCH_STEP)
+        let radials: Vec<(f64, Radial)> = pitches(tilt_allowed(arm, limits), FIT_PITCH_STEP)
             .map(|pitch| (pitch, Radial::new(arm, &scaled, limits, (surface, clearance), pitch)))
             .collect();
         let first = &radials[0].1;

@@ -536,8 +536,11 @@ fn a_board_out_of_reach_gives_errors_naming_the_move_and_the_slot() {
     let error =
         chessarm_chess::reach::check_table(&report_arm(), &far, &PieceSet::default(), &MotionLimits::default(), None)
             .unwrap_err();
-    assert!(matches!(error, chessarm_chess::reach::ReachError::Unreachable { .. }));
-    assert!(error.to_string().contains("out of reach"), "{error}");
+    // Out of reach straight down, and at every tilt within max_tilt.
+    use chessarm_chess::reach::ReachError;
+    let ReachError::AtEveryPitch { source, .. } = &error else { panic!("{error}") };
+    assert!(matches!(**source, ReachError::Unreachable { .. }));
+    assert!(error.to_string().contains("out of reach") && error.to_string().contains("max_tilt = 30°"), "{error}");
 }
 
 #[test]

@@ -285,6 +285,12 @@ pub fn run(setup: &Setup, args: &PlayArgs) -> Result<()> {
     let started = Instant::now();
     let first_number = (start.fullmoves().get(), start.turn());
     let mut game = Game::new(setup.arm, setup.board, start, settings)?;
+    if game.pitch() != chessarm_core::arm::task::TOOL_DOWN {
+        crate::tell(&format!(
+            "tool: {} for every grip and release, the nearest straight down that serves this board ([motion] max_tilt)\n",
+            chessarm_chess::clearance::columns::tilt_words(game.pitch())
+        ));
+    }
     let start_table = game.table().clone();
     let start_pose = Frame {
         t: 0.0,
@@ -1120,6 +1126,14 @@ fn game_json(
             "y_m": p.position.y,
         })).collect::<Vec<_>>(),
         "total_robot_time_s": game.robot_time(),
+        // The tool's pitch for every grip, carry and release, and the board it was played on
+        // (turned to face a person, where one plays).
+        "tool_pitch_rad": game.pitch(),
+        "board": json!({
+            "square_size_m": game.board().square_size,
+            "center_m": [game.board().center.x, game.board().center.y],
+            "yaw_rad": game.board().yaw,
+        }),
         "in_position": game.in_position().map(|gate| json!({
             "tip_band_mm": gate.tip_band * 1e3,
             "speed_band_mm_per_s": gate.speed_band * 1e3,

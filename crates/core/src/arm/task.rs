@@ -185,6 +185,15 @@ pub fn held_turn(model: &ArmModel<4>, pitch: f64) -> f64 {
     y.dot(&down).atan2(x.dot(&down))
 }
 
+/// Whether the tool frame's z axis is the last pitch axis (the last DH `alpha` 0 or π): the
+/// axis [`held_turn`] turns a held piece about. Where it is not, a planner keeps the tool
+/// straight down.
+pub fn tool_z_is_pitch_axis(model: &ArmModel<4>) -> bool {
+    let chain = FrameChain::new(model, &JointVector::<4>::zeros());
+    let tool_z = chain.body_pose(3).rotation * Vector3::z();
+    (tool_z.dot(&chain.joint_axis(3).0).abs() - 1.0).abs() < 1e-9
+}
+
 /// Tool-tip position (m) and pitch (rad) for joint angles `q`.
 pub fn tool_point(model: &ArmModel<4>, q: &JointVector<4>) -> TaskVector {
     let tip = FrameChain::new(model, q).tip();

@@ -4,13 +4,13 @@
 //! person's actions arrive and what is shown are the caller's (the terminal, a file, a socket,
 //! the live page).
 
+use crate::app::setup::file::Setup;
 use anyhow::{Context, Result};
+use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::opponent::Opponent;
 use chessarm_chess::play::{Game, Handling, MoveReport, Mover};
-use chessarm_chess::shakmaty::{Chess, Color, Move, Position, Role};
-use crate::app::setup::file::Setup;
-use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::shakmaty::Square;
+use chessarm_chess::shakmaty::{Chess, Color, Move, Position, Role};
 use chessarm_chess::table::Location;
 use std::path::Path;
 
@@ -178,7 +178,10 @@ pub fn seat(setup: &Setup, person: Color) -> (BoardGeometry, String) {
     };
     let side = side_name(person);
     if distance(own) >= distance(far) - 1e-9 {
-        return (board, format!("seat: the person plays {side} from across the board, their first rank farthest from the arm\n"));
+        return (
+            board,
+            format!("seat: the person plays {side} from across the board, their first rank farthest from the arm\n"),
+        );
     }
     let yaw = chessarm_core::arm::task::wrap_angle(board.yaw + std::f64::consts::PI);
     let turned = BoardGeometry { yaw, ..board };

@@ -139,7 +139,12 @@ impl<'a> Prepared<'a> {
         };
         let range = crate::app::resources::shard_range(options.trials, options.shard);
         let resolution = study.resolution(setup);
+        // Every trial's game is played on the same board with the same arm and pieces: its
+        // pre-flight (reach, the columns, the pitch) once for all (a board it refuses is then
+        // refused by each trial's own).
+        let pitch = matches!(work, Work::Game(_)).then(|| preflight_pitch(setup)).flatten();
         let trial_options = TrialOptions {
+            pitch,
             seed: options.conditions.seed,
             integrator: options.integrator,
             controller_knows_payload: options.controller_knows_payload,
@@ -462,6 +467,9 @@ pub fn statistics(rows: &[TrialRow], name: &str) -> Statistics {
 /// Settings every trial shares.
 #[derive(Debug, Clone, Copy)]
 pub struct TrialOptions {
+    /// The game's tool pitch, rad, when the pre-flight accepted the board (see
+    /// [`chessarm_chess::play::PlaySettings::checked_pitch`]).
+    pub pitch: Option<f64>,
     /// The study's seed: trial `k` has the seed `derive_seed(seed, k)`.
     pub seed: u64,
     pub integrator: Integrator,
@@ -661,4 +669,11 @@ fn scenario_rows(
         rows[slot] = Some(row(index, trial, spec, status, &totals, options.tolerance));
     }
     rows.into_iter().map(|row| row.unwrap_or_else(|| unreachable!("every row is filled"))).collect()
+}
+
+/// The tool's pitch the pre-flight of a game on the setup's board finds, or `None` where it
+/// refuses the board (each game's own pre-flight then says why).
+pub fn preflight_pitch(setup: &Setup) -> Option<f64> {
+    chessarm_chess::reach::check_table(&setup.arm, &setup.board, &setup.pieces, &setup.motion, Some(&setup.clearance))
+        .ok()
 }

@@ -230,6 +230,7 @@ impl<'a> Prepared<'a> {
         let kind =
             controller_specs(&[options.controller], &GivenGains::default(), DefaultGains::Report)?.remove(0).kind;
         let candidates = CandidateOptions {
+            pitch: options.game.is_some().then(|| super::robustness::preflight_pitch(setup)).flatten(),
             controller_knows_payload: options.controller_knows_payload,
             placement: options.placement,
             kind,
@@ -471,6 +472,7 @@ fn game_candidate(
     };
     options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE, resolution);
     settings.integrator = options.integrator;
+    settings.checked_pitch = options.pitch;
     let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
         let mut place = 0.0f64;
         for mv in &record.moves {
@@ -579,6 +581,9 @@ fn scenario_candidates(
 /// Settings every candidate shares.
 #[derive(Debug, Clone)]
 pub struct CandidateOptions {
+    /// The game's tool pitch, rad, when the pre-flight accepted the board, found once for every
+    /// candidate (see [`chessarm_chess::play::PlaySettings::checked_pitch`]).
+    pub pitch: Option<f64>,
     pub controller_knows_payload: bool,
     /// How a game's pieces are put down.
     pub placement: Placement,
