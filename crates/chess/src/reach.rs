@@ -218,8 +218,24 @@ pub fn check_table(
 ) -> Result<f64, ReachError> {
     let (mut first, mut crowded) = (None, None);
     let max_tilt = tilt_allowed(arm, limits);
+    // The column last found crowded, checked first at the next pitch: a board refused for a
+    // column (the same at most pitches) is refused at each pitch by one column, before the
+    // reach check, which costs as much as all the columns.
+    let mut hint = None;
+    let heights = heights(pieces, limits);
     for pitch in pitches(max_tilt, PITCH_STEP) {
-        match check_table_at(arm, geometry, pieces, limits, pitch, columns) {
+        let crowded_at = |hint: Option<usize>| match columns {
+            Some(check) => check_columns(arm, check, geometry, pieces, &heights, pitch, hint),
+            None => Ok(()),
+        };
+        let checked = match crowded_at(hint) {
+            Err(crowded) => {
+                hint = Some(crowded.place_index);
+                Err(ReachError::Crowded(crowded))
+            }
+            Ok(()) => check_table_at(arm, geometry, pieces, limits, pitch, None),
+        };
+        match checked {
             Ok(()) => return Ok(pitch),
             // Where the board cannot be served at all, no pitch helps: say so at once.
             Err(error @ (ReachError::AroundBase { .. } | ReachError::NearBase { .. })) => return Err(error),
@@ -311,7 +327,7 @@ pub fn check_table_at(
         }
     }
     match columns {
-        Some(check) => check_columns(arm, check, geometry, pieces, &heights, pitch).map_err(ReachError::Crowded),
+        Some(check) => check_columns(arm, check, geometry, pieces, &heights, pitch, None).map_err(ReachError::Crowded),
         None => Ok(()),
     }
 }
@@ -518,7 +534,7 @@ pub fn fit_board(
             .filter_map(|((pitch, _), best)| best.map(|best| (*pitch, best)))
             // The columns' clearance at the pose found (the radial table knows reach only).
             .find(|(pitch, (_, board))| match columns.filter(|_| clear) {
-                Some(check) => check_columns(arm, check, board, &scaled, &heights, *pitch)
+                Some(check) => check_columns(arm, check, board, &scaled, &heights, *pitch, None)
                     .map_err(|c| *crowded.borrow_mut() = Some(c))
                     .is_ok(),
                 None => true,

@@ -32,6 +32,9 @@ pub const NEIGHBOURHOOD: f64 = 1.5;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Crowded {
     pub place: String,
+    /// The place's index among the board's places (squares a1 … h8, then the slots): the
+    /// column to check first at another pitch.
+    pub place_index: usize,
     pub height: f64,
     /// The tool's pitch, rad.
     pub pitch: f64,
@@ -59,7 +62,9 @@ impl std::fmt::Display for Crowded {
 /// Checks every column of `geometry` (see the module) with the tool at `pitch` (rad), at
 /// the `heights` given (m above the table; each at or above its piece's grip height), the arm
 /// and its fingers as `check` describes them, keeping `check.margin`. Heights the arm does not
-/// reach are left to the reach check. The first column that is not clear is returned.
+/// reach are left to the reach check. The first column that is not clear is returned; the
+/// place of index `first` is checked before the others (one found crowded at another pitch
+/// usually is at this one too).
 pub fn check_columns(
     arm: &ArmModel<4>,
     check: &ClearanceCheck,
@@ -67,6 +72,7 @@ pub fn check_columns(
     pieces: &PieceSet,
     heights: &[f64],
     pitch: f64,
+    first: Option<usize>,
 ) -> Result<(), Crowded> {
     let table = Table::new(*geometry, &Board::empty());
     // (name, centre, whether a king may stand there)
@@ -95,7 +101,9 @@ pub fn check_columns(
     let rules = Rules { table: None, off_table: Vec::new(), touching: Vec::new(), self_check: false };
     let mut solids: Vec<ArmSolid> = Vec::new();
     let mut buffers = NearestBuffers::default();
-    for (name, centre, kings) in &places {
+    let order = first.filter(|&k| k < places.len()).into_iter().chain((0..places.len()).filter(|&k| Some(k) != first));
+    for place_index in order {
+        let (name, centre, kings) = &places[place_index];
         let around: Vec<usize> = (0..places.len())
             .filter(|&k| {
                 let d = (places[k].1 - centre).norm();
@@ -132,6 +140,7 @@ pub fn check_columns(
                     };
                     return Err(Crowded {
                         place: name.clone(),
+                        place_index,
                         height: h,
                         pitch,
                         part: closest.part,
