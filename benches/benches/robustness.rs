@@ -24,7 +24,9 @@ fn trials(c: &mut Criterion) {
     std::fs::write(&uncertainty, "link_mass = 0.10\ninertia_rotation = \"errata\"\npiece_mass = 0.5\n").expect("write");
     let plan = plan_scenario(&setup, "queens-gambit", 1e-3, "bench").expect("plan");
     let work = Work::Scenario { plan, payload_mass: setup.pieces.pawn.mass };
+    // A scenario, not a game: no board to check before the trials.
     let options = TrialOptions {
+        pitch: None,
         seed: 1,
         integrator: chessarm_core::sim::Integrator::default(),
         controller_knows_payload: false,
