@@ -216,7 +216,8 @@ pub fn check_table(
     limits: &MotionLimits,
     columns: Option<&ClearanceCheck>,
 ) -> Result<f64, ReachError> {
-    let (mut first, mut crowded) = (None, None);
+    // What is wrong straight down: the first pitch tried.
+    let mut first = None;
     let max_tilt = tilt_allowed(arm, limits);
     // The column last found crowded, checked first at the next pitch: a board refused for a
     // column (the same at most pitches) is refused at each pitch by one column, before the
@@ -239,21 +240,17 @@ pub fn check_table(
             Ok(()) => return Ok(pitch),
             // Where the board cannot be served at all, no pitch helps: say so at once.
             Err(error @ (ReachError::AroundBase { .. } | ReachError::NearBase { .. })) => return Err(error),
-            Err(error @ ReachError::Crowded(_)) => {
-                crowded.get_or_insert(error);
-            }
             Err(error) => {
                 first.get_or_insert(error);
             }
         }
     }
-    // The nearest pitch that reached everything, crowded, says more than one that did not reach;
-    // a point out of reach is said as straight down, and that no tilt helps either.
-    let error = match (crowded, first) {
-        (Some(crowded), _) => crowded,
-        (None, Some(first)) if max_tilt > 0.0 => ReachError::AtEveryPitch { max_tilt, source: Box::new(first) },
-        (None, Some(first)) => first,
-        (None, None) => ReachError::NoFit { smallest: geometry.square_size, why: "no pitch to try".into() },
+    // Said as it is straight down (a weak motor, a point out of reach, a crowded column), and
+    // that no tilt helps either.
+    let error = match first {
+        Some(first) if max_tilt > 0.0 => ReachError::AtEveryPitch { max_tilt, source: Box::new(first) },
+        Some(first) => first,
+        None => ReachError::NoFit { smallest: geometry.square_size, why: "no pitch to try".into() },
     };
     Err(error)
 }

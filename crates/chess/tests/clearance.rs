@@ -47,7 +47,9 @@ fn the_pre_flight_refuses_a_board_whose_columns_are_crowded() {
         let Err(error) = Game::new(report_arm(), board(size), start(), settings()) else {
             panic!("squares of {size} m accepted")
         };
-        let PlayError::Reach(ReachError::Crowded(crowded)) = &error else { panic!("{error}") };
+        // Crowded straight down, and at every tilt within max_tilt.
+        let PlayError::Reach(ReachError::AtEveryPitch { source, .. }) = &error else { panic!("{error}") };
+        let ReachError::Crowded(crowded) = source.as_ref() else { panic!("{error}") };
         assert!(crowded.distance < 0.002 && crowded.part.to_string().starts_with(part), "{error}");
         let message = error.to_string();
         assert!(message.contains(&crowded.place) && message.contains(&crowded.neighbour), "{message}");
