@@ -547,17 +547,7 @@ pub fn fit_board(
         });
     };
     // Bisection on the square size, to 0.1 mm, on reach: a larger board reaches farther.
-    let (mut low, mut high) = (SMALLEST, 0.2);
-    while high - low > 1e-4 {
-        let middle = 0.5 * (low + high);
-        match best_at(middle, false) {
-            Some(fit) => {
-                low = middle;
-                found = fit;
-            }
-            None => high = middle,
-        }
-    }
+    bisect((SMALLEST, 0.2), &mut found, |s| best_at(s, false));
     // The columns' clearance is not monotone in the size (the arm's links are as thick on a
     // small board as on a large one): down from the largest reached, 3 % at a time, to the
     // first size whose columns are clear, then bisection between it and the step above.
@@ -576,17 +566,7 @@ pub fn fit_board(
             }
         };
         found = clear;
-        let (mut low, mut high) = (found.1.square_size, above);
-        while high - low > 1e-4 {
-            let middle = 0.5 * (low + high);
-            match best_at(middle, true) {
-                Some(fit) => {
-                    low = middle;
-                    found = fit;
-                }
-                None => high = middle,
-            }
-        }
+        bisect((found.1.square_size, above), &mut found, |s| best_at(s, true));
     }
     // The proxy's grid against the full check: shrink by 1 % until it passes (at most 20 times).
     let mut shrinks = 0;
@@ -603,6 +583,21 @@ pub fn fit_board(
             return Err(no_fit());
         }
         found = best_at(smaller, true).ok_or_else(no_fit)?;
+    }
+}
+
+/// Bisection between a size that serves (`low`, m) and one that does not (`high`), to 0.1 mm:
+/// `found` becomes `at`'s result at the largest size that served.
+fn bisect<T>((mut low, mut high): (f64, f64), found: &mut T, mut at: impl FnMut(f64) -> Option<T>) {
+    while high - low > 1e-4 {
+        let middle = 0.5 * (low + high);
+        match at(middle) {
+            Some(fit) => {
+                low = middle;
+                *found = fit;
+            }
+            None => high = middle,
+        }
     }
 }
 

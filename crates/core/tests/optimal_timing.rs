@@ -275,6 +275,19 @@ fn motion_of(plan: &chessarm_core::plan::optimal::LegPlan) -> TimedMotion {
     motion
 }
 
+/// The motion check at the report's limits (`limits`'s, without a tracking budget).
+fn report_check() -> MotionCheck {
+    MotionCheck {
+        joint_speed: [3.0; 4],
+        joint_acceleration: [20.0; 4],
+        torque_margin: 0.85,
+        tool_speed: 1.0,
+        carry_acceleration: 5.0,
+        grip_strength: 2.0 * G,
+        tracking: None,
+    }
+}
+
 #[test]
 fn every_limit_holds_at_ten_times_the_planning_grid() {
     let model = report_arm();
@@ -284,15 +297,7 @@ fn every_limit_holds_at_ten_times_the_planning_grid() {
     let motion = motion_of(&plan);
     let stages = plan.leg.timing.u.len() as f64;
     let dt = motion.duration() / (10.0 * stages);
-    let check = MotionCheck {
-        joint_speed: [3.0; 4],
-        joint_acceleration: [20.0; 4],
-        torque_margin: 0.85,
-        tool_speed: 1.0,
-        carry_acceleration: 5.0,
-        grip_strength: 2.0 * G,
-        tracking: None,
-    };
+    let check = report_check();
     let carried = model.with_payload(Some(Payload::upright_cylinder(0.1, 0.08, 0.014, 0.05))).unwrap();
     let result = check_motion(&model, &motion, &[(0.0, f64::INFINITY, carried)], &check, dt).unwrap();
     let largest = result.unwrap();
@@ -515,15 +520,7 @@ fn a_leg_whose_tool_turns_keeps_every_limit_and_its_joints_follow_the_pitch() {
     let mut motion = TimedMotion::pitched(path.start(), TOOL_DOWN);
     motion.push(Stretch::Leg(plan.leg.clone()));
     assert!((motion.end_pitch() - (TOOL_DOWN + 0.35)).abs() < 1e-12);
-    let check = MotionCheck {
-        joint_speed: [3.0; 4],
-        joint_acceleration: [20.0; 4],
-        torque_margin: 0.85,
-        tool_speed: 1.0,
-        carry_acceleration: 5.0,
-        grip_strength: 2.0 * G,
-        tracking: None,
-    };
+    let check = report_check();
     let carried = model.with_payload(Some(Payload::upright_cylinder(0.1, 0.08, 0.014, 0.05))).unwrap();
     let stages = plan.leg.timing.u.len() as f64;
     let dt = motion.duration() / (10.0 * stages);
