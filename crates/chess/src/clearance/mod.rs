@@ -439,7 +439,10 @@ pub fn nearest<const N: usize>(
     // their bound is below the best.
     gaps.clear();
     let mut piece_pair = |i: usize, k: usize| {
-        let kind = if matches!(solids[i].part, Part::Finger(_)) && gripped.contains(&k) { GRIPPED } else { STILL };
+        // The fingers and the jaws open around the pieces of `gripped`: their gap to them is the
+        // gripper's opening, kept apart.
+        let grips = matches!(solids[i].part, Part::Finger(_) | Part::Jaw(_));
+        let kind = if grips && gripped.contains(&k) { GRIPPED } else { STILL };
         gaps.push((placed[i].box_gap(&pieces[k]), kind, i, k));
     };
     match candidates {
@@ -569,6 +572,7 @@ pub fn reach_bound<const N: usize>(model: &ArmModel<N>, hand: &Hand, bodies: &Bo
         .map(|s| match s.part {
             Part::Finger(_) | Part::Held => s.solid.farthest_from(&tip),
             Part::Housing(j) => s.solid.farthest_from(&chain.joint_axis(j - 1).1),
+            Part::Jaw(_) => s.solid.farthest_from(&origins[N]),
             Part::Link(k) => match bodies {
                 Bodies::Drawn => chessarm_core::arm::bodies::LINK_RADIUS,
                 Bodies::Described(_) => s.solid.farthest_from(&origins[k]),
@@ -808,6 +812,54 @@ mod tests {
         assert!((link.lowest() - table - parry).abs() < 1e-9, "{} vs {parry}", link.lowest() - table);
     }
 
+    /// A jaw of the file's gripper beside the piece it grips is kept apart from it as a finger
+    /// is (its gap goes to the gripper's, not to the obstacles), and is an obstacle to every
+    /// other piece and checked against the table; a link's shape in the same place is an
+    /// obstacle to the gripped piece too. Boxes beside upright cylinders: gaps in closed form.
+    #[test]
+    fn a_jaw_is_kept_apart_from_the_piece_it_grips_and_is_an_obstacle_to_the_others() {
+        use chessarm_core::nalgebra::Matrix3;
+        let half = Vector3::new(0.001, 0.003, 0.01);
+        // A jaw 0.8 mm beside a pawn at the origin (radius 12 mm), a pawn at y = 0.04 beyond.
+        let slab = |part: Part, z: f64| ArmSolid {
+            part,
+            solid: Solid::Cuboid {
+                centre: Vector3::new(0.012 + 0.0008 + 0.001, 0.0, z),
+                axes: Matrix3::identity(),
+                half,
+            },
+        };
+        let pieces = [Placed::piece(&pawn_at(0.0, 0.0)), Placed::piece(&pawn_at(0.0, 0.04))];
+        let rules = Rules { table: Some(0.0), ..Rules::default() };
+        let mut buffers = NearestBuffers::default();
+        // Its lower end 3 mm above the table.
+        let jaw = [slab(Part::Jaw(1), 0.013)];
+        let near = nearest::<4>(&jaw, &pieces, &[0], None, &rules, &mut buffers);
+        let gripped = near.gripped.expect("the gap to the gripped pawn");
+        assert_eq!((gripped.part, gripped.obstacle), (Part::Jaw(1), Obstacle::Piece(0)));
+        assert!((gripped.distance - 0.0008).abs() < 1e-9, "{gripped:?}");
+        let still = near.still.expect("the table and the other pawn");
+        assert_eq!(still.obstacle, Obstacle::Table, "{still:?}");
+        assert!((still.distance - 0.003).abs() < 1e-9, "{still:?}");
+        // Raised 35 mm off the table: the other pawn, from the box's edge at (12.8, 3) mm.
+        let raised = [slab(Part::Jaw(1), 0.045)];
+        let near = nearest::<4>(&raised, &pieces, &[0], None, &rules, &mut buffers);
+        let still = near.still.expect("the other pawn");
+        assert_eq!(still.obstacle, Obstacle::Piece(1), "{still:?}");
+        assert!((still.distance - (0.0128f64.hypot(0.037) - 0.012)).abs() < 1e-9, "{still:?}");
+        // Not gripping anything, the pawn beside it is an obstacle like any other.
+        let near = nearest::<4>(&jaw, &pieces, &[], None, &rules, &mut buffers);
+        assert!(near.gripped.is_none());
+        let still = near.still.unwrap();
+        assert_eq!(still.obstacle, Obstacle::Piece(0), "{still:?}");
+        assert!((still.distance - 0.0008).abs() < 1e-9, "{still:?}");
+        // A link's shape where the jaw was is an obstacle to the pawn being gripped.
+        let link = [slab(Part::Link(4), 0.013)];
+        let near = nearest::<4>(&link, &pieces, &[0], None, &rules, &mut buffers);
+        assert!(near.gripped.is_none());
+        assert_eq!(near.still.unwrap().obstacle, Obstacle::Piece(0));
+    }
+
     /// A contact between two samples of a fixed grid: the base yaw sweeps the fingers across
     /// a thin piece that reaches 1 mm above finger 2's lower end only around t = 0.525 s,
     /// midway between the grid's samples at 0.5 and 0.55 s (θ̇ = 1 rad/s; finger 1 passes
@@ -926,8 +978,18 @@ mod tests {
                     Rotation3::from_euler_angles(0.3, 0.1 * body as f64, -0.5),
                 );
                 [
-                    BodyShape { body, pose, shape: Shape::Cuboid { half: Vector3::new(0.02, 0.01, 0.04) } },
-                    BodyShape { body, pose: pose.inverse(), shape: Shape::Hull { points: Arc::clone(&corners) } },
+                    BodyShape {
+                        body,
+                        pose,
+                        shape: Shape::Cuboid { half: Vector3::new(0.02, 0.01, 0.04) },
+                        jaw: body == 4,
+                    },
+                    BodyShape {
+                        body,
+                        pose: pose.inverse(),
+                        shape: Shape::Hull { points: Arc::clone(&corners) },
+                        jaw: false,
+                    },
                 ]
             })
             .collect();

@@ -15,7 +15,9 @@
 //! An arm described by its maker ([`Bodies::Described`], e.g. a URDF's `<collision>` shapes)
 //! has those shapes in place of the pedestal, housings and link cylinders, each fixed to a
 //! body (0 the base, `k` link `k`, placed in DH frame `k`); the fingers and a held piece are
-//! chessarm's in either case, since their opening follows the gripper's command.
+//! chessarm's in either case, since their opening follows the gripper's command. A described
+//! shape may be a jaw fixed to the last link ([`Part::Jaw`]), which grips the piece beside
+//! chessarm's fingers.
 
 use crate::arm::kinematics::{FrameChain, Pose};
 use crate::arm::model::{ArmModel, JointVector};
@@ -138,12 +140,15 @@ pub enum Shape {
 }
 
 /// A shape fixed to one of the arm's bodies: 0 the base (`pose` in the base frame), `k` link
-/// `k` (`pose` in DH frame `k`, the frame body `k` carries).
+/// `k` (`pose` in DH frame `k`, the frame body `k` carries). `jaw`: the shape is a jaw of the
+/// file's gripper fixed to the last link (a [`Part::Jaw`]: beside the piece it grips, not an
+/// obstacle to it).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodyShape {
     pub body: usize,
     pub pose: Pose,
     pub shape: Shape,
+    pub jaw: bool,
 }
 
 /// What the arm's pedestal, housings and links are made of.
@@ -222,6 +227,10 @@ pub enum Part {
     Housing(usize),
     Link(usize),
     Finger(usize),
+    /// A jaw of a described gripper fixed to the last link (the SO-101's fixed jaw): it grips
+    /// the piece as a finger does, so it is kept apart from that piece as a finger is, and is
+    /// an obstacle to every other one.
+    Jaw(usize),
     /// The piece the gripper holds.
     Held,
 }
@@ -231,12 +240,14 @@ impl Part {
     /// arm's joint count) for the fingers and a held piece: they ride on the last link, but
     /// counting them one body further keeps them checked against the link and housing before
     /// it (a carried piece swinging into the forearm). A housing moves with the link before
-    /// its joint (it is round about the joint's axis, so either side would do).
+    /// its joint (it is round about the joint's axis, so either side would do). A jaw fixed to
+    /// the last link moves with it.
     pub fn body(&self, n: usize) -> usize {
         match *self {
             Part::Pedestal => 0,
             Part::Housing(j) => j - 1,
             Part::Link(i) => i,
+            Part::Jaw(_) => n,
             Part::Finger(_) | Part::Held => n + 1,
         }
     }
@@ -249,6 +260,7 @@ impl std::fmt::Display for Part {
             Part::Housing(j) => write!(f, "joint {j}'s housing"),
             Part::Link(i) => write!(f, "link {i}"),
             Part::Finger(k) => write!(f, "finger {k}"),
+            Part::Jaw(k) => write!(f, "jaw {k}"),
             Part::Held => write!(f, "held piece"),
         }
     }
@@ -280,7 +292,8 @@ pub fn place(shape: &Shape, pose: &Pose) -> Solid {
 /// The arm's solids at the joint angles `q` (rad) with the hand `hand` and `bodies` into `out`
 /// (cleared first; at most [`Bodies::most_solids`], so a buffer kept between calls allocates
 /// once): drawn, the pedestal, then per joint its housing and its link; described, each shape
-/// on its body (the base's as [`Part::Pedestal`], link `k`'s as [`Part::Link`]`(k)`); then
+/// on its body (the base's as [`Part::Pedestal`], link `k`'s as [`Part::Link`]`(k)`, a jaw's
+/// as [`Part::Jaw`]`(1)`); then
 /// the fingers and the held piece.
 pub fn solids_into<const N: usize>(
     model: &ArmModel<N>,
@@ -300,6 +313,7 @@ pub fn solids_into<const N: usize>(
             for shape in shapes.iter() {
                 let (part, frame) = match shape.body {
                     0 => (Part::Pedestal, Pose::identity()),
+                    k if shape.jaw => (Part::Jaw(1), *chain.body_pose(k.min(N) - 1)),
                     k => (Part::Link(k), *chain.body_pose(k.min(N) - 1)),
                 };
                 out.push(ArmSolid { part, solid: place(&shape.shape, &(frame * shape.pose)) });

@@ -116,7 +116,7 @@ pub(super) fn collision_bodies(
         missing: Vec::new(),
         count: 0,
     };
-    let Found { shapes, fingers, with_shapes } = find_shapes(tree, arm, locked, frames, &mut meshes, warnings)?;
+    let Found { shapes, fingers, jaws, with_shapes } = find_shapes(tree, arm, locked, frames, &mut meshes, warnings)?;
     let stand_in = "chessarm's own solids from the kinematic chain (a pedestal, a housing per joint, a cylinder per \
                     link) stand in for the links in the clearance check";
     if !meshes.missing.is_empty() {
@@ -164,6 +164,13 @@ pub(super) fn collision_bodies(
             fingers.join(", ")
         ));
     }
+    if !jaws.is_empty() {
+        said.push_str(&format!(
+            "; the shapes of {} that reach down beside the grip are the gripper's fixed jaw, kept apart from the \
+             piece it grips as a finger is",
+            jaws.join(", ")
+        ));
+    }
     notes.push(said);
     Ok(Bodies::Described(shapes.into()))
 }
@@ -174,6 +181,8 @@ struct Found {
     shapes: Vec<BodyShape>,
     /// The links behind a gripper's joint, quoted.
     fingers: Vec<String>,
+    /// The links with shapes that are the gripper's fixed jaws, quoted.
+    jaws: Vec<String>,
     /// The bodies (0 the base, k arm link k) that have shapes.
     with_shapes: BTreeSet<usize>,
 }
@@ -196,8 +205,24 @@ fn find_shapes(
         .filter(|(_, j)| locked.iter().any(|l| l.name == j.name && l.gripper.is_some()))
         .map(|(k, _)| k)
         .collect();
+    // How deep along the tool's approach a shape on the last link must reach to be a jaw: past
+    // the middle between the gripper's joint nearest the tool tip and the tip (in DH frame 4
+    // the tip is the origin and the approach +x), where a fixed jaw reaches down beside the
+    // piece and the gripper's servo and the wrist do not.
+    let jaw_depth = gripper_joints
+        .iter()
+        .filter_map(|&g| {
+            let joint = &tree.joints[g];
+            let (carrier, parent_pose) = *tree.carried.get(&joint.parent)?;
+            let at = frames.in_dh[3] * parent_pose * origin(&joint.node).ok()?;
+            (carrier == 4).then_some(at.translation.vector.x)
+        })
+        .fold(None, |deepest: Option<f64>, x| Some(deepest.map_or(x, |d| d.max(x))))
+        .filter(|x| *x < 0.0)
+        .map(|x| 0.5 * x);
     let mut shapes = Vec::new();
     let mut fingers = Vec::new();
+    let mut jaws = Vec::new();
     // The bodies (0 the base, k arm link k) that have shapes.
     let mut with_shapes = BTreeSet::new();
     for link in tree.order {
@@ -244,11 +269,29 @@ fn find_shapes(
                     );
                 }
                 with_shapes.insert(carrier);
-                shapes.push(BodyShape { body: carrier, pose: placed, shape });
+                let jaw = carrier == 4 && jaw_depth.is_some_and(|depth| deepest(&shape, &placed) >= depth);
+                if jaw && !jaws.contains(&format!("'{link}'")) {
+                    jaws.push(format!("'{link}'"));
+                }
+                shapes.push(BodyShape { body: carrier, pose: placed, shape, jaw });
             }
         }
     }
-    Ok(Found { shapes, fingers, with_shapes })
+    Ok(Found { shapes, fingers, jaws, with_shapes })
+}
+
+/// How far `shape` placed at `pose` (DH frame 4) reaches along the frame's x, m: the tool's
+/// approach, from the tip.
+fn deepest(shape: &Shape, pose: &Pose) -> f64 {
+    // Turned a quarter about y, x points down: its reach is minus its lowest point.
+    let turn = Pose::from_parts(
+        chessarm_core::nalgebra::Translation3::identity(),
+        chessarm_core::nalgebra::Rotation3::from_axis_angle(
+            &chessarm_core::nalgebra::Vector3::y_axis(),
+            std::f64::consts::FRAC_PI_2,
+        ),
+    );
+    -chessarm_core::arm::bodies::place(shape, &(turn * pose)).lowest()
 }
 
 /// The meshes of the file's `<collision>` elements: where they are looked for, their hulls,

@@ -1,0 +1,145 @@
+//! The gripper a URDF describes: the SO-101's file (`tests/fixtures/real-arms`) with its
+//! `<collision>` meshes replaced by boxes where its parts are (the meshes are not in the
+//! repository): the gripper's servo and its fixed jaw on `gripper_link`, the moving jaw on its
+//! revolute joint. The fixed jaw is told from the servo, and is kept apart from the piece it
+//! grips as chessarm's fingers are, while the rest of the arm keeps the clearance margin.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use chessarm::app::setup::urdf_import::{ImportOptions, from_urdf};
+use chessarm_core::arm::bodies::Bodies;
+use common::{chessarm, json_file, json_of};
+use std::path::Path;
+
+fn so101() -> String {
+    std::fs::read_to_string(Path::new(common::REAL_ARMS).join("so101_new_calib.urdf")).unwrap()
+}
+
+/// The SO-101's file with every `<collision>` taken out and `shapes` (link, `<collision>`
+/// elements) put in.
+fn with_shapes(shapes: &[(&str, String)]) -> String {
+    let mut text = so101();
+    while let Some(start) = text.find("<collision>") {
+        let end = text[start..].find("</collision>").unwrap() + start + "</collision>".len();
+        text.replace_range(start..end, "");
+    }
+    for (link, elements) in shapes {
+        let at = text.find(&format!("<link name=\"{link}\">")).unwrap();
+        let close = text[at..].find("</link>").unwrap() + at;
+        text.insert_str(close, elements);
+    }
+    text
+}
+
+fn collision_box(xyz: [f64; 3], size: [f64; 3]) -> String {
+    format!(
+        "<collision><origin xyz=\"{} {} {}\" rpy=\"0 0 0\"/><geometry><box size=\"{} {} {}\"/></geometry></collision>",
+        xyz[0], xyz[1], xyz[2], size[0], size[1], size[2]
+    )
+}
+
+/// The gripper's servo where the file's mesh has it, the moving jaw, and a fixed jaw 1.5 mm
+/// thick whose inner face is `face` m along `gripper_link`'s x (the file's tool point is at
+/// x = −7.9 mm, on its own fixed jaw's face), reaching from 18 mm above the tool point to 2 mm
+/// below it (as the needle fingers do).
+fn gripper(face: f64) -> String {
+    with_shapes(&[
+        (
+            "gripper_link",
+            collision_box([0.0077, 0.0001, -0.0234], [0.045, 0.025, 0.025])
+                + &collision_box([face - 0.00075, 0.0, -0.0901], [0.0015, 0.005, 0.02]),
+        ),
+        ("moving_jaw_so101_v1_link", collision_box([0.0, -0.05, 0.0189], [0.01, 0.05, 0.01])),
+    ])
+}
+
+fn wrist_roll_locked() -> ImportOptions {
+    ImportOptions { locks: vec![("wrist_roll".into(), 0.0)], ..ImportOptions::default() }
+}
+
+/// The shapes reaching down beside the grip are the fixed jaw; the servo above is not; the
+/// moving jaw's link is left to the fingers. The note says which link holds the jaw.
+#[test]
+fn the_fixed_jaw_is_told_from_the_gripper_servo() {
+    let imported = from_urdf(&gripper(-0.0137), &wrist_roll_locked()).unwrap();
+    let Bodies::Described(shapes) = &imported.bodies else { panic!("{:?}", imported.bodies) };
+    assert_eq!(shapes.len(), 2, "{shapes:?}");
+    let jaws: Vec<bool> = shapes.iter().map(|s| s.jaw).collect();
+    assert_eq!(jaws, [false, true], "the servo, then the jaw: {shapes:?}");
+    assert!(shapes.iter().all(|s| s.body == 4));
+    let notes = imported.notes.join("\n");
+    assert!(notes.contains("'gripper_link' that reach down beside the grip are the gripper's fixed jaw"), "{notes}");
+    assert!(notes.contains("'moving_jaw_so101_v1_link' left out"), "{notes}");
+    // A file whose gripper has no shape reaching down beside the grip has no jaw.
+    let high = with_shapes(&[("gripper_link", collision_box([0.0077, 0.0001, -0.0234], [0.045, 0.025, 0.025]))]);
+    let imported = from_urdf(&high, &wrist_roll_locked()).unwrap();
+    let Bodies::Described(shapes) = &imported.bodies else { panic!() };
+    assert!(shapes.iter().all(|s| !s.jaw), "{shapes:?}");
+}
+
+/// A fixed jaw 0.8 mm beside the king it grips (less than the 1 mm the arm keeps from
+/// everything, more than a contact) does not stop the game: its gap is the gripper's, as the
+/// fingers' is (the king's move reports it), while it keeps the margin from every other piece.
+/// (Counted as an obstacle to the king, the same jaw stopped the game at its move: "link 4
+/// would come 0.7 mm from the white king".)
+#[test]
+fn a_fixed_jaw_beside_the_piece_it_grips_is_kept_apart_from_it_as_a_finger() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = Path::new(common::REAL_ARMS).join("so101_new_calib.urdf");
+    let fit = json_of(&chessarm(&[
+        "--urdf",
+        plain.to_str().unwrap(),
+        "--lock",
+        "wrist_roll=0",
+        "--arm",
+        common::NEEDLE_FINGERS,
+        "board",
+        "--fit",
+    ]));
+    let setup_text = fit["setup"].as_str().unwrap();
+    let setup: toml::Value = toml::from_str(setup_text).unwrap();
+    let king_radius = 0.5 * setup["pieces"]["king"]["base_diameter"].as_float().unwrap();
+    assert!((0.004..0.006).contains(&king_radius), "{king_radius}");
+    let setup_path = dir.path().join("board.toml");
+    std::fs::write(&setup_path, setup_text).unwrap();
+    // The file's tool point is on gripper_link's x = −7.9 mm; the jaw's face 0.8 mm beyond the
+    // king's side, away from the moving jaw.
+    let urdf = dir.path().join("so101-jaw.urdf");
+    std::fs::write(&urdf, gripper(-0.0079 - king_radius - 0.0008)).unwrap();
+    let out = dir.path().join("game");
+    let played = chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--arm",
+        setup_path.to_str().unwrap(),
+        "play",
+        "--moves",
+        "e4 e5 Ke2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(played.status.success(), "{}", String::from_utf8_lossy(&played.stderr));
+    let game = json_file(&out.join("game.json"));
+    assert_eq!(game["complete"], true, "{game}");
+    assert_eq!(game["clearance"]["contacts"], 0, "{}", game["clearance"]);
+    let moves = game["moves"].as_array().unwrap();
+    assert_eq!(moves.len(), 3);
+    for m in moves {
+        let clearance = &m["clearance"];
+        // Everything but the gripped piece keeps the margin (1 mm with the needle fingers).
+        assert!(clearance["smallest_mm"].as_f64().unwrap() >= 1.0, "{clearance}");
+        assert_eq!(clearance["executed"]["contact"], false, "{clearance}");
+    }
+    // The king's move: the jaw's gap to the king is the gripper's, below the margin and above
+    // a contact (the path tilts the jaw a little toward it).
+    let king = &moves[2]["clearance"];
+    let gap = king["fingers_to_gripped_piece_mm"].as_f64().unwrap();
+    assert!((0.5..0.8 + 1e-6).contains(&gap), "{king}");
+    // The pawns are 1.4 mm narrower: the jaw is 2.2 mm beside them, the needle fingers 1.5 mm.
+    for pawn in &moves[..2] {
+        let gap = pawn["clearance"]["fingers_to_gripped_piece_mm"].as_f64().unwrap();
+        assert!((gap - 1.5).abs() < 1e-3, "{pawn}");
+    }
+}
