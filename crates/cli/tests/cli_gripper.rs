@@ -9,18 +9,27 @@
 mod common;
 
 use chessarm::app::setup::urdf_import::{ImportOptions, from_urdf};
-use chessarm_core::arm::bodies::Bodies;
+use chessarm_core::arm::bodies::{Bodies, Gripper, Hand, Mount, Part, Solid, solids_into};
+use chessarm_core::nalgebra::Vector4;
 use common::{chessarm, json_file, json_of};
 use std::path::Path;
 
 fn so101() -> String {
-    std::fs::read_to_string(Path::new(common::REAL_ARMS).join("so101_new_calib.urdf")).unwrap()
+    fixture("so101_new_calib")
+}
+
+fn fixture(name: &str) -> String {
+    std::fs::read_to_string(Path::new(common::REAL_ARMS).join(format!("{name}.urdf"))).unwrap()
 }
 
 /// The SO-101's file with every `<collision>` taken out and `shapes` (link, `<collision>`
 /// elements) put in.
 fn with_shapes(shapes: &[(&str, String)]) -> String {
-    let mut text = so101();
+    shapes_in(so101(), shapes)
+}
+
+/// `text` with every `<collision>` taken out and `shapes` (link, `<collision>` elements) put in.
+fn shapes_in(mut text: String, shapes: &[(&str, String)]) -> String {
     while let Some(start) = text.find("<collision>") {
         let end = text[start..].find("</collision>").unwrap() + start + "</collision>".len();
         text.replace_range(start..end, "");
@@ -66,7 +75,7 @@ fn the_fixed_jaw_is_told_from_the_gripper_servo() {
     let imported = from_urdf(&gripper(-0.0137), &wrist_roll_locked()).unwrap();
     let Bodies::Described(shapes) = &imported.bodies else { panic!("{:?}", imported.bodies) };
     assert_eq!(shapes.len(), 2, "{shapes:?}");
-    let jaws: Vec<bool> = shapes.iter().map(|s| s.jaw).collect();
+    let jaws: Vec<bool> = shapes.iter().map(|s| s.mount == Mount::Jaw).collect();
     assert_eq!(jaws, [false, true], "the servo, then the jaw: {shapes:?}");
     assert!(shapes.iter().all(|s| s.body == 4));
     let notes = imported.notes.join("\n");
@@ -76,7 +85,7 @@ fn the_fixed_jaw_is_told_from_the_gripper_servo() {
     let high = with_shapes(&[("gripper_link", collision_box([0.0077, 0.0001, -0.0234], [0.045, 0.025, 0.025]))]);
     let imported = from_urdf(&high, &wrist_roll_locked()).unwrap();
     let Bodies::Described(shapes) = &imported.bodies else { panic!() };
-    assert!(shapes.iter().all(|s| !s.jaw), "{shapes:?}");
+    assert!(shapes.iter().all(|s| s.mount == Mount::Fixed), "{shapes:?}");
 }
 
 /// A fixed jaw 0.8 mm beside the king it grips (less than the 1 mm the arm keeps from
@@ -141,5 +150,58 @@ fn a_fixed_jaw_beside_the_piece_it_grips_is_kept_apart_from_it_as_a_finger() {
     for pawn in &moves[..2] {
         let gap = pawn["clearance"]["fingers_to_gripped_piece_mm"].as_f64().unwrap();
         assert!((gap - 1.5).abs() < 1e-3, "{pawn}");
+    }
+}
+
+/// The file's fingers on prismatic joints (the OpenManipulator-X's two, the second a `<mimic>`
+/// follower; the PincherX-100's, whose follower's multiplier is −1 and whose joints are held at
+/// their closing limit) stand in for chessarm's, and slide with the hand's gap: each finger a
+/// box 8 mm thick whose inner face is level with the tool tip, so with the gap `g` the boxes'
+/// centres stand `g / 2 + 4 mm` from the tip across the approach, within the joint's range
+/// (closed as far as it goes below it: the OpenManipulator-X's fingers close to 20 mm, the
+/// PincherX-100's to 14 mm).
+#[test]
+fn the_files_prismatic_fingers_slide_to_the_gap() {
+    // (file, the two finger links, each box's centre in its link's frame, the smallest gap)
+    let arms = [
+        (
+            "open_manipulator_x",
+            ["gripper_left_link", "gripper_right_link"],
+            [[0.126 - 0.0817, 0.004, 0.0], [0.126 - 0.0817, -0.004, 0.0]],
+            0.020,
+        ),
+        (
+            "px100",
+            ["px100/left_finger_link", "px100/right_finger_link"],
+            [[0.027575, -0.004, 0.0], [0.027575, 0.004, 0.0]],
+            0.014,
+        ),
+    ];
+    for (name, links, centres, closed) in arms {
+        let shapes: Vec<(&str, String)> =
+            links.iter().zip(centres).map(|(link, c)| (*link, collision_box(c, [0.01, 0.008, 0.02]))).collect();
+        let imported = from_urdf(&shapes_in(fixture(name), &shapes), &ImportOptions::default()).unwrap();
+        let Bodies::Described(described) = &imported.bodies else { panic!("{name}: {:?}", imported.bodies) };
+        assert_eq!(described.len(), 2, "{name}: {described:?}");
+        assert!(described.iter().all(|s| matches!(s.mount, Mount::Finger(_))), "{name}");
+        let notes = imported.notes.join("\n");
+        assert!(notes.contains("the fingers are the file's"), "{name}: {notes}");
+        let q = Vector4::new(0.2, 0.3, -0.5, 0.4);
+        let mut solids = Vec::new();
+        for gap in [0.03, 0.05, 0.005] {
+            let hand = Hand { gripper: Gripper::default(), gap, held: None };
+            solids_into(&imported.model, &q, &hand, &imported.bodies, &mut solids);
+            let fingers: Vec<&Solid> =
+                solids.iter().filter(|s| matches!(s.part, Part::Finger(_))).map(|s| &s.solid).collect();
+            assert_eq!(fingers.len(), 2, "{name}: only the file's fingers");
+            let chain = chessarm_core::arm::kinematics::FrameChain::new(&imported.model, &q);
+            let tip = chain.tip();
+            let expected = 0.5 * gap.max(closed) + 0.004;
+            for finger in fingers {
+                let Solid::Cuboid { centre, .. } = finger else { panic!("{finger:?}") };
+                let off = (centre - tip).norm();
+                assert!((off - expected).abs() < 1e-9, "{name} gap {gap}: {off} vs {expected}");
+            }
+        }
     }
 }

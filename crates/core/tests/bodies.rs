@@ -100,3 +100,34 @@ fn the_lowest_points_are_the_closed_forms() {
     let cube = Solid::Cuboid { centre: a, axes: *turn.matrix(), half: Vector3::repeat(0.1) };
     assert!((cube.lowest() - (0.3 - 0.1 * 2f64.sqrt())).abs() < 1e-12);
 }
+
+/// The gripper's value for a gap: each finger's inner face at least half the gap from the
+/// tool's axis (the nearer finger decides), within the joint's range; none without sliding
+/// fingers.
+#[test]
+fn the_finger_value_opens_every_finger_to_half_the_gap_within_the_range() {
+    use chessarm_core::arm::bodies::{BodyShape, Mount, Shape, Slide, finger_value};
+    use chessarm_core::arm::kinematics::Pose;
+    let finger = |finger: usize, face: f64, rate: f64| BodyShape {
+        body: 4,
+        pose: Pose::identity(),
+        shape: Shape::Sphere { radius: 0.002 },
+        mount: Mount::Finger(Slide {
+            finger,
+            travel: Vector3::y() * rate,
+            at_zero: Vector3::zeros(),
+            face,
+            rate,
+            range: [-0.002, 0.02],
+        }),
+    };
+    // Faces 9 mm and 8 mm off the axis at 0, opening 1 mm and 2 mm per mm of travel.
+    let shapes = [finger(1, 0.009, 1.0), finger(2, 0.008, 2.0)];
+    // A gap of 30 mm: the first needs 6 mm of travel, the second 3.5 mm.
+    assert!((finger_value(&shapes, 0.03).unwrap() - 0.006).abs() < 1e-15);
+    // Beyond the range either way: its ends.
+    assert_eq!(finger_value(&shapes, 0.2), Some(0.02));
+    assert_eq!(finger_value(&shapes, 0.0), Some(-0.002));
+    let fixed = BodyShape { mount: Mount::Fixed, ..shapes[0].clone() };
+    assert_eq!(finger_value(&[fixed], 0.03), None);
+}

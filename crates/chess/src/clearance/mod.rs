@@ -959,7 +959,7 @@ mod tests {
     /// The reach bound holds at sampled poses: no solid is farther from joint j's axis.
     #[test]
     fn the_reach_bound_holds_at_any_angles() {
-        use chessarm_core::arm::bodies::{BodyShape, Shape};
+        use chessarm_core::arm::bodies::{BodyShape, Mount, Shape};
         use chessarm_core::arm::kinematics::Pose;
         use chessarm_core::nalgebra::{Rotation3, Translation3};
         let arm = report_arm();
@@ -982,13 +982,13 @@ mod tests {
                         body,
                         pose,
                         shape: Shape::Cuboid { half: Vector3::new(0.02, 0.01, 0.04) },
-                        jaw: body == 4,
+                        mount: if body == 4 { Mount::Jaw } else { Mount::Fixed },
                     },
                     BodyShape {
                         body,
                         pose: pose.inverse(),
                         shape: Shape::Hull { points: Arc::clone(&corners) },
-                        jaw: false,
+                        mount: Mount::Fixed,
                     },
                 ]
             })

@@ -15,13 +15,13 @@
 //! An arm described by its maker ([`Bodies::Described`], e.g. a URDF's `<collision>` shapes)
 //! has those shapes in place of the pedestal, housings and link cylinders, each fixed to a
 //! body (0 the base, `k` link `k`, placed in DH frame `k`); the fingers and a held piece are
-//! chessarm's in either case, since their opening follows the gripper's command. A described
-//! shape may be a jaw fixed to the last link ([`Part::Jaw`]), which grips the piece beside
-//! chessarm's fingers.
+//! chessarm's unless the maker describes fingers on a prismatic joint ([`Mount::Finger`]),
+//! which then slide to the opening the gripper's command asks for. A described shape may be
+//! a jaw fixed to the last link ([`Part::Jaw`]), which grips the piece beside the fingers.
 
 use crate::arm::kinematics::{FrameChain, Pose};
 use crate::arm::model::{ArmModel, JointVector};
-use nalgebra::{Matrix3, Point3, Vector3};
+use nalgebra::{Matrix3, Point3, Translation3, Vector3};
 use std::sync::Arc;
 
 /// Radius of the links' cylinders, m.
@@ -140,15 +140,68 @@ pub enum Shape {
 }
 
 /// A shape fixed to one of the arm's bodies: 0 the base (`pose` in the base frame), `k` link
-/// `k` (`pose` in DH frame `k`, the frame body `k` carries). `jaw`: the shape is a jaw of the
-/// file's gripper fixed to the last link (a [`Part::Jaw`]: beside the piece it grips, not an
-/// obstacle to it).
+/// `k` (`pose` in DH frame `k`, the frame body `k` carries), and how it rides there.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodyShape {
     pub body: usize,
     pub pose: Pose,
     pub shape: Shape,
-    pub jaw: bool,
+    pub mount: Mount,
+}
+
+/// How a described shape rides on its body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Mount {
+    /// Fixed to it, a part of the link.
+    Fixed,
+    /// A jaw of the gripper fixed to the last link (a [`Part::Jaw`]: beside the piece it
+    /// grips, not an obstacle to it).
+    Jaw,
+    /// A finger of the gripper on a prismatic joint of the last link (a [`Part::Finger`]):
+    /// `pose` is its place with the gripper's joint at the value the file is held at, and it
+    /// slides with the gap the hand asks for.
+    Finger(Slide),
+}
+
+/// How a finger on a prismatic joint moves with the gripper's joint (its leader, the joint
+/// the others follow by `<mimic>`), in DH frame `N` (the tool tip at its origin, the approach
+/// along x). At the leader's value `v` the finger stands `at_zero + v · travel` (m) from
+/// `pose`; its inner face, the nearest of its points to the tool's axis along the way it
+/// opens, is `face + v · rate` from that axis (m; `rate` > 0, m per unit of `v`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slide {
+    /// The finger's number, 1, 2, … (a finger of several shapes has one number).
+    pub finger: usize,
+    pub travel: Vector3<f64>,
+    pub at_zero: Vector3<f64>,
+    pub face: f64,
+    pub rate: f64,
+    /// The leader's range (its limits), m.
+    pub range: [f64; 2],
+}
+
+/// The value of the gripper's joint (its leader's, m) that opens the fingers of `shapes` to
+/// `gap` (m between their inner faces, each at least `gap / 2` from the tool's axis), within
+/// the joint's range; `None` when no shape is a sliding finger.
+pub fn finger_value(shapes: &[BodyShape], gap: f64) -> Option<f64> {
+    let mut value: Option<f64> = None;
+    let mut range = [f64::NEG_INFINITY, f64::INFINITY];
+    for shape in shapes {
+        if let Mount::Finger(slide) = &shape.mount {
+            let needed = (0.5 * gap - slide.face) / slide.rate;
+            value = Some(value.map_or(needed, |v| v.max(needed)));
+            range = [range[0].max(slide.range[0]), range[1].min(slide.range[1])];
+        }
+    }
+    value.map(|v| {
+        if v < range[0] {
+            range[0]
+        } else if v > range[1] {
+            range[1]
+        } else {
+            v
+        }
+    })
 }
 
 /// What the arm's pedestal, housings and links are made of.
@@ -293,8 +346,9 @@ pub fn place(shape: &Shape, pose: &Pose) -> Solid {
 /// (cleared first; at most [`Bodies::most_solids`], so a buffer kept between calls allocates
 /// once): drawn, the pedestal, then per joint its housing and its link; described, each shape
 /// on its body (the base's as [`Part::Pedestal`], link `k`'s as [`Part::Link`]`(k)`, a jaw's
-/// as [`Part::Jaw`]`(1)`); then
-/// the fingers and the held piece.
+/// as [`Part::Jaw`]`(1)`, a finger's as [`Part::Finger`] slid to the hand's gap by
+/// [`finger_value`]); then chessarm's fingers (unless the described ones stand in) and the
+/// held piece.
 pub fn solids_into<const N: usize>(
     model: &ArmModel<N>,
     q: &JointVector<N>,
@@ -307,16 +361,25 @@ pub fn solids_into<const N: usize>(
     let tip = chain.tip();
     let tool = chain.body_pose(N - 1).rotation;
     let approach: Vector3<f64> = tool * Vector3::x();
+    let mut own_fingers = false;
     match bodies {
         Bodies::Drawn => drawn_into(model, &chain, hand, out),
         Bodies::Described(shapes) => {
+            let value = finger_value(shapes, hand.gap);
+            own_fingers = value.is_some();
             for shape in shapes.iter() {
-                let (part, frame) = match shape.body {
-                    0 => (Part::Pedestal, Pose::identity()),
-                    k if shape.jaw => (Part::Jaw(1), *chain.body_pose(k.min(N) - 1)),
-                    k => (Part::Link(k), *chain.body_pose(k.min(N) - 1)),
+                let frame = if shape.body == 0 { Pose::identity() } else { *chain.body_pose(shape.body.min(N) - 1) };
+                let (part, pose) = match (shape.body, shape.mount) {
+                    (0, _) => (Part::Pedestal, shape.pose),
+                    (_, Mount::Jaw) => (Part::Jaw(1), shape.pose),
+                    (_, Mount::Finger(slide)) => {
+                        let v = value.unwrap_or(0.0);
+                        let moved = slide.at_zero + v * slide.travel;
+                        (Part::Finger(slide.finger), Translation3::from(moved) * shape.pose)
+                    }
+                    (k, Mount::Fixed) => (Part::Link(k), shape.pose),
                 };
-                out.push(ArmSolid { part, solid: place(&shape.shape, &(frame * shape.pose)) });
+                out.push(ArmSolid { part, solid: place(&shape.shape, &(frame * pose)) });
             }
         }
     }
@@ -326,7 +389,9 @@ pub fn solids_into<const N: usize>(
     let g = &hand.gripper;
     let half = Vector3::new(0.5 * g.finger_thickness, 0.5 * g.finger_length, 0.5 * g.finger_width);
     let along = g.finger_reach - 0.5 * g.finger_length;
-    for (k, side) in [(1, -1.0), (2, 1.0)] {
+    // The file's fingers, placed above, stand in for chessarm's.
+    let sides: &[(usize, f64)] = if own_fingers { &[] } else { &[(1, -1.0), (2, 1.0)] };
+    for &(k, side) in sides {
         let centre = tip + along * approach + side * (0.5 * hand.gap + half.x) * closing;
         out.push(ArmSolid { part: Part::Finger(k), solid: Solid::Cuboid { centre, axes, half } });
     }

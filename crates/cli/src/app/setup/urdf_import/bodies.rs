@@ -1,10 +1,10 @@
 //! The arm's bodies: the links' masses and inertias gathered on the body that carries them
 //! (composite rigid bodies), and the collision bodies the clearance check takes the links to be.
 
-use super::read::{FileTree, JointElement, at, child, inertial, origin, required, triple};
+use super::read::{FileTree, JointElement, at, axis_of, child, inertial, mimic, origin, required, triple};
 use super::reduce::{Carried, LockedJoint};
 use anyhow::{Context, Result, anyhow, bail};
-use chessarm_core::arm::bodies::{Bodies, BodyShape, Shape};
+use chessarm_core::arm::bodies::{Bodies, BodyShape, Mount, Shape, Slide};
 use chessarm_core::arm::kinematics::Pose;
 use chessarm_core::arm::link::Inertial;
 use chessarm_core::nalgebra::Vector3;
@@ -116,7 +116,8 @@ pub(super) fn collision_bodies(
         missing: Vec::new(),
         count: 0,
     };
-    let Found { shapes, fingers, jaws, with_shapes } = find_shapes(tree, arm, locked, frames, &mut meshes, warnings)?;
+    let Found { shapes, fingers, sliding, jaws, with_shapes } =
+        find_shapes(tree, arm, locked, frames, &mut meshes, warnings)?;
     let stand_in = "chessarm's own solids from the kinematic chain (a pedestal, a housing per joint, a cylinder per \
                     link) stand in for the links in the clearance check";
     if !meshes.missing.is_empty() {
@@ -158,6 +159,13 @@ pub(super) fn collision_bodies(
         meshes.count,
         if meshes.count == 1 { "" } else { "es" }
     );
+    if !sliding.is_empty() {
+        said.push_str(&format!(
+            "; the fingers are the file's {}, slid on the gripper's joint to open around each piece by [gripper] \
+             finger_opening a side and to close on it",
+            sliding.join(", ")
+        ));
+    }
     if !fingers.is_empty() {
         said.push_str(&format!(
             "; the fingers are chessarm's [gripper], whose opening follows the commands (links {} left out)",
@@ -179,8 +187,10 @@ pub(super) fn collision_bodies(
 /// have shapes.
 struct Found {
     shapes: Vec<BodyShape>,
-    /// The links behind a gripper's joint, quoted.
+    /// The links behind a gripper's joint left out (chessarm's fingers stand in), quoted.
     fingers: Vec<String>,
+    /// The links of the file's fingers that slide with the gripper's opening, quoted.
+    sliding: Vec<String>,
     /// The links with shapes that are the gripper's fixed jaws, quoted.
     jaws: Vec<String>,
     /// The bodies (0 the base, k arm link k) that have shapes.
@@ -222,6 +232,9 @@ fn find_shapes(
         .map(|x| 0.5 * x);
     let mut shapes = Vec::new();
     let mut fingers = Vec::new();
+    // The shapes of the fingers on prismatic joints, with the joint, and their links.
+    let mut sliding: Vec<(usize, BodyShape)> = Vec::new();
+    let mut sliding_links: Vec<String> = Vec::new();
     let mut jaws = Vec::new();
     // The bodies (0 the base, k arm link k) that have shapes.
     let mut with_shapes = BTreeSet::new();
@@ -231,12 +244,13 @@ fn find_shapes(
         if elements.is_empty() {
             continue;
         }
-        // Behind a gripper's joint (before reaching an arm joint): a finger.
+        // Behind a gripper's joint (before reaching an arm joint): a finger, which slides with
+        // the gripper's opening when its joint is prismatic on the last link.
         let mut up = link;
-        let mut finger = false;
+        let mut behind = None;
         while let Some(&j) = tree.parent_joint.get(up) {
             if gripper_joints.contains(&j) {
-                finger = true;
+                behind = Some(j);
                 break;
             }
             if arm.contains(&j) {
@@ -244,11 +258,15 @@ fn find_shapes(
             }
             up = &tree.joints[j].parent;
         }
-        if finger {
-            fingers.push(format!("'{link}'"));
-            continue;
-        }
         let (carrier, pose) = tree.carried[link];
+        match behind {
+            Some(g) if tree.joints[g].kind == "prismatic" && carrier == 4 => sliding_links.push(format!("'{link}'")),
+            Some(_) => {
+                fingers.push(format!("'{link}'"));
+                continue;
+            }
+            None => {}
+        }
         let frame = if carrier == 0 { pose } else { frames.in_dh[carrier - 1] * pose };
         for element in elements {
             let placed = frame * origin(&element)?;
@@ -269,15 +287,134 @@ fn find_shapes(
                     );
                 }
                 with_shapes.insert(carrier);
+                if let Some(g) = behind {
+                    sliding.push((g, BodyShape { body: carrier, pose: placed, shape, mount: Mount::Fixed }));
+                    continue;
+                }
                 let jaw = carrier == 4 && jaw_depth.is_some_and(|depth| deepest(&shape, &placed) >= depth);
                 if jaw && !jaws.contains(&format!("'{link}'")) {
                     jaws.push(format!("'{link}'"));
                 }
-                shapes.push(BodyShape { body: carrier, pose: placed, shape, jaw });
+                let mount = if jaw { Mount::Jaw } else { Mount::Fixed };
+                shapes.push(BodyShape { body: carrier, pose: placed, shape, mount });
             }
         }
     }
-    Ok(Found { shapes, fingers, jaws, with_shapes })
+    // The file's fingers stand in for chessarm's when every finger slides on a prismatic joint
+    // that closes across the tool's axis; else chessarm's fingers do, and the file's are left
+    // out.
+    let slides = if fingers.is_empty() { slides(tree, locked, frames, &sliding)? } else { None };
+    match slides {
+        Some(slides) => {
+            for ((_, mut shape), slide) in sliding.into_iter().zip(slides) {
+                shape.mount = Mount::Finger(slide);
+                shapes.push(shape);
+            }
+        }
+        None => fingers.append(&mut sliding_links),
+    }
+    Ok(Found { shapes, fingers, sliding: sliding_links, jaws, with_shapes })
+}
+
+/// Each sliding finger shape's [`Slide`] (`sliding`: the gripper's joint it is behind, and the
+/// shape placed in DH frame 4 with the joint at its held value), or `None` when a joint does
+/// not close across the tool's axis (it moves only along the approach) or has no range.
+fn slides(
+    tree: &Tree<'_, '_, '_>,
+    locked: &[LockedJoint],
+    frames: &Frames<'_>,
+    sliding: &[(usize, BodyShape)],
+) -> Result<Option<Vec<Slide>>> {
+    // Per joint, in the order first met: its finger number and how it slides.
+    let mut joints: Vec<(usize, Slide)> = Vec::new();
+    for (g, _) in sliding {
+        if joints.iter().any(|(j, _)| j == g) {
+            continue;
+        }
+        let joint = &tree.joints[*g];
+        let (_, parent_pose) = tree.carried[&joint.parent];
+        let at = frames.in_dh[3] * parent_pose * origin(&joint.node)?;
+        let axis = at.rotation * axis_of(&joint.node)?.normalize();
+        let (leader, multiplier, offset) = mimic(&joint.node)?.unwrap_or((joint.name.clone(), 1.0, 0.0));
+        let Some(held) = locked.iter().find(|l| l.name == joint.name).map(|l| l.value) else { return Ok(None) };
+        let Some([a, b]) = locked.iter().find(|l| l.name == leader).and_then(|l| l.gripper) else {
+            return Ok(None);
+        };
+        let travel = multiplier * axis;
+        let across = travel - travel.x * Vector3::x();
+        if !(across.norm() > 1e-9 && a.is_finite() && b.is_finite()) {
+            return Ok(None);
+        }
+        let opens = across.normalize();
+        let at_zero = (offset - held) * axis;
+        // The inner face with the joint held: the nearest point of its shapes along `opens`
+        // where they hold a piece, across the tool tip.
+        let face_held = sliding
+            .iter()
+            .filter(|(j, _)| j == g)
+            .map(|(_, shape)| face_at_grip(&shape.shape, &shape.pose, &opens))
+            .fold(f64::INFINITY, f64::min);
+        let slide = Slide {
+            finger: joints.len() + 1,
+            travel,
+            at_zero,
+            face: face_held + at_zero.dot(&opens),
+            rate: travel.dot(&opens),
+            range: [a.min(b), a.max(b)],
+        };
+        joints.push((*g, slide));
+    }
+    Ok(Some(
+        sliding
+            .iter()
+            .map(|(g, _)| {
+                joints.iter().find(|(j, _)| j == g).map(|(_, slide)| *slide).unwrap_or_else(|| unreachable!())
+            })
+            .collect(),
+    ))
+}
+
+/// The least `p · opens` over the points `p` of `shape` placed at `pose` (DH frame 4) that
+/// lie in the plane across the tool tip (`x = 0`), m: where the finger's pad holds a piece. A
+/// box's or a hull's section by that plane is the hull of the crossings of the segments
+/// between its corners on either side (exact); a shape that does not cross it, a cylinder or
+/// a sphere is taken whole (its nearest point: never less open than it is).
+fn face_at_grip(shape: &Shape, pose: &Pose, opens: &Vector3<f64>) -> f64 {
+    let corners: Vec<Vector3<f64>> = match shape {
+        Shape::Cuboid { half } => (0..8)
+            .map(|i| {
+                let sign = |bit: usize| if i & bit == 0 { -1.0 } else { 1.0 };
+                Vector3::new(sign(1) * half.x, sign(2) * half.y, sign(4) * half.z)
+            })
+            .collect(),
+        Shape::Hull { points } => points.to_vec(),
+        Shape::Cylinder { .. } | Shape::Sphere { .. } => Vec::new(),
+    };
+    let placed: Vec<Vector3<f64>> =
+        corners.iter().map(|p| (pose * chessarm_core::nalgebra::Point3::from(*p)).coords).collect();
+    let (below, above): (Vec<&Vector3<f64>>, Vec<&Vector3<f64>>) = placed.iter().partition(|p| p.x <= 0.0);
+    let mut least = f64::INFINITY;
+    for a in below.iter().filter(|a| a.x == 0.0) {
+        least = least.min(a.dot(opens));
+    }
+    for a in &below {
+        for b in &above {
+            // b.x > 0 ≥ a.x: the segment crosses x = 0 at a + t (b − a).
+            let t = -a.x / (b.x - a.x);
+            least = least.min((*a + t * (*b - *a)).dot(opens));
+        }
+    }
+    if least.is_finite() { least } else { nearest_along(shape, pose, opens) }
+}
+
+/// The least `p · direction` over the points `p` of `shape` placed at `pose`, m.
+fn nearest_along(shape: &Shape, pose: &Pose, direction: &Vector3<f64>) -> f64 {
+    // Turned so that `direction` points up: the least is its lowest point.
+    let up = chessarm_core::nalgebra::Rotation3::rotation_between(direction, &Vector3::z()).unwrap_or_else(|| {
+        chessarm_core::nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+    });
+    let turn = Pose::from_parts(chessarm_core::nalgebra::Translation3::identity(), up);
+    chessarm_core::arm::bodies::place(shape, &(turn * pose)).lowest()
 }
 
 /// How far `shape` placed at `pose` (DH frame 4) reaches along the frame's x, m: the tool's
