@@ -102,6 +102,8 @@ pub struct HardwareExport {
     pub commands: Vec<GripperCommand>,
     /// Per grip, in order: the piece and where it goes ("white pawn from e2 to e4").
     pub grips: Vec<String>,
+    /// Per grip, in order: the piece's width where the gripper holds it (its base diameter), m.
+    pub widths: Vec<f64>,
     /// Per gripper command, in order: the planned tool tip it waits to be at (m), and the
     /// condition it waits for (`None`: it goes by the clock).
     pub fine_points: Vec<Vector3<f64>>,
@@ -746,11 +748,14 @@ impl Game {
             let points = hardware_points(&self.arm, motion, &commands, rate)
                 .map_err(|source| PlayError::Export { mv: name.to_string(), source })?;
             let grips = planned.iter().map(|step| step.task.to_string()).collect();
+            let widths =
+                planned.iter().map(|step| settings.pieces.dimensions(step.task.piece.role).base_diameter).collect();
             let fine_points = commands.iter().map(|c| motion.sample(c.time).position).collect();
             report.hardware = Some(HardwareExport {
                 points,
                 commands,
                 grips,
+                widths,
                 fine_points,
                 in_position: settings.in_position,
                 servo_goals: Vec::new(),

@@ -205,3 +205,57 @@ fn the_files_prismatic_fingers_slide_to_the_gap() {
         }
     }
 }
+
+/// The hardware export drives the file's fingers: the PincherX-100's, boxes 8 mm thick whose
+/// inner faces are 8 mm inside their links' origins, open around a pawn 14.2 mm wide by the
+/// needle fingers' 1.5 mm a side (`left_finger` at 14.2 / 2 + 1.5 + 8 = 16.6 mm) and closed
+/// on it (15.1 mm), `right_finger` following by its `<mimic multiplier="-1">`.
+#[test]
+fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
+    let fit =
+        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
+    let mut setup: toml::Value = toml::from_str(fit["setup"].as_str().unwrap()).unwrap();
+    let width = 0.0142;
+    setup["pieces"]["pawn"]["base_diameter"] = toml::Value::Float(width);
+    let setup_path = dir.path().join("board.toml");
+    std::fs::write(&setup_path, toml::to_string(&setup).unwrap()).unwrap();
+    let shapes = [
+        ("px100/left_finger_link", collision_box([0.027575, -0.004, 0.0], [0.01, 0.008, 0.02])),
+        ("px100/right_finger_link", collision_box([0.027575, 0.004, 0.0], [0.01, 0.008, 0.02])),
+    ];
+    let urdf = dir.path().join("px100-fingers.urdf");
+    std::fs::write(&urdf, shapes_in(fixture("px100"), &shapes)).unwrap();
+    let out = dir.path().join("plan");
+    let planned = chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--arm",
+        setup_path.to_str().unwrap(),
+        "plan",
+        "--moves",
+        "e4",
+        "--export-rate",
+        "20",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(planned.status.success(), "{}", String::from_utf8_lossy(&planned.stderr));
+    let text = std::fs::read_to_string(out.join("hardware/001-e2e4.csv")).unwrap();
+    let mut rows = text.lines();
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("{name}: {header:?}"));
+    let (left, right, state) = (column("q_left_finger"), column("q_right_finger"), column("gripper"));
+    let (open, closed) = (0.5 * width + 0.0015 + 0.008, 0.5 * width + 0.008);
+    let mut seen = [false; 2];
+    for row in rows {
+        let cells: Vec<&str> = row.split(',').collect();
+        let value: f64 = cells[left].parse().unwrap();
+        let expected = if cells[state] == "closed" { closed } else { open };
+        seen[usize::from(cells[state] == "closed")] = true;
+        assert!((value - expected).abs() < 1e-9, "{row}: {value} vs {expected}");
+        assert_eq!(cells[right].parse::<f64>().unwrap(), -value, "{row}");
+    }
+    assert_eq!(seen, [true, true]);
+}

@@ -43,6 +43,7 @@ pub fn run(setup: &Setup, args: &PlanArgs) -> Result<()> {
         fine_points: Vec::new(),
         in_position: None,
         finger_opening: Some(setup.clearance.gripper.finger_opening),
+        widths: Vec::new(),
     };
     files.extend(write_hardware(setup, &hardware, "scenario", &plan.path, &commands, &label, args.export_rate)?);
     let samples = plan.joint.samples();
@@ -100,6 +101,7 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         let motion = &planned.motion;
         let name = format!("{:03}-{uci}", ply.ply);
         let grips = planned.tasks.iter().map(|t| t.task.to_string()).collect();
+        let widths = planned.tasks.iter().map(|t| setup.pieces.dimensions(t.task.piece.role).base_diameter).collect();
         let commands = planned.gripper_commands();
         // The fine points at `play`'s default tolerance for sensors of unknown resolution (the
         // coarsest default band, a tenth of the tolerance; plan has no --sensors).
@@ -113,6 +115,7 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
                 chessarm_chess::play::DEFAULT_TOLERANCE,
             )),
             finger_opening: Some(setup.clearance.gripper.finger_opening),
+            widths,
         };
         files.extend(write_hardware(setup, &hardware, &name, motion, &commands, &label, args.export_rate)?);
         if !planned.legs.is_empty() {

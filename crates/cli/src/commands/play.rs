@@ -547,6 +547,7 @@ impl Kept {
                 fine_points: hardware.fine_points.clone(),
                 in_position: hardware.in_position,
                 finger_opening: report.opening,
+                widths: hardware.widths.clone(),
             };
             crate::app::formats::hardware::write_move(
                 out.hardware_dir,

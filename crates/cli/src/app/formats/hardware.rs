@@ -18,7 +18,9 @@
 //! file's own sense (a base yaw about −z included), then every held joint (`--lock`, gripper
 //! joints, their `<mimic>` followers) at its value, a gripper joint at its open or close value
 //! as the gripper is at that sample (the limit further from zero opens), so a ROS 2 driver of
-//! the real arm takes the message as it is.
+//! the real arm takes the message as it is. Where the file's fingers slide on prismatic joints,
+//! their joints go instead to the values that open the fingers around the piece (its width and
+//! `finger_opening_m` a side) and close them on it, the followers by their `<mimic>`.
 //!
 //! Times are from the move's start; each move starts where the previous one ended, at rest.
 
@@ -54,6 +56,28 @@ pub struct MoveLabel<'a> {
     pub in_position: Option<chessarm_core::plan::fine_point::InPosition>,
     /// How far each finger stands off a piece when open, m (`None`: not known).
     pub finger_opening: Option<f64>,
+    /// Per grip, in order: the piece's width where the gripper holds it, m (empty: not known;
+    /// the gripper's joints then go to their limits).
+    pub widths: Vec<f64>,
+}
+
+/// The gap between the fingers at the point `p` (m) for the pick-and-places of `commands` of
+/// pieces `widths` wide, each finger `opening` off a piece it opens around, as the clearance
+/// check has it: closed on the piece held; open around the next piece to grip and the one just
+/// released (the wider of the two); after the last release, around the piece released. `None`
+/// when the widths or the opening are not known.
+fn gap_at(p: &HardwarePoint, commands: &[GripperCommand], widths: &[f64], opening: Option<f64>) -> Option<f64> {
+    if p.gripper_closed {
+        return p.grip.and_then(|g| widths.get(g)).copied();
+    }
+    let opening = opening?;
+    // The grips before this point: the next one is theirs in number.
+    let done = commands.iter().filter(|c| c.action == GripperAction::Grip && c.time < p.t).count();
+    let open = |k: usize| widths.get(k).map(|w| w + 2.0 * opening);
+    match (open(done), done.checked_sub(1).and_then(open)) {
+        (Some(next), Some(last)) => Some(next.max(last)),
+        (next, last) => next.or(last),
+    }
 }
 
 /// Writes `<dir>/<stem>.json` and `<dir>/<stem>.csv`; returns their paths.
@@ -73,13 +97,17 @@ pub fn write_move(
     let names: Vec<&str> =
         joint_names.iter().map(String::as_str).chain(convention.locked.iter().map(|j| j.name.as_str())).collect();
     let whole = |p: &HardwarePoint| -> [Vec<f64>; 3] {
-        let held = |value: fn(&crate::app::setup::urdf_import::LockedJoint, bool) -> f64| {
-            convention.locked.iter().map(move |j| plain(value(j, p.gripper_closed)))
-        };
+        let gap = gap_at(p, commands, &label.widths, label.finger_opening);
+        let zeros = || convention.locked.iter().map(|_| 0.0);
         [
-            convention.user(p.q).map(plain).into_iter().chain(held(|j, closed| j.at(closed))).collect(),
-            convention.user(p.qd).map(plain).into_iter().chain(held(|_, _| 0.0)).collect(),
-            convention.user(p.qdd).map(plain).into_iter().chain(held(|_, _| 0.0)).collect(),
+            convention
+                .user(p.q)
+                .map(plain)
+                .into_iter()
+                .chain(convention.locked.iter().map(|j| plain(convention.held_value(j, p.gripper_closed, gap))))
+                .collect(),
+            convention.user(p.qd).map(plain).into_iter().chain(zeros()).collect(),
+            convention.user(p.qdd).map(plain).into_iter().chain(zeros()).collect(),
         ]
     };
     let mut grips: usize = 0;

@@ -469,11 +469,33 @@ impl Default for Setup {
 pub struct JointConvention {
     pub signs: [f64; 4],
     pub locked: Vec<crate::app::setup::urdf_import::LockedJoint>,
+    /// The file's fingers on prismatic joints, which its gripper joints slide to each gap
+    /// ([`chessarm_core::arm::bodies::finger_value`]); empty without.
+    pub fingers: std::sync::Arc<[chessarm_core::arm::bodies::BodyShape]>,
 }
 
 impl Default for JointConvention {
     fn default() -> Self {
-        Self { signs: [1.0; 4], locked: Vec::new() }
+        Self { signs: [1.0; 4], locked: Vec::new(), fingers: Vec::new().into() }
+    }
+}
+
+impl JointConvention {
+    /// Each held joint's value (the file's convention, rad or m) with the gripper closed or
+    /// open: with the file's fingers and the gap they are at (m), the value that slides them
+    /// there (a gripper joint, a follower by its `<mimic>`); else a gripper joint's close or
+    /// open value, any other's held value.
+    pub fn held_value(
+        &self,
+        joint: &crate::app::setup::urdf_import::LockedJoint,
+        closed: bool,
+        gap: Option<f64>,
+    ) -> f64 {
+        let value = gap.and_then(|gap| chessarm_core::arm::bodies::finger_value(&self.fingers, gap));
+        match (joint.finger, value) {
+            (Some((m, o)), Some(v)) => m * v + o,
+            _ => joint.at(closed),
+        }
     }
 }
 
@@ -499,7 +521,15 @@ impl Setup {
         self.arm = imported.model;
         self.joint_names = imported.joint_names;
         self.base_link = imported.base_link;
-        self.convention = JointConvention { signs: imported.signs, locked: imported.locked };
+        let fingers: Vec<chessarm_core::arm::bodies::BodyShape> = match &imported.bodies {
+            chessarm_core::arm::bodies::Bodies::Described(shapes) => shapes
+                .iter()
+                .filter(|s| matches!(s.mount, chessarm_core::arm::bodies::Mount::Finger(_)))
+                .cloned()
+                .collect(),
+            chessarm_core::arm::bodies::Bodies::Drawn => Vec::new(),
+        };
+        self.convention = JointConvention { signs: imported.signs, locked: imported.locked, fingers: fingers.into() };
         self.clearance.bodies = imported.bodies;
     }
 }

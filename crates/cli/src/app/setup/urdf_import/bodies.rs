@@ -85,6 +85,10 @@ pub(super) struct Frames<'a> {
 /// A convex hull's vertices, m.
 type Points = std::sync::Arc<[Vector3<f64>]>;
 
+/// A joint that slides the file's fingers (or leads those that do), by name, with `(m, o)`:
+/// its value is `m · v + o` for the gripper's value `v`.
+type Driving = (String, f64, f64);
+
 /// A positive, finite attribute of a `<geometry>` shape.
 fn size(node: &Node<'_, '_>, name: &str) -> Result<f64> {
     let value = required(node, name, "m")?;
@@ -108,7 +112,7 @@ pub(super) fn collision_bodies(
     folder: Option<&Path>,
     notes: &mut Vec<String>,
     warnings: &mut Vec<String>,
-) -> Result<Bodies> {
+) -> Result<(Bodies, Vec<Driving>)> {
     let mut meshes = Meshes {
         folder,
         package_path: crate::app::setup::meshes::package_path(),
@@ -116,13 +120,13 @@ pub(super) fn collision_bodies(
         missing: Vec::new(),
         count: 0,
     };
-    let Found { shapes, fingers, sliding, jaws, with_shapes } =
+    let Found { shapes, fingers, sliding, driving, jaws, with_shapes } =
         find_shapes(tree, arm, locked, frames, &mut meshes, warnings)?;
     let stand_in = "chessarm's own solids from the kinematic chain (a pedestal, a housing per joint, a cylinder per \
                     link) stand in for the links in the clearance check";
     if !meshes.missing.is_empty() {
         warnings.push(not_found(&meshes.missing, stand_in));
-        return Ok(Bodies::Drawn);
+        return Ok((Bodies::Drawn, Vec::new()));
     }
     // The clearance check's work grows with the corners of every hull it is given, for every
     // pose of every move: a bound on their sum keeps a game's check in seconds a move.
@@ -150,7 +154,7 @@ pub(super) fn collision_bodies(
     }
     if shapes.is_empty() {
         notes.push(format!("the file gives no <collision> shapes: {stand_in}"));
-        return Ok(Bodies::Drawn);
+        return Ok((Bodies::Drawn, Vec::new()));
     }
     let mut said = format!(
         "clearance checked against the file's {} <collision> shape{} ({} mesh{} as convex hulls)",
@@ -180,7 +184,7 @@ pub(super) fn collision_bodies(
         ));
     }
     notes.push(said);
-    Ok(Bodies::Described(shapes.into()))
+    Ok((Bodies::Described(shapes.into()), driving))
 }
 
 /// The shapes of the links' `<collision>` elements, the fingers left out, and the bodies that
@@ -191,6 +195,9 @@ struct Found {
     fingers: Vec<String>,
     /// The links of the file's fingers that slide with the gripper's opening, quoted.
     sliding: Vec<String>,
+    /// The joints that slide them and their leaders, each with `(m, o)`: its value is
+    /// `m · v + o` for the gripper's value `v`.
+    driving: Vec<Driving>,
     /// The links with shapes that are the gripper's fixed jaws, quoted.
     jaws: Vec<String>,
     /// The bodies (0 the base, k arm link k) that have shapes.
@@ -304,8 +311,10 @@ fn find_shapes(
     // that closes across the tool's axis; else chessarm's fingers do, and the file's are left
     // out.
     let slides = if fingers.is_empty() { slides(tree, locked, frames, &sliding)? } else { None };
+    let mut driving = Vec::new();
     match slides {
-        Some(slides) => {
+        Some((slides, joints)) => {
+            driving = joints;
             for ((_, mut shape), slide) in sliding.into_iter().zip(slides) {
                 shape.mount = Mount::Finger(slide);
                 shapes.push(shape);
@@ -313,20 +322,23 @@ fn find_shapes(
         }
         None => fingers.append(&mut sliding_links),
     }
-    Ok(Found { shapes, fingers, sliding: sliding_links, jaws, with_shapes })
+    Ok(Found { shapes, fingers, sliding: sliding_links, driving, jaws, with_shapes })
 }
 
 /// Each sliding finger shape's [`Slide`] (`sliding`: the gripper's joint it is behind, and the
-/// shape placed in DH frame 4 with the joint at its held value), or `None` when a joint does
-/// not close across the tool's axis (it moves only along the approach) or has no range.
+/// shape placed in DH frame 4 with the joint at its held value), and the joints that slide
+/// them and their leaders with `(m, o)` (the joint's value `m · v + o` for the leader's `v`);
+/// `None` when a joint does not close across the tool's axis (it moves only along the
+/// approach) or has no range.
 fn slides(
     tree: &Tree<'_, '_, '_>,
     locked: &[LockedJoint],
     frames: &Frames<'_>,
     sliding: &[(usize, BodyShape)],
-) -> Result<Option<Vec<Slide>>> {
+) -> Result<Option<(Vec<Slide>, Vec<Driving>)>> {
     // Per joint, in the order first met: its finger number and how it slides.
     let mut joints: Vec<(usize, Slide)> = Vec::new();
+    let mut driving: Vec<Driving> = Vec::new();
     for (g, _) in sliding {
         if joints.iter().any(|(j, _)| j == g) {
             continue;
@@ -363,15 +375,17 @@ fn slides(
             range: [a.min(b), a.max(b)],
         };
         joints.push((*g, slide));
+        for named in [(joint.name.clone(), multiplier, offset), (leader, 1.0, 0.0)] {
+            if !driving.iter().any(|(n, ..)| *n == named.0) {
+                driving.push(named);
+            }
+        }
     }
-    Ok(Some(
-        sliding
-            .iter()
-            .map(|(g, _)| {
-                joints.iter().find(|(j, _)| j == g).map(|(_, slide)| *slide).unwrap_or_else(|| unreachable!())
-            })
-            .collect(),
-    ))
+    let slides = sliding
+        .iter()
+        .map(|(g, _)| joints.iter().find(|(j, _)| j == g).map(|(_, slide)| *slide).unwrap_or_else(|| unreachable!()))
+        .collect();
+    Ok(Some((slides, driving)))
 }
 
 /// The least `p · opens` over the points `p` of `shape` placed at `pose` (DH frame 4) that

@@ -145,7 +145,12 @@ pub fn from_urdf_in(text: &str, options: &ImportOptions, folder: Option<&Path>) 
     // A shape reaching farther from its link than twice the whole chain is long is a unit slip.
     let chain_length: f64 = model.links().iter().map(|l| l.dh.a.hypot(l.dh.d)).sum();
     let frames = Frames { in_dh: &in_dh, farthest: 2.0 * chain_length.max(0.1) };
-    let bodies = bodies::collision_bodies(&links_of, &arm, &locked, &frames, folder, &mut notes, &mut warnings)?;
+    let (bodies, driving) =
+        bodies::collision_bodies(&links_of, &arm, &locked, &frames, folder, &mut notes, &mut warnings)?;
+    let mut locked = locked;
+    for joint in &mut locked {
+        joint.finger = driving.iter().find(|(name, ..)| *name == joint.name).map(|&(_, m, o)| (m, o));
+    }
     Ok(ImportedArm {
         model,
         joint_names,

@@ -75,6 +75,10 @@ pub struct LockedJoint {
     /// For a joint after the arm's last joint with limits (a gripper's): the value that opens
     /// the gripper and the one that closes it (the limit further from zero opens).
     pub gripper: Option<[f64; 2]>,
+    /// For a joint that slides the file's fingers, or leads the joints that do: its value is
+    /// `m · v + o` (`(m, o)`) for the gripper's value `v` (the leader's, which opens the
+    /// fingers to a gap: [`chessarm_core::arm::bodies::finger_value`]).
+    pub finger: Option<(f64, f64)>,
 }
 
 impl LockedJoint {
@@ -234,7 +238,7 @@ pub(super) fn hold_others(
             }
             _ => None,
         };
-        locked.push(LockedJoint { name: joint.name.clone(), kind: joint.kind.clone(), value, gripper });
+        locked.push(LockedJoint { name: joint.name.clone(), kind: joint.kind.clone(), value, gripper, finger: None });
     }
     // A <mimic> follower opens and closes with its leader: multiplier·leader + offset (its own
     // limits, if any, do not decide it).
