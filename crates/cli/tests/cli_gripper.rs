@@ -209,7 +209,8 @@ fn the_files_prismatic_fingers_slide_to_the_gap() {
 /// The hardware export drives the file's fingers: the PincherX-100's, boxes 8 mm thick whose
 /// inner faces are 8 mm inside their links' origins, open around a pawn 14.2 mm wide by the
 /// needle fingers' 1.5 mm a side (`left_finger` at 14.2 / 2 + 1.5 + 8 = 16.6 mm) and closed
-/// on it (15.1 mm), `right_finger` following by its `<mimic multiplier="-1">`.
+/// on it (15.1 mm), `right_finger` following by its `<mimic multiplier="-1">`. (The fingers
+/// close to 14 mm: every piece is made 14.2 mm wide.)
 #[test]
 fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() {
     let dir = tempfile::tempdir().unwrap();
@@ -218,7 +219,10 @@ fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() 
         json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
     let mut setup: toml::Value = toml::from_str(fit["setup"].as_str().unwrap()).unwrap();
     let width = 0.0142;
-    setup["pieces"]["pawn"]["base_diameter"] = toml::Value::Float(width);
+    // Every piece as wide (the fingers must close on each one).
+    for kind in ["pawn", "knight", "bishop", "rook", "queen", "king"] {
+        setup["pieces"][kind]["base_diameter"] = toml::Value::Float(width);
+    }
     let setup_path = dir.path().join("board.toml");
     std::fs::write(&setup_path, toml::to_string(&setup).unwrap()).unwrap();
     let shapes = [
@@ -258,4 +262,40 @@ fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() 
         assert_eq!(cells[right].parse::<f64>().unwrap(), -value, "{row}");
     }
     assert_eq!(seen, [true, true]);
+}
+
+/// A piece narrower than the file's fingers close is refused before a game starts, naming the
+/// piece and both widths (the PincherX-100's boxes close to 14 mm; the fitted board's pawn is
+/// 6.9 mm across).
+#[test]
+fn a_piece_the_files_fingers_do_not_close_on_is_refused_before_the_game() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
+    let fit =
+        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
+    let setup_path = dir.path().join("board.toml");
+    std::fs::write(&setup_path, fit["setup"].as_str().unwrap()).unwrap();
+    let shapes = [
+        ("px100/left_finger_link", collision_box([0.027575, -0.004, 0.0], [0.01, 0.008, 0.02])),
+        ("px100/right_finger_link", collision_box([0.027575, 0.004, 0.0], [0.01, 0.008, 0.02])),
+    ];
+    let urdf = dir.path().join("px100-fingers.urdf");
+    std::fs::write(&urdf, shapes_in(fixture("px100"), &shapes)).unwrap();
+    let out = dir.path().join("game");
+    let refused = chessarm(&[
+        "--urdf",
+        urdf.to_str().unwrap(),
+        "--arm",
+        setup_path.to_str().unwrap(),
+        "play",
+        "--moves",
+        "e4",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!refused.status.success());
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(said.contains("the file's fingers close no narrower than 14.0 mm"), "{said}");
+    assert!(said.contains("a pawn 6.9 mm across would not be held"), "{said}");
+    assert!(!out.join("game.json").exists(), "nothing ran");
 }

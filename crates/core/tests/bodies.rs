@@ -106,7 +106,7 @@ fn the_lowest_points_are_the_closed_forms() {
 /// fingers.
 #[test]
 fn the_finger_value_opens_every_finger_to_half_the_gap_within_the_range() {
-    use chessarm_core::arm::bodies::{BodyShape, Mount, Shape, Slide, finger_value};
+    use chessarm_core::arm::bodies::{BodyShape, Mount, Shape, Slide, finger_gaps, finger_value};
     use chessarm_core::arm::kinematics::Pose;
     let finger = |finger: usize, face: f64, rate: f64| BodyShape {
         body: 4,
@@ -129,5 +129,10 @@ fn the_finger_value_opens_every_finger_to_half_the_gap_within_the_range() {
     assert_eq!(finger_value(&shapes, 0.2), Some(0.02));
     assert_eq!(finger_value(&shapes, 0.0), Some(-0.002));
     let fixed = BodyShape { mount: Mount::Fixed, ..shapes[0].clone() };
-    assert_eq!(finger_value(&[fixed], 0.03), None);
+    assert_eq!(finger_value(std::slice::from_ref(&fixed), 0.03), None);
+    // The gaps they reach: at −2 mm the second's face is 4 mm off the axis (the nearer), at
+    // 20 mm the first's is 29 mm.
+    let [closes, opens] = finger_gaps(&shapes).unwrap();
+    assert!((closes - 0.008).abs() < 1e-15 && (opens - 0.058).abs() < 1e-15, "{closes} {opens}");
+    assert_eq!(finger_gaps(&[fixed]), None);
 }

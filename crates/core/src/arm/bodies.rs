@@ -225,6 +225,18 @@ impl Bodies {
     }
 }
 
+/// The narrowest and the widest gap the fingers of `shapes` reach within their joint's range,
+/// m (between their inner faces, twice the nearer face's distance from the tool's axis);
+/// `None` when no shape is a sliding finger.
+pub fn finger_gaps(shapes: &[BodyShape]) -> Option<[f64; 2]> {
+    let slides: Vec<&Slide> =
+        shapes.iter().filter_map(|s| if let Mount::Finger(slide) = &s.mount { Some(slide) } else { None }).collect();
+    let low = slides.iter().map(|s| s.range[0]).fold(f64::NEG_INFINITY, f64::max);
+    let high = slides.iter().map(|s| s.range[1]).fold(f64::INFINITY, f64::min);
+    let gap = |v: f64| slides.iter().map(|s| 2.0 * (s.face + s.rate * v)).fold(f64::INFINITY, f64::min);
+    (!slides.is_empty()).then(|| [gap(low), gap(high)])
+}
+
 /// A convex solid in the base frame, m.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Solid {

@@ -106,7 +106,8 @@ pub struct MovesPlan {
 ///
 /// # Errors
 ///
-/// A bad FEN or move, a table the arm cannot serve, a move the planner cannot make.
+/// A bad FEN or move, a table the arm cannot serve, pieces the file's fingers cannot hold, a
+/// move the planner cannot make.
 pub fn plan_moves(setup: &Setup, fen: Option<&str>, moves: &str, dt: f64) -> Result<MovesPlan> {
     let start = match fen {
         Some(fen) => parse_fen(fen)?,
@@ -115,6 +116,7 @@ pub fn plan_moves(setup: &Setup, fen: Option<&str>, moves: &str, dt: f64) -> Res
     let record = parse_move_list(moves, start)?;
     let mut limits = checked_limits(setup.motion, "motion", "gripper")?;
     let mut table = Table::from_position(setup.board, &record.start);
+    crate::app::studies::play::check_file_fingers(setup)?;
     let columns = Some(&setup.clearance);
     limits.pitch = chessarm_chess::reach::check_table(&setup.arm, &setup.board, &setup.pieces, &limits, columns)
         .map_err(|e| {

@@ -501,6 +501,9 @@ pub fn run_trials(
     progress: Option<Progress<'_>>,
     stop: Stop<'_>,
 ) -> Result<Vec<TrialRow>> {
+    if matches!(work, Work::Game(_)) {
+        crate::app::studies::play::check_file_fingers(setup)?;
+    }
     let batching = crate::app::resources::batching()?;
     let indices: Vec<usize> = range.collect();
     let per_task = match work {
