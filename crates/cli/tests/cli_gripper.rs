@@ -299,3 +299,44 @@ fn a_piece_the_files_fingers_do_not_close_on_is_refused_before_the_game() {
     assert!(said.contains("a pawn 6.9 mm across would not be held"), "{said}");
     assert!(!out.join("game.json").exists(), "nothing ran");
 }
+
+/// `board` says what squares the file's fingers need: the PincherX-100's boxes, 8 mm thick and
+/// 20 mm wide across the tool tip, closing to 14 mm and opening to 58 mm, need the squares
+/// chessarm's own fingers of that thickness and width need (the same check of the neighbours).
+#[test]
+fn board_says_what_squares_the_files_fingers_need() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
+    let fit =
+        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
+    let setup_path = dir.path().join("board.toml");
+    std::fs::write(&setup_path, fit["setup"].as_str().unwrap()).unwrap();
+    let shapes = [
+        ("px100/left_finger_link", collision_box([0.027575, -0.004, 0.0], [0.01, 0.008, 0.02])),
+        ("px100/right_finger_link", collision_box([0.027575, 0.004, 0.0], [0.01, 0.008, 0.02])),
+    ];
+    let urdf = dir.path().join("px100-fingers.urdf");
+    std::fs::write(&urdf, shapes_in(fixture("px100"), &shapes)).unwrap();
+    let setup = setup_path.to_str().unwrap();
+    let said = common::chessarm_human(&["--urdf", urdf.to_str().unwrap(), "--arm", setup, "board"]);
+    let text = String::from_utf8_lossy(&said.stdout);
+    assert!(
+        text.contains("the file's fingers (8.0 mm thick, 20.0 mm wide across the tool tip, closing to 14.0 mm, opening to 58.0 mm)"),
+        "{text}"
+    );
+    let needed = |output: &std::process::Output| {
+        let text = String::from_utf8_lossy(&output.stdout).to_string();
+        let at = text.find("squares of at least ").unwrap() + "squares of at least ".len();
+        text[at..].split(' ').next().unwrap().parse::<f64>().unwrap()
+    };
+    // chessarm's fingers of the same section on the file without its shapes.
+    let boxes = dir.path().join("boxes.toml");
+    let mut table: toml::Value = toml::from_str(&std::fs::read_to_string(&setup_path).unwrap()).unwrap();
+    table["gripper"]["finger_thickness"] = toml::Value::Float(0.008);
+    table["gripper"]["finger_width"] = toml::Value::Float(0.02);
+    std::fs::write(&boxes, toml::to_string(&table).unwrap()).unwrap();
+    let own = common::chessarm_human(&["--urdf", plain.to_str().unwrap(), "--arm", boxes.to_str().unwrap(), "board"]);
+    assert!(String::from_utf8_lossy(&own.stdout).contains("fingers: squares of at least"));
+    assert_eq!(needed(&said), needed(&own));
+    assert!(needed(&said) > 30.0, "{text}");
+}

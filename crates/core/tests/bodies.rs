@@ -106,7 +106,7 @@ fn the_lowest_points_are_the_closed_forms() {
 /// fingers.
 #[test]
 fn the_finger_value_opens_every_finger_to_half_the_gap_within_the_range() {
-    use chessarm_core::arm::bodies::{BodyShape, Mount, Shape, Slide, finger_gaps, finger_value};
+    use chessarm_core::arm::bodies::{BodyShape, Mount, Shape, Slide, finger_gaps, finger_section, finger_value};
     use chessarm_core::arm::kinematics::Pose;
     let finger = |finger: usize, face: f64, rate: f64| BodyShape {
         body: 4,
@@ -119,6 +119,8 @@ fn the_finger_value_opens_every_finger_to_half_the_gap_within_the_range() {
             face,
             rate,
             range: [-0.002, 0.02],
+            thickness: 0.004,
+            half_width: 0.003 * finger as f64,
         }),
     };
     // Faces 9 mm and 8 mm off the axis at 0, opening 1 mm and 2 mm per mm of travel.
@@ -134,5 +136,7 @@ fn the_finger_value_opens_every_finger_to_half_the_gap_within_the_range() {
     // 20 mm the first's is 29 mm.
     let [closes, opens] = finger_gaps(&shapes).unwrap();
     assert!((closes - 0.008).abs() < 1e-15 && (opens - 0.058).abs() < 1e-15, "{closes} {opens}");
-    assert_eq!(finger_gaps(&[fixed]), None);
+    assert_eq!(finger_section(&shapes), Some((0.004, 0.006)));
+    assert_eq!(finger_gaps(std::slice::from_ref(&fixed)), None);
+    assert_eq!(finger_section(&[fixed]), None);
 }

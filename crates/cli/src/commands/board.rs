@@ -68,8 +68,17 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         },
         args.map.as_ref().map_or(String::new(), |m| format!("; reach map {}", m.display())),
     );
+    let file = crate::app::studies::board::file_fingers(setup);
     let fingers_text = format!(
-        "fingers: squares of at least {:.1} mm keep them {:.1} mm from the neighbours of the piece they open around{}\n",
+        "{}: squares of at least {:.1} mm keep them {:.1} mm from the neighbours of the piece they open around{}\n",
+        file.map_or("fingers".to_string(), |f| format!(
+            "the file's fingers ({:.1} mm thick, {:.1} mm wide across the tool tip, closing to {:.1} mm, opening to {:.1} \
+             mm)",
+            f.gripper.finger_thickness * 1e3,
+            f.gripper.finger_width * 1e3,
+            f.gaps[0] * 1e3,
+            f.gaps[1] * 1e3
+        )),
         needed * 1e3,
         setup.clearance.margin * 1e3,
         if board.square_size < needed { " — these squares are SMALLER: the planner will refuse moves" } else { "" }

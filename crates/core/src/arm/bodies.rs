@@ -178,6 +178,10 @@ pub struct Slide {
     pub rate: f64,
     /// The leader's range (its limits), m.
     pub range: [f64; 2],
+    /// Across the tool tip (the plane of the grip): how thick the finger is along the way it
+    /// opens, and how far it reaches either side of the closing line, m.
+    pub thickness: f64,
+    pub half_width: f64,
 }
 
 /// The value of the gripper's joint (its leader's, m) that opens the fingers of `shapes` to
@@ -235,6 +239,17 @@ pub fn finger_gaps(shapes: &[BodyShape]) -> Option<[f64; 2]> {
     let high = slides.iter().map(|s| s.range[1]).fold(f64::INFINITY, f64::min);
     let gap = |v: f64| slides.iter().map(|s| 2.0 * (s.face + s.rate * v)).fold(f64::INFINITY, f64::min);
     (!slides.is_empty()).then(|| [gap(low), gap(high)])
+}
+
+/// The thickest and widest of the sliding fingers of `shapes` across the tool tip: their
+/// thickness along the way they open and their half width across it, m; `None` without.
+pub fn finger_section(shapes: &[BodyShape]) -> Option<(f64, f64)> {
+    shapes.iter().filter_map(|s| if let Mount::Finger(slide) = &s.mount { Some(slide) } else { None }).fold(
+        None,
+        |most: Option<(f64, f64)>, s| {
+            Some(most.map_or((s.thickness, s.half_width), |(t, w)| (t.max(s.thickness), w.max(s.half_width))))
+        },
+    )
 }
 
 /// A convex solid in the base frame, m.

@@ -53,8 +53,19 @@ pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
             (setup.board.surface_height, setup.board.base_clearance),
             Some(&setup.clearance),
         );
-        let fingers = || {
-            format!(
+        // What the fingers need, said of the file's fingers where it has them.
+        let fingers = || match file_fingers(setup) {
+            Some(file) => format!(
+                "the file's fingers ({:.1} mm thick and {:.1} mm wide across the tool tip, opened {:.1} mm beside a \
+                 piece) need {:.1} mm to open around a piece beside its neighbours with {:.1} mm to spare ([motion] \
+                 arm_clearance)",
+                file.gripper.finger_thickness * 1e3,
+                file.gripper.finger_width * 1e3,
+                file.gripper.finger_opening * 1e3,
+                needed * 1e3,
+                setup.clearance.margin * 1e3
+            ),
+            None => format!(
                 "the fingers ([gripper]: {:.1} mm thick, {:.1} mm wide, opened {:.1} mm beside a piece) need {:.1} mm to \
                  open around a piece beside its neighbours with {:.1} mm to spare ([motion] arm_clearance): slimmer \
                  fingers, a smaller opening or a longer arm",
@@ -63,7 +74,7 @@ pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
                 setup.clearance.gripper.finger_opening * 1e3,
                 needed * 1e3,
                 setup.clearance.margin * 1e3
-            )
+            ),
         };
         // A fit refused for a finger beside a neighbour says what the fingers need.
         let fit = fit.map_err(|e| match &e {
@@ -96,13 +107,34 @@ pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
 }
 
 /// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they
-/// open around, the setup's pieces (on squares of `square` m) scaled with the squares.
+/// open around, the setup's pieces (on squares of `square` m) scaled with the squares: the
+/// file's fingers where they slide on prismatic joints (their section across the tool tip as
+/// boxes as thick as it and as wide as its farther side, [`file_fingers`]), else `[gripper]`'s.
 fn fingers_need(setup: &Setup, square: f64) -> Result<f64> {
-    chessarm_chess::clearance::moves::square_for_fingers(
-        &setup.pieces,
-        square,
-        &setup.clearance.gripper,
-        setup.clearance.margin,
-    )
-    .ok_or_else(|| anyhow!("the fingers ([gripper]) do not clear a piece's neighbours even on squares of 20 cm"))
+    let gripper = file_fingers(setup).map_or(setup.clearance.gripper, |f| f.gripper);
+    chessarm_chess::clearance::moves::square_for_fingers(&setup.pieces, square, &gripper, setup.clearance.margin)
+        .ok_or_else(|| anyhow!("the fingers do not clear a piece's neighbours even on squares of 20 cm"))
+}
+
+/// The file's fingers on prismatic joints, as the board's check sees them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FileFingers {
+    /// `[gripper]` with the fingers' thickness and width across the tool tip (their section
+    /// there, its width twice its farther side from the closing line), m.
+    pub gripper: chessarm_core::arm::bodies::Gripper,
+    /// The narrowest and widest gap they reach within their joint's range, m.
+    pub gaps: [f64; 2],
+}
+
+/// The setup's file fingers (`None` without: `[gripper]`'s stand in).
+pub fn file_fingers(setup: &Setup) -> Option<FileFingers> {
+    let chessarm_core::arm::bodies::Bodies::Described(shapes) = &setup.clearance.bodies else { return None };
+    let gaps = chessarm_core::arm::bodies::finger_gaps(shapes)?;
+    let (thickness, half_width) = chessarm_core::arm::bodies::finger_section(shapes)?;
+    let gripper = chessarm_core::arm::bodies::Gripper {
+        finger_thickness: thickness,
+        finger_width: 2.0 * half_width,
+        ..setup.clearance.gripper
+    };
+    Some(FileFingers { gripper, gaps })
 }

@@ -360,12 +360,19 @@ fn slides(
         let opens = across.normalize();
         let at_zero = (offset - held) * axis;
         // The inner face with the joint held: the nearest point of its shapes along `opens`
-        // where they hold a piece, across the tool tip.
-        let face_held = sliding
-            .iter()
-            .filter(|(j, _)| j == g)
-            .map(|(_, shape)| face_at_grip(&shape.shape, &shape.pose, &opens))
-            .fold(f64::INFINITY, f64::min);
+        // where they hold a piece, across the tool tip; the outer face, the farthest; and how
+        // far they reach either side of the closing line.
+        let sideways = Vector3::x().cross(&opens);
+        let extent = |direction: &Vector3<f64>| {
+            sliding
+                .iter()
+                .filter(|(j, _)| j == g)
+                .map(|(_, shape)| face_at_grip(&shape.shape, &shape.pose, direction))
+                .fold(f64::INFINITY, f64::min)
+        };
+        let face_held = extent(&opens);
+        let thickness = -extent(&-opens) - face_held;
+        let half_width = (-extent(&sideways)).max(-extent(&-sideways));
         let slide = Slide {
             finger: joints.len() + 1,
             travel,
@@ -373,6 +380,8 @@ fn slides(
             face: face_held + at_zero.dot(&opens),
             rate: travel.dot(&opens),
             range: [a.min(b), a.max(b)],
+            thickness,
+            half_width,
         };
         joints.push((*g, slide));
         for named in [(joint.name.clone(), multiplier, offset), (leader, 1.0, 0.0)] {
