@@ -340,3 +340,42 @@ fn board_says_what_squares_the_files_fingers_need() {
     assert_eq!(needed(&said), needed(&own));
     assert!(needed(&said) > 30.0, "{text}");
 }
+
+/// A game with the file's fingers: the PincherX-100's as needles (1.5 mm thick, 5 mm wide,
+/// closing to 6 mm) on its fitted board play the first moves with each finger 1.5 mm off the
+/// piece it opens around ([gripper] finger_opening), as chessarm's needle fingers do, and touch
+/// nothing.
+#[test]
+fn the_files_fingers_open_around_each_piece_by_the_opening_and_touch_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
+    let fit =
+        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
+    let setup_path = dir.path().join("board.toml");
+    std::fs::write(&setup_path, fit["setup"].as_str().unwrap()).unwrap();
+    // Inner faces 12 mm inside the links' origins: at the closing limit (15 mm) 3 mm off the
+    // tool's axis.
+    let shapes = [
+        ("px100/left_finger_link", collision_box([0.027575, -0.01275, 0.0], [0.01, 0.0015, 0.005])),
+        ("px100/right_finger_link", collision_box([0.027575, 0.01275, 0.0], [0.01, 0.0015, 0.005])),
+    ];
+    let urdf = dir.path().join("px100-needles.urdf");
+    std::fs::write(&urdf, shapes_in(fixture("px100"), &shapes)).unwrap();
+    let out = dir.path().join("game");
+    let args =
+        ["--urdf", urdf.to_str().unwrap(), "--arm", setup_path.to_str().unwrap(), "play", "--moves", "e4 e5 Nf3 Nc6"];
+    let played = chessarm(&[&args[..], &["--out", out.to_str().unwrap()]].concat());
+    assert!(played.status.success(), "{}", String::from_utf8_lossy(&played.stderr));
+    let game = json_file(&out.join("game.json"));
+    assert_eq!(game["complete"], true);
+    assert_eq!(game["clearance"]["contacts"], 0, "{}", game["clearance"]);
+    for m in game["moves"].as_array().unwrap() {
+        let clearance = &m["clearance"];
+        let gap = clearance["fingers_to_gripped_piece_mm"].as_f64().unwrap();
+        // The gap the plan keeps is the opening (held at the closing limit, the fingers would
+        // stand inside the pawn).
+        assert!((gap - 1.5).abs() < 0.01, "{clearance}");
+        assert_eq!(clearance["executed"]["contact"], false, "{clearance}");
+        assert!(clearance["smallest_mm"].as_f64().unwrap() >= 1.0, "{clearance}");
+    }
+}
