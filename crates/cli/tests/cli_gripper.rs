@@ -81,6 +81,12 @@ fn the_fixed_jaw_is_told_from_the_gripper_servo() {
     let notes = imported.notes.join("\n");
     assert!(notes.contains("'gripper_link' that reach down beside the grip are the gripper's fixed jaw"), "{notes}");
     assert!(notes.contains("'moving_jaw_so101_v1_link' left out"), "{notes}");
+    // Its face is 5.8 mm from the tool point: nothing said; the file's own jaw's face is on it.
+    assert!(!imported.warnings.iter().any(|w| w.contains("fixed jaw")), "{:?}", imported.warnings);
+    let on_face = from_urdf(&gripper(-0.0079), &wrist_roll_locked()).unwrap();
+    let warned = on_face.warnings.join("\n");
+    assert!(warned.contains("the tool point is 0 mm from the gripper's fixed jaw (on 'gripper_link')"), "{warned}");
+    assert!(warned.contains("--tool-offset"), "{warned}");
     // A file whose gripper has no shape reaching down beside the grip has no jaw.
     let high = with_shapes(&[("gripper_link", collision_box([0.0077, 0.0001, -0.0234], [0.045, 0.025, 0.025]))]);
     let imported = from_urdf(&high, &wrist_roll_locked()).unwrap();

@@ -82,6 +82,10 @@ pub(super) struct Frames<'a> {
     pub(super) farthest: f64,
 }
 
+/// How near the tool point may be to a fixed jaw before it is said to lie on the jaw's face,
+/// m: the clearance check's resolution, at which a piece beside it counts as touching it.
+const JAW_FACE: f64 = chessarm_chess::clearance::moves::RESOLUTION;
+
 /// A convex hull's vertices, m.
 type Points = std::sync::Arc<[Vector3<f64>]>;
 
@@ -174,6 +178,27 @@ pub(super) fn collision_bodies(
         said.push_str(&format!(
             "; the fingers are chessarm's [gripper], whose opening follows the commands (links {} left out)",
             fingers.join(", ")
+        ));
+    }
+    // The tool point on (or in) a fixed jaw: a piece gripped there stands partly inside it.
+    let tool = chessarm_chess::clearance::Placed::of(&chessarm_core::arm::bodies::Solid::Sphere {
+        centre: Vector3::zeros(),
+        radius: 0.0,
+    });
+    let on_jaw = shapes
+        .iter()
+        .filter(|s| s.mount == Mount::Jaw)
+        .map(|s| {
+            chessarm_chess::clearance::Placed::of(&chessarm_core::arm::bodies::place(&s.shape, &s.pose)).distance(&tool)
+        })
+        .fold(f64::INFINITY, f64::min);
+    if on_jaw <= JAW_FACE {
+        warnings.push(format!(
+            "the tool point is {} mm from the gripper's fixed jaw (on {}): a piece gripped there stands partly inside \
+             the jaw, and the clearance check stops the moves that grip it; give --tool-offset X,Y,Z (m, in the tool \
+             link's frame) to put the grip point between the jaws",
+            chessarm_core::short_number((on_jaw * 1e4).round() / 10.0),
+            jaws.join(", ")
         ));
     }
     if !jaws.is_empty() {
