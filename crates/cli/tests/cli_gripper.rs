@@ -49,7 +49,7 @@ fn collision_box(xyz: [f64; 3], size: [f64; 3]) -> String {
     )
 }
 
-/// The gripper's servo where the file's mesh has it, the moving jaw, and a fixed jaw 1.5 mm
+/// The gripper's servo where the file's mesh has it, the moving jaw, and a fixed jaw 0.5 mm
 /// thick whose inner face is `face` m along `gripper_link`'s x (the file's tool point is at
 /// x = −7.9 mm, on its own fixed jaw's face), reaching from 18 mm above the tool point to 2 mm
 /// below it (as the needle fingers do).
@@ -58,7 +58,7 @@ fn gripper(face: f64) -> String {
         (
             "gripper_link",
             collision_box([0.0077, 0.0001, -0.0234], [0.045, 0.025, 0.025])
-                + &collision_box([face - 0.00075, 0.0, -0.0901], [0.0015, 0.005, 0.02]),
+                + &collision_box([face - 0.00025, 0.0, -0.0901], [0.0005, 0.005, 0.02]),
         ),
         ("moving_jaw_so101_v1_link", collision_box([0.0, -0.05, 0.0189], [0.01, 0.05, 0.01])),
     ])
@@ -97,8 +97,8 @@ fn the_fixed_jaw_is_told_from_the_gripper_servo() {
 /// A fixed jaw 0.8 mm beside the king it grips (less than the 1 mm the arm keeps from
 /// everything, more than a contact) does not stop the game: its gap is the gripper's, as the
 /// fingers' is (the king's move reports it), while it keeps the margin from every other piece.
-/// (Counted as an obstacle to the king, the same jaw stopped the game at its move: "link 4
-/// would come 0.7 mm from the white king".)
+/// (Counted as an obstacle to the king, as a link's shape is, the jaw would be 0.8 mm from it,
+/// under the 1 mm margin: the move refused.)
 #[test]
 fn a_fixed_jaw_beside_the_piece_it_grips_is_kept_apart_from_it_as_a_finger() {
     let dir = tempfile::tempdir().unwrap();
@@ -113,12 +113,16 @@ fn a_fixed_jaw_beside_the_piece_it_grips_is_kept_apart_from_it_as_a_finger() {
         "board",
         "--fit",
     ]));
-    let setup_text = fit["setup"].as_str().unwrap();
-    let setup: toml::Value = toml::from_str(setup_text).unwrap();
-    let king_radius = 0.5 * setup["pieces"]["king"]["base_diameter"].as_float().unwrap();
-    assert!((0.004..0.006).contains(&king_radius), "{king_radius}");
+    // Slim pieces, so that the jaw beside the widest keeps clear of its neighbours on every
+    // square and slot: 6 mm across, the pawns 5 mm.
+    let mut setup: toml::Value = toml::from_str(fit["setup"].as_str().unwrap()).unwrap();
+    for kind in ["pawn", "knight", "bishop", "rook", "queen", "king"] {
+        let width = if kind == "pawn" { 0.005 } else { 0.006 };
+        setup["pieces"][kind]["base_diameter"] = toml::Value::Float(width);
+    }
+    let king_radius = 0.003;
     let setup_path = dir.path().join("board.toml");
-    std::fs::write(&setup_path, setup_text).unwrap();
+    std::fs::write(&setup_path, toml::to_string(&setup).unwrap()).unwrap();
     // The file's tool point is on gripper_link's x = −7.9 mm; the jaw's face 0.8 mm beyond the
     // king's side, away from the moving jaw.
     let urdf = dir.path().join("so101-jaw.urdf");
@@ -152,10 +156,10 @@ fn a_fixed_jaw_beside_the_piece_it_grips_is_kept_apart_from_it_as_a_finger() {
     let king = &moves[2]["clearance"];
     let gap = king["fingers_to_gripped_piece_mm"].as_f64().unwrap();
     assert!((0.5..0.8 + 1e-6).contains(&gap), "{king}");
-    // The pawns are 1.4 mm narrower: the jaw is 2.2 mm beside them, the needle fingers 1.5 mm.
+    // The pawns are 1 mm narrower: the jaw is 1.3 mm beside them (the needle fingers 1.5 mm).
     for pawn in &moves[..2] {
         let gap = pawn["clearance"]["fingers_to_gripped_piece_mm"].as_f64().unwrap();
-        assert!((gap - 1.5).abs() < 1e-3, "{pawn}");
+        assert!((1.0..1.3 + 1e-6).contains(&gap), "{pawn}");
     }
 }
 
@@ -212,28 +216,25 @@ fn the_files_prismatic_fingers_slide_to_the_gap() {
     }
 }
 
-/// The hardware export drives the file's fingers: the PincherX-100's, boxes 8 mm thick whose
-/// inner faces are 8 mm inside their links' origins, open around a pawn 14.2 mm wide by the
-/// needle fingers' 1.5 mm a side (`left_finger` at 14.2 / 2 + 1.5 + 8 = 16.6 mm) and closed
-/// on it (15.1 mm), `right_finger` following by its `<mimic multiplier="-1">`. (The fingers
-/// close to 14 mm: every piece is made 14.2 mm wide.)
+/// The hardware export drives the file's fingers: the PincherX-100's, boxes 1.5 mm thick
+/// whose inner faces are 13.5 mm inside their links' origins, open around the fitted board's
+/// pawn by the needle fingers' 1.5 mm a side (`left_finger` at its half width + 1.5 + 13.5 mm)
+/// and closed on it (its half width + 13.5 mm), `right_finger` following by its
+/// `<mimic multiplier="-1">`.
 #[test]
 fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() {
     let dir = tempfile::tempdir().unwrap();
     let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
     let fit =
         json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
-    let mut setup: toml::Value = toml::from_str(fit["setup"].as_str().unwrap()).unwrap();
-    let width = 0.0142;
-    // Every piece as wide (the fingers must close on each one).
-    for kind in ["pawn", "knight", "bishop", "rook", "queen", "king"] {
-        setup["pieces"][kind]["base_diameter"] = toml::Value::Float(width);
-    }
+    let setup_text = fit["setup"].as_str().unwrap();
+    let setup: toml::Value = toml::from_str(setup_text).unwrap();
+    let width = setup["pieces"]["pawn"]["base_diameter"].as_float().unwrap();
     let setup_path = dir.path().join("board.toml");
-    std::fs::write(&setup_path, toml::to_string(&setup).unwrap()).unwrap();
+    std::fs::write(&setup_path, setup_text).unwrap();
     let shapes = [
-        ("px100/left_finger_link", collision_box([0.027575, -0.004, 0.0], [0.01, 0.008, 0.02])),
-        ("px100/right_finger_link", collision_box([0.027575, 0.004, 0.0], [0.01, 0.008, 0.02])),
+        ("px100/left_finger_link", collision_box([0.027575, -0.01275, 0.0], [0.01, 0.0015, 0.005])),
+        ("px100/right_finger_link", collision_box([0.027575, 0.01275, 0.0], [0.01, 0.0015, 0.005])),
     ];
     let urdf = dir.path().join("px100-fingers.urdf");
     std::fs::write(&urdf, shapes_in(fixture("px100"), &shapes)).unwrap();
@@ -257,7 +258,7 @@ fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() 
     let header: Vec<&str> = rows.next().unwrap().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("{name}: {header:?}"));
     let (left, right, state) = (column("q_left_finger"), column("q_right_finger"), column("gripper"));
-    let (open, closed) = (0.5 * width + 0.0015 + 0.008, 0.5 * width + 0.008);
+    let (open, closed) = (0.5 * width + 0.0015 + 0.0135, 0.5 * width + 0.0135);
     let mut seen = [false; 2];
     for row in rows {
         let cells: Vec<&str> = row.split(',').collect();
@@ -272,7 +273,7 @@ fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() 
 
 /// A piece narrower than the file's fingers close is refused before a game starts, naming the
 /// piece and both widths (the PincherX-100's boxes close to 14 mm; the fitted board's pawn is
-/// 6.9 mm across).
+/// half that).
 #[test]
 fn a_piece_the_files_fingers_do_not_close_on_is_refused_before_the_game() {
     let dir = tempfile::tempdir().unwrap();
@@ -302,7 +303,7 @@ fn a_piece_the_files_fingers_do_not_close_on_is_refused_before_the_game() {
     assert!(!refused.status.success());
     let said = String::from_utf8_lossy(&refused.stderr);
     assert!(said.contains("the file's fingers close no narrower than 14.0 mm"), "{said}");
-    assert!(said.contains("a pawn 6.9 mm across would not be held"), "{said}");
+    assert!(said.contains("mm across would not be held ([pieces.pawn] base_diameter"), "{said}");
     assert!(!out.join("game.json").exists(), "nothing ran");
 }
 
@@ -348,7 +349,7 @@ fn board_says_what_squares_the_files_fingers_need() {
 }
 
 /// A game with the file's fingers: the PincherX-100's as needles (1.5 mm thick, 5 mm wide,
-/// closing to 6 mm) on its fitted board play the first moves with each finger 1.5 mm off the
+/// closing to 3 mm) on its fitted board play the first moves with each finger 1.5 mm off the
 /// piece it opens around ([gripper] finger_opening), as chessarm's needle fingers do, and touch
 /// nothing.
 #[test]
@@ -359,8 +360,8 @@ fn the_files_fingers_open_around_each_piece_by_the_opening_and_touch_nothing() {
         json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
     let setup_path = dir.path().join("board.toml");
     std::fs::write(&setup_path, fit["setup"].as_str().unwrap()).unwrap();
-    // Inner faces 12 mm inside the links' origins: at the closing limit (15 mm) 3 mm off the
-    // tool's axis.
+    // Inner faces 13.5 mm inside the links' origins: at the closing limit (15 mm) 1.5 mm off
+    // the tool's axis.
     let shapes = [
         ("px100/left_finger_link", collision_box([0.027575, -0.01275, 0.0], [0.01, 0.0015, 0.005])),
         ("px100/right_finger_link", collision_box([0.027575, 0.01275, 0.0], [0.01, 0.0015, 0.005])),
