@@ -29,7 +29,7 @@
 //! checked with [`check_table`], shrinking by 1 % until it passes.
 
 use crate::board::BoardGeometry;
-use crate::clearance::columns::check_columns;
+use crate::clearance::columns::{check_columns, crowded_columns};
 use crate::clearance::moves::ClearanceCheck;
 use crate::pieces::PieceSet;
 use crate::table::{Location, Table, closest_on_segment};
@@ -85,6 +85,8 @@ pub enum ReachError {
     NoFit { smallest: f64, why: String },
     #[error("{0}")]
     Crowded(crate::clearance::columns::Crowded),
+    #[error("{0}")]
+    Unplaced(Box<Unplaced>),
     #[error(
         "{source} (with the tool straight down; no pitch within [motion] max_tilt = {:.0}° serves the board either)",
         .max_tilt.to_degrees()
@@ -493,34 +495,17 @@ pub fn fit_board(
         let radials: Vec<(f64, Radial)> = pitches(tilt_allowed(arm, limits), FIT_PITCH_STEP)
             .map(|pitch| (pitch, Radial::new(arm, &scaled, limits, (surface, clearance), pitch)))
             .collect();
-        let first = &radials[0].1;
-        let reach = first.served.len() as f64 * RADIAL_STEP;
-        let direction = Vector2::new(first.bearing.cos(), first.bearing.sin());
         let mut best: Vec<Option<(f64, BoardGeometry)>> = vec![None; radials.len()];
-        // Rank 1 towards the arm, the board turned a quarter either way (the arm beside the
-        // a- or h-file), or rank 8 towards the arm.
-        for turn in [0.0, FRAC_PI_2, -FRAC_PI_2, PI] {
-            let yaw = wrap(first.bearing - FRAC_PI_2 + turn);
-            let steps = (reach / 0.002).ceil() as usize;
-            for k in 0..=steps {
-                let distance = k as f64 * 0.002;
-                let board = BoardGeometry {
-                    square_size: s,
-                    center: base + direction * distance,
-                    surface_height: surface,
-                    yaw: if yaw.abs() < 1e-12 { 0.0 } else { yaw },
-                    base_clearance: clearance,
-                };
-                tried += 1;
-                let points: Vec<Vector2<f64>> = places(&board, &scaled, limits).into_iter().map(|(_, p)| p).collect();
-                let Some(spread) = spread(&base, &points) else { continue };
-                for ((_, radial), best) in radials.iter().zip(best.iter_mut()) {
-                    // A margin for pieces that stand a little off their nominal places.
-                    if let Some(margin) = proxy_margin(radial, &base, &points, spread).filter(|m| *m >= FIT_MARGIN)
-                        && best.is_none_or(|(m, _)| margin > m)
-                    {
-                        *best = Some((margin, board));
-                    }
+        for board in board_poses(arm, &radials[0].1, s, (surface, clearance)) {
+            tried += 1;
+            let points: Vec<Vector2<f64>> = places(&board, &scaled, limits).into_iter().map(|(_, p)| p).collect();
+            let Some(spread) = spread(&base, &points) else { continue };
+            for ((_, radial), best) in radials.iter().zip(best.iter_mut()) {
+                // A margin for pieces that stand a little off their nominal places.
+                if let Some(margin) = proxy_margin(radial, &base, &points, spread).filter(|m| *m >= FIT_MARGIN)
+                    && best.is_none_or(|(m, _)| margin > m)
+                {
+                    *best = Some((margin, board));
                 }
             }
         }
@@ -584,6 +569,219 @@ pub fn fit_board(
         }
         found = best_at(smaller, true).ok_or_else(no_fit)?;
     }
+}
+
+/// The board poses the fit and the placement try for squares of `s` m, along the bearing of
+/// `radial` (the base joint's mid-range) every 2 mm out to the arm's reach: rank 1 towards the
+/// arm, the board turned a quarter either way (the arm beside the a- or h-file), or rank 8
+/// towards the arm.
+fn board_poses(
+    arm: &ArmModel<4>,
+    radial: &Radial,
+    s: f64,
+    (surface, clearance): (f64, f64),
+) -> impl Iterator<Item = BoardGeometry> {
+    const STEP: f64 = 0.002;
+    let base = arm.base().xy();
+    let reach = radial.served.len() as f64 * RADIAL_STEP;
+    let direction = Vector2::new(radial.bearing.cos(), radial.bearing.sin());
+    let bearing = radial.bearing;
+    let steps = (reach / STEP).ceil() as usize;
+    [0.0, FRAC_PI_2, -FRAC_PI_2, PI].into_iter().flat_map(move |turn| {
+        let yaw = wrap(bearing - FRAC_PI_2 + turn);
+        (0..=steps).map(move |k| BoardGeometry {
+            square_size: s,
+            center: base + direction * (k as f64 * STEP),
+            surface_height: surface,
+            yaw: if yaw.abs() < 1e-12 { 0.0 } else { yaw },
+            base_clearance: clearance,
+        })
+    })
+}
+
+/// A board of given squares that no pose tried serves: the pose that failed the fewest places
+/// (by the radial table), the pitch it was checked at, and per place that fails why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Unplaced {
+    pub board: BoardGeometry,
+    /// The piece set scaled to the board's squares.
+    pub pieces: PieceSet,
+    /// The tool's pitch the failures were found at, rad.
+    pub pitch: f64,
+    /// Per failing place (a square, a slot, the home point, or a way between two of them when
+    /// every place is served): its name and why.
+    pub failures: Vec<(String, String)>,
+    /// How many board poses the search tried.
+    pub tried: usize,
+}
+
+impl std::fmt::Display for Unplaced {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "no pose of {} tried serves squares of {:.1} mm; the nearest, centre ({:.4}, {:.4}) m, yaw {:.4} rad, with \
+             the tool {}, fails {} place{}",
+            self.tried,
+            self.board.square_size * 1e3,
+            self.board.center.x,
+            self.board.center.y,
+            self.board.yaw,
+            crate::clearance::columns::tilt_words(self.pitch),
+            self.failures.len(),
+            if self.failures.len() == 1 { "" } else { "s" }
+        )
+    }
+}
+
+impl std::error::Error for Unplaced {}
+
+/// Places a board of squares of `size` m (the pieces scaled to it from `pieces` on squares of
+/// `square_size` m) where the arm serves it, on a table at `surface` m: the fit's search
+/// ([`fit_board`]) at one size. Of the poses the radial table serves, per pitch the one of the
+/// largest margin, pitches nearest straight down first and those keeping [`FIT_MARGIN`] before
+/// the others, is checked in full ([`check_table`]); the first that passes is the placement.
+///
+/// # Errors
+///
+/// No pose tried is served: the nearest, and what fails there ([`Unplaced`]).
+pub fn place_board(
+    arm: &ArmModel<4>,
+    pieces: &PieceSet,
+    square_size: f64,
+    size: f64,
+    limits: &MotionLimits,
+    (surface, clearance): (f64, f64),
+    columns: Option<&ClearanceCheck>,
+) -> Result<Fit, Box<Unplaced>> {
+    /// Full checks at most: each costs about as much as the whole search.
+    const CHECKS: usize = 4;
+    let base = arm.base().xy();
+    let scaled = scaled_pieces(pieces, square_size, size);
+    let radials: Vec<(f64, Radial)> = pitches(tilt_allowed(arm, limits), FIT_PITCH_STEP)
+        .map(|pitch| (pitch, Radial::new(arm, &scaled, limits, (surface, clearance), pitch)))
+        .collect();
+    let heights = heights(&scaled, limits);
+    let mut tried = 0;
+    // Per pitch the pose of the largest margin; over all, the pose of fewest unserved points.
+    let mut best: Vec<Option<(f64, BoardGeometry)>> = vec![None; radials.len()];
+    let mut fewest: Vec<Option<(usize, BoardGeometry)>> = vec![None; radials.len()];
+    for board in board_poses(arm, &radials[0].1, size, (surface, clearance)) {
+        tried += 1;
+        let points: Vec<Vector2<f64>> = places(&board, &scaled, limits).into_iter().map(|(_, p)| p).collect();
+        let Some(spread) = spread(&base, &points) else { continue };
+        for (((_, radial), best), fewest) in radials.iter().zip(best.iter_mut()).zip(fewest.iter_mut()) {
+            if let Some(margin) = proxy_margin(radial, &base, &points, spread) {
+                if best.is_none_or(|(m, _)| margin > m) {
+                    *best = Some((margin, board));
+                }
+            } else {
+                let unserved = points.iter().filter(|p| radial.stretch((*p - base).norm()).is_none()).count();
+                if fewest.is_none_or(|(count, _)| unserved < count) {
+                    *fewest = Some((unserved, board));
+                }
+            }
+        }
+    }
+    let mut candidates: Vec<(f64, BoardGeometry, f64)> =
+        radials.iter().zip(&best).filter_map(|((pitch, _), b)| b.map(|(m, board)| (m, board, *pitch))).collect();
+    // Stable: within each group the pitches stay nearest straight down first.
+    candidates.sort_by_key(|(margin, _, _)| *margin < FIT_MARGIN);
+    let mut checks = 0;
+    // Poses the radial table serves that a column or the full check refused.
+    let mut refused = Vec::new();
+    for (margin, board, pitch) in candidates {
+        if let Some(check) = columns
+            && check_columns(arm, check, &board, &scaled, &heights, pitch, None).is_err()
+        {
+            refused.push((pitch, board));
+            continue;
+        }
+        if checks == CHECKS {
+            break;
+        }
+        checks += 1;
+        match check_table(arm, &board, &scaled, limits, columns) {
+            Ok(pitch) => return Ok(Fit { board, pieces: scaled, margin, tried, pitch }),
+            Err(_) => refused.push((pitch, board)),
+        }
+    }
+    // The nearest pose: of those the radial table serves but a column or the full check
+    // refused, and per pitch the one of fewest points out of reach, the one that fails fewest
+    // places (nearest straight down of those that fail as few).
+    let nearest = refused
+        .into_iter()
+        .chain(radials.iter().zip(&fewest).filter_map(|((pitch, _), f)| f.map(|(_, board)| (*pitch, board))))
+        .map(|(pitch, board)| (place_failures(arm, &board, &scaled, limits, pitch, columns), pitch, board))
+        .min_by_key(|(failures, _, _)| failures.len());
+    if let Some((failures, pitch, board)) = nearest {
+        return Err(Box::new(Unplaced { board, pieces: scaled, pitch, failures, tried }));
+    }
+    // Every pose surrounds the base (squares larger than the reach): the board a square's
+    // width farther out than its own half, straight down.
+    let radial = &radials[0].1;
+    let board = BoardGeometry {
+        square_size: size,
+        center: base + Vector2::new(radial.bearing.cos(), radial.bearing.sin()) * size * 5.0,
+        surface_height: surface,
+        yaw: wrap(radial.bearing - FRAC_PI_2),
+        base_clearance: clearance,
+    };
+    let failures = place_failures(arm, &board, &scaled, limits, TOOL_DOWN, columns);
+    Err(Box::new(Unplaced { board, pieces: scaled, pitch: TOOL_DOWN, failures, tried }))
+}
+
+/// Per place of `geometry` (every square, slot and the home point), the first thing that fails
+/// there with the tool at `pitch`: within the base's room, a height out of reach or too heavy,
+/// a crowded column; when every place passes, the first way between two that is not served.
+pub fn place_failures(
+    arm: &ArmModel<4>,
+    geometry: &BoardGeometry,
+    pieces: &PieceSet,
+    limits: &MotionLimits,
+    pitch: f64,
+    columns: Option<&ClearanceCheck>,
+) -> Vec<(String, String)> {
+    let all = places(geometry, pieces, limits);
+    let base = arm.base().xy();
+    let loaded = loaded(arm, pieces, pitch);
+    let heights = heights(pieces, limits);
+    let z0 = geometry.surface_height;
+    let margin = limits.torque_margin;
+    let mut failures: Vec<(String, String)> = Vec::new();
+    for (name, p) in &all {
+        let distance = (p - base).norm();
+        if distance < geometry.base_clearance {
+            let why = ReachError::NearBase {
+                place: name.clone(),
+                x: p.x,
+                y: p.y,
+                distance,
+                clearance: geometry.base_clearance,
+            };
+            failures.push((name.clone(), why.to_string()));
+            continue;
+        }
+        for &h in &heights {
+            let point = Vector3::new(p.x, p.y, z0 + h);
+            if let Err(why) = serve(arm, &loaded, &point, pitch, margin) {
+                failures.push((name.clone(), failure(name.clone(), h, &point, why, margin).to_string()));
+                break;
+            }
+        }
+    }
+    if let Some(check) = columns {
+        for crowded in crowded_columns(arm, check, geometry, pieces, &heights, pitch) {
+            if !failures.iter().any(|(name, _)| *name == crowded.place) {
+                failures.push((crowded.place.clone(), crowded.to_string()));
+            }
+        }
+    }
+    if failures.is_empty()
+        && let Err(error) = check_table_at(arm, geometry, pieces, limits, pitch, None)
+    {
+        failures.push(("a way between two places".to_string(), error.to_string()));
+    }
+    failures
 }
 
 /// Bisection between a size that serves (`low`, m) and one that does not (`high`), to 0.1 mm:

@@ -58,6 +58,19 @@ fn positive_unescaped(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A board's square size for `board --fit --square-size`, m: within the sizes the fit searches,
+/// 1 cm to 20 cm (a value in mm, as 25, is refused with a hint).
+fn square_size_unescaped(text: &str) -> Result<f64, String> {
+    let value = positive_unescaped(text)?;
+    if value > 0.2 {
+        Err(format!("{text} m is larger than a board's squares can be (at most 0.2 m); give metres, e.g. 0.025"))
+    } else if value < 0.01 {
+        Err(format!("{text} m is smaller than the squares the fit tries (at least 0.01 m)"))
+    } else {
+        Ok(value)
+    }
+}
+
 /// A sample rate in [1, 10 000] Hz for `--export-rate`.
 fn export_rate_unescaped(text: &str) -> Result<f64, String> {
     use chessarm_core::plan::hardware::{MAX_EXPORT_RATE, MIN_EXPORT_RATE};
@@ -200,6 +213,7 @@ escaped! {
     non_negative => non_negative_unescaped -> f64;
     positive => positive_unescaped -> f64;
     export_rate => export_rate_unescaped -> f64;
+    square_size => square_size_unescaped -> f64;
     bus_rate => bus_rate_unescaped -> f64;
     wait => wait_unescaped -> f64;
     residual_mm => residual_mm_unescaped -> f64;

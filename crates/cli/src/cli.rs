@@ -773,6 +773,11 @@ pub struct BoardArgs {
     /// Find the largest board the arm serves and print it as a setup file (use it with --arm).
     #[arg(long)]
     pub fit: bool,
+    /// With --fit: place a board of squares of this size (m, e.g. 0.025) where the arm serves
+    /// it, instead of the largest; when no pose serves it, which squares and slots fail and
+    /// why (--map draws the nearest pose).
+    #[arg(long, value_name = "M", value_parser = args::square_size, requires = "fit")]
+    pub square_size: Option<f64>,
     /// With --fit: write the setup file here (the summary then goes to standard output).
     #[arg(long, value_name = "FILE.toml", requires = "fit")]
     pub save: Option<PathBuf>,

@@ -221,3 +221,67 @@ fn the_urdf_export_of_a_makers_arm_keeps_the_files_joint_senses() {
     }
     assert!(original[1] < 0.0, "a positive base angle turns clockwise seen from above: {original:?}");
 }
+
+/// `board --fit --square-size`: a board of the maker's squares placed where the arm serves it,
+/// written as a setup file the check then accepts; squares no pose serves are refused with the
+/// nearest pose's failures (each naming its place), no setup file, and its reach map drawn.
+#[test]
+fn a_board_of_given_squares_is_placed_or_its_failing_places_are_listed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = urdf("so101_new_calib");
+    let base = ["--urdf", path.to_str().unwrap(), "--lock", "wrist_roll=0", "--arm", common::NEEDLE_FINGERS];
+    let largest = json_of(&chessarm(&[&base[..], &["board", "--fit"]].concat()));
+    let square = largest["square_size_m"].as_f64().unwrap();
+    // A millimetre under the largest, rounded to a tenth of a millimetre, as a maker types it.
+    let size = ((square - 0.001) * 1e4).floor() / 1e4;
+    let saved = dir.path().join("placed.toml");
+    let placed = chessarm(
+        &[&base[..], &["board", "--fit", "--square-size", &size.to_string(), "--save", saved.to_str().unwrap()]]
+            .concat(),
+    );
+    assert!(placed.status.success(), "{}", String::from_utf8_lossy(&placed.stderr));
+    let value = json_of(&placed);
+    assert_eq!(value["served"], true, "{value}");
+    assert_eq!(value["square_size_m"].as_f64(), Some(size), "{value}");
+    // The setup file holds exactly those squares, and the check (no fit) serves it.
+    let text = std::fs::read_to_string(&saved).unwrap();
+    assert!(text.contains(&format!("square_size = {size}")), "{text}");
+    let setup = ["--urdf", path.to_str().unwrap(), "--arm", saved.to_str().unwrap()];
+    let checked = json_of(&chessarm(&[&setup[..], &["board"]].concat()));
+    assert_eq!(checked["served"], true, "{checked}");
+
+    // 3 cm squares: no pose serves them. The failures, no setup file, the nearest pose's map.
+    let refused_save = dir.path().join("refused.toml");
+    let map = dir.path().join("nearest.png");
+    let refused = chessarm(
+        &[
+            &base[..],
+            &["board", "--fit", "--square-size", "0.03", "--save", refused_save.to_str().unwrap()],
+            &["--map", map.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert_eq!(refused.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(stderr.contains("--square-size 0.03") && stderr.contains("fails"), "{stderr}");
+    let value: Value = serde_json::from_slice(&refused.stdout).unwrap();
+    assert_eq!(value["served"], false);
+    let failures = value["failures"].as_array().unwrap();
+    assert!(!failures.is_empty());
+    for failure in failures {
+        let (place, why) = (failure["place"].as_str().unwrap(), failure["why"].as_str().unwrap());
+        assert!(why.contains(place) || place.starts_with("a way"), "{place}: {why}");
+    }
+    assert!(!refused_save.exists(), "a setup file of a board that is not served");
+    assert!(std::fs::metadata(&map).unwrap().len() > 1000, "the nearest pose's reach map");
+
+    // Bad sizes name the flag and the value as typed.
+    for (typed, said) in [("25", "give metres"), ("nan", "finite"), ("0.001", "at least 0.01 m")] {
+        let output = chessarm(&["board", "--fit", "--square-size", typed]);
+        assert_eq!(output.status.code(), Some(2), "{typed}");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains("--square-size") && stderr.contains(typed) && stderr.contains(said), "{stderr}");
+    }
+    // Without --fit it has nothing to place.
+    assert_eq!(chessarm(&["board", "--square-size", "0.03"]).status.code(), Some(2));
+}

@@ -22,6 +22,7 @@ use chessarm_core::arm::model::ArmModel;
 use chessarm_core::arm::task::inverse_kinematics;
 use chessarm_core::nalgebra::{Vector2, Vector3};
 use shakmaty::{Board, Role, Square};
+use std::ops::ControlFlow;
 
 /// How far around a place its neighbours stand, in squares: the eight squares around a square
 /// (the diagonal ones at √2 ≈ 1.41), and the slots beside a slot.
@@ -74,6 +75,46 @@ pub fn check_columns(
     pitch: f64,
     first: Option<usize>,
 ) -> Result<(), Crowded> {
+    let mut found = None;
+    each_crowded(arm, check, geometry, pieces, heights, pitch, first, |crowded| {
+        found = Some(crowded);
+        ControlFlow::Break(())
+    });
+    found.map_or(Ok(()), Err)
+}
+
+/// Every column of `geometry` that is not clear ([`check_columns`]), one [`Crowded`] per place
+/// (the first height and part found there), in the places' order: what a board of given
+/// squares leaves crowded, for `chessarm board --fit --square-size`.
+pub fn crowded_columns(
+    arm: &ArmModel<4>,
+    check: &ClearanceCheck,
+    geometry: &BoardGeometry,
+    pieces: &PieceSet,
+    heights: &[f64],
+    pitch: f64,
+) -> Vec<Crowded> {
+    let mut all = Vec::new();
+    each_crowded(arm, check, geometry, pieces, heights, pitch, None, |crowded| {
+        all.push(crowded);
+        ControlFlow::Continue(())
+    });
+    all
+}
+
+/// The columns' check: `crowded_at` is told of each place's first crowding (then the next place is
+/// checked, unless it breaks), the place of index `first` checked before the others.
+#[allow(clippy::too_many_arguments)]
+fn each_crowded(
+    arm: &ArmModel<4>,
+    check: &ClearanceCheck,
+    geometry: &BoardGeometry,
+    pieces: &PieceSet,
+    heights: &[f64],
+    pitch: f64,
+    first: Option<usize>,
+    mut crowded_at: impl FnMut(Crowded) -> ControlFlow<()>,
+) {
     let table = Table::new(*geometry, &Board::empty());
     // (name, centre, whether a king may stand there)
     let places: Vec<(String, Vector2<f64>, bool)> = Square::ALL
@@ -102,7 +143,7 @@ pub fn check_columns(
     let mut solids: Vec<ArmSolid> = Vec::new();
     let mut buffers = NearestBuffers::default();
     let order = first.filter(|&k| k < places.len()).into_iter().chain((0..places.len()).filter(|&k| Some(k) != first));
-    for place_index in order {
+    'places: for place_index in order {
         let (name, centre, kings) = &places[place_index];
         let around: Vec<usize> = (0..places.len())
             .filter(|&k| {
@@ -138,7 +179,7 @@ pub fn check_columns(
                         Some(&index) => places[index].0.clone(),
                         None => format!("{name} itself (the piece the fingers close on)"),
                     };
-                    return Err(Crowded {
+                    let crowded = Crowded {
                         place: name.clone(),
                         place_index,
                         height: h,
@@ -146,12 +187,15 @@ pub fn check_columns(
                         part: closest.part,
                         neighbour,
                         distance: closest.distance,
-                    });
+                    };
+                    match crowded_at(crowded) {
+                        ControlFlow::Break(()) => return,
+                        ControlFlow::Continue(()) => continue 'places,
+                    }
                 }
             }
         }
     }
-    Ok(())
 }
 
 /// The tool's pitch in words: "straight down", or its tilt from it in degrees (converted here,

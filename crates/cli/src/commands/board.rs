@@ -2,7 +2,7 @@
 //! ask for), and with `--fit` the largest board it serves, printed as a setup file.
 
 use crate::app::setup::file::Setup;
-use crate::app::studies::board::{BoardStudy, board_study};
+use crate::app::studies::board::{BoardFit, BoardStudy, board_study};
 use crate::cli::BoardArgs;
 use anyhow::{Context, Result, anyhow};
 use chessarm_chess::sag::SquareHold;
@@ -31,10 +31,18 @@ fn check_outputs(args: &BoardArgs) -> Result<()> {
     Ok(())
 }
 
+/// How many of an unplaced board's failures the summary lists.
+const SHOWN: usize = 12;
+
 pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     check_outputs(args)?;
-    let BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed } =
-        board_study(setup, args.fit, args.sag_map.is_some())?;
+    let fit = match (args.fit, args.square_size) {
+        (false, _) => BoardFit::Check,
+        (true, None) => BoardFit::Largest,
+        (true, Some(size)) => BoardFit::Place(size),
+    };
+    let BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed, unplaced } =
+        board_study(setup, fit, args.sag_map.is_some())?;
     if let Some(map) = &args.map {
         plot_reach_map(map, &fitted, &margins).with_context(|| format!("--map {}", map.display()))?;
     }
@@ -50,7 +58,12 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         board.center.x,
         board.center.y,
         board.yaw,
-        tried.map_or(String::new(), |n| format!(" (the largest of {n} poses tried, in {seconds:.2} s)")),
+        match (tried, fit) {
+            (None, _) => String::new(),
+            (Some(n), BoardFit::Place(_)) if unplaced.is_some() => format!(" ({n} poses tried, in {seconds:.2} s)"),
+            (Some(n), BoardFit::Place(_)) => format!(" (placed among {n} poses tried, in {seconds:.2} s)"),
+            (Some(n), _) => format!(" (the largest of {n} poses tried, in {seconds:.2} s)"),
+        },
         match &check {
             Ok(pitch) => format!(
                 "every square, slot and traverse is served{}; smallest radial margin {:.1} mm",
@@ -64,7 +77,18 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
                 },
                 smallest * 1e3
             ),
-            Err(error) => format!("NOT served: {error}"),
+            Err(error) => match &unplaced {
+                // Each reason names its place; the first few, the rest counted (--json has all).
+                Some(nearest) => format!(
+                    "NOT placed: {error}:\n{}{}",
+                    nearest.failures.iter().take(SHOWN).map(|(_, why)| format!("  {why}\n")).collect::<String>(),
+                    match nearest.failures.len().saturating_sub(SHOWN) {
+                        0 => String::new(),
+                        more => format!("  … and {more} more (--json lists every one)\n"),
+                    }
+                ),
+                None => format!("NOT served: {error}"),
+            },
         },
         args.map.as_ref().map_or(String::new(), |m| format!("; reach map {}", m.display())),
     );
@@ -84,6 +108,29 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         if board.square_size < needed { " — these squares are SMALLER: the planner will refuse moves" } else { "" }
     );
     let summary = format!("{summary}{fingers_text}{sag_text}");
+    if let Some(nearest) = &unplaced {
+        // Squares of the size asked for fit nowhere: no setup file is written or printed.
+        let failures: Vec<_> =
+            nearest.failures.iter().map(|(place, why)| json!({"place": place, "why": why})).collect();
+        crate::emit(
+            &summary,
+            &json!({
+                "served": false,
+                "square_size_m": board.square_size,
+                "nearest": {"center_m": [board.center.x, board.center.y], "yaw_rad": board.yaw,
+                            "tool_pitch_rad": nearest.pitch},
+                "failures": failures,
+                "poses_tried": tried,
+                "seconds": seconds,
+                "fingers_need_square_size_m": needed,
+            }),
+        )?;
+        anyhow::bail!(
+            "--square-size {}: {nearest} (listed above){}",
+            board.square_size,
+            args.map.as_ref().map_or(String::new(), |m| format!("; the nearest pose's reach map is {}", m.display()))
+        );
+    }
     if args.fit {
         let mut text = fitted.to_toml_beside_urdf()?;
         if setup.urdf_path.is_some() {

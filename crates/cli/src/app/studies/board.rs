@@ -5,7 +5,7 @@
 
 use crate::app::setup::file::Setup;
 use anyhow::{Result, anyhow};
-use chessarm_chess::reach::{ReachError, check_table, fit_board, square_margins};
+use chessarm_chess::reach::{ReachError, Unplaced, check_table, fit_board, place_board, square_margins};
 use chessarm_chess::sag::{SquareHold, sag_map};
 use chessarm_chess::shakmaty::Square;
 
@@ -29,72 +29,134 @@ pub struct BoardStudy {
     /// The smallest square on which the fingers clear the neighbours of the piece they open
     /// around, m.
     pub fingers_need: f64,
+    /// With squares of a given size that no pose serves: the nearest pose (the study's board)
+    /// and what fails there.
+    pub unplaced: Option<Box<Unplaced>>,
 }
 
-/// Checks the setup's board, or with `fit` fits the largest one; `sag` asks for the sag map
-/// (refused with torque motors; with servos or steppers it is always made).
+/// What `board` does with the setup's board.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BoardFit {
+    /// Checks the setup's board as it is.
+    Check,
+    /// Finds the largest board the arm serves.
+    Largest,
+    /// Places a board of squares of this size (m) where the arm serves it.
+    Place(f64),
+}
+
+/// Checks the setup's board, fits the largest one or places one of given squares (`fit`);
+/// `sag` asks for the sag map (refused with torque motors; with servos or steppers it is
+/// always made). A board of given squares that no pose serves is not an error here: the
+/// study holds the nearest pose and its failures ([`BoardStudy::unplaced`]).
 ///
 /// # Errors
 ///
 /// No board fits, the fitted squares are smaller than the fingers need, a sag map asked for
 /// torque motors.
-pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
+pub fn board_study(setup: &Setup, fit: BoardFit, sag: bool) -> Result<BoardStudy> {
     let limits = setup.motion;
     let started = std::time::Instant::now();
     let mut fitted = setup.clone();
     let mut tried = None;
+    let mut unplaced = None;
     let needed = fingers_need(setup, setup.board.square_size)?;
-    if fit {
-        let fit = fit_board(
-            &setup.arm,
-            &setup.pieces,
-            setup.board.square_size,
-            &limits,
-            (setup.board.surface_height, setup.board.base_clearance),
-            Some(&setup.clearance),
-        );
-        // What the fingers need, said of the file's fingers where it has them.
-        let fingers = || match file_fingers(setup) {
-            Some(file) => format!(
-                "the file's fingers ({:.1} mm thick and {:.1} mm wide across the tool tip, opened {:.1} mm beside a \
-                 piece) need {:.1} mm to open around a piece beside its neighbours with {:.1} mm to spare ([motion] \
-                 arm_clearance)",
-                file.gripper.finger_thickness * 1e3,
-                file.gripper.finger_width * 1e3,
-                file.gripper.finger_opening * 1e3,
-                needed * 1e3,
-                setup.clearance.margin * 1e3
-            ),
-            None => format!(
-                "the fingers ([gripper]: {:.1} mm thick, {:.1} mm wide, opened {:.1} mm beside a piece) need {:.1} mm to \
-                 open around a piece beside its neighbours with {:.1} mm to spare ([motion] arm_clearance): slimmer \
-                 fingers, a smaller opening or a longer arm",
-                setup.clearance.gripper.finger_thickness * 1e3,
-                setup.clearance.gripper.finger_width * 1e3,
-                setup.clearance.gripper.finger_opening * 1e3,
-                needed * 1e3,
-                setup.clearance.margin * 1e3
-            ),
-        };
-        // A fit refused for a finger beside a neighbour says what the fingers need.
-        let fit = fit.map_err(|e| match &e {
-            ReachError::NoFit { why, .. } if why.contains("finger") => anyhow!("{e}; {}", fingers()),
-            _ => anyhow!("{e}"),
-        })?;
-        // The fingers open around a piece beside its neighbours: squares below what they need
-        // would have the planner refuse moves.
-        if fit.board.square_size < needed {
-            anyhow::bail!("the arm serves squares of at most {:.1} mm, and {}", fit.board.square_size * 1e3, fingers());
+    // What the fingers need, said of the file's fingers where it has them.
+    let fingers = || match file_fingers(setup) {
+        Some(file) => format!(
+            "the file's fingers ({:.1} mm thick and {:.1} mm wide across the tool tip, opened {:.1} mm beside a \
+             piece) need {:.1} mm to open around a piece beside its neighbours with {:.1} mm to spare ([motion] \
+             arm_clearance)",
+            file.gripper.finger_thickness * 1e3,
+            file.gripper.finger_width * 1e3,
+            file.gripper.finger_opening * 1e3,
+            needed * 1e3,
+            setup.clearance.margin * 1e3
+        ),
+        None => format!(
+            "the fingers ([gripper]: {:.1} mm thick, {:.1} mm wide, opened {:.1} mm beside a piece) need {:.1} mm to \
+             open around a piece beside its neighbours with {:.1} mm to spare ([motion] arm_clearance): slimmer \
+             fingers, a smaller opening or a longer arm",
+            setup.clearance.gripper.finger_thickness * 1e3,
+            setup.clearance.gripper.finger_width * 1e3,
+            setup.clearance.gripper.finger_opening * 1e3,
+            needed * 1e3,
+            setup.clearance.margin * 1e3
+        ),
+    };
+    let table = (setup.board.surface_height, setup.board.base_clearance);
+    match fit {
+        BoardFit::Check => {}
+        BoardFit::Largest => {
+            let fit =
+                fit_board(&setup.arm, &setup.pieces, setup.board.square_size, &limits, table, Some(&setup.clearance));
+            // A fit refused for a finger beside a neighbour says what the fingers need.
+            let fit = fit.map_err(|e| match &e {
+                ReachError::NoFit { why, .. } if why.contains("finger") => anyhow!("{e}; {}", fingers()),
+                _ => anyhow!("{e}"),
+            })?;
+            // The fingers open around a piece beside its neighbours: squares below what they
+            // need would have the planner refuse moves.
+            if fit.board.square_size < needed {
+                anyhow::bail!(
+                    "the arm serves squares of at most {:.1} mm, and {}",
+                    fit.board.square_size * 1e3,
+                    fingers()
+                );
+            }
+            fitted.board = fit.board;
+            fitted.pieces = fit.pieces;
+            tried = Some(fit.tried);
         }
-        fitted.board = fit.board;
-        fitted.pieces = fit.pieces;
-        tried = Some(fit.tried);
+        BoardFit::Place(size) => {
+            if size < needed {
+                anyhow::bail!("--square-size {size}: squares of {:.1} mm are too small: {}", size * 1e3, fingers());
+            }
+            let placed = place_board(
+                &setup.arm,
+                &setup.pieces,
+                setup.board.square_size,
+                size,
+                &limits,
+                table,
+                Some(&setup.clearance),
+            );
+            let (board, pieces, poses) = match placed {
+                Ok(fit) => (fit.board, fit.pieces, fit.tried),
+                Err(nearest) => {
+                    let found = (nearest.board, nearest.pieces, nearest.tried);
+                    unplaced = Some(nearest);
+                    found
+                }
+            };
+            fitted.board = board;
+            fitted.pieces = pieces;
+            tried = Some(poses);
+        }
     }
     let seconds = started.elapsed().as_secs_f64();
-    let check = check_table(&setup.arm, &fitted.board, &fitted.pieces, &limits, Some(&setup.clearance));
-    // The maps at the pitch the game would use (straight down when the board is not served).
-    let limits = chessarm_chess::tasks::MotionLimits { pitch: *check.as_ref().unwrap_or(&limits.pitch), ..limits };
-    let margins = square_margins(&setup.arm, &fitted.board, &fitted.pieces, &limits);
+    let check = match &unplaced {
+        // Its failures are known; the full check would only find the first again.
+        Some(nearest) => Err(ReachError::Unplaced(nearest.clone())),
+        None => check_table(&setup.arm, &fitted.board, &fitted.pieces, &limits, Some(&setup.clearance)),
+    };
+    // The maps at the pitch the game would use (straight down when the board is not served, the
+    // nearest pose's own pitch when none of given squares is).
+    let pitch = match (&check, &unplaced) {
+        (Ok(pitch), _) => *pitch,
+        (Err(_), Some(nearest)) => nearest.pitch,
+        (Err(_), None) => limits.pitch,
+    };
+    let limits = chessarm_chess::tasks::MotionLimits { pitch, ..limits };
+    let mut margins = square_margins(&setup.arm, &fitted.board, &fitted.pieces, &limits);
+    // A square the placement found crowded is not served either, whatever its reach.
+    if let Some(nearest) = &unplaced {
+        for (square, margin) in &mut margins {
+            if let Some((_, why)) = nearest.failures.iter().find(|(place, _)| *place == square.to_string()) {
+                *margin = Err(why.clone());
+            }
+        }
+    }
     let sag = match (setup.actuators.take_positions(), sag) {
         (true, _) => Some(sag_map(&setup.arm, &setup.actuators, &fitted.board, &fitted.pieces, limits.pitch)),
         (false, true) => {
@@ -103,7 +165,7 @@ pub fn board_study(setup: &Setup, fit: bool, sag: bool) -> Result<BoardStudy> {
         (false, false) => None,
     };
     let smallest = margins.iter().filter_map(|(_, m)| m.as_ref().ok()).copied().fold(f64::INFINITY, f64::min);
-    Ok(BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed })
+    Ok(BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed, unplaced })
 }
 
 /// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they
