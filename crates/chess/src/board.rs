@@ -32,12 +32,25 @@ pub struct BoardGeometry {
     /// How far every square, slot and traverse stays from the arm's base axis, m: the base's
     /// own room (its servo and mount), where the arm would fold over itself.
     pub base_clearance: f64,
+    /// The squares turned half a turn on the table: rank 8 where rank 1 would be, while the
+    /// graveyards, the reserves and the home point keep their places (`yaw` turns them all).
+    /// The 64 square centres are the same points either way, so the arm serves the board
+    /// turned exactly when it serves it unturned: this is how a person playing white sits
+    /// across from the arm with their first rank in front of them.
+    pub squares_turned: bool,
 }
 
 impl Default for BoardGeometry {
     /// The report's board: 6 cm squares, centred on the y axis, rank 1 at y = 12 cm.
     fn default() -> Self {
-        Self { square_size: 0.06, center: Vector2::new(0.0, 0.33), surface_height: 0.0, yaw: 0.0, base_clearance: 0.05 }
+        Self {
+            square_size: 0.06,
+            center: Vector2::new(0.0, 0.33),
+            surface_height: 0.0,
+            yaw: 0.0,
+            base_clearance: 0.05,
+            squares_turned: false,
+        }
     }
 }
 
@@ -90,9 +103,17 @@ impl BoardGeometry {
         (f64::from(u8::from(square.file())) - 3.5, f64::from(u8::from(square.rank())) - 3.5)
     }
 
+    /// `square`'s centre in squares from the board's centre along the table's files and ranks
+    /// ([`Self::on_table`]): [`Self::squares_from_center`], negated when the squares are
+    /// turned.
+    pub fn square_on_table(&self, square: Square) -> (f64, f64) {
+        let (file, rank) = Self::squares_from_center(square);
+        if self.squares_turned { (-file, -rank) } else { (file, rank) }
+    }
+
     /// Centre of `square` on the board surface, m.
     pub fn square_center(&self, square: Square) -> Vector3<f64> {
-        let (file, rank) = Self::squares_from_center(square);
+        let (file, rank) = self.square_on_table(square);
         let xy = self.on_table(file, rank);
         Vector3::new(xy.x, xy.y, self.surface_height)
     }
@@ -113,6 +134,7 @@ impl BoardGeometry {
         if !(0.0..8.0).contains(&file) || !(0.0..8.0).contains(&rank) {
             return None;
         }
+        let (file, rank) = if self.squares_turned { (7.0 - file, 7.0 - rank) } else { (file, rank) };
         let square = Square::from_coords(File::new(file as u32), Rank::new(rank as u32));
         let center = self.square_center(square);
         Some((square, Vector2::new(point.x - center.x, point.y - center.y)))

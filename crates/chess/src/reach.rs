@@ -595,6 +595,7 @@ fn board_poses(
             surface_height: surface,
             yaw: if yaw.abs() < 1e-12 { 0.0 } else { yaw },
             base_clearance: clearance,
+            squares_turned: false,
         })
     })
 }
@@ -725,6 +726,7 @@ pub fn place_board(
         surface_height: surface,
         yaw: wrap(radial.bearing - FRAC_PI_2),
         base_clearance: clearance,
+        squares_turned: false,
     };
     let failures = place_failures(arm, &board, &scaled, limits, TOOL_DOWN, columns);
     Err(Box::new(Unplaced { board, pieces: scaled, pitch: TOOL_DOWN, failures, tried }))

@@ -26,6 +26,7 @@ fn report_layout_of_the_squares() {
         surface_height: 0.02,
         yaw: 0.0,
         base_clearance: 0.05,
+        squares_turned: false,
     };
     assert!(close(small.square_center(Square::A1), Vector3::new(0.1 - 0.175, 0.4 - 0.175, 0.02)));
 }
@@ -116,4 +117,50 @@ fn scenario_joint_path_traces_the_tip_path() {
     // right size, a few rad/s² at most for this slow move.
     let peak_acceleration = trajectory.samples().iter().map(|s| s.qdd.amax()).fold(0.0, f64::max);
     assert!(peak_acceleration > 0.1 && peak_acceleration < 20.0, "{peak_acceleration}");
+}
+
+/// Squares turned half a turn on the table: each square stands where its point-mirror through
+/// the board's centre stood (a1 where h8 was), the square under a point is found back, the
+/// slots and the home point stay, and the arm serves the turned board exactly as it serves the
+/// board unturned (the same pitch; the same first failure on a board it does not serve).
+#[test]
+fn turned_squares_are_the_same_points_and_served_alike() {
+    use chessarm_chess::pieces::PieceSet;
+    use chessarm_chess::reach::check_table;
+    use chessarm_chess::table::{Location, Table};
+    use chessarm_chess::tasks::{MotionLimits, home_tool};
+    use chessarm_core::arm::preset::report_arm;
+    let arm = report_arm();
+    let limits = MotionLimits::default();
+    let pieces = PieceSet::default();
+    for board in [
+        BoardGeometry::default(),
+        BoardGeometry { yaw: 0.3, center: Vector2::new(0.05, 0.35), ..BoardGeometry::default() },
+        // Too far: not served, turned or not.
+        BoardGeometry { center: Vector2::new(0.0, 0.6), ..BoardGeometry::default() },
+    ] {
+        let turned = BoardGeometry { squares_turned: true, ..board };
+        let empty = chessarm_chess::shakmaty::Board::empty();
+        for square in Square::ALL {
+            let mirror = Square::from_coords(
+                chessarm_chess::shakmaty::File::new(7 - u32::from(square.file())),
+                chessarm_chess::shakmaty::Rank::new(7 - u32::from(square.rank())),
+            );
+            assert!((turned.square_center(square) - board.square_center(mirror)).norm() < 1e-12, "{square}");
+            let (found, offset) = turned.square_at(&turned.above(square, 0.01)).expect("on the board");
+            assert_eq!(found, square);
+            assert!(offset.norm() < 1e-12);
+        }
+        let (table, turned_table) = (Table::new(board, &empty), Table::new(turned, &empty));
+        for slot in Location::off_board() {
+            assert_eq!(table.nominal_position(slot), turned_table.nominal_position(slot), "{slot}");
+        }
+        assert_eq!(home_tool(&board, &pieces, &limits), home_tool(&turned, &pieces, &limits));
+        let served = check_table(&arm, &board, &pieces, &limits, None);
+        let served_turned = check_table(&arm, &turned, &pieces, &limits, None);
+        assert_eq!(served.is_ok(), served_turned.is_ok(), "{served:?} / {served_turned:?}");
+        if let (Ok(pitch), Ok(turned_pitch)) = (&served, &served_turned) {
+            assert_eq!(pitch, turned_pitch);
+        }
+    }
 }

@@ -204,6 +204,42 @@ fn the_typed_words_work_at_every_prompt() {
     assert!(stderr.contains("which was it?"), "{stderr}");
 }
 
+/// The person sits across from the arm: playing white on the report's board (rank 1 on the
+/// arm's side), the squares are turned half a turn on the table so white's first rank is the
+/// farthest from the arm, and the arm plays its reply there with every piece in place; playing
+/// black, the board stands.
+#[test]
+fn the_person_sits_across_from_the_arm() {
+    let dir = tempfile::tempdir().unwrap();
+    let king_y = |game: &Value, square: &str| {
+        let table = game["final_table"].as_array().unwrap();
+        let king = table.iter().find(|p| p["location"] == square).unwrap_or_else(|| panic!("{square}: {game}"));
+        assert!(king["piece"].as_str().unwrap().ends_with("king"), "{king}");
+        king["y_m"].as_f64().unwrap()
+    };
+    for (person, input, turned) in [("white", "e4\nquit\n", true), ("black", "quit\n", false)] {
+        let out = dir.path().join(person);
+        let output = play_with_input(
+            &["play", "--human", person, "--out", out.to_str().unwrap()],
+            input.as_bytes(),
+            Duration::from_secs(300),
+        );
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        let said = if turned { "seat: the squares turned half a turn" } else { "plays black from across the board" };
+        assert!(stderr.contains(said), "{stderr}");
+        let game = json_file(&out.join("game.json"));
+        assert_eq!(game["board"]["squares_turned"], turned, "{game}");
+        // The report's arm stands at the origin, the board along +y: the person's first rank
+        // is the farther one.
+        let (own, other) = if person == "white" { ("e1", "e8") } else { ("e8", "e1") };
+        assert!(king_y(&game, own) > king_y(&game, other) + 0.3, "{person}: {game}");
+        // The arm moved (its reply to e4, or white's first move) with every piece in place.
+        assert_eq!(game["moves"].as_array().unwrap().len(), if turned { 2 } else { 1 }, "{game}");
+        assert_eq!(game["misplaced"].as_array().unwrap().len(), 0, "{game}");
+    }
+}
+
 /// After a take-back the folder holds one game: moves/ only the played moves' CSVs, game.json
 /// the plies game.pgn has (the taken-back ones listed apart), the summary the same count.
 #[test]

@@ -220,7 +220,7 @@ impl PySetup {
     }
 
     /// The board: `square_size`, `center` (x, y), `surface_height`, `yaw` (rad),
-    /// `base_clearance`, m.
+    /// `base_clearance`, m, and `squares_turned` (the squares half a turn on the table).
     #[getter]
     fn board<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let board = &self.setup.board;
@@ -230,6 +230,7 @@ impl PySetup {
         dict.set_item("surface_height", board.surface_height)?;
         dict.set_item("yaw", board.yaw)?;
         dict.set_item("base_clearance", board.base_clearance)?;
+        dict.set_item("squares_turned", board.squares_turned)?;
         Ok(dict)
     }
 

@@ -1134,6 +1134,7 @@ fn game_json(
             "square_size_m": game.board().square_size,
             "center_m": [game.board().center.x, game.board().center.y],
             "yaw_rad": game.board().yaw,
+            "squares_turned": game.board().squares_turned,
         }),
         "in_position": game.in_position().map(|gate| json!({
             "tip_band_mm": gate.tip_band * 1e3,

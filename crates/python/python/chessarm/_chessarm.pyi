@@ -169,7 +169,7 @@ class Setup:
         """m."""
     @property
     def board(self) -> Dict[str, Any]:
-        """square_size, center (x, y), surface_height, yaw, base_clearance (m, rad)."""
+        """square_size, center (x, y), surface_height, yaw, base_clearance (m, rad), squares_turned (bool)."""
     @property
     def pieces(self) -> Dict[str, Dict[str, float]]:
         """By kind: height, base_diameter, grip_height (m), mass (kg)."""

@@ -98,6 +98,10 @@ pub struct BoardFile {
     /// How far every square, slot and traverse stays from the base axis, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub base_clearance: Option<f64>,
+    /// The squares turned half a turn on the table (rank 8 where rank 1 would be), the slots
+    /// and the home point where they were.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub squares_turned: Option<bool>,
 }
 
 /// One kind of chess piece in the file; fields left out keep that kind's default.
@@ -673,6 +677,7 @@ impl SetupFile {
             surface_height: number_or("board.surface_height", board.surface_height, default_board.surface_height)?,
             yaw: number_or("board.yaw", board.yaw, default_board.yaw)?,
             base_clearance: number_or("board.base_clearance", board.base_clearance, default_board.base_clearance)?,
+            squares_turned: board.squares_turned.unwrap_or(default_board.squares_turned),
         }
         .validated()?;
         let pick = |kind: &str, given: Option<PieceFile>, default: PieceDimensions| -> Result<PieceDimensions> {
@@ -878,6 +883,7 @@ impl From<&Setup> for SetupFile {
                 surface_height: Some(setup.board.surface_height),
                 yaw: (setup.board.yaw != 0.0).then_some(setup.board.yaw),
                 base_clearance: Some(setup.board.base_clearance),
+                squares_turned: setup.board.squares_turned.then_some(true),
             },
             pieces: PiecesFile {
                 pawn: piece(&p.pawn),

@@ -81,7 +81,7 @@ pub fn calibrate(setup: &Setup, touched: &[(Square, [f64; 4])], zeros: bool, max
 
 /// A square's centre in the board's own frame (m, from its centre along files and ranks).
 fn board_point(setup: &Setup, square: Square) -> Vector2<f64> {
-    let (file, rank) = chessarm_chess::board::BoardGeometry::squares_from_center(square);
+    let (file, rank) = setup.board.square_on_table(square);
     Vector2::new(file, rank) * setup.board.square_size
 }
 

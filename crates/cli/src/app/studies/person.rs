@@ -164,45 +164,34 @@ impl PersonGame {
 
 /// The board as the person sits at it, across from the arm: their first rank must stand
 /// farther from the arm's base than their last (the arm reaches in from its own side). When the
-/// setup's board has it the other way, it is turned half a turn about its centre (`yaw + π`;
-/// the squares land on squares, the graveyard and reserve move with the board) and checked as
-/// the game's pre-flight checks it; the turned board, or the setup's when the turned one is
-/// not served, with a line for the terminal saying which and why.
+/// setup's board has it the other way, its squares are turned half a turn on the table
+/// ([`BoardGeometry::squares_turned`]): the graveyards, the reserves and the home point stay
+/// where the arm serves them, and the 64 square centres are the same points, so a board the
+/// pre-flight accepts is accepted turned. Returns the board and a line for the terminal.
 pub fn seat(setup: &Setup, person: Color) -> (BoardGeometry, String) {
     let board = setup.board;
     let base = setup.arm.base().xy();
-    let distance = |square: Square| (board.square_center(square).xy() - base).norm();
+    let distance = |board: &BoardGeometry, square: Square| (board.square_center(square).xy() - base).norm();
     let (own, far) = match person {
         Color::White => (Square::E1, Square::E8),
         Color::Black => (Square::E8, Square::E1),
     };
     let side = side_name(person);
-    if distance(own) >= distance(far) - 1e-9 {
+    if distance(&board, own) >= distance(&board, far) - 1e-9 {
         return (
             board,
             format!("seat: the person plays {side} from across the board, their first rank farthest from the arm\n"),
         );
     }
-    let yaw = chessarm_core::arm::task::wrap_angle(board.yaw + std::f64::consts::PI);
-    let turned = BoardGeometry { yaw, ..board };
-    let mut limits = setup.motion;
-    limits.pitch = chessarm_core::arm::task::TOOL_DOWN;
-    match chessarm_chess::reach::check_table(&setup.arm, &turned, &setup.pieces, &limits, Some(&setup.clearance)) {
-        Ok(_) => (
-            turned,
-            format!(
-                "seat: the board turned half a turn (yaw {yaw:.4} rad) so that {side}'s first rank faces the person \
-                 across from the arm\n"
-            ),
+    let turned = BoardGeometry { squares_turned: !board.squares_turned, ..board };
+    (
+        turned,
+        format!(
+            "seat: the squares turned half a turn on the table ([board] squares_turned = {}) so that {side}'s first \
+             rank faces the person across from the arm; the graveyards and reserves stay where they were\n",
+            turned.squares_turned
         ),
-        Err(why) => (
-            board,
-            format!(
-                "seat: the setup's board stands, {side}'s first rank on the arm's side (the person sits behind the arm): \
-                 turned half a turn it is not served: {why}\n"
-            ),
-        ),
-    }
+    )
 }
 
 /// `white` or `black`.
