@@ -93,7 +93,17 @@ pub struct PlaySettings {
     /// already found ([`crate::reach::check_table`]): [`Game::new`] takes it instead of
     /// checking again (a campaign plays many games on one board). `None`: checked.
     pub checked_pitch: Option<f64>,
+    /// Whether a robot move whose simulated motion (the servos' or motors' tracking, the
+    /// sensors, the carried piece) comes nearer than the clearance margin is run again slower
+    /// ([`PACE_STEP`] at a time, at most [`PACE_TRIES`] times), so no `--pace` is needed for a
+    /// clean game: on; off where the pace itself is studied (robustness, tuning).
+    pub choose_pace: bool,
 }
+
+/// Each retry of a move too near in simulation runs at this fraction of the last one's pace.
+pub const PACE_STEP: f64 = 0.7;
+/// How many times a move is slowed at most (down to `0.7⁴ ≈ 0.24` of its pace).
+pub const PACE_TRIES: usize = 4;
 
 /// A robot move's planned motion for hardware ([`chessarm_core::plan::hardware`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -148,6 +158,7 @@ impl PlaySettings {
             clearance: Some(ClearanceCheck::default()),
             check_columns: true,
             checked_pitch: None,
+            choose_pace: true,
         }
     }
 }
@@ -249,6 +260,12 @@ pub struct MoveReport {
     pub adjustments: Vec<String>,
     /// The fingers' gap beside a piece when open, m (the gripper's, or less if narrowed).
     pub opening: Option<f64>,
+    /// Robot moves: the pace the move ran at, as a fraction of the limits' own (1, or less
+    /// where [`PlaySettings::choose_pace`] slowed it), and the simulated clearance (m, 0: a
+    /// contact) of each try that came nearer than the margin, in order (empty when the first
+    /// kept it).
+    pub pace: f64,
+    pub too_near_at: Vec<f64>,
 }
 
 impl MoveReport {
@@ -379,6 +396,17 @@ pub struct Game {
     /// sweeps' buffers.
     rules: Option<Rules>,
     scratch: Scratch,
+}
+
+/// The game's state a robot move changes ([`Game::execute`]'s tries start from it).
+#[derive(Debug, Clone)]
+struct Snapshot {
+    feedback: Feedback<4>,
+    table: Table,
+    tool: Vector3<f64>,
+    state: JointState<4>,
+    actuators: Option<PositionBank<4>>,
+    robot_time: f64,
 }
 
 impl Game {
@@ -541,6 +569,8 @@ impl Game {
             executed_clearance: None,
             adjustments: Vec::new(),
             opening: None,
+            pace: 1.0,
+            too_near_at: Vec::new(),
         };
         match mover {
             Mover::Opponent => {
@@ -642,9 +672,9 @@ impl Game {
     /// a piece is first opened less (halved down to 1 mm a side), then the clearance margin of
     /// the traverses is raised (by 2 cm, up to three times), and a move still too near is
     /// refused. Returns the plan, its clearance, what was changed and the hand's gripper.
-    fn plan_clear(&mut self, mv: &Move, name: &str) -> Result<ClearPlan, PlayError> {
+    fn plan_clear(&mut self, mv: &Move, name: &str, limits: MotionLimits) -> Result<ClearPlan, PlayError> {
         let settings = &self.settings;
-        let mut limits = settings.limits;
+        let mut limits = limits;
         let mut check = settings.clearance.clone();
         let mut adjustments = Vec::new();
         let mut raised = 0;
@@ -732,8 +762,95 @@ impl Game {
     }
 
     /// Plans, simulates and applies one robot move.
+    /// Plans and runs a robot move ([`Self::attempt`]); with [`PlaySettings::choose_pace`], a
+    /// move whose simulated motion comes nearer than the clearance margin (measured, not a
+    /// bound) is run again from the same state (the arm's, the servos', the sensors' noise, the
+    /// table, the robot time) at [`PACE_STEP`] of the last pace, up to [`PACE_TRIES`] times:
+    /// the first try that keeps the margin stands, else the one that came least near (the
+    /// faster of equals: a sagging servo is no nearer its goal slower, so its move is not
+    /// slowed in vain).
     fn execute(&mut self, mv: &Move, name: &str, report: &mut MoveReport) -> Result<(), PlayError> {
-        let ClearPlan { plan, clearance: planned_clearance, adjustments, check } = self.plan_clear(mv, name)?;
+        if !self.settings.choose_pace || self.settings.clearance.is_none() {
+            return self.attempt(mv, name, report, self.settings.limits);
+        }
+        let margin = self.settings.clearance.as_ref().map_or(0.0, |c| c.margin);
+        let start = (self.snapshot(), report.clone());
+        let mut pace = 1.0;
+        let mut too_near = Vec::new();
+        // The nearest approach of the best try so far, its pace, the game and report after it.
+        let mut best: Option<(f64, f64, Snapshot, MoveReport)> = None;
+        for tries in 0..=PACE_TRIES {
+            self.attempt(mv, name, report, self.settings.limits.at_pace(pace))?;
+            // Nearer than the margin to anything but the piece the fingers open around (whose
+            // gap is the gripper's opening), or touching anything.
+            let near = match &report.executed_clearance {
+                Some(Executed::Measured(m)) if m.distance < margin || m.is_contact() => {
+                    if m.is_contact() {
+                        0.0
+                    } else {
+                        m.distance
+                    }
+                }
+                _ => {
+                    best = None;
+                    break;
+                }
+            };
+            too_near.push(near);
+            // The faster of two tries that come as near.
+            if best.as_ref().is_none_or(|(nearest, ..)| near > *nearest) {
+                best = Some((near, pace, self.snapshot(), report.clone()));
+            }
+            if tries == PACE_TRIES {
+                break;
+            }
+            pace *= PACE_STEP;
+            self.restore(&start.0);
+            *report = start.1.clone();
+        }
+        // A try that kept the margin stands as it ran; else the one that came least near.
+        if let Some((_, best_pace, after, best_report)) = best {
+            self.restore(&after);
+            *report = best_report;
+            pace = best_pace;
+        }
+        report.pace = pace;
+        report.too_near_at = too_near;
+        Ok(())
+    }
+
+    /// What a robot move changes in the game, to run it again.
+    fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            feedback: self.feedback.clone(),
+            table: self.table.clone(),
+            tool: self.tool,
+            state: self.state,
+            actuators: self.actuators,
+            robot_time: self.robot_time,
+        }
+    }
+
+    fn restore(&mut self, snapshot: &Snapshot) {
+        self.feedback = snapshot.feedback.clone();
+        self.table = snapshot.table.clone();
+        self.tool = snapshot.tool;
+        self.state = snapshot.state;
+        self.actuators = snapshot.actuators;
+        self.robot_time = snapshot.robot_time;
+    }
+
+    /// One try of a robot move at `limits`: planned clear ([`Self::plan_clear`]), simulated,
+    /// the pieces put where the simulation left them; the arm's state, the robot time and the
+    /// tool are the game's after it.
+    fn attempt(
+        &mut self,
+        mv: &Move,
+        name: &str,
+        report: &mut MoveReport,
+        limits: MotionLimits,
+    ) -> Result<(), PlayError> {
+        let ClearPlan { plan, clearance: planned_clearance, adjustments, check } = self.plan_clear(mv, name, limits)?;
         report.clearance = planned_clearance;
         report.adjustments = adjustments;
         report.opening = check.as_ref().map(|c| c.gripper.finger_opening);
@@ -882,8 +999,9 @@ impl Game {
                 (planned.distance.min(planned.gripped.unwrap_or(f64::INFINITY)) - 2.0 * strayed - moved - held_off)
                     .max(0.0);
             // The margin is the plan's; the simulated motion is measured where the bound
-            // cannot rule out a contact.
-            report.executed_clearance = Some(if at_least > 0.0 {
+            // cannot rule out coming nearer (with the pace chosen, nearer than the margin).
+            let measure_below = if self.settings.choose_pace { clear.margin } else { 0.0 };
+            report.executed_clearance = Some(if at_least > measure_below {
                 Executed::AtLeast(at_least)
             } else {
                 match check_move(

@@ -620,10 +620,10 @@ impl std::fmt::Display for Unplaced {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "no pose of {} tried serves squares of {:.1} mm; the nearest, centre ({:.4}, {:.4}) m, yaw {:.4} rad, with \
-             the tool {}, fails {} place{}",
-            self.tried,
+            "no pose found serves squares of {:.1} mm ({} poses tried on the reach, the best checked in full); the \
+             nearest, centre ({:.4}, {:.4}) m, yaw {:.4} rad, with the tool {}, fails {} place{}",
             self.board.square_size * 1e3,
+            self.tried,
             self.board.center.x,
             self.board.center.y,
             self.board.yaw,
@@ -637,14 +637,18 @@ impl std::fmt::Display for Unplaced {
 impl std::error::Error for Unplaced {}
 
 /// Places a board of squares of `size` m (the pieces scaled to it from `pieces` on squares of
-/// `square_size` m) where the arm serves it, on a table at `surface` m: the fit's search
-/// ([`fit_board`]) at one size. Of the poses the radial table serves, per pitch the one of the
-/// largest margin, pitches nearest straight down first and those keeping [`FIT_MARGIN`] before
-/// the others, is checked in full ([`check_table`]); the first that passes is the placement.
+/// `square_size` m) where the arm serves it, on a table at `surface` m: the fit's poses
+/// ([`fit_board`]) at one size, at every pitch [`check_table`] tries ([`PITCH_STEP`] apart).
+/// The poses the radial table serves are the candidates, [`PLACE_POSES_PER_PITCH`] of each
+/// pitch (the largest margins): those keeping [`FIT_MARGIN`] first, then by pitch (nearest
+/// straight down first), then by margin; each has its columns checked at its pitch, and those
+/// clear the full reach check ([`check_table_at`]), at most [`PLACE_COLUMN_CHECKS`] and
+/// [`PLACE_FULL_CHECKS`] of them; the first that passes is the placement (its margin may be below [`FIT_MARGIN`] when
+/// no pose keeping it passes: [`Fit::margin`] says).
 ///
 /// # Errors
 ///
-/// No pose tried is served: the nearest, and what fails there ([`Unplaced`]).
+/// No pose checked is served: the nearest, and what fails there ([`Unplaced`]).
 pub fn place_board(
     arm: &ArmModel<4>,
     pieces: &PieceSet,
@@ -654,27 +658,25 @@ pub fn place_board(
     (surface, clearance): (f64, f64),
     columns: Option<&ClearanceCheck>,
 ) -> Result<Fit, Box<Unplaced>> {
-    /// Full checks at most: each costs about as much as the whole search.
-    const CHECKS: usize = 4;
     let base = arm.base().xy();
     let scaled = scaled_pieces(pieces, square_size, size);
-    let radials: Vec<(f64, Radial)> = pitches(tilt_allowed(arm, limits), FIT_PITCH_STEP)
+    // Every pitch the pre-flight tries (one size: the tables are cheap next to the checks).
+    let radials: Vec<(f64, Radial)> = pitches(tilt_allowed(arm, limits), PITCH_STEP)
         .map(|pitch| (pitch, Radial::new(arm, &scaled, limits, (surface, clearance), pitch)))
         .collect();
     let heights = heights(&scaled, limits);
     let mut tried = 0;
-    // Per pitch the pose of the largest margin; over all, the pose of fewest unserved points.
-    let mut best: Vec<Option<(f64, BoardGeometry)>> = vec![None; radials.len()];
+    // Every served pose (pitch's index, margin, board); per pitch the pose of fewest points
+    // out of reach among those not served.
+    let mut served: Vec<(usize, f64, BoardGeometry)> = Vec::new();
     let mut fewest: Vec<Option<(usize, BoardGeometry)>> = vec![None; radials.len()];
     for board in board_poses(arm, &radials[0].1, size, (surface, clearance)) {
         tried += 1;
         let points: Vec<Vector2<f64>> = places(&board, &scaled, limits).into_iter().map(|(_, p)| p).collect();
         let Some(spread) = spread(&base, &points) else { continue };
-        for (((_, radial), best), fewest) in radials.iter().zip(best.iter_mut()).zip(fewest.iter_mut()) {
+        for (index, ((_, radial), fewest)) in radials.iter().zip(fewest.iter_mut()).enumerate() {
             if let Some(margin) = proxy_margin(radial, &base, &points, spread) {
-                if best.is_none_or(|(m, _)| margin > m) {
-                    *best = Some((margin, board));
-                }
+                served.push((index, margin, board));
             } else {
                 let unserved = points.iter().filter(|p| radial.stretch((*p - base).norm()).is_none()).count();
                 if fewest.is_none_or(|(count, _)| unserved < count) {
@@ -683,27 +685,35 @@ pub fn place_board(
             }
         }
     }
-    let mut candidates: Vec<(f64, BoardGeometry, f64)> =
-        radials.iter().zip(&best).filter_map(|((pitch, _), b)| b.map(|(m, board)| (m, board, *pitch))).collect();
-    // Stable: within each group the pitches stay nearest straight down first.
-    candidates.sort_by_key(|(margin, _, _)| *margin < FIT_MARGIN);
-    let mut checks = 0;
-    // Poses the radial table serves that a column or the full check refused.
+    served.sort_by(|a, b| (a.1 < FIT_MARGIN).cmp(&(b.1 < FIT_MARGIN)).then(a.0.cmp(&b.0)).then(b.1.total_cmp(&a.1)));
+    // The best few of each pitch, so that the checks reach the tilted ones.
+    let mut per_pitch = vec![0; radials.len()];
+    served.retain(|(index, _, _)| {
+        per_pitch[*index] += 1;
+        per_pitch[*index] <= PLACE_POSES_PER_PITCH
+    });
+    let (mut column_checks, mut full_checks) = (0, 0);
+    // Poses the radial table serves that a column or the full check refused, the first few.
     let mut refused = Vec::new();
-    for (margin, board, pitch) in candidates {
-        if let Some(check) = columns
-            && check_columns(arm, check, &board, &scaled, &heights, pitch, None).is_err()
-        {
-            refused.push((pitch, board));
-            continue;
-        }
-        if checks == CHECKS {
+    for (index, margin, board) in served {
+        if column_checks == PLACE_COLUMN_CHECKS || full_checks == PLACE_FULL_CHECKS {
             break;
         }
-        checks += 1;
-        match check_table(arm, &board, &scaled, limits, columns) {
-            Ok(pitch) => return Ok(Fit { board, pieces: scaled, margin, tried, pitch }),
-            Err(_) => refused.push((pitch, board)),
+        let pitch = radials[index].0;
+        if let Some(check) = columns {
+            column_checks += 1;
+            if check_columns(arm, check, &board, &scaled, &heights, pitch, None).is_err() {
+                if refused.len() < PLACE_FULL_CHECKS {
+                    refused.push((pitch, board));
+                }
+                continue;
+            }
+        }
+        full_checks += 1;
+        match check_table_at(arm, &board, &scaled, limits, pitch, None) {
+            Ok(()) => return Ok(Fit { board, pieces: scaled, margin, tried, pitch }),
+            Err(_) if refused.len() < PLACE_FULL_CHECKS => refused.push((pitch, board)),
+            Err(_) => {}
         }
     }
     // The nearest pose: of those the radial table serves but a column or the full check
@@ -717,8 +727,8 @@ pub fn place_board(
     if let Some((failures, pitch, board)) = nearest {
         return Err(Box::new(Unplaced { board, pieces: scaled, pitch, failures, tried }));
     }
-    // Every pose surrounds the base (squares larger than the reach): the board a square's
-    // width farther out than its own half, straight down.
+    // Every pose surrounds the base (squares larger than the reach): the board five squares
+    // out along the base's mid-range, straight down.
     let radial = &radials[0].1;
     let board = BoardGeometry {
         square_size: size,
@@ -731,6 +741,13 @@ pub fn place_board(
     let failures = place_failures(arm, &board, &scaled, limits, TOOL_DOWN, columns);
     Err(Box::new(Unplaced { board, pieces: scaled, pitch: TOOL_DOWN, failures, tried }))
 }
+
+/// How many served poses [`place_board`] checks the columns of, at most.
+pub const PLACE_COLUMN_CHECKS: usize = 128;
+/// How many served poses of each pitch (those of the largest margins) [`place_board`] checks.
+pub const PLACE_POSES_PER_PITCH: usize = 2;
+/// How many poses with clear columns [`place_board`] checks in full, at most.
+pub const PLACE_FULL_CHECKS: usize = 8;
 
 /// Per place of `geometry` (every square, slot and the home point), the first thing that fails
 /// there with the tool at `pitch`: within the base's room, a height out of reach or too heavy,

@@ -121,8 +121,8 @@ fn scenario_joint_path_traces_the_tip_path() {
 
 /// Squares turned half a turn on the table: each square stands where its point-mirror through
 /// the board's centre stood (a1 where h8 was), the square under a point is found back, the
-/// slots and the home point stay, and the arm serves the turned board exactly as it serves the
-/// board unturned (the same pitch; the same first failure on a board it does not serve).
+/// slots and the home point stay, and the arm serves the turned board, its columns checked,
+/// exactly when it serves the board unturned, at the same pitch.
 #[test]
 fn turned_squares_are_the_same_points_and_served_alike() {
     use chessarm_chess::pieces::PieceSet;
@@ -156,8 +156,9 @@ fn turned_squares_are_the_same_points_and_served_alike() {
             assert_eq!(table.nominal_position(slot), turned_table.nominal_position(slot), "{slot}");
         }
         assert_eq!(home_tool(&board, &pieces, &limits), home_tool(&turned, &pieces, &limits));
-        let served = check_table(&arm, &board, &pieces, &limits, None);
-        let served_turned = check_table(&arm, &turned, &pieces, &limits, None);
+        let columns = chessarm_chess::clearance::moves::ClearanceCheck::default();
+        let served = check_table(&arm, &board, &pieces, &limits, Some(&columns));
+        let served_turned = check_table(&arm, &turned, &pieces, &limits, Some(&columns));
         assert_eq!(served.is_ok(), served_turned.is_ok(), "{served:?} / {served_turned:?}");
         if let (Ok(pitch), Ok(turned_pitch)) = (&served, &served_turned) {
             assert_eq!(pitch, turned_pitch);

@@ -1,10 +1,11 @@
 //! A board of given squares placed where the arm serves it (`chessarm board --fit
 //! --square-size`), or the nearest pose and what fails there: the placement passes the full
-//! check, and a listed failure is one the full check finds.
+//! check, every size the fit serves is placed, and at the nearest pose of squares no pose
+//! serves the full check fails too.
 
 use chessarm_chess::clearance::moves::ClearanceCheck;
 use chessarm_chess::pieces::PieceSet;
-use chessarm_chess::reach::{check_table, check_table_at, place_board, place_failures};
+use chessarm_chess::reach::{check_table, check_table_at, fit_board, place_board, place_failures};
 use chessarm_chess::tasks::MotionLimits;
 use chessarm_core::arm::bodies::Gripper;
 use chessarm_core::arm::preset::report_arm;
@@ -62,4 +63,21 @@ fn squares_too_large_give_the_nearest_pose_and_failures_the_full_check_confirms(
     let full = check_table_at(&arm, &unplaced.board, &unplaced.pieces, &limits, unplaced.pitch, Some(&check));
     assert!(full.is_err());
     assert!(unplaced.to_string().contains(&format!("fails {} places", unplaced.failures.len())), "{unplaced}");
+}
+
+/// The fit's largest board, and one a little smaller, are placed at their size: what the fit
+/// serves the placement finds, with the report's default fingers and with slim ones.
+#[test]
+fn every_size_the_fit_serves_is_placed() {
+    let arm = report_arm();
+    let limits = MotionLimits::default();
+    let pieces = PieceSet::default();
+    for check in [ClearanceCheck::default(), slim()] {
+        let fit = fit_board(&arm, &pieces, 0.06, &limits, (0.0, 0.05), Some(&check)).expect("a board fits");
+        for size in [fit.board.square_size, 0.9 * fit.board.square_size] {
+            let placed = place_board(&arm, &pieces, 0.06, size, &limits, (0.0, 0.05), Some(&check))
+                .unwrap_or_else(|e| panic!("squares of {size} m, the fit's largest {}: {e}", fit.board.square_size));
+            check_table(&arm, &placed.board, &placed.pieces, &limits, Some(&check)).expect("served");
+        }
+    }
 }

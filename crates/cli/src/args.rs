@@ -58,16 +58,28 @@ fn positive_unescaped(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A board's square size for `board --fit --square-size`, m, and the text it was typed as
+/// (for messages).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SquareSize {
+    pub metres: f64,
+    pub typed: String,
+}
+
 /// A board's square size for `board --fit --square-size`, m: within the sizes the fit searches,
 /// 1 cm to 20 cm (a value in mm, as 25, is refused with a hint).
-fn square_size_unescaped(text: &str) -> Result<f64, String> {
-    let value = positive_unescaped(text)?;
-    if value > 0.2 {
-        Err(format!("{text} m is larger than a board's squares can be (at most 0.2 m); give metres, e.g. 0.025"))
-    } else if value < 0.01 {
-        Err(format!("{text} m is smaller than the squares the fit tries (at least 0.01 m)"))
+fn square_size_unescaped(text: &str) -> Result<SquareSize, String> {
+    let metres = match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => v,
+        Ok(_) => return Err(format!("'{text}' must be a finite number of metres > 0, e.g. 0.025")),
+        Err(_) => return Err(format!("'{text}' is not a number")),
+    };
+    if metres > 0.2 {
+        Err(format!("'{text}' m is larger than a board's squares can be (at most 0.2 m); give metres, e.g. 0.025"))
+    } else if metres < 0.01 {
+        Err(format!("'{text}' m is smaller than the squares the fit tries (at least 0.01 m)"))
     } else {
-        Ok(value)
+        Ok(SquareSize { metres, typed: text.to_string() })
     }
 }
 
@@ -213,7 +225,7 @@ escaped! {
     non_negative => non_negative_unescaped -> f64;
     positive => positive_unescaped -> f64;
     export_rate => export_rate_unescaped -> f64;
-    square_size => square_size_unescaped -> f64;
+    square_size => square_size_unescaped -> SquareSize;
     bus_rate => bus_rate_unescaped -> f64;
     wait => wait_unescaped -> f64;
     residual_mm => residual_mm_unescaped -> f64;

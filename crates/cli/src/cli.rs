@@ -495,6 +495,11 @@ pub struct PlayArgs {
     /// The controller's model includes each gripped piece.
     #[arg(long)]
     pub controller_knows_payload: bool,
+    /// Run every move at the pace given (--pace, default 1), even where its simulated motion
+    /// comes nearer than [motion] arm_clearance; by default such a move is run again slower
+    /// (0.7× at a time, at most 4 times) and the try that kept clear stands.
+    #[arg(long)]
+    pub keep_pace: bool,
     #[command(flatten)]
     pub conditions: ConditionArgs,
     #[command(flatten)]
@@ -776,8 +781,8 @@ pub struct BoardArgs {
     /// With --fit: place a board of squares of this size (m, e.g. 0.025) where the arm serves
     /// it, instead of the largest; when no pose serves it, which squares and slots fail and
     /// why (--map draws the nearest pose).
-    #[arg(long, value_name = "M", value_parser = args::square_size, requires = "fit")]
-    pub square_size: Option<f64>,
+    #[arg(long, value_name = "M", value_parser = args::square_size, requires = "fit", allow_hyphen_values = true)]
+    pub square_size: Option<args::SquareSize>,
     /// With --fit: write the setup file here (the summary then goes to standard output).
     #[arg(long, value_name = "FILE.toml", requires = "fit")]
     pub save: Option<PathBuf>,

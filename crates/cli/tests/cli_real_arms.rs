@@ -250,8 +250,9 @@ fn a_board_of_given_squares_is_placed_or_its_failing_places_are_listed() {
     let checked = json_of(&chessarm(&[&setup[..], &["board"]].concat()));
     assert_eq!(checked["served"], true, "{checked}");
 
-    // 3 cm squares: no pose serves them. The failures, no setup file, the nearest pose's map.
-    let refused_save = dir.path().join("refused.toml");
+    // 3 cm squares: no pose serves them. The failures, no setup file (the one the run above
+    // wrote there is removed, not left looking like this run's), the nearest pose's map.
+    let refused_save = saved.clone();
     let map = dir.path().join("nearest.png");
     let refused = chessarm(
         &[
@@ -276,7 +277,12 @@ fn a_board_of_given_squares_is_placed_or_its_failing_places_are_listed() {
     assert!(std::fs::metadata(&map).unwrap().len() > 1000, "the nearest pose's reach map");
 
     // Bad sizes name the flag and the value as typed.
-    for (typed, said) in [("25", "give metres"), ("nan", "finite"), ("0.001", "at least 0.01 m")] {
+    for (typed, said) in [
+        ("25", "give metres"),
+        ("nan", "finite"),
+        ("0.001", "at least 0.01 m"),
+        ("-0.03", "finite number of metres > 0"),
+    ] {
         let output = chessarm(&["board", "--fit", "--square-size", typed]);
         assert_eq!(output.status.code(), Some(2), "{typed}");
         let stderr = String::from_utf8_lossy(&output.stderr);
@@ -284,4 +290,73 @@ fn a_board_of_given_squares_is_placed_or_its_failing_places_are_listed() {
     }
     // Without --fit it has nothing to place.
     assert_eq!(chessarm(&["board", "--square-size", "0.03"]).status.code(), Some(2));
+}
+
+/// The pace the servos keep clear: on the SO-101's fitted board, its 12 V servos sent
+/// feedforward goals and hobby encoders, the Opera game at the limits' own pace touches pieces
+/// in the simulated motion (`--keep-pace`); by default each such move is run again at 0.7× its
+/// pace until it keeps `arm_clearance`, and the game has no contact. A slowed move's pace is
+/// 0.7 to the number of tries that came too near, each nearer than the margin, and its last
+/// try keeps the margin.
+#[test]
+fn the_planner_slows_a_move_the_servos_would_not_keep_clear() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = urdf("so101_new_calib");
+    let base = ["--urdf", path.to_str().unwrap(), "--lock", "wrist_roll=0", "--arm", common::NEEDLE_FINGERS];
+    let fit = json_of(&chessarm(&[&base[..], &["board", "--fit"]].concat()));
+    let setup = dir.path().join("so101.toml");
+    std::fs::write(&setup, fit["setup"].as_str().unwrap()).unwrap();
+    let servos = [
+        "--urdf",
+        path.to_str().unwrap(),
+        "--arm",
+        setup.to_str().unwrap(),
+        "--actuator",
+        "sts3215-12v",
+        "--servo-command",
+        "feedforward",
+    ];
+    let game = |name: &str, extra: &[&str]| -> Value {
+        let out = dir.path().join(name);
+        json_of(&chessarm(
+            &[&servos[..], &["play", OPERA, "--sensors", "hobby", "--out", out.to_str().unwrap()], extra].concat(),
+        ));
+        common::json_file(&out.join("game.json"))
+    };
+    let kept = game("kept", &["--keep-pace"]);
+    assert!(kept["clearance"]["contacts"].as_u64().unwrap() > 0, "{}", kept["clearance"]);
+    assert_eq!(kept["clearance"]["slowed_moves"], 0);
+    let chosen = game("chosen", &[]);
+    let clearance = &chosen["clearance"];
+    assert_eq!(clearance["contacts"], 0, "{clearance}");
+    assert_eq!(chosen["complete"], true);
+    assert_eq!(chosen["misplaced"].as_array().unwrap().len(), 0);
+    let margin_mm = 1.0; // the needle fingers' [motion] arm_clearance
+    let moves = chosen["moves"].as_array().unwrap();
+    let slowed: Vec<&Value> = moves.iter().filter(|m| m["pace"].as_f64().unwrap() < 1.0).collect();
+    assert!(!slowed.is_empty());
+    assert_eq!(clearance["slowed_moves"].as_u64().unwrap() as usize, slowed.len());
+    for m in &slowed {
+        let tries = m["too_near_tries_mm"].as_array().unwrap();
+        assert!(!tries.is_empty() && tries.iter().all(|d| d.as_f64().unwrap() < margin_mm), "{m}");
+        let pace = m["pace"].as_f64().unwrap();
+        assert!((pace - 0.7f64.powi(tries.len() as i32)).abs() < 1e-12, "{m}");
+        let executed = &m["clearance"]["executed"];
+        let last = executed["smallest_mm"].as_f64().or_else(|| executed["at_least_mm"].as_f64()).unwrap();
+        assert!(last >= margin_mm && executed["contact"] == false, "{m}");
+    }
+    // Moves that kept clear the first time ran at the pace given, as with --keep-pace.
+    for (m, k) in moves.iter().zip(kept["moves"].as_array().unwrap()).take_while(|(m, _)| m["pace"] == 1.0) {
+        assert_eq!(m["duration_s"], k["duration_s"], "ply {}", m["ply"]);
+    }
+    // Slower moves cost robot time: reported per move.
+    let per_move = chosen["robot_time_per_robot_move_s"].as_f64().unwrap();
+    let total = chosen["total_robot_time_s"].as_f64().unwrap();
+    assert!((per_move * moves.len() as f64 - total).abs() < 1e-6 * total, "{per_move} {total}");
+    assert!(total > kept["total_robot_time_s"].as_f64().unwrap());
+    eprintln!(
+        "SO-101 servos, Opera game: {} contacts at the pace given; {} moves slowed, 0 contacts, {per_move:.2} s per move",
+        kept["clearance"]["contacts"],
+        slowed.len()
+    );
 }

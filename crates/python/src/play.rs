@@ -451,6 +451,7 @@ pub fn play(
         integrator,
         export_rate: 100.0,
         controller_knows_payload,
+        keep_pace: false,
     };
     // What `prepare` refuses is an argument (the servos' strategy, the gains, the sensors, a
     // plant or uncertainty file): a ValueError, as the other studies' arguments.

@@ -891,6 +891,7 @@ fn options(args: &PlayArgs) -> PlayOptions {
         integrator: args.integrator.integrator(),
         export_rate: args.export_rate,
         controller_knows_payload: args.controller_knows_payload,
+        keep_pace: args.keep_pace,
     }
 }
 
@@ -1010,6 +1011,9 @@ fn clearance_summary(reports: &[MoveReport]) -> Option<Value> {
         "obstacle": nearest.1.obstacle_name,
         "contacts": contacts,
         "adjusted_moves": reports.iter().filter(|r| !r.adjustments.is_empty()).count(),
+        // Moves run again slower because the simulated motion came nearer than the margin.
+        "slowed_moves": reports.iter().filter(|r| r.mover == Mover::Robot && r.pace < 1.0).count(),
+        "slowest_pace": reports.iter().filter(|r| r.mover == Mover::Robot).map(|r| r.pace).fold(1.0, f64::min),
         "by_kind": by_kind,
     }))
 }
@@ -1018,7 +1022,7 @@ fn clearance_summary(reports: &[MoveReport]) -> Option<Value> {
 fn clearance_text(reports: &[MoveReport]) -> Option<String> {
     let summary = clearance_summary(reports)?;
     Some(format!(
-        "smallest clearance {:.1} mm (ply {} {}: {} – {}); {} contact(s) in the simulated motion; {} move(s) changed to keep clear\n",
+        "smallest clearance {:.1} mm (ply {} {}: {} – {}); {} contact(s) in the simulated motion; {} move(s) changed to keep clear{}\n",
         summary["smallest_mm"].as_f64().unwrap_or(f64::NAN),
         summary["ply"],
         summary["san"].as_str().unwrap_or(""),
@@ -1026,6 +1030,13 @@ fn clearance_text(reports: &[MoveReport]) -> Option<String> {
         summary["obstacle"].as_str().unwrap_or(""),
         summary["contacts"],
         summary["adjusted_moves"],
+        match summary["slowed_moves"].as_u64() {
+            Some(0) | None => String::new(),
+            Some(n) => format!(
+                ", {n} slowed (down to {:.2} of the pace) where the simulated motion came nearer than the margin",
+                summary["slowest_pace"].as_f64().unwrap_or(1.0)
+            ),
+        },
     ))
 }
 
@@ -1058,6 +1069,12 @@ fn waits_json(waits: &[chessarm_core::plan::fine_point::Wait]) -> Value {
         })
         .collect();
     value
+}
+
+/// The robot time of the arm's moves (their simulated durations), s per move; `None` without.
+fn robot_time_per_move(reports: &[MoveReport]) -> Option<f64> {
+    let robot: Vec<f64> = reports.iter().filter(|r| r.mover == Mover::Robot).map(|r| r.duration).collect();
+    (!robot.is_empty()).then(|| robot.iter().sum::<f64>() / robot.len() as f64)
 }
 
 fn game_json(
@@ -1096,6 +1113,10 @@ fn game_json(
                 "clearance": r.clearance.as_ref().map(|c| clearance_json(c, r.executed_clearance.as_ref())),
                 "clearance_adjustments": r.adjustments,
                 "finger_opening_mm": r.opening.map(|o| o * 1e3),
+                // The pace it ran at (a fraction of the limits'), and the simulated clearance of
+                // each try that came nearer than the margin before it (mm, 0: a contact).
+                "pace": (r.mover == Mover::Robot).then_some(r.pace),
+                "too_near_tries_mm": r.too_near_at.iter().map(|d| d * 1e3).collect::<Vec<_>>(),
             })
         })
         .collect();
@@ -1127,6 +1148,7 @@ fn game_json(
             "y_m": p.position.y,
         })).collect::<Vec<_>>(),
         "total_robot_time_s": game.robot_time(),
+        "robot_time_per_robot_move_s": robot_time_per_move(reports),
         // The tool's pitch for every grip, carry and release, and the board it was played on
         // (turned to face a person, where one plays).
         "tool_pitch_rad": game.pitch(),

@@ -142,8 +142,9 @@ fn replay_command(setup: &Setup, args: &RobustnessArgs) -> String {
             args.payload_mass.unwrap_or(setup.pieces.pawn.mass),
             args.conditions.options().flags()
         ),
+        // The campaign ran every move at the pace given: so does the replay.
         Some(path) => format!(
-            "{arm}play {} --game {}{knows}{}{from_setup}",
+            "{arm}play {} --game {} --keep-pace{knows}{}{from_setup}",
             word(path),
             args.game,
             args.conditions.options().flags()

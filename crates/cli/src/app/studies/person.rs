@@ -187,8 +187,8 @@ pub fn seat(setup: &Setup, person: Color) -> (BoardGeometry, String) {
     (
         turned,
         format!(
-            "seat: the squares turned half a turn on the table ([board] squares_turned = {}) so that {side}'s first \
-             rank faces the person across from the arm; the graveyards and reserves stay where they were\n",
+            "seat: the squares turned half a turn from the setup's (now [board] squares_turned = {}) so that {side}'s \
+             first rank faces the person across from the arm; the graveyards and reserves stay where they were\n",
             turned.squares_turned
         ),
     )

@@ -48,6 +48,9 @@ pub struct PlayOptions {
     /// Rate of the hardware export's samples, Hz.
     pub export_rate: f64,
     pub controller_knows_payload: bool,
+    /// Every move at the limits' pace, none slowed where its simulated motion comes too near
+    /// ([`PlaySettings::choose_pace`] off).
+    pub keep_pace: bool,
 }
 
 /// A game's settings made ready: what [`Game::new`] takes, the study of its conditions and its
@@ -114,6 +117,7 @@ pub fn prepare(setup: &Setup, options: &PlayOptions) -> Result<Prepared> {
     settings.integrator = options.integrator;
     settings.dt = options.dt;
     settings.tolerance = options.tolerance;
+    settings.choose_pace = !options.keep_pace;
     settings.limits.tracking = study.tracking(
         setup,
         &settings.controller.gains,

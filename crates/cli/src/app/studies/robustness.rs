@@ -316,6 +316,8 @@ fn run_trial(
         settings.in_position = options.in_position;
         settings.integrator = options.integrator;
         settings.tolerance = options.tolerance;
+        // The campaign measures the pace it is given (--pace, --paces): no move is slowed.
+        settings.choose_pace = false;
         trial.apply_to(&mut settings);
         let mut game = Game::new(setup.arm, setup.board, record.start.clone(), settings)?;
         for mv in &record.moves {

@@ -474,6 +474,8 @@ fn game_candidate(
     options.placement.apply(&mut settings, chessarm_chess::play::DEFAULT_TOLERANCE, resolution);
     settings.integrator = options.integrator;
     settings.checked_pitch = options.pitch;
+    // Candidates are compared at the pace given: no move is slowed.
+    settings.choose_pace = false;
     let played = Game::new(setup.arm, setup.board, record.start.clone(), settings).and_then(|mut game| {
         let mut place = 0.0f64;
         for mv in &record.moves {
