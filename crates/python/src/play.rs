@@ -73,6 +73,13 @@ pub struct Ply {
     /// What the planner changed to keep the move clear.
     #[pyo3(get)]
     clearance_adjustments: Vec<String>,
+    /// Robot moves: the pace the move ran at (1, or less where its simulated motion came
+    /// nearer than the margin and it was run again slower), and each too-near try's simulated
+    /// clearance, m (0: a contact).
+    #[pyo3(get)]
+    pace: Option<f64>,
+    #[pyo3(get)]
+    too_near_tries: Vec<f64>,
     /// Pieces found off their squares after this move (descriptions).
     #[pyo3(get)]
     misplaced: Vec<String>,
@@ -131,6 +138,8 @@ impl Ply {
             executed_clearance: report.executed_clearance.as_ref().map(|e| e.distance()),
             contact: report.executed_clearance.as_ref().is_some_and(|e| e.is_contact()),
             clearance_adjustments: report.adjustments.clone(),
+            pace: robot.then_some(report.pace),
+            too_near_tries: report.too_near_at.clone(),
             misplaced: report.new_misplaced.iter().map(|m| m.reason.clone()).collect(),
             waits: (waits.count, waits.total, waits.longest, waits.timed_out),
             saturated_samples: report.summary.as_ref().map(|s| s.saturated_samples),
@@ -309,7 +318,7 @@ fn spawn_engine(name: &str, depth: u32, movetime: u64) -> PyResult<Engine> {
     timing = None, motion = None, controller_knows_payload = false, payload_feedforward = true,
     release_by_clock = false, in_position_band = None, in_position_speed = None, in_position_timeout = None,
     controller_knows_friction = None, torque_lag = None, plant = None, uncertainty = None,
-    kalman_acceleration_noise = None, lowpass_time_constant = None
+    kalman_acceleration_noise = None, lowpass_time_constant = None, keep_pace = false
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn play(
@@ -349,6 +358,7 @@ pub fn play(
     uncertainty: Option<PathBuf>,
     kalman_acceleration_noise: Option<f64>,
     lowpass_time_constant: Option<f64>,
+    keep_pace: bool,
 ) -> PyResult<Game> {
     let py_setup = setup.get();
     positive("dt", dt)?;
@@ -451,7 +461,7 @@ pub fn play(
         integrator,
         export_rate: 100.0,
         controller_knows_payload,
-        keep_pace: false,
+        keep_pace,
     };
     // What `prepare` refuses is an argument (the servos' strategy, the gains, the sensors, a
     // plant or uncertainty file): a ValueError, as the other studies' arguments.

@@ -428,6 +428,10 @@ def test_play_moves_in_memory(setup):
     assert ply.q.shape == (len(ply.t), 4) and ply.tip.shape == (len(ply.t), 3)
     assert game.placement_errors.shape == (3,)
     assert game.robot_time == pytest.approx(sum(p.duration for p in game.plies))
+    # The report's arm keeps clear at its pace: no move slowed, as with keep_pace.
+    kept = chessarm.play(setup, moves="e4 e5 Nf3", keep_pace=True)
+    assert [p.pace for p in game.plies] == [p.pace for p in kept.plies] == [1.0, 1.0, 1.0]
+    assert [p.duration for p in game.plies] == [p.duration for p in kept.plies]
 
 
 @needs_cli
@@ -440,6 +444,8 @@ def test_play_equals_the_clis_game(tmp_path, setup):
         assert [e * 1e3 for e in ply.place_errors] == move["place_errors_mm"]
         assert (ply.max_tip_error * 1e3 if ply.max_tip_error is not None else None) == move["max_tip_error_mm"]
         assert ply.duration == move["duration_s"]
+        assert ply.pace == move["pace"]
+        assert [d * 1e3 for d in ply.too_near_tries] == move["too_near_tries_mm"]
         if move["clearance"]:
             assert ply.clearance * 1e3 == move["clearance"]["smallest_mm"]
     assert game.final_fen_physical == record["final_fen_physical"]

@@ -300,6 +300,8 @@ class Ply:
     executed_clearance: Optional[float]
     contact: bool
     clearance_adjustments: List[str]
+    pace: Optional[float]
+    too_near_tries: List[float]
     misplaced: List[str]
     waits: Tuple[int, float, float, int]
     saturated_samples: Optional[int]
@@ -461,6 +463,7 @@ def play(
     uncertainty: Optional[PathArg] = None,
     kalman_acceleration_noise: Optional[float] = None,
     lowpass_time_constant: Optional[float] = None,
+    keep_pace: bool = False,
 ) -> Game: ...
 
 GainRangeArg = Union[str, Tuple[float, float, int]]
