@@ -780,7 +780,13 @@ impl Game {
         // The nearest approach of the best try so far, its pace, the game and report after it.
         let mut best: Option<(f64, f64, Snapshot, MoveReport)> = None;
         for tries in 0..=PACE_TRIES {
-            self.attempt(mv, name, report, self.settings.limits.at_pace(pace))?;
+            match self.attempt(mv, name, report, self.settings.limits.at_pace(pace)) {
+                Ok(()) => {}
+                Err(error) if tries == 0 => return Err(error),
+                // A slower try the planner refuses (or that fails) leaves the best one so far,
+                // which ran: restored below.
+                Err(_) => break,
+            }
             // Nearer than the margin to anything but the piece the fingers open around (whose
             // gap is the gripper's opening), or touching anything.
             let near = match &report.executed_clearance {

@@ -288,6 +288,20 @@ fn a_board_of_given_squares_is_placed_or_its_failing_places_are_listed() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(stderr.contains("--square-size") && stderr.contains(typed) && stderr.contains(said), "{stderr}");
     }
+    // Squares the fingers cannot open on are refused before any search, and a setup file an
+    // earlier run wrote at --save goes with the failed run.
+    let placed_again = chessarm(
+        &[&base[..], &["board", "--fit", "--square-size", &size.to_string(), "--save", saved.to_str().unwrap()]]
+            .concat(),
+    );
+    assert!(placed_again.status.success() && saved.exists());
+    let too_small = chessarm(
+        &[&base[..], &["board", "--fit", "--square-size", "0.011", "--save", saved.to_str().unwrap()]].concat(),
+    );
+    assert_eq!(too_small.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&too_small.stderr);
+    assert!(stderr.contains("--square-size") && stderr.contains("11.0 mm are too small"), "{stderr}");
+    assert!(!saved.exists(), "a setup file of an earlier run left at --save");
     // Without --fit it has nothing to place.
     assert_eq!(chessarm(&["board", "--square-size", "0.03"]).status.code(), Some(2));
 }

@@ -42,21 +42,14 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         (true, Some(size)) => BoardFit::Place(size.metres),
     };
     let typed = args.square_size.as_ref().map_or(String::new(), |s| s.typed.clone());
-    let BoardStudy {
-        fitted,
-        tried,
-        seconds,
-        check,
-        margins,
-        smallest,
-        sag,
-        fingers_need: needed,
-        unplaced,
-        placed_margin,
-    } = board_study(setup, fit, args.sag_map.is_some()).map_err(|e| match fit {
-        BoardFit::Place(_) => anyhow!("--square-size {typed}: {e}"),
-        _ => e,
-    })?;
+    // A setup file an earlier run wrote at --save would look like this run's if this one
+    // fails: it goes now (check_outputs refused any file chessarm did not write).
+    if let Some(path) = &args.save {
+        crate::app::output::remove_stale(std::slice::from_ref(path))
+            .with_context(|| format!("--save {}", path.display()))?;
+    }
+    let BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed, unplaced } =
+        board_study(setup, fit, args.sag_map.is_some())?;
     if let Some(map) = &args.map {
         plot_reach_map(map, &fitted, &margins).with_context(|| format!("--map {}", map.display()))?;
     }
@@ -121,18 +114,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         setup.clearance.margin * 1e3,
         if board.square_size < needed { " — these squares are SMALLER: the planner will refuse moves" } else { "" }
     );
-    // A placed board nearer the edge of the reach than the fit keeps: said.
-    let edge = match placed_margin {
-        Some(margin) if margin < crate::app::studies::board::FIT_MARGIN => format!(
-            "note: this board's farthest-out point stands {:.1} mm inside the arm's reach (to the reach table's 1 mm); \
-             the fit keeps {:.0} mm, for pieces standing off their places (a smaller board, or --fit for the largest \
-             that keeps it)\n",
-            margin.max(0.0) * 1e3,
-            crate::app::studies::board::FIT_MARGIN * 1e3
-        ),
-        _ => String::new(),
-    };
-    let summary = format!("{summary}{edge}{fingers_text}{sag_text}");
+    let summary = format!("{summary}{fingers_text}{sag_text}");
     if let Some(nearest) = &unplaced {
         // Squares of the size asked for fit nowhere: no setup file is written or printed.
         let failures: Vec<_> =
@@ -150,11 +132,6 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
                 "fingers_need_square_size_m": needed,
             }),
         )?;
-        // A setup file an earlier run wrote there would look like this run's: it goes.
-        if let Some(path) = &args.save {
-            crate::app::output::remove_stale(std::slice::from_ref(path))
-                .with_context(|| format!("--save {}", path.display()))?;
-        }
         anyhow::bail!(
             "--square-size {typed}: {nearest} ({}){}",
             if crate::json_output() { "each in the JSON's failures" } else { "listed above" },
@@ -183,8 +160,6 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
             "setup_file": args.save.as_ref().map(|p| p.display().to_string()),
             "sag": sag_json,
             "fingers_need_square_size_m": needed,
-            // With --square-size: how far inside the reach the farthest-out point stands.
-            "placed_margin_m": placed_margin,
         });
         match &args.save {
             // The setup in its file, the summary on stdout.

@@ -33,9 +33,6 @@ pub struct BoardStudy {
     /// With squares of a given size that no pose serves: the nearest pose (the study's board)
     /// and what fails there.
     pub unplaced: Option<Box<Unplaced>>,
-    /// With squares of a given size placed: how far inside the reach its farthest-out point
-    /// stands, m (below [`FIT_MARGIN`] when only such a pose serves them).
-    pub placed_margin: Option<f64>,
 }
 
 /// What `board` does with the setup's board.
@@ -48,10 +45,6 @@ pub enum BoardFit {
     /// Places a board of squares of this size (m) where the arm serves it.
     Place(f64),
 }
-
-/// How near the edge of the reach a placed board may come before `board` warns, m: the fit's
-/// own margin ([`chessarm_chess::reach::FIT_MARGIN`]), for pieces standing off their places.
-pub use chessarm_chess::reach::FIT_MARGIN;
 
 /// Checks the setup's board, fits the largest one or places one of given squares (`fit`);
 /// `sag` asks for the sag map (refused with torque motors; with servos or steppers it is
@@ -68,7 +61,6 @@ pub fn board_study(setup: &Setup, fit: BoardFit, sag: bool) -> Result<BoardStudy
     let mut fitted = setup.clone();
     let mut tried = None;
     let mut unplaced = None;
-    let mut placed_margin = None;
     let needed = fingers_need(setup, setup.board.square_size)?;
     // What the fingers need, said of the file's fingers where it has them.
     let fingers = || match file_fingers(setup) {
@@ -120,7 +112,7 @@ pub fn board_study(setup: &Setup, fit: BoardFit, sag: bool) -> Result<BoardStudy
         }
         BoardFit::Place(size) => {
             if size < needed {
-                anyhow::bail!("squares of {:.1} mm are too small: {}", size * 1e3, fingers());
+                anyhow::bail!("--square-size: squares of {:.1} mm are too small: {}", size * 1e3, fingers());
             }
             let placed = place_board(
                 &setup.arm,
@@ -132,10 +124,7 @@ pub fn board_study(setup: &Setup, fit: BoardFit, sag: bool) -> Result<BoardStudy
                 Some(&setup.clearance),
             );
             let (board, pieces, poses) = match placed {
-                Ok(fit) => {
-                    placed_margin = Some(fit.margin);
-                    (fit.board, fit.pieces, fit.tried)
-                }
+                Ok(fit) => (fit.board, fit.pieces, fit.tried),
                 Err(nearest) => {
                     let found = (nearest.board, nearest.pieces, nearest.tried);
                     unplaced = Some(nearest);
@@ -178,18 +167,7 @@ pub fn board_study(setup: &Setup, fit: BoardFit, sag: bool) -> Result<BoardStudy
         (false, false) => None,
     };
     let smallest = margins.iter().filter_map(|(_, m)| m.as_ref().ok()).copied().fold(f64::INFINITY, f64::min);
-    Ok(BoardStudy {
-        fitted,
-        tried,
-        seconds,
-        check,
-        margins,
-        smallest,
-        sag,
-        fingers_need: needed,
-        unplaced,
-        placed_margin,
-    })
+    Ok(BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed, unplaced })
 }
 
 /// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they
