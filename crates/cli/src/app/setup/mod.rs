@@ -1,11 +1,13 @@
 //! The setup, resolved once: the setup file ([`file`]), the URDF import ([`urdf_import`]) and
-//! its meshes ([`meshes`]), the actuators ([`actuators`]), and the sensors and model errors of a
-//! study ([`conditions`]), each turned into the core's and the chess crate's types.
+//! its meshes ([`meshes`]), the actuators ([`actuators`]), the file's gripper against the pieces
+//! ([`gripper`]), and the sensors and model errors of a study ([`conditions`]), each turned into
+//! the core's and the chess crate's types.
 
 pub mod actuators;
 pub mod condition_tables;
 pub mod conditions;
 pub mod file;
+pub mod gripper;
 pub mod meshes;
 pub mod servos;
 pub mod urdf_import;

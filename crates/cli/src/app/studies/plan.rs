@@ -116,7 +116,7 @@ pub fn plan_moves(setup: &Setup, fen: Option<&str>, moves: &str, dt: f64) -> Res
     let record = parse_move_list(moves, start)?;
     let mut limits = checked_limits(setup.motion, "motion", "gripper")?;
     let mut table = Table::from_position(setup.board, &record.start);
-    crate::app::studies::play::check_file_fingers(setup)?;
+    crate::app::setup::gripper::check_file_fingers(setup)?;
     let columns = Some(&setup.clearance);
     limits.pitch = chessarm_chess::reach::check_table(&setup.arm, &setup.board, &setup.pieces, &limits, columns)
         .map_err(|e| {

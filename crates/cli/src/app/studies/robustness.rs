@@ -504,7 +504,7 @@ pub fn run_trials(
     stop: Stop<'_>,
 ) -> Result<Vec<TrialRow>> {
     if matches!(work, Work::Game(_)) {
-        crate::app::studies::play::check_file_fingers(setup)?;
+        crate::app::setup::gripper::check_file_fingers(setup)?;
     }
     let batching = crate::app::resources::batching()?;
     let indices: Vec<usize> = range.collect();

@@ -293,7 +293,7 @@ impl<'a> Prepared<'a> {
 /// Every candidate's setting in sweep order: a torque controller's gains, or with servos each
 /// host strategy's P registers.
 pub fn settings(setup: &Setup, options: &TuneOptions) -> Result<Vec<Setting>> {
-    crate::app::studies::play::check_file_fingers(setup)?;
+    crate::app::setup::gripper::check_file_fingers(setup)?;
     if setup.actuators.take_positions() {
         return servo_settings(setup, options);
     }
