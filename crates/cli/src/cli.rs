@@ -31,7 +31,7 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "LINK", requires = "urdf")]
     pub tool: Option<String>,
     /// With --urdf: the tool point in the tool link's frame, m (default 0,0,0).
-    #[arg(long, global = true, value_name = "X,Y,Z", value_parser = args::three, requires = "urdf")]
+    #[arg(long, global = true, value_name = "X,Y,Z", value_parser = args::three, requires = "urdf", allow_hyphen_values = true)]
     pub tool_offset: Option<[f64; 3]>,
     /// What drives the joints, over the setup's: `torque` (torque motors, the default), a
     /// built-in servo (sts3215, sts3215-12v, xl430, xm430, mg996r), the geared stepper nema17,

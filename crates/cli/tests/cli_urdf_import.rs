@@ -827,3 +827,19 @@ fn the_exported_arm_plays_with_the_built_in_arm_s_clearance() {
         assert_eq!(y["executed"]["contact"], false);
     }
 }
+
+/// A tool offset that starts with a minus sign is read as the offset, typed either way
+/// (`--tool-offset -0.01,0,0` was taken for an unknown flag `-0`), and moves the tool point.
+#[test]
+fn a_negative_tool_offset_is_read_as_typed() {
+    let urdf = Path::new(common::REAL_ARMS).join("so101_new_calib.urdf");
+    let urdf = urdf.to_str().unwrap();
+    let fk = |offset: &[&str]| -> Value {
+        json_of(&chessarm(&[&["--urdf", urdf, "--lock", "wrist_roll=0"], offset, &["fk", "--q", "0,0,0,0"]].concat()))
+    };
+    let spaced = fk(&["--tool-offset", "-0.01,0,0"]);
+    let joined = fk(&["--tool-offset=-0.01,0,0"]);
+    let none = fk(&[]);
+    assert_eq!(spaced, joined);
+    assert_ne!(spaced, none);
+}
