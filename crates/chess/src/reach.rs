@@ -693,6 +693,7 @@ pub fn place_board(
         per_pitch[*index] <= PLACE_POSES_PER_PITCH
     });
     let (mut column_checks, mut full_checks) = (0, 0);
+    let mut hint = None;
     // Poses the radial table serves that a column or the full check refused, the first few.
     let mut refused = Vec::new();
     for (index, margin, board) in served {
@@ -702,7 +703,9 @@ pub fn place_board(
         let pitch = radials[index].0;
         if let Some(check) = columns {
             column_checks += 1;
-            if check_columns(arm, check, &board, &scaled, &heights, pitch, None).is_err() {
+            // The column last found crowded first: the next pose usually crowds it too.
+            if let Err(crowded) = check_columns(arm, check, &board, &scaled, &heights, pitch, hint) {
+                hint = Some(crowded.place_index);
                 if refused.len() < PLACE_FULL_CHECKS {
                     refused.push((pitch, board));
                 }
@@ -719,9 +722,18 @@ pub fn place_board(
     // The nearest pose: of those the radial table serves but a column or the full check
     // refused, and per pitch the one of fewest points out of reach, the one that fails fewest
     // places (nearest straight down of those that fail as few).
+    // (Of the latter, the few of fewest points out of reach: listing a pose's failures checks
+    // every column, which with a maker's meshes takes a good part of a second.)
+    let mut off_table: Vec<(usize, usize, f64, BoardGeometry)> = radials
+        .iter()
+        .zip(&fewest)
+        .enumerate()
+        .filter_map(|(index, ((pitch, _), f))| f.map(|(count, board)| (count, index, *pitch, board)))
+        .collect();
+    off_table.sort_by_key(|(count, index, _, _)| (*count, *index));
     let nearest = refused
         .into_iter()
-        .chain(radials.iter().zip(&fewest).filter_map(|((pitch, _), f)| f.map(|(_, board)| (*pitch, board))))
+        .chain(off_table.into_iter().take(PLACE_NEAREST_OFF_TABLE).map(|(_, _, pitch, board)| (pitch, board)))
         .map(|(pitch, board)| (place_failures(arm, &board, &scaled, limits, pitch, columns), pitch, board))
         .min_by_key(|(failures, _, _)| failures.len());
     if let Some((failures, pitch, board)) = nearest {
@@ -744,6 +756,9 @@ pub fn place_board(
 
 /// How many served poses [`place_board`] checks the columns of, at most.
 pub const PLACE_COLUMN_CHECKS: usize = 128;
+/// How many poses the radial table does not serve (those of fewest points out of reach)
+/// [`place_board`] weighs as the nearest, besides those it refused.
+pub const PLACE_NEAREST_OFF_TABLE: usize = 4;
 /// How many served poses of each pitch (those of the largest margins) [`place_board`] checks.
 pub const PLACE_POSES_PER_PITCH: usize = 2;
 /// How many poses with clear columns [`place_board`] checks in full, at most.
