@@ -374,3 +374,22 @@ fn the_planner_slows_a_move_the_servos_would_not_keep_clear() {
         slowed.len()
     );
 }
+
+/// A board that is not served (the report's 6 cm board before a PincherX-100) is refused with
+/// every place that fails, not only the first: each reason names its place, and squares out of
+/// reach are among them.
+#[test]
+fn a_board_not_served_lists_every_failing_place() {
+    let path = urdf("px100");
+    let output = chessarm(&["--urdf", path.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board"]);
+    assert_eq!(output.status.code(), Some(2));
+    let value: Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(value["served"], false);
+    let failures = value["failures"].as_array().unwrap();
+    assert!(failures.len() > 1, "{value}");
+    for failure in failures {
+        let (place, why) = (failure["place"].as_str().unwrap(), failure["why"].as_str().unwrap());
+        assert!(why.contains(place) || place.starts_with("a way"), "{place}: {why}");
+    }
+    assert!(failures.iter().any(|f| f["place"] == "a1" && f["why"].as_str().unwrap().contains("out of reach")));
+}

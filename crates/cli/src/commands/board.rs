@@ -48,8 +48,19 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
         crate::app::output::remove_stale(std::slice::from_ref(path))
             .with_context(|| format!("--save {}", path.display()))?;
     }
-    let BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed, unplaced } =
+    let BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed, unplaced, failures } =
         board_study(setup, fit, args.sag_map.is_some())?;
+    let listed = || {
+        format!(
+            "{}{}",
+            failures.iter().take(SHOWN).map(|(_, why)| format!("  {why}\n")).collect::<String>(),
+            match failures.len().saturating_sub(SHOWN) {
+                0 => String::new(),
+                more => format!("  … and {more} more (--json lists every one)\n"),
+            }
+        )
+    };
+    let failures_json: Vec<_> = failures.iter().map(|(place, why)| json!({"place": place, "why": why})).collect();
     if let Some(map) = &args.map {
         plot_reach_map(map, &fitted, &margins).with_context(|| format!("--map {}", map.display()))?;
     }
@@ -86,15 +97,14 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
             ),
             Err(error) => match &unplaced {
                 // Each reason names its place; the first few, the rest counted (--json has all).
-                Some(nearest) => format!(
-                    "NOT placed: {error}:\n{}{}",
-                    nearest.failures.iter().take(SHOWN).map(|(_, why)| format!("  {why}\n")).collect::<String>(),
-                    match nearest.failures.len().saturating_sub(SHOWN) {
-                        0 => String::new(),
-                        more => format!("  … and {more} more (--json lists every one)\n"),
-                    }
+                Some(_) => format!("NOT placed: {error}:\n{}", listed()),
+                None => format!(
+                    "NOT served: {error}\n{} place{} fail{} with the tool straight down:\n{}",
+                    failures.len(),
+                    if failures.len() == 1 { "" } else { "s" },
+                    if failures.len() == 1 { "s" } else { "" },
+                    listed()
                 ),
-                None => format!("NOT served: {error}"),
             },
         },
         args.map.as_ref().map_or(String::new(), |m| format!("; reach map {}", m.display())),
@@ -117,8 +127,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
     let summary = format!("{summary}{fingers_text}{sag_text}");
     if let Some(nearest) = &unplaced {
         // Squares of the size asked for fit nowhere: no setup file is written or printed.
-        let failures: Vec<_> =
-            nearest.failures.iter().map(|(place, why)| json!({"place": place, "why": why})).collect();
+        let failures = &failures_json;
         crate::emit(
             &summary,
             &json!({
@@ -181,6 +190,7 @@ pub fn run(setup: &Setup, args: &BoardArgs) -> Result<()> {
                 "served": check.is_ok(),
                 "tool_pitch_rad": check.as_ref().ok(),
                 "why_not": check.as_ref().err().map(ToString::to_string),
+                "failures": failures_json,
                 "smallest_margin_m": smallest,
                 "sag": sag_json,
                 "fingers_need_square_size_m": needed,

@@ -6,7 +6,9 @@
 use crate::app::setup::file::Setup;
 use anyhow::{Result, anyhow};
 use chessarm_chess::board::BoardGeometry;
-use chessarm_chess::reach::{ReachError, Unplaced, check_table, fit_board, place_board, square_margins};
+use chessarm_chess::reach::{
+    ReachError, Unplaced, check_table, fit_board, place_board, place_failures, square_margins,
+};
 use chessarm_chess::sag::{SquareHold, sag_map};
 use chessarm_chess::shakmaty::Square;
 
@@ -33,6 +35,9 @@ pub struct BoardStudy {
     /// With squares of a given size that no pose serves: the nearest pose (the study's board)
     /// and what fails there.
     pub unplaced: Option<Box<Unplaced>>,
+    /// On a board that is not served: every place that fails and why (the check names the
+    /// first), with the tool straight down, or the placement's nearest pose's.
+    pub failures: Vec<(String, String)>,
 }
 
 /// What `board` does with the setup's board.
@@ -151,12 +156,19 @@ pub fn board_study(setup: &Setup, fit: BoardFit, sag: bool) -> Result<BoardStudy
     };
     let limits = chessarm_chess::tasks::MotionLimits { pitch, ..limits };
     let mut margins = square_margins(&setup.arm, &fitted.board, &fitted.pieces, &limits);
-    // A square the placement found crowded is not served either, whatever its reach.
-    if let Some(nearest) = &unplaced {
-        for (square, margin) in &mut margins {
-            if let Some((_, why)) = nearest.failures.iter().find(|(place, _)| *place == square.to_string()) {
-                *margin = Err(why.clone());
-            }
+    // Every place that fails on a board that is not served (the check names the first), at the
+    // pitch the maps are drawn at: the placement's nearest pose has its own.
+    let failures = match (&check, &unplaced) {
+        (_, Some(nearest)) => nearest.failures.clone(),
+        (Ok(_), None) => Vec::new(),
+        (Err(_), None) => {
+            place_failures(&setup.arm, &fitted.board, &fitted.pieces, &limits, limits.pitch, Some(&setup.clearance))
+        }
+    };
+    // A square found crowded is not served either, whatever its reach.
+    for (square, margin) in &mut margins {
+        if let Some((_, why)) = failures.iter().find(|(place, _)| *place == square.to_string()) {
+            *margin = Err(why.clone());
         }
     }
     let sag = match (setup.actuators.take_positions(), sag) {
@@ -167,7 +179,7 @@ pub fn board_study(setup: &Setup, fit: BoardFit, sag: bool) -> Result<BoardStudy
         (false, false) => None,
     };
     let smallest = margins.iter().filter_map(|(_, m)| m.as_ref().ok()).copied().fold(f64::INFINITY, f64::min);
-    Ok(BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed, unplaced })
+    Ok(BoardStudy { fitted, tried, seconds, check, margins, smallest, sag, fingers_need: needed, unplaced, failures })
 }
 
 /// The smallest square (m) on which the setup's fingers clear the neighbours of the piece they
