@@ -1,10 +1,11 @@
 //! What a game asks of the arm's reach: the pre-flight check of the report's board
 //! (every location at every height, every traverse between two of them, every column's
 //! clearance), and `board --fit`'s search for a maker's arm from its official URDF (the
-//! OpenManipulator-X, as published), on reach alone.
+//! OpenManipulator-X, as published), on reach alone, and `board --fit --square-size`'s
+//! placement of the report's arm's board of 5 cm squares, columns checked.
 
 use chessarm::app::setup::file::Setup;
-use chessarm_chess::reach::{check_table, fit_board};
+use chessarm_chess::reach::{check_table, fit_board, place_board};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -26,6 +27,22 @@ fn reach(c: &mut Criterion) {
             let square = setup.board.square_size;
             fit_board(black_box(&arm.model), &setup.pieces, square, &setup.motion, (0.0, 0.05), None)
                 .expect("a board fits")
+        })
+    });
+    group.bench_function("board --fit --square-size 0.05, the report's arm", |b| {
+        b.iter(|| {
+            let square = setup.board.square_size;
+            let table = (setup.board.surface_height, setup.board.base_clearance);
+            place_board(
+                black_box(&setup.arm),
+                &setup.pieces,
+                square,
+                0.05,
+                &setup.motion,
+                table,
+                Some(&setup.clearance),
+            )
+            .expect("5 cm squares are placed")
         })
     });
     group.finish();
