@@ -284,27 +284,18 @@ pub fn check_table_at(
     let margin = limits.torque_margin;
     // Nothing within the base's own room: no location, no traverse.
     let clearance = geometry.base_clearance;
-    let near = |place: String, p: &Vector2<f64>| -> Result<(), ReachError> {
-        let distance = (p - base).norm();
-        if distance < clearance {
-            return Err(ReachError::NearBase { place, x: p.x, y: p.y, distance, clearance });
-        }
-        Ok(())
-    };
     for (name, p) in &all {
-        near(name.clone(), p)?;
+        outside_base(name, p, &base, clearance)?;
     }
     for (i, (from_name, a)) in all.iter().enumerate() {
         for (to_name, b) in &all[i + 1..] {
-            near(format!("the way from {from_name} to {to_name}"), &closest_on_segment(base, *a, *b))?;
+            let way = format!("the way from {from_name} to {to_name}");
+            outside_base(&way, &closest_on_segment(base, *a, *b), &base, clearance)?;
         }
     }
     // The locations themselves first (their messages name them), then the traverses.
     for (name, p) in &all {
-        for &h in &heights {
-            let point = Vector3::new(p.x, p.y, z0 + h);
-            serve(arm, &loaded, &point, pitch, margin).map_err(|why| failure(name.clone(), h, &point, why, margin))?;
-        }
+        serve_heights(arm, &loaded, name, p, z0, &heights, pitch, margin)?;
     }
     let lowest_traverse = limits.clearance_margin + heights[0];
     let blend = limits.blend;
@@ -329,6 +320,35 @@ pub fn check_table_at(
         Some(check) => check_columns(arm, check, geometry, pieces, &heights, pitch, None).map_err(ReachError::Crowded),
         None => Ok(()),
     }
+}
+
+/// `place` at `p` keeps `clearance` (m) from the base axis at `base` (the base's own room).
+fn outside_base(place: &str, p: &Vector2<f64>, base: &Vector2<f64>, clearance: f64) -> Result<(), ReachError> {
+    let distance = (p - base).norm();
+    if distance < clearance {
+        return Err(ReachError::NearBase { place: place.to_string(), x: p.x, y: p.y, distance, clearance });
+    }
+    Ok(())
+}
+
+/// The arm serves the tool tip over `place` at `p` at every height of `heights` (m above the
+/// table at `z0`) with the tool at `pitch`, holding `loaded`: the first height it does not.
+#[allow(clippy::too_many_arguments)]
+fn serve_heights(
+    arm: &ArmModel<4>,
+    loaded: &ArmModel<4>,
+    place: &str,
+    p: &Vector2<f64>,
+    z0: f64,
+    heights: &[f64],
+    pitch: f64,
+    margin: f64,
+) -> Result<(), ReachError> {
+    for &h in heights {
+        let point = Vector3::new(p.x, p.y, z0 + h);
+        serve(arm, loaded, &point, pitch, margin).map_err(|why| failure(place.to_string(), h, &point, why, margin))?;
+    }
+    Ok(())
 }
 
 /// The radial reach of an arm along one bearing: which distances from the base axis are served
@@ -783,24 +803,10 @@ pub fn place_failures(
     let margin = limits.torque_margin;
     let mut failures: Vec<(String, String)> = Vec::new();
     for (name, p) in &all {
-        let distance = (p - base).norm();
-        if distance < geometry.base_clearance {
-            let why = ReachError::NearBase {
-                place: name.clone(),
-                x: p.x,
-                y: p.y,
-                distance,
-                clearance: geometry.base_clearance,
-            };
+        let checked = outside_base(name, p, &base, geometry.base_clearance)
+            .and_then(|()| serve_heights(arm, &loaded, name, p, z0, &heights, pitch, margin));
+        if let Err(why) = checked {
             failures.push((name.clone(), why.to_string()));
-            continue;
-        }
-        for &h in &heights {
-            let point = Vector3::new(p.x, p.y, z0 + h);
-            if let Err(why) = serve(arm, &loaded, &point, pitch, margin) {
-                failures.push((name.clone(), failure(name.clone(), h, &point, why, margin).to_string()));
-                break;
-            }
         }
     }
     if let Some(check) = columns {

@@ -3,29 +3,19 @@
 //! scaled with the squares) and on the report's own board. None stops part-way, every piece
 //! stands where the rules put it, and nothing is touched.
 
+mod common;
+
 use chessarm_chess::board::BoardGeometry;
 use chessarm_chess::clearance::moves::ClearanceCheck;
 use chessarm_chess::pieces::PieceSet;
 use chessarm_chess::play::{Game, Mover, PlaySettings};
 use chessarm_chess::reach::fit_board;
 use chessarm_chess::shakmaty::{Chess, Position};
-use chessarm_core::arm::bodies::Gripper;
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::control::gains::{Gains, REPORT_PD};
 use chessarm_core::sense::rng::SeededRng;
+use common::slim;
 use proptest::prelude::*;
-
-/// Fingers 1.5 mm thick, opened 1.5 mm beside a piece, kept 1 mm from everything else.
-fn slim() -> ClearanceCheck {
-    let gripper = Gripper {
-        finger_length: 0.02,
-        finger_reach: 0.002,
-        finger_thickness: 0.0015,
-        finger_width: 0.005,
-        finger_opening: 0.0015,
-    };
-    ClearanceCheck { gripper, margin: 0.001, ..ClearanceCheck::default() }
-}
 
 fn settings(pieces: PieceSet, clearance: ClearanceCheck) -> PlaySettings {
     let mut settings =

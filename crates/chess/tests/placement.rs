@@ -3,24 +3,14 @@
 //! check, every size the fit serves is placed, and at the nearest pose of squares no pose
 //! serves the full check fails too.
 
+mod common;
+
 use chessarm_chess::clearance::moves::ClearanceCheck;
 use chessarm_chess::pieces::PieceSet;
 use chessarm_chess::reach::{check_table, check_table_at, fit_board, place_board, place_failures};
 use chessarm_chess::tasks::MotionLimits;
-use chessarm_core::arm::bodies::Gripper;
 use chessarm_core::arm::preset::report_arm;
-
-/// Fingers 1.5 mm thick, opened 1.5 mm beside a piece, kept 1 mm from everything else.
-fn slim() -> ClearanceCheck {
-    let gripper = Gripper {
-        finger_length: 0.02,
-        finger_reach: 0.002,
-        finger_thickness: 0.0015,
-        finger_width: 0.005,
-        finger_opening: 0.0015,
-    };
-    ClearanceCheck { gripper, margin: 0.001, ..ClearanceCheck::default() }
-}
+use common::slim;
 
 #[test]
 fn a_board_of_given_squares_is_placed_where_the_full_check_passes() {
