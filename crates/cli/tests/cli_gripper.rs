@@ -68,6 +68,17 @@ fn wrist_roll_locked() -> ImportOptions {
     ImportOptions { locks: vec![("wrist_roll".into(), 0.0)], ..ImportOptions::default() }
 }
 
+/// The board `board --fit` gives the PincherX-100 as published with the needle fingers: its
+/// JSON, and its setup file written into `dir`.
+fn fitted_px100(dir: &Path) -> (serde_json::Value, std::path::PathBuf) {
+    let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
+    let fit =
+        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
+    let setup_path = dir.join("board.toml");
+    std::fs::write(&setup_path, fit["setup"].as_str().unwrap()).unwrap();
+    (fit, setup_path)
+}
+
 /// The shapes reaching down beside the grip are the fixed jaw; the servo above is not; the
 /// moving jaw's link is left to the fingers. The note says which link holds the jaw.
 #[test]
@@ -224,14 +235,9 @@ fn the_files_prismatic_fingers_slide_to_the_gap() {
 #[test]
 fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() {
     let dir = tempfile::tempdir().unwrap();
-    let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
-    let fit =
-        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
-    let setup_text = fit["setup"].as_str().unwrap();
-    let setup: toml::Value = toml::from_str(setup_text).unwrap();
+    let (fit, setup_path) = fitted_px100(dir.path());
+    let setup: toml::Value = toml::from_str(fit["setup"].as_str().unwrap()).unwrap();
     let width = setup["pieces"]["pawn"]["base_diameter"].as_float().unwrap();
-    let setup_path = dir.path().join("board.toml");
-    std::fs::write(&setup_path, setup_text).unwrap();
     let shapes = [
         ("px100/left_finger_link", collision_box([0.027575, -0.01275, 0.0], [0.01, 0.0015, 0.005])),
         ("px100/right_finger_link", collision_box([0.027575, 0.01275, 0.0], [0.01, 0.0015, 0.005])),
@@ -277,11 +283,7 @@ fn the_hardware_export_commands_the_files_gripper_joint_from_the_pieces_width() 
 #[test]
 fn a_piece_the_files_fingers_do_not_close_on_is_refused_before_the_game() {
     let dir = tempfile::tempdir().unwrap();
-    let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
-    let fit =
-        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
-    let setup_path = dir.path().join("board.toml");
-    std::fs::write(&setup_path, fit["setup"].as_str().unwrap()).unwrap();
+    let (_, setup_path) = fitted_px100(dir.path());
     let shapes = [
         ("px100/left_finger_link", collision_box([0.027575, -0.004, 0.0], [0.01, 0.008, 0.02])),
         ("px100/right_finger_link", collision_box([0.027575, 0.004, 0.0], [0.01, 0.008, 0.02])),
@@ -313,11 +315,8 @@ fn a_piece_the_files_fingers_do_not_close_on_is_refused_before_the_game() {
 #[test]
 fn board_says_what_squares_the_files_fingers_need() {
     let dir = tempfile::tempdir().unwrap();
+    let (_, setup_path) = fitted_px100(dir.path());
     let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
-    let fit =
-        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
-    let setup_path = dir.path().join("board.toml");
-    std::fs::write(&setup_path, fit["setup"].as_str().unwrap()).unwrap();
     let shapes = [
         ("px100/left_finger_link", collision_box([0.027575, -0.004, 0.0], [0.01, 0.008, 0.02])),
         ("px100/right_finger_link", collision_box([0.027575, 0.004, 0.0], [0.01, 0.008, 0.02])),
@@ -355,11 +354,7 @@ fn board_says_what_squares_the_files_fingers_need() {
 #[test]
 fn the_files_fingers_open_around_each_piece_by_the_opening_and_touch_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let plain = Path::new(common::REAL_ARMS).join("px100.urdf");
-    let fit =
-        json_of(&chessarm(&["--urdf", plain.to_str().unwrap(), "--arm", common::NEEDLE_FINGERS, "board", "--fit"]));
-    let setup_path = dir.path().join("board.toml");
-    std::fs::write(&setup_path, fit["setup"].as_str().unwrap()).unwrap();
+    let (_, setup_path) = fitted_px100(dir.path());
     // Inner faces 13.5 mm inside the links' origins: at the closing limit (15 mm) 1.5 mm off
     // the tool's axis.
     let shapes = [
