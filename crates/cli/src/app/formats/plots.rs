@@ -501,6 +501,9 @@ pub fn plot_heat_map(path: &Path, map: &HeatMap<'_>) -> Result<()> {
     })
 }
 
+/// The most characters of a squares plot's note that fit across the picture.
+const NOTE_CHARS: usize = 150;
+
 /// A heat map of the board: each square's value, grey where it has none (`grey` says why, with
 /// the first square's reason).
 pub fn plot_squares(
@@ -533,7 +536,15 @@ pub fn plot_squares(
             values: &cells,
             marked: None,
             grey,
-            note: failed.first().map(|why| format!("grey: {grey} ({} squares), e.g. {why}", failed.len())),
+            // The note is one line across the picture: a long reason (a crowded column's) is
+            // cut to what fits, the whole of it on the terminal and in --json.
+            note: failed.first().map(|why| {
+                let note = format!("grey: {grey} ({} squares), e.g. {why}", failed.len());
+                match note.char_indices().nth(NOTE_CHARS) {
+                    Some((cut, _)) => format!("{}…", &note[..cut]),
+                    None => note,
+                }
+            }),
         },
     )
 }
