@@ -103,6 +103,13 @@ impl BoardGeometry {
         (f64::from(u8::from(square.file())) - 3.5, f64::from(u8::from(square.rank())) - 3.5)
     }
 
+    /// The unit vector along the board's ranks on the table (from White's side to Black's
+    /// before the squares turn): `R(yaw)·(0, 1)`. A knight faces along it.
+    pub fn ranks_direction(&self) -> Vector2<f64> {
+        let (sin, cos) = self.yaw.sin_cos();
+        Vector2::new(-sin, cos)
+    }
+
     /// `square`'s centre in squares from the board's centre along the table's files and ranks
     /// ([`Self::on_table`]): [`Self::squares_from_center`], negated when the squares are
     /// turned.

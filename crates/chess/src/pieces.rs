@@ -1,7 +1,9 @@
-//! Chess pieces as physical objects: height, base diameter, mass and where the gripper holds
-//! them. All values in SI units (m, kg).
+//! Chess pieces as physical objects: height, base diameter, mass, their Staunton profile (a
+//! solid of revolution, a knight's head a block) and where the gripper holds them. All values
+//! in SI units (m, kg).
 
 use chessarm_core::arm::model::Payload;
+use chessarm_core::arm::outline::Outline;
 use shakmaty::{Color, Piece, Role};
 
 /// Why a piece set is not usable.
@@ -30,22 +32,41 @@ pub struct PieceDimensions {
     pub base_diameter: f64,
     /// Mass, kg.
     pub mass: f64,
-    /// Height above the piece's base where the tool tip is while gripping it, m (in `(0, height]`).
+    /// Height above the piece's base where the tool tip is while gripping it, m (in `(0, height]`):
+    /// the middle of the fingers' pads.
     pub grip_height: f64,
+    /// The piece's shape as a solid of revolution, in fractions: ring heights of `height`, ring
+    /// radii (and the block's half sizes) of half `base_diameter` ([`PieceDimensions::outline`]
+    /// gives it in metres), so that a new height or base diameter keeps the profile.
+    pub shape: Outline,
 }
 
 impl PieceDimensions {
-    /// The piece modelled as a solid upright cylinder gripped `grip_height` m above its base
-    /// (tool pointing down): mass kg, height m, radius = base_diameter / 2 m.
+    /// The piece's outline in metres: [`PieceDimensions::shape`] × (height, base radius).
+    pub fn outline(&self) -> Outline {
+        self.shape.scaled(self.height, 0.5 * self.base_diameter)
+    }
+
+    /// The piece as a solid of its outline, uniform density, gripped `grip_height` m above its
+    /// base (tool pointing down): [`Payload::upright`].
     pub fn payload(&self) -> Payload {
-        Payload::upright_cylinder(self.mass, self.height, self.base_diameter / 2.0, self.grip_height)
+        Payload::upright(self.mass, &self.outline(), self.grip_height)
+    }
+
+    /// The gap the closed fingers hold the piece at, m: its widest diameter at or above where
+    /// the fingers' ends are (`reach` m below the grip height), which parallel pads touch
+    /// first; the block (a knight's head) counted turned any way.
+    pub fn grip_width(&self, reach: f64) -> f64 {
+        2.0 * self.outline().widest_above(self.grip_height - reach)
     }
 }
 
 /// The six kinds of pieces of a set.
 ///
 /// The default is a weighted tournament (Staunton) set for 6 cm squares, king 9.5 cm tall
-/// (FIDE: base diameter 40–50 % of the king's height, king ≈ 75 % of the square size or more):
+/// (FIDE: base diameter 40–50 % of the king's height, king ≈ 75 % of the square size or more),
+/// each piece the cylinder of its base (a profile is given by [`PieceDimensions::shape`],
+/// `[pieces.KIND] outline` in a setup file):
 ///
 /// | piece  | height | base ⌀ | mass | grip height          |
 /// |--------|--------|--------|------|----------------------|
@@ -75,13 +96,14 @@ pub struct PieceSet {
 }
 
 impl Default for PieceSet {
-    /// The weighted Staunton set of the table above (6 cm squares).
+    /// The weighted Staunton set of the table above (6 cm squares), cylinders of their bases.
     fn default() -> Self {
         let piece = |height: f64, base_diameter: f64, mass: f64, grip_fraction: f64| PieceDimensions {
             height,
             base_diameter,
             mass,
             grip_height: height * grip_fraction,
+            shape: Outline::cylinder(1.0, 1.0),
         };
         Self {
             pawn: piece(0.050, 0.029, 0.030, 1.0),
@@ -132,6 +154,18 @@ impl PieceSet {
     /// Base diameter of the widest piece, m.
     pub fn widest(&self) -> f64 {
         self.all().iter().map(|(_, d)| d.base_diameter).fold(0.0, f64::max)
+    }
+
+    /// The outline holding every kind's, m ([`Outline::envelope`]): what may stand on a
+    /// neighbouring square.
+    pub fn envelope(&self) -> Outline {
+        self.envelope_of(&Role::ALL)
+    }
+
+    /// The outline holding the kinds `roles`', m.
+    pub fn envelope_of(&self, roles: &[Role]) -> Outline {
+        let outlines: Vec<Outline> = roles.iter().map(|&r| self.dimensions(r).outline()).collect();
+        Outline::envelope(&outlines).unwrap_or_else(|| Outline::cylinder(0.5 * self.widest(), self.tallest()))
     }
 
     /// Largest grip height of any piece, m: the longest stretch of a carried piece below the

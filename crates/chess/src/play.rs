@@ -112,7 +112,7 @@ pub struct HardwareExport {
     pub commands: Vec<GripperCommand>,
     /// Per grip, in order: the piece and where it goes ("white pawn from e2 to e4").
     pub grips: Vec<String>,
-    /// Per grip, in order: the piece's width where the gripper holds it (its base diameter), m.
+    /// Per grip, in order: the piece's width where the gripper holds it (its grip width), m.
     pub widths: Vec<f64>,
     /// Per gripper command, in order: the planned tool tip it waits to be at (m), and the
     /// condition it waits for (`None`: it goes by the clock).
@@ -871,8 +871,11 @@ impl Game {
             let points = hardware_points(&self.arm, motion, &commands, rate)
                 .map_err(|source| PlayError::Export { mv: name.to_string(), source })?;
             let grips = planned.iter().map(|step| step.task.to_string()).collect();
+            let reach = check
+                .as_ref()
+                .map_or(chessarm_core::arm::bodies::Gripper::default().finger_reach, |c| c.gripper.finger_reach);
             let widths =
-                planned.iter().map(|step| settings.pieces.dimensions(step.task.piece.role).base_diameter).collect();
+                planned.iter().map(|step| settings.pieces.dimensions(step.task.piece.role).grip_width(reach)).collect();
             let fine_points = commands.iter().map(|c| motion.sample(c.time).position).collect();
             report.hardware = Some(HardwareExport {
                 points,
@@ -983,12 +986,8 @@ impl Game {
             // plan had it at the same reference instant, and the pieces put down in this
             // move within their placement error of the plan's places.
             let pieces = &self.settings.pieces;
-            let largest = Held {
-                radius: 0.5 * pieces.widest(),
-                height: pieces.tallest(),
-                grip_height: pieces.highest_grip(),
-                turn: clear.held_turn,
-            };
+            let largest =
+                Held { outline: pieces.envelope(), grip_height: pieces.highest_grip(), turn: clear.held_turn };
             let hand =
                 Hand { held: Some(largest), gap: clear.gripper.open_gap(pieces.widest()), gripper: clear.gripper };
             let reach = reach_bound(&self.arm, &hand, &clear.bodies);

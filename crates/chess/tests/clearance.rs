@@ -240,11 +240,7 @@ fn a_tall_king_beside_the_forearm_s_sweep_is_caught() {
     let middle = 0.5 * (a + b);
     let slope = ((b - a).z / (b - a).norm()).abs();
     let top = middle.z - radius / (1.0 - slope * slope).sqrt() + 0.002;
-    let king = StandingPiece {
-        base: chessarm_core::nalgebra::Vector3::new(middle.x, middle.y, 0.0),
-        radius: 0.02,
-        height: top,
-    };
+    let king = StandingPiece::cylinder(chessarm_core::nalgebra::Vector3::new(middle.x, middle.y, 0.0), 0.02, top);
     assert!(top > 0.15, "a tall king: {top}");
     let (when, closest) = swept(&arm, &q, [0.6, 0.0, 0.0, 0.0], &[king], 0.0);
     assert_eq!(closest.distance, 0.0, "{closest:?}");
@@ -288,11 +284,7 @@ fn a_long_forearm_on_a_low_elbow_path_is_caught() {
     let under = a + 0.1 * (b - a);
     let slope = ((b - a).z / (b - a).norm()).abs();
     let table = under.z - radius / (1.0 - slope * slope).sqrt() + 0.001 - 0.05;
-    let pawn = StandingPiece {
-        base: chessarm_core::nalgebra::Vector3::new(under.x, under.y, table),
-        radius: 0.0145,
-        height: 0.05,
-    };
+    let pawn = StandingPiece::cylinder(chessarm_core::nalgebra::Vector3::new(under.x, under.y, table), 0.0145, 0.05);
     let (when, closest) = swept(&arm, &q, [0.0, 0.36, 0.0, 0.36], &[pawn], table);
     // Nothing else comes down to the table: the elbow's housing stays above it throughout.
     for t in [0.0, 0.5, 1.0] {

@@ -32,7 +32,9 @@ fn point(v: &Vector3<f64>) -> Value {
 fn solid_json(solid: &Solid) -> Value {
     match solid {
         Solid::Cylinder { a, b, radius } => json!({"kind": "cylinder", "a": point(a), "b": point(b), "radius": radius}),
-        Solid::Sphere { .. } | Solid::Hull { .. } => unreachable!("the report's arm has no spheres or hulls"),
+        Solid::Sphere { .. } | Solid::Hull { .. } | Solid::Frustum { .. } => {
+            unreachable!("the report's arm has no spheres or hulls, and the hand holds no piece here")
+        }
         Solid::Cuboid { centre, axes, half } => {
             let columns: Vec<Value> = (0..3).map(|k| point(&axes.column(k).into_owned())).collect();
             json!({"kind": "box", "centre": point(centre), "axes": columns, "half": point(half)})
@@ -66,11 +68,9 @@ fn distances_equal_coals_on_a_real_games_poses() {
             .iter()
             .map(|p| {
                 let d = pieces.dimensions(p.piece.role);
-                StandingPiece {
-                    base: Vector3::new(p.position.x, p.position.y, 0.0),
-                    radius: 0.5 * d.base_diameter,
-                    height: d.height,
-                }
+                // Cylinders of the base (coal's shapes): the profile's own sections are checked
+                // against a hull of their rings elsewhere.
+                StandingPiece::cylinder(Vector3::new(p.position.x, p.position.y, 0.0), 0.5 * d.base_diameter, d.height)
             })
             .collect();
         let report = game.play(mv, Mover::Robot).unwrap();
@@ -79,11 +79,7 @@ fn distances_equal_coals_on_a_real_games_poses() {
             // 35 mm) reach into: contacts for both libraries to see.
             let tip = step.tip;
             let mut standing = standing.clone();
-            standing.push(StandingPiece {
-                base: Vector3::new(tip.x, tip.y, 0.0),
-                radius: 0.025,
-                height: tip.z.max(0.01),
-            });
+            standing.push(StandingPiece::cylinder(Vector3::new(tip.x, tip.y, 0.0), 0.025, tip.z.max(0.01)));
             let placed: Vec<Placed> = standing.iter().map(Placed::piece).collect();
             solids_into(&arm, &step.state.q, &hand, &Bodies::Drawn, &mut solids);
             let mut distances = Vec::new();
@@ -99,7 +95,7 @@ fn distances_equal_coals_on_a_real_games_poses() {
             }
             samples.push(json!({
                 "solids": solids.iter().map(|s| solid_json(&s.solid)).collect::<Vec<_>>(),
-                "pieces": standing.iter().map(|p| json!({"base": point(&p.base), "radius": p.radius, "height": p.height})).collect::<Vec<_>>(),
+                "pieces": standing.iter().map(|p| json!({"base": point(&p.base), "radius": p.outline.widest(), "height": p.outline.height()})).collect::<Vec<_>>(),
                 "distances": distances,
             }));
         }

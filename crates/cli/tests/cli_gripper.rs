@@ -305,7 +305,7 @@ fn a_piece_the_files_fingers_do_not_close_on_is_refused_before_the_game() {
     assert!(!refused.status.success());
     let said = String::from_utf8_lossy(&refused.stderr);
     assert!(said.contains("the file's fingers close no narrower than 14.0 mm"), "{said}");
-    assert!(said.contains("mm across would not be held ([pieces.pawn] base_diameter"), "{said}");
+    assert!(said.contains("mm across would not be held where it is gripped ([pieces.pawn] base_diameter"), "{said}");
     assert!(!out.join("game.json").exists(), "nothing ran");
 }
 

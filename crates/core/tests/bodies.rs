@@ -5,6 +5,7 @@ use chessarm_core::arm::bodies::{
 };
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::JointVector;
+use chessarm_core::arm::outline::Outline;
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::Vector3;
 
@@ -17,7 +18,7 @@ use chessarm_core::nalgebra::Vector3;
 fn the_solids_follow_the_kinematic_chain() {
     let arm = report_arm();
     let gripper = Gripper::default();
-    let held = Held { radius: 0.0145, height: 0.05, grip_height: 0.04, turn: 0.0 };
+    let held = Held { outline: Outline::cylinder(0.0145, 0.05), grip_height: 0.04, turn: 0.0 };
     let hand = Hand { gripper, gap: 0.041, held: Some(held) };
     let mut solids = Vec::new();
     for q in [[0.0, 0.5, -1.0, 0.3], [1.2, 1.4, -2.1, -0.4], [-2.0, 0.2, 0.4, 1.1]] {
@@ -69,8 +70,8 @@ fn the_solids_follow_the_kinematic_chain() {
                 }
                 (Part::Held, Solid::Cylinder { a, b, radius }) => {
                     assert!((a - (tip + held.grip_height * approach)).norm() < 1e-12);
-                    assert!(((a - b).norm() - held.height).abs() < 1e-12);
-                    assert_eq!(radius, held.radius);
+                    assert!(((a - b).norm() - held.outline.height()).abs() < 1e-12);
+                    assert_eq!(radius, held.outline.widest());
                 }
                 (Part::Pedestal, Solid::Cylinder { b, .. }) => assert_eq!(b, arm.base()),
                 other => panic!("unexpected solid {other:?}"),

@@ -234,8 +234,9 @@ impl PySetup {
         Ok(dict)
     }
 
-    /// The pieces by kind (`pawn` … `king`): `height`, `base_diameter`, `grip_height` (m) and
-    /// `mass` (kg).
+    /// The pieces by kind (`pawn` … `king`): `height`, `base_diameter`, `grip_height` (m),
+    /// `mass` (kg), `outline` (the Staunton profile's rings `[height, radius]` in m, base up)
+    /// and `head_block` (a knight's head `[top, half length, half width]` in m, or `None`).
     #[getter]
     fn pieces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let pieces = &self.setup.pieces;
@@ -253,6 +254,9 @@ impl PySetup {
             one.set_item("base_diameter", piece.base_diameter)?;
             one.set_item("grip_height", piece.grip_height)?;
             one.set_item("mass", piece.mass)?;
+            let outline = piece.outline();
+            one.set_item("outline", outline.rings().to_vec())?;
+            one.set_item("head_block", outline.block().map(|b| vec![b.top, b.half_length, b.half_width]))?;
             dict.set_item(name, one)?;
         }
         Ok(dict)

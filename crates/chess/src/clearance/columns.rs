@@ -126,13 +126,15 @@ fn each_crowded(
         })
         .collect();
     let reach = NEIGHBOURHOOD * geometry.square_size;
-    let largest = |kings: bool| {
-        let kinds = pieces.all().into_iter().filter(|(role, _)| kings || *role != Role::King);
-        kinds.fold((0.0_f64, 0.0_f64), |(width, height), (_, d)| (width.max(d.base_diameter), height.max(d.height)))
-    };
-    let neighbour = |at: Vector2<f64>, kings: bool| {
-        let (width, height) = largest(kings);
-        StandingPiece { base: Vector3::new(at.x, at.y, geometry.surface_height), radius: 0.5 * width, height }
+    // What may stand on a neighbouring place: every kind's outline at once (no king in a slot).
+    let envelopes = [false, true].map(|kings| {
+        let roles: Vec<Role> = Role::ALL.into_iter().filter(|role| kings || *role != Role::King).collect();
+        pieces.envelope_of(&roles)
+    });
+    let neighbour = |at: Vector2<f64>, kings: bool| StandingPiece {
+        base: Vector3::new(at.x, at.y, geometry.surface_height),
+        outline: envelopes[usize::from(kings)],
+        facing: geometry.ranks_direction(),
     };
     let mut gripper = check.gripper;
     gripper.finger_opening = gripper.finger_opening.min(MIN_OPENING);
@@ -160,12 +162,12 @@ fn each_crowded(
         for (_, dims) in pieces.all().into_iter().filter(|(role, _)| *kings || *role != Role::King) {
             let piece = StandingPiece {
                 base: Vector3::new(centre.x, centre.y, geometry.surface_height),
-                radius: 0.5 * dims.base_diameter,
-                height: dims.height,
+                outline: dims.outline(),
+                facing: geometry.ranks_direction(),
             };
             standing.truncate(own);
             standing.push(Placed::piece(&piece));
-            let hand = Hand { gripper, gap: gripper.open_gap(dims.base_diameter), held: None };
+            let hand = Hand { gripper, gap: gripper.open_gap(dims.grip_width(gripper.finger_reach)), held: None };
             for &h in heights.iter().filter(|h| **h >= dims.grip_height - 1e-12) {
                 let tip = Vector3::new(centre.x, centre.y, geometry.surface_height + h);
                 let Ok(q) = inverse_kinematics(arm, &tip, pitch) else { continue };

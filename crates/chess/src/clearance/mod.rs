@@ -20,19 +20,28 @@ pub mod moves;
 use chessarm_core::arm::bodies::{ArmSolid, Bodies, Hand, Part, Solid, solids_into};
 use chessarm_core::arm::kinematics::FrameChain;
 use chessarm_core::arm::model::{ArmModel, JointVector};
-use chessarm_core::nalgebra::{Point3, Vector3};
+use chessarm_core::arm::outline::Outline;
+use chessarm_core::nalgebra::{Matrix3, Point3, Vector2, Vector3};
 use parry3d_f64::math::{Matrix, Pose, Rotation, Vector};
 use parry3d_f64::query;
 use parry3d_f64::shape::{Ball, Cuboid, Cylinder, Shape, SupportMap};
 use std::sync::Arc;
 
-/// A standing piece as a solid: an upright cylinder whose base is centred on `base` (on the
-/// board's surface), m.
+/// A standing piece as solids: its outline (m, rings from its base up) standing upright with
+/// its base centred on `base` (on the board's surface); a block on top (a knight's head) faces
+/// along `facing` (a unit vector on the table: the board's ranks).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StandingPiece {
     pub base: Vector3<f64>,
-    pub radius: f64,
-    pub height: f64,
+    pub outline: Outline,
+    pub facing: Vector2<f64>,
+}
+
+impl StandingPiece {
+    /// An upright cylinder of `radius` and `height` (m) on `base`.
+    pub fn cylinder(base: Vector3<f64>, radius: f64, height: f64) -> Self {
+        Self { base, outline: Outline::cylinder(radius, height), facing: Vector2::x() }
+    }
 }
 
 /// What the arm comes close to.
@@ -59,9 +68,34 @@ pub struct Closest {
 #[derive(Debug, Clone)]
 enum Convex {
     Cylinder(Cylinder),
+    Frustum(Frustum),
     Ball(Ball),
     Cuboid(Cuboid),
     Hull(HullPoints),
+    /// Convex solids together (a piece's sections): not convex itself, so measured part by
+    /// part.
+    Parts(Arc<[Placed]>),
+}
+
+/// A frustum about the local y axis (as parry's cylinders), its end faces discs at `y = ∓h/2`
+/// of radii `r_low` and `r_high`: the convex hull of the two discs, whose support point in a
+/// direction is the farther of the discs' (a disc's is its centre plus `r` along the
+/// direction's part across the axis).
+#[derive(Debug, Clone, Copy)]
+struct Frustum {
+    half_height: f64,
+    r_low: f64,
+    r_high: f64,
+}
+
+impl SupportMap for Frustum {
+    fn local_support_point(&self, dir: Vector) -> Vector {
+        let across = (dir.x * dir.x + dir.z * dir.z).sqrt();
+        let (ux, uz) = if across > 0.0 { (dir.x / across, dir.z / across) } else { (0.0, 0.0) };
+        let disc = |y: f64, r: f64| (y * dir.y + r * across, Vector::new(r * ux, y, r * uz));
+        let (low, high) = (disc(-self.half_height, self.r_low), disc(self.half_height, self.r_high));
+        if high.0 >= low.0 { high.1 } else { low.1 }
+    }
 }
 
 /// A convex hull as its points, for GJK: the support point in a direction is the point
@@ -91,16 +125,19 @@ impl Convex {
             Convex::Cylinder(s) => Some(s),
             Convex::Ball(s) => Some(s),
             Convex::Cuboid(s) => Some(s),
-            Convex::Hull(_) => None,
+            Convex::Frustum(_) | Convex::Hull(_) | Convex::Parts(_) => None,
         }
     }
 
-    fn support(&self) -> &dyn SupportMap {
+    /// The support map of a convex shape (`None` for parts together).
+    fn support(&self) -> Option<&dyn SupportMap> {
         match self {
-            Convex::Cylinder(s) => s,
-            Convex::Ball(s) => s,
-            Convex::Cuboid(s) => s,
-            Convex::Hull(s) => s,
+            Convex::Cylinder(s) => Some(s),
+            Convex::Frustum(s) => Some(s),
+            Convex::Ball(s) => Some(s),
+            Convex::Cuboid(s) => Some(s),
+            Convex::Hull(s) => Some(s),
+            Convex::Parts(_) => None,
         }
     }
 }
@@ -205,6 +242,20 @@ impl Placed {
                     capsule: (*a, *b, *radius),
                 }
             }
+            Solid::Frustum { a, b, radius_a, radius_b } => {
+                let axis = b - a;
+                let length = axis.norm();
+                let direction = if length > 0.0 { vector(&(axis / length)) } else { Vector::Y };
+                let rotation = Rotation::from_rotation_arc(Vector::Y, direction);
+                let ((la, ha), (lb, hb)) = (cylinder_box(a, b, *radius_a), cylinder_box(a, b, *radius_b));
+                Self {
+                    pose: Pose::from_parts(vector(&((a + b) * 0.5)), rotation),
+                    shape: Convex::Frustum(Frustum { half_height: 0.5 * length, r_low: *radius_a, r_high: *radius_b }),
+                    low: la.inf(&lb),
+                    high: ha.sup(&hb),
+                    capsule: (*a, *b, radius_a.max(*radius_b)),
+                }
+            }
             Solid::Sphere { centre, radius } => Self {
                 pose: Pose::from_translation(vector(centre)),
                 shape: Convex::Ball(Ball::new(*radius)),
@@ -258,34 +309,126 @@ impl Placed {
         }
     }
 
+    /// The convex parts of this solid: itself, or its parts.
+    fn parts(&self) -> &[Placed] {
+        match &self.shape {
+            Convex::Parts(parts) => parts,
+            _ => std::slice::from_ref(self),
+        }
+    }
+
+    /// The nearest pair of convex parts of this solid and `other`, and their distance (m). The
+    /// pairs go nearest box first, and stop where a box's gap (a lower bound) reaches the
+    /// best distance: most pairs of a finger and a piece's dozen sections are one GJK call.
+    fn nearest_parts<'a>(&'a self, other: &'a Placed) -> (f64, &'a Placed, &'a Placed) {
+        const MOST: usize = 2 * chessarm_core::arm::outline::OUTLINE_RINGS;
+        let (ours, theirs) = (self.parts(), other.parts());
+        let mut best = (f64::INFINITY, self, other);
+        // One side is a single solid wherever pieces meet the arm; otherwise every pair.
+        if ours.len() * theirs.len() > MOST {
+            for a in ours {
+                for b in theirs {
+                    if a.box_gap(b) < best.0 {
+                        let d = a.convex_distance(b);
+                        if d < best.0 {
+                            best = (d, a, b);
+                        }
+                    }
+                }
+            }
+            return best;
+        }
+        let mut gaps = [(0.0, 0, 0); MOST];
+        let mut n = 0;
+        for (i, a) in ours.iter().enumerate() {
+            for (k, b) in theirs.iter().enumerate() {
+                gaps[n] = (a.box_gap(b), i, k);
+                n += 1;
+            }
+        }
+        let gaps = &mut gaps[..n];
+        gaps.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+        for &(gap, i, k) in gaps.iter() {
+            if gap >= best.0 {
+                break;
+            }
+            let d = ours[i].convex_distance(&theirs[k]);
+            if d < best.0 {
+                best = (d, &ours[i], &theirs[k]);
+            }
+        }
+        best
+    }
+
     /// The closest points of this solid and `other` (base frame, m): on this one, then on
-    /// `other` (by parry's GJK on their support maps); where they overlap, both are the middle
-    /// of their boxes' overlap. For showing where the nearest pair is, not for measuring it.
+    /// `other` (by parry's GJK on their support maps, of the nearest parts); where they
+    /// overlap, both are the middle of their boxes' overlap. For showing where the nearest
+    /// pair is, not for measuring it.
     pub fn closest_points(&self, other: &Placed) -> [Vector3<f64>; 2] {
-        let pos12 = self.pose.inv_mul(&other.pose);
-        let (a, b) = (self.shape.support(), other.shape.support());
-        match query::details::closest_points_support_map_support_map(&pos12, a, b, f64::MAX) {
-            query::ClosestPoints::WithinMargin(p, q) => {
-                [self.pose.transform_point(p), other.pose.transform_point(q)].map(|v| Vector3::new(v.x, v.y, v.z))
+        let (_, this, other) = self.nearest_parts(other);
+        let pos12 = this.pose.inv_mul(&other.pose);
+        let supports = this.shape.support().zip(other.shape.support());
+        let found =
+            supports.map(|(a, b)| query::details::closest_points_support_map_support_map(&pos12, a, b, f64::MAX));
+        match found {
+            Some(query::ClosestPoints::WithinMargin(p, q)) => {
+                [this.pose.transform_point(p), other.pose.transform_point(q)].map(|v| Vector3::new(v.x, v.y, v.z))
             }
             _ => {
-                let middle = 0.5 * (self.low.sup(&other.low) + self.high.inf(&other.high));
+                let middle = 0.5 * (this.low.sup(&other.low) + this.high.inf(&other.high));
                 [middle, middle]
             }
         }
     }
 
-    /// Its lowest point (base frame, m): the support point along −z.
+    /// Its lowest point (base frame, m): the support point along −z (of its lowest part).
     pub fn lowest_point(&self) -> Vector3<f64> {
-        let down = self.pose.rotation.inverse() * Vector::NEG_Z;
-        let v = self.pose.transform_point(self.shape.support().local_support_point(down));
-        Vector3::new(v.x, v.y, v.z)
+        let lowest = |p: &Placed| {
+            let down = p.pose.rotation.inverse() * Vector::NEG_Z;
+            let support = p.shape.support().map_or(Vector::ZERO, |s| s.local_support_point(down));
+            let v = p.pose.transform_point(support);
+            Vector3::new(v.x, v.y, v.z)
+        };
+        self.parts().iter().map(lowest).min_by(|a, b| a.z.total_cmp(&b.z)).unwrap_or(self.low)
     }
 
-    /// A piece standing upright.
+    /// A piece standing upright: a cylinder or frustum per section of its outline, and its
+    /// block (a box facing along `facing`), together.
     pub fn piece(piece: &StandingPiece) -> Self {
-        let top = piece.base + Vector3::new(0.0, 0.0, piece.height);
-        Self::of(&Solid::Cylinder { a: piece.base, b: top, radius: piece.radius })
+        let outline = &piece.outline;
+        let at = |z: f64| piece.base + Vector3::new(0.0, 0.0, z);
+        let mut parts: Vec<Placed> = outline
+            .sections()
+            .map(|(z0, r0, z1, r1)| {
+                Self::of(&if r0 == r1 {
+                    Solid::Cylinder { a: at(z0), b: at(z1), radius: r0 }
+                } else {
+                    Solid::Frustum { a: at(z0), b: at(z1), radius_a: r0, radius_b: r1 }
+                })
+            })
+            .collect();
+        if let Some(block) = outline.block() {
+            let bottom = outline.rings().last().map_or(0.0, |r| r[0]);
+            let along = Vector3::new(piece.facing.x, piece.facing.y, 0.0).try_normalize(1e-12).unwrap_or(Vector3::x());
+            let axes = Matrix3::from_columns(&[along, Vector3::z().cross(&along), Vector3::z()]);
+            let half = Vector3::new(block.half_length, block.half_width, 0.5 * (block.top - bottom));
+            parts.push(Self::of(&Solid::Cuboid { centre: at(0.5 * (block.top + bottom)), axes, half }));
+        }
+        if parts.len() == 1 {
+            return parts.pop().expect("one part");
+        }
+        let low = parts.iter().fold(Vector3::repeat(f64::INFINITY), |l, p| l.inf(&p.low));
+        let high = parts.iter().fold(Vector3::repeat(f64::NEG_INFINITY), |h, p| h.sup(&p.high));
+        // The capsule along the axis as wide as the widest part: it holds every section, and
+        // the block turned any way.
+        let capsule = (at(0.0), at(outline.height()), outline.widest());
+        Self {
+            pose: Pose::from_translation(vector(&piece.base)),
+            shape: Convex::Parts(parts.into()),
+            low,
+            high,
+            capsule,
+        }
     }
 
     /// Its bounding box, m (lowest and highest corner).
@@ -306,20 +449,30 @@ impl Placed {
         (segment_distance(p1, q1, p2, q2) - r1 - r2).max(0.0)
     }
 
-    /// The distance to `other`, m (0 when they touch or overlap). Cylinders, balls and boxes
-    /// are convex: parry's dispatcher supports every pair of them, so an error is a bug; a
-    /// pair with a hull goes to parry's GJK on the two support maps directly.
+    /// The distance to `other`, m (0 when they touch or overlap): the least of their convex
+    /// parts' ([`Placed::piece`]'s sections).
     pub fn distance(&self, other: &Placed) -> f64 {
+        if matches!(self.shape, Convex::Parts(_)) || matches!(other.shape, Convex::Parts(_)) {
+            return self.nearest_parts(other).0;
+        }
+        self.convex_distance(other)
+    }
+
+    /// The distance between two convex solids, m. Cylinders, balls and boxes: parry's
+    /// dispatcher supports every pair of them, so an error is a bug; a pair with a hull or a
+    /// frustum goes to parry's GJK on the two support maps directly.
+    fn convex_distance(&self, other: &Placed) -> f64 {
         match (self.shape.shape(), other.shape.shape()) {
             (Some(a), Some(b)) => match query::distance(&self.pose, a, &other.pose, b) {
                 Ok(d) => d.distance,
                 Err(error) => unreachable!("parry has no distance between convex primitives: {error:?}"),
             },
-            _ => query::details::distance_support_map_support_map(
-                &self.pose.inv_mul(&other.pose),
-                self.shape.support(),
-                other.shape.support(),
-            ),
+            _ => match (self.shape.support(), other.shape.support()) {
+                (Some(a), Some(b)) => {
+                    query::details::distance_support_map_support_map(&self.pose.inv_mul(&other.pose), a, b)
+                }
+                _ => unreachable!("parts are measured one by one"),
+            },
         }
     }
 }
@@ -718,7 +871,7 @@ mod tests {
     use chessarm_core::arm::preset::report_arm;
 
     fn pawn_at(x: f64, y: f64) -> StandingPiece {
-        StandingPiece { base: Vector3::new(x, y, 0.0), radius: 0.012, height: 0.04 }
+        StandingPiece::cylinder(Vector3::new(x, y, 0.0), 0.012, 0.04)
     }
 
     /// The distance between one solid of the arm and a standing piece, m (0 when they touch).
@@ -875,7 +1028,7 @@ mod tests {
         let finger = solids.iter().find(|s| s.part == Part::Finger(2)).unwrap().solid.clone();
         let Solid::Cuboid { centre, .. } = &finger else { panic!() };
         let low = finger.lowest();
-        let piece = StandingPiece { base: Vector3::new(centre.x, centre.y, 0.0), radius: 0.002, height: low + 0.001 };
+        let piece = StandingPiece::cylinder(Vector3::new(centre.x, centre.y, 0.0), 0.002, low + 0.001);
         let pieces = [Placed::piece(&piece)];
         let rules = Rules::default();
         let mut placed = NearestBuffers::default();
@@ -964,7 +1117,11 @@ mod tests {
         use chessarm_core::nalgebra::{Rotation3, Translation3};
         let arm = report_arm();
         let hand = Hand {
-            held: Some(chessarm_core::arm::bodies::Held { radius: 0.02, height: 0.095, grip_height: 0.076, turn: 0.0 }),
+            held: Some(chessarm_core::arm::bodies::Held {
+                outline: Outline::cylinder(0.02, 0.095),
+                grip_height: 0.076,
+                turn: 0.0,
+            }),
             ..open_hand()
         };
         // Described bodies: a box and a hull on every link, off its frame's origin and turned.

@@ -115,9 +115,11 @@ impl MoveClearance {
     }
 }
 
-fn held(pieces: &PieceSet, table: &Table, index: usize, turn: f64) -> (Held, f64) {
+/// The piece of `index` held (its outline gripped at its grip height) and the gap the fingers
+/// hold it at, m: its grip width with the fingers' ends `reach` m below the tool tip.
+fn held(pieces: &PieceSet, table: &Table, index: usize, turn: f64, reach: f64) -> (Held, f64) {
     let d = pieces.dimensions(table.pieces()[index].piece.role);
-    (Held { radius: 0.5 * d.base_diameter, height: d.height, grip_height: d.grip_height, turn }, d.base_diameter)
+    (Held { outline: d.outline(), grip_height: d.grip_height, turn }, d.grip_width(reach))
 }
 
 /// Checks a move's motion `samples` (times, s from the move's start, and joint angles, rad;
@@ -142,7 +144,8 @@ pub fn check_move(
     // Where the nearest piece stood at the nearest instant.
     let mut nearest_location = None;
     let gripper = check.gripper;
-    let open = |k: usize| gripper.open_gap(held(pieces, table, carries[k].piece, check.held_turn).1);
+    let open =
+        |k: usize| gripper.open_gap(held(pieces, table, carries[k].piece, check.held_turn, gripper.finger_reach).1);
     let mut best: Option<(f64, Closest, Option<usize>)> = None;
     // What places the best pair: the hand then and the obstacle, if a piece.
     let mut best_scene: Option<(Hand, Option<Placed>)> = None;
@@ -166,7 +169,7 @@ pub fn check_move(
                 carried: None,
                 around,
             });
-            let (held, diameter) = held(pieces, table, carry.piece, check.held_turn);
+            let (held, diameter) = held(pieces, table, carry.piece, check.held_turn, gripper.finger_reach);
             let hand = Hand { gripper, gap: diameter, held: Some(held) };
             stretches.push(Phase {
                 from: carry.grip,
@@ -201,8 +204,8 @@ pub fn check_move(
                         i,
                         Placed::piece(&StandingPiece {
                             base: Vector3::new(at.x, at.y, base),
-                            radius: 0.5 * d.base_diameter,
-                            height: d.height,
+                            outline: d.outline(),
+                            facing: table.geometry().ranks_direction(),
                         }),
                     )
                 })
@@ -322,16 +325,19 @@ pub fn check_move(
 /// from the widest piece on each of the eight neighbouring squares, whatever the angle of the
 /// closing direction to the board's files: the pieces are `pieces` on squares of `square` m,
 /// scaled with the squares (as `board --fit` scales them), the fingers as `gripper` has them.
-/// Each finger is the rectangle `[g/2, g/2 + t] × [−w/2, w/2]` in the closing frame at the grip
-/// height (`g` the open gap, `t` the thickness, `w` the width), each neighbour a circle of the
-/// widest base; the closing angle is tried every degree. `None` when even 0.2 m squares are
-/// too small.
+/// Each finger is the rectangle `[g/2, g/2 + t] × [−w/2, w/2]` in the closing frame (`g` the
+/// open gap around the piece's grip width, `t` the thickness, `w` the width), each neighbour a
+/// circle of the widest any piece is over the fingers' height (from their ends `reach` below
+/// the grip to the palm); the closing angle is tried every degree. `None` when even 0.2 m
+/// squares are too small.
 pub fn square_for_fingers(pieces: &PieceSet, square: f64, gripper: &Gripper, margin: f64) -> Option<f64> {
     let clear = |s: f64| {
-        let k = s / square;
-        let neighbour = 0.5 * pieces.widest() * k;
-        pieces.all().iter().all(|(_, d)| {
-            let inner = 0.5 * gripper.open_gap(d.base_diameter * k);
+        let scaled = crate::reach::scaled_pieces(pieces, square, s);
+        let envelope = scaled.envelope();
+        scaled.all().iter().all(|(_, d)| {
+            let ends = d.grip_height - gripper.finger_reach;
+            let neighbour = envelope.widest_between(ends, ends + gripper.finger_length);
+            let inner = 0.5 * gripper.open_gap(d.grip_width(gripper.finger_reach));
             let outer = inner + gripper.finger_thickness;
             let half_width = 0.5 * gripper.finger_width;
             (0..=90).all(|degrees| {

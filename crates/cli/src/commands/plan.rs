@@ -101,7 +101,9 @@ fn run_moves(setup: &Setup, args: &PlanArgs, moves: &str) -> Result<()> {
         let motion = &planned.motion;
         let name = format!("{:03}-{uci}", ply.ply);
         let grips = planned.tasks.iter().map(|t| t.task.to_string()).collect();
-        let widths = planned.tasks.iter().map(|t| setup.pieces.dimensions(t.task.piece.role).base_diameter).collect();
+        let reach = setup.clearance.gripper.finger_reach;
+        let widths =
+            planned.tasks.iter().map(|t| setup.pieces.dimensions(t.task.piece.role).grip_width(reach)).collect();
         let commands = planned.gripper_commands();
         // The fine points at `play`'s default tolerance for sensors of unknown resolution (the
         // coarsest default band, a tenth of the tolerance; plan has no --sensors).

@@ -21,6 +21,7 @@
 
 use crate::arm::kinematics::{FrameChain, Pose};
 use crate::arm::model::{ArmModel, JointVector};
+use crate::arm::outline::{OUTLINE_RINGS, Outline};
 use nalgebra::{Matrix3, Point3, Translation3, Vector3};
 use std::sync::Arc;
 
@@ -98,11 +99,11 @@ impl Gripper {
     }
 }
 
-/// A piece held by the gripper: an upright cylinder whose base is `grip_height` below the tip.
+/// A piece held by the gripper: its outline upright (along the tool's approach when the tool
+/// points down), its base `grip_height` below the tip.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Held {
-    pub radius: f64,
-    pub height: f64,
+    pub outline: Outline,
     pub grip_height: f64,
     /// The angle (rad) about the tool frame's z axis from where the tool points to the piece's
     /// axis (down): 0 with the tool gripping straight down, else
@@ -223,8 +224,8 @@ impl Bodies {
     /// fingers and a held piece included).
     pub fn most_solids(&self, n: usize) -> usize {
         match self {
-            Bodies::Drawn => 2 * n + 4,
-            Bodies::Described(shapes) => shapes.len() + 3,
+            Bodies::Drawn => 2 * n + 3 + OUTLINE_RINGS,
+            Bodies::Described(shapes) => shapes.len() + 2 + OUTLINE_RINGS,
         }
     }
 }
@@ -257,6 +258,9 @@ pub fn finger_section(shapes: &[BodyShape]) -> Option<(f64, f64)> {
 pub enum Solid {
     /// A cylinder of `radius` whose end faces are centred on `a` and `b`.
     Cylinder { a: Vector3<f64>, b: Vector3<f64>, radius: f64 },
+    /// A frustum (a cone cut flat at both ends) whose end faces are discs of `radius_a` about
+    /// `a` and `radius_b` about `b`: a section of a piece's outline.
+    Frustum { a: Vector3<f64>, b: Vector3<f64>, radius_a: f64, radius_b: f64 },
     /// A sphere of `radius` about `centre`.
     Sphere { centre: Vector3<f64>, radius: f64 },
     /// A box about `centre` with half sizes `half` along the columns of `axes` (a rotation).
@@ -275,6 +279,12 @@ impl Solid {
                 let uz = if length > 0.0 { (b.z - a.z) / length } else { 1.0 };
                 a.z.min(b.z) - radius * (1.0 - uz * uz).max(0.0).sqrt()
             }
+            Solid::Frustum { a, b, radius_a, radius_b } => {
+                let length = (b - a).norm();
+                let uz = if length > 0.0 { (b.z - a.z) / length } else { 1.0 };
+                let tilt = (1.0 - uz * uz).max(0.0).sqrt();
+                (a.z - radius_a * tilt).min(b.z - radius_b * tilt)
+            }
             Solid::Sphere { centre, radius } => centre.z - radius,
             Solid::Cuboid { centre, axes, half } => {
                 centre.z - (0..3).map(|k| axes[(2, k)].abs() * half[k]).sum::<f64>()
@@ -290,6 +300,7 @@ impl Solid {
     pub fn farthest_from(&self, p: &Vector3<f64>) -> f64 {
         match self {
             Solid::Cylinder { a, b, radius } => (a - p).norm().max((b - p).norm()) + radius,
+            Solid::Frustum { a, b, radius_a, radius_b } => ((a - p).norm() + radius_a).max((b - p).norm() + radius_b),
             Solid::Sphere { centre, radius } => (centre - p).norm() + radius,
             Solid::Cuboid { centre, half, .. } => (centre - p).norm() + half.norm(),
             Solid::Hull { pose, points } => {
@@ -425,10 +436,24 @@ pub fn solids_into<const N: usize>(
     if let Some(held) = hand.held {
         let axis = if held.turn == 0.0 { approach } else { tool * Vector3::new(held.turn.cos(), held.turn.sin(), 0.0) };
         let bottom = tip + held.grip_height * axis;
-        out.push(ArmSolid {
-            part: Part::Held,
-            solid: Solid::Cylinder { a: bottom, b: bottom - held.height * axis, radius: held.radius },
-        });
+        let at = |z: f64| bottom - z * axis;
+        for (z0, r0, z1, r1) in held.outline.sections() {
+            let solid = if r0 == r1 {
+                Solid::Cylinder { a: at(z0), b: at(z1), radius: r0 }
+            } else {
+                Solid::Frustum { a: at(z0), b: at(z1), radius_a: r0, radius_b: r1 }
+            };
+            out.push(ArmSolid { part: Part::Held, solid });
+        }
+        // A block (a knight's head) turns with the piece in the fingers: the cylinder it
+        // sweeps holds it whichever way it faces.
+        if let Some(block) = held.outline.block() {
+            let base = held.outline.rings().last().map_or(0.0, |r| r[0]);
+            out.push(ArmSolid {
+                part: Part::Held,
+                solid: Solid::Cylinder { a: at(base), b: at(block.top), radius: held.outline.block_radius() },
+            });
+        }
     }
 }
 

@@ -9,6 +9,7 @@ pub mod lagrange;
 pub mod link;
 pub mod mass_matrix;
 pub mod model;
+pub mod outline;
 pub mod payload;
 pub mod preset;
 pub mod task;

@@ -5,7 +5,8 @@
 //!
 //! All quantities are SI: metres, radians, kilograms, kg·m², N·m, seconds.
 
-use nalgebra::{Matrix3, SVector, SymmetricEigen, Vector3};
+use crate::arm::outline::Outline;
+use nalgebra::{SVector, SymmetricEigen, Vector3};
 
 use super::link::{Friction, Inertial, Link};
 use super::yaw_pitch::YawPitch;
@@ -45,16 +46,30 @@ pub struct Payload {
 impl Payload {
     /// A solid cylinder of `mass` kg, `height` m tall and `radius` m, standing upright and
     /// gripped with the tool tip `grip_height` m above its base. The tool points down (tool x
-    /// axis = world −z), so the centre of mass lies `grip_height − height/2` along tool x.
+    /// axis = world −z), so the centre of mass lies `grip_height − height/2` along tool x;
+    /// `I = m r²/2` about its axis, `m (3r² + h²)/12` across it.
     pub fn upright_cylinder(mass: f64, height: f64, radius: f64, grip_height: f64) -> Self {
         let com = Vector3::new(grip_height - height / 2.0, 0.0, 0.0);
         let axial = 0.5 * mass * radius * radius;
         let transverse = mass * (3.0 * radius * radius + height * height) / 12.0;
+        Self { inertial: Inertial { mass, com, inertia: crate::arm::outline::upright_inertia(axial, transverse) } }
+    }
+
+    /// A solid of `outline` and uniform density, `mass` kg, standing upright and gripped with
+    /// the tool tip `grip_height` m above its base. The tool points down (tool x axis = world
+    /// −z), so the centre of mass lies `grip_height − z_c` along tool x (`z_c` its height above
+    /// the base); the inertia about it is [`Outline::mass_properties`]'s. A cylinder is
+    /// [`Payload::upright_cylinder`], its closed form (the same numbers, to the last bit).
+    pub fn upright(mass: f64, outline: &Outline, grip_height: f64) -> Self {
+        if let (Some([radius, height]), None) = (outline.as_cylinder(), outline.block()) {
+            return Self::upright_cylinder(mass, height, radius, grip_height);
+        }
+        let (com_height, axial, transverse) = outline.mass_properties(mass);
         Self {
             inertial: Inertial {
                 mass,
-                com,
-                inertia: Matrix3::from_diagonal(&Vector3::new(axial, transverse, transverse)),
+                com: Vector3::new(grip_height - com_height, 0.0, 0.0),
+                inertia: crate::arm::outline::upright_inertia(axial, transverse),
             },
         }
     }

@@ -12,6 +12,7 @@ use chessarm_chess::pieces::{PieceDimensions, PieceSet};
 use chessarm_chess::tasks::{MotionLimits, TaskError};
 use chessarm_core::arm::link::{DhParameters, Friction, Inertial, JointLimits, Link};
 use chessarm_core::arm::model::ArmModel;
+use chessarm_core::arm::outline::{Block, Outline};
 use chessarm_core::arm::preset::report_arm;
 use chessarm_core::nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
 use chessarm_core::sim::actuator::Actuators;
@@ -105,7 +106,7 @@ pub struct BoardFile {
 }
 
 /// One kind of chess piece in the file; fields left out keep that kind's default.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Default)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct PieceFile {
     /// Height, m.
@@ -120,6 +121,15 @@ pub struct PieceFile {
     /// Height above the piece's base where the tool tip grips it, m.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grip_height: Option<f64>,
+    /// The profile as rings `[height, diameter]` from the base up, fractions of `height` and
+    /// `base_diameter` (first `[0, …]`, last at the top unless a `head_block` stands on it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outline: Option<Vec<[f64; 2]>>,
+    /// A block on the outline's last ring (a knight's head): `[top, length, width]`, the top a
+    /// fraction of `height`, length (along the ranks) and width fractions of `base_diameter`;
+    /// `[]` for none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub head_block: Option<Vec<f64>>,
 }
 
 /// The piece set in the file (each kind optional).
@@ -683,21 +693,43 @@ impl SetupFile {
         let pick = |kind: &str, given: Option<PieceFile>, default: PieceDimensions| -> Result<PieceDimensions> {
             let Some(given) = given else { return Ok(default) };
             let field = |name: &str| format!("pieces.{kind}.{name}");
+            let block = match given.head_block.as_deref() {
+                None => default.shape.block(),
+                Some([]) => None,
+                Some(&[top, length, width]) => Some(Block { top, half_length: length, half_width: width }),
+                Some(other) => bail!(
+                    "{} = {other:?}: give [top, length, width] (fractions of height and base_diameter), or [] for none",
+                    field("head_block")
+                ),
+            };
+            let rings = given.outline.clone().unwrap_or_else(|| default.shape.rings().to_vec());
+            let shape = Outline::new(&rings, block)
+                .map_err(|e| anyhow::anyhow!("{} / {}: {e}", field("outline"), field("head_block")))?;
+            if (shape.height() - 1.0).abs() > 1e-9 || shape.widest() > 1.0 + 1e-9 {
+                bail!(
+                    "{} reaches {} of the height and {} of the base_diameter: the profile's top must be at 1 and no \
+                     part wider than the base (1)",
+                    field("outline"),
+                    shape.height(),
+                    shape.widest()
+                );
+            }
             Ok(PieceDimensions {
                 height: number_or(&field("height"), given.height, default.height)?,
                 base_diameter: number_or(&field("base_diameter"), given.base_diameter, default.base_diameter)?,
                 mass: number_or(&field("mass"), given.mass, default.mass)?,
                 grip_height: number_or(&field("grip_height"), given.grip_height, default.grip_height)?,
+                shape,
             })
         };
         let (given, default) = (&self.pieces, defaults.pieces);
         let pieces = PieceSet {
-            pawn: pick("pawn", given.pawn, default.pawn)?,
-            knight: pick("knight", given.knight, default.knight)?,
-            bishop: pick("bishop", given.bishop, default.bishop)?,
-            rook: pick("rook", given.rook, default.rook)?,
-            queen: pick("queen", given.queen, default.queen)?,
-            king: pick("king", given.king, default.king)?,
+            pawn: pick("pawn", given.pawn.clone(), default.pawn)?,
+            knight: pick("knight", given.knight.clone(), default.knight)?,
+            bishop: pick("bishop", given.bishop.clone(), default.bishop)?,
+            rook: pick("rook", given.rook.clone(), default.rook)?,
+            queen: pick("queen", given.queen.clone(), default.queen)?,
+            king: pick("king", given.king.clone(), default.king)?,
         }
         .validated()?;
         // A piece wider than a square would touch its neighbours where they stand.
@@ -853,12 +885,18 @@ impl From<&Setup> for SetupFile {
                 actuator: None,
             })
             .collect();
-        let piece = |d: &PieceDimensions| {
+        // The profile only where it is not the kind's built-in one.
+        let built_in = PieceSet::default();
+        let piece = |d: &PieceDimensions, built_in: &PieceDimensions| {
+            let own = built_in.shape != d.shape;
             Some(PieceFile {
                 height: Some(d.height),
                 base_diameter: Some(d.base_diameter),
                 mass: Some(d.mass),
                 grip_height: Some(d.grip_height),
+                outline: own.then(|| d.shape.rings().to_vec()),
+                head_block: own
+                    .then(|| d.shape.block().map_or(Vec::new(), |b| vec![b.top, b.half_length, b.half_width])),
             })
         };
         let p = &setup.pieces;
@@ -886,12 +924,12 @@ impl From<&Setup> for SetupFile {
                 squares_turned: setup.board.squares_turned.then_some(true),
             },
             pieces: PiecesFile {
-                pawn: piece(&p.pawn),
-                knight: piece(&p.knight),
-                bishop: piece(&p.bishop),
-                rook: piece(&p.rook),
-                queen: piece(&p.queen),
-                king: piece(&p.king),
+                pawn: piece(&p.pawn, &built_in.pawn),
+                knight: piece(&p.knight, &built_in.knight),
+                bishop: piece(&p.bishop, &built_in.bishop),
+                rook: piece(&p.rook, &built_in.rook),
+                queen: piece(&p.queen, &built_in.queen),
+                king: piece(&p.king, &built_in.king),
             },
             links,
             sensors: setup.sensor_profiles.clone(),

@@ -17,12 +17,14 @@ pub fn check_file_fingers(setup: &Setup) -> Result<()> {
     let opening = setup.clearance.gripper.finger_opening;
     let mm = |m: f64| format!("{:.1} mm", m * 1e3);
     for (role, d) in setup.pieces.all() {
-        let (name, width) = (chessarm_chess::pieces::role_name(role), d.base_diameter);
+        // The fingers close on the piece's widest part above their ends.
+        let (name, width) =
+            (chessarm_chess::pieces::role_name(role), d.grip_width(setup.clearance.gripper.finger_reach));
         // (A micrometre's slack for the rounding of the faces' arithmetic.)
         if width < closes - 1e-6 {
             bail!(
                 "the file's fingers close no narrower than {} (their joint at its limit): a {name} {} across would not \
-                 be held ([pieces.{name}] base_diameter, or a gripper that closes further)",
+                 be held where it is gripped ([pieces.{name}] base_diameter or grip_height, or a gripper that closes further)",
                 mm(closes),
                 mm(width)
             );
