@@ -69,14 +69,11 @@ def test_setup_properties_and_its_arm(setup):
     assert setup.square_size == pytest.approx(0.06)
     assert setup.board["square_size"] == setup.square_size
     assert set(setup.pieces) == {"pawn", "knight", "bishop", "rook", "queen", "king"}
-    # The Staunton profile in metres: from the base up to the piece's height, the base widest;
-    # only the knight has a head block.
-    for name, piece in setup.pieces.items():
-        rings = piece["outline"]
-        assert rings[0][0] == 0.0 and rings[0][1] == pytest.approx(piece["base_diameter"] / 2)
-        top = piece["head_block"][0] if piece["head_block"] else rings[-1][0]
-        assert top == pytest.approx(piece["height"])
-        assert (piece["head_block"] is not None) == (name == "knight")
+    # The profile in metres: the default set is the cylinders of the bases, no head block.
+    for piece in setup.pieces.values():
+        radius = piece["base_diameter"] / 2
+        assert piece["outline"] == [[0.0, pytest.approx(radius)], [pytest.approx(piece["height"]), pytest.approx(radius)]]
+        assert piece["head_block"] is None
     assert setup.torque_limits.shape == (4,) and np.all(setup.torque_limits > 0)
     assert setup.joint_limits.shape == (4, 2) and np.all(setup.joint_limits[:, 0] < setup.joint_limits[:, 1])
     assert "queens-gambit" in setup.scenarios and "hobby" in setup.sensor_profiles
