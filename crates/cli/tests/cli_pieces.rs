@@ -56,6 +56,7 @@ fn a_profile_that_is_no_outline_is_refused_naming_the_field() {
             "[pieces.rook]\noutline = [[0, 1], [0.6, 1], [0.5, 1], [1, 1]]\n",
             &["pieces.rook.outline", "below the ring before"][..],
         ),
+        ("[pieces.rook]\noutline = [[0, 0], [1, 0]]\n", &["pieces.rook.outline", "no volume"][..]),
         ("[pieces.knight]\nhead_block = [1.0, 0.78]\n", &["pieces.knight.head_block", "[top, length, width]"][..]),
     ] {
         let file = dir.path().join("bad.toml");

@@ -166,6 +166,9 @@ fn rings_that_are_no_outline_are_refused() {
     assert!(matches!(Outline::new(&[[0.0, 0.01], [0.02, f64::NAN]], None), Err(OutlineError::Value { index: 1, .. })));
     assert!(matches!(Outline::new(&[[0.0, 0.01], [0.02, -0.01]], None), Err(OutlineError::Value { index: 1, .. })));
     assert_eq!(Outline::new(&[[0.0, 0.01], [0.0, 0.01]], None), Err(OutlineError::Flat));
+    assert_eq!(Outline::new(&[[0.0, 0.0], [0.02, 0.0]], None), Err(OutlineError::Empty));
+    let endless = Block { top: 0.03, half_length: f64::INFINITY, half_width: 0.01 };
+    assert!(matches!(Outline::new(&[[0.0, 0.01], [0.02, 0.01]], Some(endless)), Err(OutlineError::Block { .. })));
     let low = Block { top: 0.01, half_length: 0.01, half_width: 0.01 };
     assert!(matches!(Outline::new(&[[0.0, 0.01], [0.02, 0.01]], Some(low)), Err(OutlineError::Block { .. })));
 }

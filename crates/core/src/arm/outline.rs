@@ -33,6 +33,8 @@ pub enum OutlineError {
     Base(f64),
     #[error("the outline has no height")]
     Flat,
+    #[error("the outline holds no volume (every radius 0 and no block)")]
+    Empty,
     #[error("the block's top {top} is not above the last ring ({last}), or a half size is not > 0")]
     Block { top: f64, last: f64 },
 }
@@ -66,7 +68,12 @@ impl Outline {
         }
         let last = rings[rings.len() - 1][0];
         if let Some(b) = block
-            && !(b.top.is_finite() && b.top > last && b.half_length > 0.0 && b.half_width > 0.0)
+            && !(b.top.is_finite()
+                && b.top > last
+                && b.half_length.is_finite()
+                && b.half_length > 0.0
+                && b.half_width.is_finite()
+                && b.half_width > 0.0)
         {
             return Err(OutlineError::Block { top: b.top, last });
         }
@@ -75,7 +82,12 @@ impl Outline {
         }
         let mut all = [[0.0; 2]; OUTLINE_RINGS];
         all[..rings.len()].copy_from_slice(rings);
-        Ok(Self { rings: all, len: rings.len(), block })
+        let outline = Self { rings: all, len: rings.len(), block };
+        // A solid of no volume has no density, so no payload (the rings are finite, so is it).
+        if outline.volume() <= 0.0 {
+            return Err(OutlineError::Empty);
+        }
+        Ok(outline)
     }
 
     /// An upright cylinder of `radius` and `height`, m.
