@@ -146,6 +146,20 @@ impl PieceSet {
         Role::ALL.map(|role| (role, self.dimensions(role)))
     }
 
+    /// The set scaled by `k` (squares `k` times as large): lengths × `k`, masses × `k³` (the
+    /// volume). The profiles are fractions of the lengths, so they keep their shape.
+    pub fn scaled(&self, k: f64) -> Self {
+        let mut scaled = *self;
+        for role in Role::ALL {
+            let d = scaled.dimensions_mut(role);
+            d.height *= k;
+            d.base_diameter *= k;
+            d.grip_height *= k;
+            d.mass *= k * k * k;
+        }
+        scaled
+    }
+
     /// Height of the tallest piece, m.
     pub fn tallest(&self) -> f64 {
         self.all().iter().map(|(_, d)| d.height).fold(0.0, f64::max)

@@ -474,18 +474,9 @@ pub struct Fit {
 /// is then found to [`PITCH_STEP`] by [`check_table`].
 pub const FIT_PITCH_STEP: f64 = 5.0 * PITCH_STEP;
 
-/// `pieces` scaled from squares of `from` m to `to` m: lengths × `to/from`, masses × its cube.
+/// `pieces` scaled from squares of `from` m to `to` m ([`PieceSet::scaled`]).
 pub fn scaled_pieces(pieces: &PieceSet, from: f64, to: f64) -> PieceSet {
-    let k = to / from;
-    let mut scaled = *pieces;
-    for role in shakmaty::Role::ALL {
-        let d = scaled.dimensions_mut(role);
-        d.height *= k;
-        d.base_diameter *= k;
-        d.grip_height *= k;
-        d.mass *= k * k * k;
-    }
-    scaled
+    pieces.scaled(to / from)
 }
 
 /// The largest board (and its pose, and the pieces scaled to it from `pieces` on squares of

@@ -332,7 +332,7 @@ pub fn check_move(
 /// squares are too small.
 pub fn square_for_fingers(pieces: &PieceSet, square: f64, gripper: &Gripper, margin: f64) -> Option<f64> {
     let clear = |s: f64| {
-        let scaled = crate::reach::scaled_pieces(pieces, square, s);
+        let scaled = pieces.scaled(s / square);
         let envelope = scaled.envelope();
         scaled.all().iter().all(|(_, d)| {
             let ends = d.grip_height - gripper.finger_reach;
